@@ -1,0 +1,34 @@
+#include "atomic_file.h"
+
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <unistd.h>
+
+#include "errors.h"
+
+namespace rayfold {
+
+AtomicFile::AtomicFile(std::string path) : path_(std::move(path)) {
+  temp_ = path_ + ".tmp-" + std::to_string(::getpid());
+}
+
+AtomicFile::~AtomicFile() {
+  if (!committed_) std::remove(temp_.c_str());
+}
+
+void AtomicFile::commit() {
+  if (std::rename(temp_.c_str(), path_.c_str()) != 0)
+    throw InputError(path_, std::string("cannot move the finished file into place: ") + std::strerror(errno));
+  committed_ = true;
+}
+
+void check_writable(const std::string& path) {
+  if (path.empty()) throw InputError(path, "empty output path");
+  AtomicFile probe(path);
+  std::FILE* f = std::fopen(probe.temp_path().c_str(), "wb");
+  if (!f) throw InputError(path, std::string("cannot write here: ") + std::strerror(errno));
+  std::fclose(f);
+}
+
+}  // namespace rayfold

@@ -1,0 +1,66 @@
+#include "camera.h"
+
+#include <cmath>
+#include <sstream>
+
+#include <glm/geometric.hpp>
+#include <glm/gtc/matrix_inverse.hpp>
+
+#include "errors.h"
+
+namespace rayfold {
+
+Camera make_camera(const CameraSpec& spec, int width, int height) {
+  if (width <= 0 || height <= 0 || width > RF_MAX_IMAGE_SIDE || height > RF_MAX_IMAGE_SIDE) {
+    std::ostringstream s;
+    s << "image size " << width << "x" << height << " is out of range (1.." << RF_MAX_IMAGE_SIDE << " per side)";
+    throw UsageError(s.str());
+  }
+  if (!(spec.vfov_degrees > 0.0 && spec.vfov_degrees < 180.0))
+    throw UsageError("vertical field of view must be in (0, 180) degrees");
+  const glm::dvec3 forward = spec.look_at - spec.eye;
+  const double flen = glm::length(forward);
+  if (!(flen > 0.0) || !std::isfinite(flen)) throw UsageError("eye and look-at must be distinct finite points");
+  const glm::dvec3 w = -forward / flen;  // camera +z points backwards
+  const glm::dvec3 side = glm::cross(spec.up, w);
+  const double slen = glm::length(side);
+  if (!(slen > 1e-9 * glm::length(spec.up)) || !std::isfinite(slen))
+    throw UsageError("up vector must not be zero or parallel to the view direction");
+  const glm::dvec3 u = side / slen;
+  const glm::dvec3 v = glm::cross(w, u);
+
+  Camera cam;
+  cam.width = width;
+  cam.height = height;
+  cam.vfov_degrees = spec.vfov_degrees;
+  cam.world_from_camera = Xform(glm::dvec4(u, 0.0), glm::dvec4(v, 0.0), glm::dvec4(w, 0.0), glm::dvec4(spec.eye, 1.0));
+  cam.camera_from_world = glm::affineInverse(cam.world_from_camera);
+  // Square pixels: pixel column x sits at (2x + 1 - W) / H * tan(vfov / 2).
+  const float scale = static_cast<float>(std::tan(spec.vfov_degrees * M_PI / 360.0) / height);
+  cam.params.scale_x = scale;
+  cam.params.scale_y = scale;
+  cam.params.kx0 = 1 - width;
+  cam.params.ky0 = height - 1;
+  cam.params.width = width;
+  cam.params.height = height;
+  cam.params.xpair = width - 1;
+  cam.params.ypair = height - 1;
+  return cam;
+}
+
+CameraSpec frame_bounds(const Aabb& b, double vfov_degrees) {
+  CameraSpec spec;
+  spec.vfov_degrees = vfov_degrees;
+  if (b.empty()) return spec;
+  const glm::dvec3 lo(b.lo), hi(b.hi);
+  const glm::dvec3 centre = (lo + hi) * 0.5;
+  const double radius = std::max(glm::length(hi - lo) * 0.5, 1e-6);
+  const double dist = radius / std::sin(vfov_degrees * M_PI / 360.0);
+  const glm::dvec3 dir = glm::normalize(glm::dvec3(0.35, 0.3, 1.0));
+  spec.eye = centre + dir * dist;
+  spec.look_at = centre;
+  spec.up = glm::dvec3(0.0, 1.0, 0.0);
+  return spec;
+}
+
+}  // namespace rayfold

@@ -1,0 +1,26 @@
+// The pinhole camera: camera space has the eye at the origin, looks down -z,
+// +x right, +y up. It is a rigid transform of world space, so distances agree.
+#pragma once
+
+#include "device_layout.h"
+#include "scene.h"
+#include "transform.h"
+
+namespace rayfold {
+
+struct Camera {
+  Xform world_from_camera{1.0};
+  Xform camera_from_world{1.0};
+  int width = 0, height = 0;
+  double vfov_degrees = 60.0;
+  rf_camera params{};  // how the device turns pixels into rays
+};
+
+// Throws UsageError for a degenerate view (eye == look_at, up parallel to the
+// view direction, fov outside (0, 180), non-positive or too large sizes).
+Camera make_camera(const CameraSpec& spec, int width, int height);
+
+// A view of the whole scene from its +z side, slightly above, as a default.
+CameraSpec frame_bounds(const Aabb& world_bounds, double vfov_degrees = 60.0);
+
+}  // namespace rayfold

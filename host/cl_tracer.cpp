@@ -1,0 +1,167 @@
+#include "cl_tracer.h"
+
+#include <chrono>
+#include <sstream>
+
+#include "errors.h"
+#include "kernel_sources.h"
+
+namespace rayfold {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double ms_since(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+// OpenCL refuses zero-sized buffers; every buffer gets at least one element.
+size_t at_least_one(size_t n) { return n ? n : 1; }
+
+}  // namespace
+
+ClTracer::ClTracer(ClDevice& device, KernelPrecision precision) : device_(device) {
+  program_ = device_.build(trace_program_source(), precision);
+  kernel_ = cl::Kernel(program_, "rf_trace_primary");
+}
+
+void ClTracer::upload_scene(const SceneData& data, size_t max_tlas_nodes, size_t max_instances, size_t max_rays,
+                            size_t pixel_count) {
+  const BlasSet& blas = data.blas;
+  blas_node_count_ = static_cast<uint32_t>(blas.nodes.size());
+  max_tlas_nodes_ = max_tlas_nodes;
+  max_instances_ = max_instances;
+  max_rays_ = max_rays;
+  pixel_count_ = pixel_count;
+  buffer_info_ = {
+      {"nodes", at_least_one(blas.nodes.size() + max_tlas_nodes) * sizeof(rf_node)},
+      {"triangles", at_least_one(blas.tris.size()) * sizeof(rf_tri)},
+      {"instances", at_least_one(max_instances) * sizeof(rf_instance)},
+      {"normal_xforms", at_least_one(data.normal_xforms.size()) * sizeof(rf_normal_xform)},
+      {"rays", at_least_one(max_rays) * sizeof(uint32_t)},
+      {"hits", at_least_one(pixel_count) * sizeof(rf_pixel_hit)},
+  };
+  const DeviceInfo& info = device_.info();
+  for (const BufferInfo& b : buffer_info_) {
+    if (b.bytes > info.max_alloc_bytes) {
+      std::ostringstream s;
+      s << "the " << b.name << " buffer needs " << (b.bytes >> 20) << " MiB, more than the largest allocation ("
+        << (info.max_alloc_bytes >> 20) << " MiB) that '" << info.name << "' allows";
+      throw RuntimeFailure(s.str());
+    }
+  }
+  if (device_bytes() > info.global_mem_bytes) {
+    std::ostringstream s;
+    s << "the scene and image need " << (device_bytes() >> 20) << " MiB of device memory; '" << info.name
+      << "' has " << (info.global_mem_bytes >> 20) << " MiB";
+    throw RuntimeFailure(s.str());
+  }
+  try {
+    cl::Context& ctx = device_.context();
+    cl::CommandQueue& q = device_.queue();
+    nodes_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, buffer_info_[0].bytes);
+    tris_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, buffer_info_[1].bytes);
+    instances_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, buffer_info_[2].bytes);
+    normal_xforms_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, buffer_info_[3].bytes);
+    rays_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, buffer_info_[4].bytes);
+    hits_ = cl::Buffer(ctx, CL_MEM_WRITE_ONLY, buffer_info_[5].bytes);
+    if (!blas.nodes.empty())
+      q.enqueueWriteBuffer(nodes_, CL_FALSE, 0, blas.nodes.size() * sizeof(rf_node), blas.nodes.data());
+    if (!blas.tris.empty())
+      q.enqueueWriteBuffer(tris_, CL_FALSE, 0, blas.tris.size() * sizeof(rf_tri), blas.tris.data());
+    if (!data.normal_xforms.empty())
+      q.enqueueWriteBuffer(normal_xforms_, CL_FALSE, 0, data.normal_xforms.size() * sizeof(rf_normal_xform),
+                           data.normal_xforms.data());
+    q.finish();
+  } catch (const cl::Error& e) {
+    throw RuntimeFailure("cannot upload the scene to '" + info.name + "': " + cl_error_text(e));
+  }
+}
+
+double ClTracer::upload_frame(const Frame& frame) {
+  RF_CHECK(frame.node_base == blas_node_count_, "frame built for another scene upload");
+  RF_CHECK(frame.tlas_nodes.size() <= max_tlas_nodes_ && frame.instances.size() <= max_instances_,
+           "frame larger than the space reserved for it");
+  const auto t0 = Clock::now();
+  try {
+    cl::CommandQueue& q = device_.queue();
+    if (!frame.tlas_nodes.empty())
+      q.enqueueWriteBuffer(nodes_, CL_FALSE, blas_node_count_ * sizeof(rf_node),
+                           frame.tlas_nodes.size() * sizeof(rf_node), frame.tlas_nodes.data());
+    if (!frame.instances.empty())
+      q.enqueueWriteBuffer(instances_, CL_FALSE, 0, frame.instances.size() * sizeof(rf_instance),
+                           frame.instances.data());
+    q.finish();
+  } catch (const cl::Error& e) {
+    throw RuntimeFailure("cannot upload a frame: " + cl_error_text(e));
+  }
+  tlas_root_ = frame.tlas_root;
+  return ms_since(t0);
+}
+
+double ClTracer::upload_rays(const RayList& rays) {
+  RF_CHECK(rays.entries.size() <= max_rays_, "ray list larger than its buffer");
+  const auto t0 = Clock::now();
+  try {
+    if (!rays.entries.empty()) {
+      device_.queue().enqueueWriteBuffer(rays_, CL_TRUE, 0, rays.entries.size() * sizeof(uint32_t),
+                                         rays.entries.data());
+    }
+  } catch (const cl::Error& e) {
+    throw RuntimeFailure("cannot upload the ray list: " + cl_error_text(e));
+  }
+  ray_count_ = static_cast<uint32_t>(rays.entries.size());
+  return ms_since(t0);
+}
+
+double ClTracer::trace(const rf_camera& cam) {
+  RF_CHECK(static_cast<size_t>(cam.width) * cam.height <= pixel_count_, "image larger than the hit buffer");
+  if (ray_count_ == 0) return 0.0;
+  const auto t0 = Clock::now();
+  try {
+    int a = 0;
+    kernel_.setArg(a++, nodes_);
+    kernel_.setArg(a++, tris_);
+    kernel_.setArg(a++, instances_);
+    kernel_.setArg(a++, normal_xforms_);
+    kernel_.setArg(a++, tlas_root_);
+    kernel_.setArg(a++, rays_);
+    kernel_.setArg(a++, ray_count_);
+    kernel_.setArg(a++, cam.scale_x);
+    kernel_.setArg(a++, cam.scale_y);
+    kernel_.setArg(a++, cam.kx0);
+    kernel_.setArg(a++, cam.ky0);
+    kernel_.setArg(a++, cam.width);
+    kernel_.setArg(a++, cam.height);
+    kernel_.setArg(a++, cam.xpair);
+    kernel_.setArg(a++, cam.ypair);
+    kernel_.setArg(a++, hits_);
+    constexpr size_t kGroup = 64;
+    const size_t global = (ray_count_ + kGroup - 1) / kGroup * kGroup;
+    device_.queue().enqueueNDRangeKernel(kernel_, cl::NullRange, cl::NDRange(global), cl::NDRange(kGroup));
+    device_.queue().finish();
+  } catch (const cl::Error& e) {
+    throw RuntimeFailure("trace kernel failed on '" + device_.info().name + "': " + cl_error_text(e));
+  }
+  return ms_since(t0);
+}
+
+double ClTracer::read_hits(rf_pixel_hit* out, size_t pixel_count) {
+  RF_CHECK(pixel_count <= pixel_count_, "reading more hits than the buffer holds");
+  const auto t0 = Clock::now();
+  try {
+    device_.queue().enqueueReadBuffer(hits_, CL_TRUE, 0, pixel_count * sizeof(rf_pixel_hit), out);
+  } catch (const cl::Error& e) {
+    throw RuntimeFailure("cannot read the hits back: " + cl_error_text(e));
+  }
+  return ms_since(t0);
+}
+
+std::vector<BufferInfo> ClTracer::buffers() const { return buffer_info_; }
+
+size_t ClTracer::device_bytes() const {
+  size_t total = 0;
+  for (const BufferInfo& b : buffer_info_) total += b.bytes;
+  return total;
+}
+
+}  // namespace rayfold

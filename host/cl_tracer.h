@@ -1,0 +1,56 @@
+// Device buffers and the trace kernel. The scene part (bottom-level nodes,
+// triangles, normal matrices) is uploaded once; a frame re-uploads only its
+// top-level nodes and instances, into space reserved at scene upload.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "cl_device.h"
+#include "frame.h"
+#include "ray_list.h"
+
+namespace rayfold {
+
+struct BufferInfo {
+  std::string name;
+  size_t bytes = 0;
+};
+
+struct TraceTimes {
+  double upload_ms = 0.0;
+  double trace_ms = 0.0;
+  double readback_ms = 0.0;
+};
+
+class ClTracer {
+ public:
+  ClTracer(ClDevice& device, KernelPrecision precision = KernelPrecision::exact);
+
+  // Allocates every buffer for this scene and image size, checking the
+  // device's memory first (RuntimeFailure when it would not fit).
+  void upload_scene(const SceneData& data, size_t max_tlas_nodes, size_t max_instances, size_t max_rays,
+                    size_t pixel_count);
+  // Returns the upload time in ms.
+  double upload_frame(const Frame& frame);
+  double upload_rays(const RayList& rays);
+  // Traces the uploaded rays; ms of kernel time, measured around a finish().
+  double trace(const rf_camera& camera);
+  double read_hits(rf_pixel_hit* out, size_t pixel_count);
+
+  std::vector<BufferInfo> buffers() const;
+  size_t device_bytes() const;
+
+ private:
+  ClDevice& device_;
+  cl::Program program_;
+  cl::Kernel kernel_;
+  cl::Buffer nodes_, tris_, instances_, normal_xforms_, rays_, hits_;
+  std::vector<BufferInfo> buffer_info_;
+  uint32_t blas_node_count_ = 0;
+  uint32_t tlas_root_ = RF_INVALID;
+  uint32_t ray_count_ = 0;
+  size_t max_tlas_nodes_ = 0, max_instances_ = 0, max_rays_ = 0, pixel_count_ = 0;
+};
+
+}  // namespace rayfold

@@ -1,0 +1,54 @@
+// What changes per frame: camera-space instances, culling, the top-level tree.
+// What does not (the bottom-level trees, normal matrices) is SceneData, built
+// once per scene.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "blas.h"
+#include "camera.h"
+#include "culling.h"
+#include "device_layout.h"
+#include "scene.h"
+
+namespace rayfold {
+
+struct SceneData {
+  BlasSet blas;
+  std::vector<Xform> object_from_world;         // per scene instance
+  std::vector<bool> renderable;                 // false: singular transform or empty mesh
+  std::vector<rf_normal_xform> normal_xforms;   // per scene instance
+  size_t hidden_instances = 0;
+};
+
+SceneData prepare_scene(const Scene& scene, unsigned threads = 0);
+
+struct FrameOptions {
+  bool cull = true;  // frustum culling before the top-level build
+};
+
+struct FrameStats {
+  size_t candidates = 0;  // renderable instances
+  size_t kept = 0;        // instances in the top-level tree
+  double cull_ms = 0.0;
+  double tlas_ms = 0.0;
+  double tlas_sah = 0.0;
+  int tlas_depth = 0;
+};
+
+struct Frame {
+  uint32_t node_base = 0;              // first TLAS node index in the full node array
+  uint32_t tlas_root = RF_INVALID;     // RF_INVALID: nothing to trace
+  std::vector<rf_node> tlas_nodes;     // to be placed at node_base
+  std::vector<rf_instance> instances;  // in TLAS leaf order
+  FrameStats stats;
+};
+
+Frame build_frame(const Scene& scene, const SceneData& data, const Camera& camera, const FrameOptions& options);
+
+// The most top-level nodes a frame of this scene can need; device buffers are
+// sized by it once.
+size_t max_tlas_nodes(const Scene& scene);
+
+}  // namespace rayfold

@@ -1,0 +1,25 @@
+// The OpenCL sources, embedded at build time (tools/embed_sources.cmake).
+#pragma once
+
+#include <string>
+
+namespace rayfold {
+namespace kernel_text {
+extern const char* const rf_common;
+extern const char* const rf_types;
+extern const char* const rf_geometry;
+extern const char* const rf_trace;
+extern const char* const rayfold_cl;
+extern const char* const rf_unit_tests_cl;
+}  // namespace kernel_text
+
+// The shared headers in dependency order followed by the kernels.
+inline std::string trace_program_source() {
+  using namespace kernel_text;
+  return std::string(rf_common) + rf_types + rf_geometry + rf_trace + rayfold_cl;
+}
+
+// The same plus the single-function wrappers that the unit tests run.
+inline std::string unit_test_program_source() { return trace_program_source() + kernel_text::rf_unit_tests_cl; }
+
+}  // namespace rayfold

@@ -1,0 +1,111 @@
+#include "renderer.h"
+
+#include <algorithm>
+#include <chrono>
+#include <thread>
+
+#include "cpu_tracer.h"
+#include "ray_list.h"
+
+namespace rayfold {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double ms_since(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+}  // namespace
+
+double median(std::vector<double> values) {
+  if (values.empty()) return 0.0;
+  std::nth_element(values.begin(), values.begin() + values.size() / 2, values.end());
+  return values[values.size() / 2];
+}
+
+Renderer::Renderer(const Scene& scene, const RendererOptions& options)
+    : scene_(scene), options_(options), data_(prepare_scene(scene, options.threads)) {
+  nodes_ = data_.blas.nodes;
+  if (options_.backend == Backend::opencl) {
+    device_ = std::make_unique<ClDevice>(options_.device_hint);
+    tracer_ = std::make_unique<ClTracer>(*device_, options_.precision);
+  }
+}
+
+Renderer::~Renderer() = default;
+
+std::string Renderer::device_name() const {
+  if (device_) return device_->info().name;
+  unsigned threads = options_.threads ? options_.threads : std::max(1u, std::thread::hardware_concurrency());
+  return "CPU reference (" + std::to_string(threads) + " threads)";
+}
+
+std::vector<BufferInfo> Renderer::device_buffers() const {
+  return tracer_ ? tracer_->buffers() : std::vector<BufferInfo>{};
+}
+
+void Renderer::ensure_capacity(size_t pixels) {
+  if (!tracer_ || pixels <= pixel_capacity_) return;
+  const size_t max_instances = RF_MAX_GROUPS * scene_.instances.size();
+  tracer_->upload_scene(data_, max_tlas_nodes(scene_), max_instances, pixels, pixels);
+  pixel_capacity_ = pixels;
+}
+
+RenderResult Renderer::render(const Camera& camera, int frames, const FrameOptions& frame_options) {
+  const size_t pixels = static_cast<size_t>(camera.width) * camera.height;
+  ensure_capacity(pixels);
+  RenderResult result;
+  result.hits.resize(pixels);
+  frames = std::max(frames, 1);
+  for (int f = 0; f < frames; ++f) {
+    FrameTimes times;
+    const Frame frame = build_frame(scene_, data_, camera, frame_options);
+    times.cull_ms = frame.stats.cull_ms;
+    times.tlas_ms = frame.stats.tlas_ms;
+    result.frame_stats = frame.stats;
+
+    auto t0 = Clock::now();
+    const RayList rays = make_full_ray_list(camera.width, camera.height);
+    result.rays = rays.entries.size();
+    if (tracer_) {
+      times.ray_list_ms = ms_since(t0) + tracer_->upload_rays(rays);
+      times.upload_ms = tracer_->upload_frame(frame);
+      times.trace_ms = tracer_->trace(camera.params);
+      times.readback_ms = tracer_->read_hits(result.hits.data(), pixels);
+    } else {
+      times.ray_list_ms = ms_since(t0);
+      t0 = Clock::now();
+      nodes_.resize(frame.node_base);
+      nodes_.insert(nodes_.end(), frame.tlas_nodes.begin(), frame.tlas_nodes.end());
+      times.upload_ms = ms_since(t0);
+      TraceInputs in;
+      in.nodes = nodes_.data();
+      in.node_count = nodes_.size();
+      in.tris = data_.blas.tris.data();
+      in.tri_count = data_.blas.tris.size();
+      in.instances = frame.instances.data();
+      in.instance_count = frame.instances.size();
+      in.normal_xforms = data_.normal_xforms.data();
+      in.normal_xform_count = data_.normal_xforms.size();
+      in.tlas_root = frame.tlas_root;
+      t0 = Clock::now();
+      trace_cpu(in, rays, camera.params, result.hits.data(), options_.threads);
+      times.trace_ms = ms_since(t0);
+    }
+    result.frames.push_back(times);
+  }
+  auto pick = [&](double FrameTimes::*field) {
+    std::vector<double> v;
+    for (const FrameTimes& t : result.frames) v.push_back(t.*field);
+    return median(v);
+  };
+  result.median.cull_ms = pick(&FrameTimes::cull_ms);
+  result.median.tlas_ms = pick(&FrameTimes::tlas_ms);
+  result.median.upload_ms = pick(&FrameTimes::upload_ms);
+  result.median.ray_list_ms = pick(&FrameTimes::ray_list_ms);
+  result.median.trace_ms = pick(&FrameTimes::trace_ms);
+  result.median.readback_ms = pick(&FrameTimes::readback_ms);
+  return result;
+}
+
+}  // namespace rayfold

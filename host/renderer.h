@@ -1,0 +1,73 @@
+// The primary-visibility pipeline: bottom-level trees once per scene, then
+// per frame culling, top-level build, upload, ray list, trace and readback,
+// on the OpenCL device or on the CPU reference.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "camera.h"
+#include "cl_tracer.h"
+#include "frame.h"
+#include "scene.h"
+
+namespace rayfold {
+
+enum class Backend { opencl, cpu };
+
+struct RendererOptions {
+  Backend backend = Backend::opencl;
+  KernelPrecision precision = KernelPrecision::exact;
+  std::string device_hint;  // see ClDevice
+  unsigned threads = 0;     // CPU backend and BLAS builds; 0 = all cores
+};
+
+// Per-frame phase times in ms (medians when several frames are rendered).
+struct FrameTimes {
+  double cull_ms = 0.0;
+  double tlas_ms = 0.0;
+  double upload_ms = 0.0;    // top-level nodes and instances
+  double ray_list_ms = 0.0;  // building (and uploading) the ray list
+  double trace_ms = 0.0;
+  double readback_ms = 0.0;
+};
+
+struct RenderResult {
+  std::vector<rf_pixel_hit> hits;  // width * height, row-major, row 0 at the top
+  FrameTimes median;
+  std::vector<FrameTimes> frames;
+  FrameStats frame_stats;  // of the last frame
+  size_t rays = 0;         // rays traced per frame
+};
+
+class Renderer {
+ public:
+  // Builds the bottom-level trees and, for OpenCL, the kernels. The scene must
+  // outlive the renderer.
+  Renderer(const Scene& scene, const RendererOptions& options);
+  ~Renderer();
+
+  RenderResult render(const Camera& camera, int frames = 1, const FrameOptions& frame_options = {});
+
+  const SceneData& scene_data() const { return data_; }
+  std::string device_name() const;
+  std::vector<BufferInfo> device_buffers() const;  // empty for the CPU backend
+  double blas_build_ms() const { return data_.blas.build_ms; }
+
+ private:
+  void ensure_capacity(size_t pixels);
+
+  const Scene& scene_;
+  RendererOptions options_;
+  SceneData data_;
+  std::vector<rf_node> nodes_;  // BLAS nodes, then the current frame's TLAS
+  std::unique_ptr<ClDevice> device_;
+  std::unique_ptr<ClTracer> tracer_;
+  size_t pixel_capacity_ = 0;
+};
+
+// Median of a list of values (the upper median for even counts).
+double median(std::vector<double> values);
+
+}  // namespace rayfold

@@ -1,0 +1,24 @@
+// Everything one trace reads, as views into host memory. The CPU reference
+// traces straight from these; the OpenCL tracer uploads them.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+
+#include "device_layout.h"
+
+namespace rayfold {
+
+struct TraceInputs {
+  const rf_node* nodes = nullptr;  // BLAS nodes followed by the frame's TLAS
+  size_t node_count = 0;
+  const rf_tri* tris = nullptr;
+  size_t tri_count = 0;
+  const rf_instance* instances = nullptr;
+  size_t instance_count = 0;
+  const rf_normal_xform* normal_xforms = nullptr;
+  size_t normal_xform_count = 0;
+  uint32_t tlas_root = RF_INVALID;
+};
+
+}  // namespace rayfold

@@ -1,0 +1,51 @@
+/* rf_common.h - the portability layer that lets one source compile as OpenCL C
+ * (the device kernels) and as C++ (the host's CPU reference tracer).
+ *
+ * Why one source: the CPU reference must be the same algorithm as the kernel,
+ * operation for operation, so that both produce the same bits. Writing it once
+ * removes the chance of the two drifting apart; the parity tests then check
+ * only what is left: how each compiler evaluates the float operations.
+ *
+ * Rules for code under kernels/:
+ *  - plain C subset, scalar floats (no OpenCL vector types, no C++ features);
+ *  - every float expression is written in the order it must be evaluated; no
+ *    contraction to FMA (FP_CONTRACT OFF here, -ffp-contract=off on the host);
+ *  - min/max only through rf_minf/rf_maxf, whose NaN behaviour is spelled out,
+ *    never fmin/fmax (their NaN rules differ between libraries).
+ */
+#ifndef RF_COMMON_H
+#define RF_COMMON_H
+
+#ifdef __OPENCL_C_VERSION__
+#ifndef RF_FAST_MATH /* the fast build lets the compiler contract and reorder */
+#pragma OPENCL FP_CONTRACT OFF
+#endif
+typedef uint rf_u32;
+typedef int rf_i32;
+#define RF_GLOBAL __global
+#define RF_INLINE inline
+#define RF_SQRT(x) sqrt(x)
+#define RF_FABS(x) fabs(x)
+#define RF_COPYSIGN(x, y) copysign(x, y)
+#define RF_INF INFINITY
+#else
+#include <cmath>
+#include <cstdint>
+typedef uint32_t rf_u32;
+typedef int32_t rf_i32;
+#define RF_GLOBAL
+#define RF_INLINE static inline
+#define RF_SQRT(x) std::sqrt((float)(x))
+#define RF_FABS(x) std::fabs((float)(x))
+#define RF_COPYSIGN(x, y) std::copysign((float)(x), (float)(y))
+#define RF_INF INFINITY
+#endif
+
+/* Marks "no hit" / "no node" in 32-bit index fields. */
+#define RF_INVALID 0xFFFFFFFFu
+
+/* Returns b when either argument is NaN: callers put the trusted value second. */
+RF_INLINE float rf_minf(float a, float b) { return a < b ? a : b; }
+RF_INLINE float rf_maxf(float a, float b) { return a > b ? a : b; }
+
+#endif /* RF_COMMON_H */

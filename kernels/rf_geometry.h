@@ -1,0 +1,155 @@
+/* rf_geometry.h - ray set-up, ray-box, ray-triangle and the geometric normal.
+ * Shared by the kernels and the CPU reference (see rf_common.h). */
+#ifndef RF_GEOMETRY_H
+#define RF_GEOMETRY_H
+
+#ifndef __OPENCL_C_VERSION__
+#include "rf_common.h"
+#include "rf_types.h"
+#endif
+
+/* Box tests widen the slab interval by a few ulps in both directions so that
+ * a node is never skipped while one of its triangles could still report a t
+ * at or below the current bound. Rounding in the slab arithmetic is covered by
+ * 1 + 2*gamma(3) (Ize 2013); the wider 2^-20 also covers the few ulps of error
+ * in the triangle test's own t. Without it a near-tie could be found in one
+ * traversal order and pruned in another, and folded output would differ. */
+#define RF_BOX_NEAR_SCALE 0.99999905f /* 1 - 2^-20 */
+#define RF_BOX_FAR_SCALE 1.00000095f  /* 1 + 2^-20 */
+
+/* A ray with its per-ray data computed once: reciprocal direction for the
+ * slab test, and the permutation and shear of the watertight triangle test. */
+typedef struct {
+  float o[3];
+  float d[3];
+  float invd[3];
+  float sx, sy, sz;
+  rf_i32 kx, ky, kz;
+} rf_ray;
+
+/* A zero direction component would give 0 * inf = NaN in the slab test; a
+ * tiny stand-in of the same sign keeps the test finite and conservative. */
+RF_INLINE float rf_safe_reciprocal(float d) {
+  const float tiny = 1e-30f;
+  return 1.0f / (RF_FABS(d) < tiny ? RF_COPYSIGN(tiny, d) : d);
+}
+
+RF_INLINE void rf_ray_init(rf_ray* r, float ox, float oy, float oz, float dx, float dy, float dz) {
+  r->o[0] = ox;
+  r->o[1] = oy;
+  r->o[2] = oz;
+  r->d[0] = dx;
+  r->d[1] = dy;
+  r->d[2] = dz;
+  r->invd[0] = rf_safe_reciprocal(dx);
+  r->invd[1] = rf_safe_reciprocal(dy);
+  r->invd[2] = rf_safe_reciprocal(dz);
+  /* Watertight test (Woop, Benthin, Wald 2013): z is the dominant axis; the
+   * lowest index wins a tie so every compiler picks the same axis. */
+  const float ax = RF_FABS(dx), ay = RF_FABS(dy), az = RF_FABS(dz);
+  rf_i32 kz = 0;
+  if (ay > ax) kz = 1;
+  if (az > (kz == 0 ? ax : ay)) kz = 2;
+  rf_i32 kx = kz + 1 == 3 ? 0 : kz + 1;
+  rf_i32 ky = kx + 1 == 3 ? 0 : kx + 1;
+  /* Swapping keeps the winding of the projected triangle consistent. */
+  if (r->d[kz] < 0.0f) {
+    const rf_i32 tmp = kx;
+    kx = ky;
+    ky = tmp;
+  }
+  r->kx = kx;
+  r->ky = ky;
+  r->kz = kz;
+  r->sx = r->d[kx] / r->d[kz];
+  r->sy = r->d[ky] / r->d[kz];
+  r->sz = 1.0f / r->d[kz];
+}
+
+/* Object-space ray of an instance: o = translation column, d = linear part
+ * times the camera-space direction (the camera-space origin is the eye, 0).
+ * No renormalisation, so t means the same in both spaces. */
+RF_INLINE void rf_ray_to_object(rf_ray* out, const RF_GLOBAL float* m, float dx, float dy, float dz) {
+  const float ox = m[3], oy = m[7], oz = m[11];
+  const float ex = m[0] * dx + m[1] * dy + m[2] * dz;
+  const float ey = m[4] * dx + m[5] * dy + m[6] * dz;
+  const float ez = m[8] * dx + m[9] * dy + m[10] * dz;
+  rf_ray_init(out, ox, oy, oz, ex, ey, ez);
+}
+
+/* Slab test. Returns the (widened) entry distance, or +inf when the ray misses
+ * the box or enters it beyond tmax. A negative tmax means "skip". */
+RF_INLINE float rf_intersect_box(const RF_GLOBAL rf_node* n, const rf_ray* r, float tmax) {
+  const float tx0 = (n->bmin[0] - r->o[0]) * r->invd[0];
+  const float tx1 = (n->bmax[0] - r->o[0]) * r->invd[0];
+  const float ty0 = (n->bmin[1] - r->o[1]) * r->invd[1];
+  const float ty1 = (n->bmax[1] - r->o[1]) * r->invd[1];
+  const float tz0 = (n->bmin[2] - r->o[2]) * r->invd[2];
+  const float tz1 = (n->bmax[2] - r->o[2]) * r->invd[2];
+  const float tnear = rf_maxf(rf_maxf(rf_minf(tx0, tx1), rf_minf(ty0, ty1)), rf_maxf(rf_minf(tz0, tz1), 0.0f)) *
+                      RF_BOX_NEAR_SCALE;
+  const float tfar = rf_minf(rf_minf(rf_maxf(tx0, tx1), rf_maxf(ty0, ty1)), rf_maxf(tz0, tz1)) * RF_BOX_FAR_SCALE;
+  return tnear <= rf_minf(tfar, tmax) ? tnear : RF_INF;
+}
+
+/* Watertight ray-triangle test (Woop, Benthin, Wald 2013), without the double
+ * fallback. Chosen because a ray through a shared edge or vertex can never
+ * slip between the two triangles: each edge function is computed as
+ * a*b - c*d, which the neighbouring triangle computes as c*d - a*b, the exact
+ * negation in IEEE arithmetic, so the sign tests of both sides agree. It
+ * accepts both windings (mirrored instances flip them) and rejects zero-area
+ * triangles (det == 0) and NaN without producing a hit.
+ * Returns 1 with t, u (weight of v1), v (weight of v2) when the ray's line
+ * meets the triangle; the caller checks t against its interval. */
+RF_INLINE int rf_intersect_triangle(const RF_GLOBAL rf_tri* tri, const rf_ray* r, float* t_out, float* u_out,
+                                    float* v_out) {
+  const rf_i32 kx = r->kx, ky = r->ky, kz = r->kz;
+  const float a_x = tri->v0[kx] - r->o[kx], a_y = tri->v0[ky] - r->o[ky], a_z = tri->v0[kz] - r->o[kz];
+  const float b_x = tri->v1[kx] - r->o[kx], b_y = tri->v1[ky] - r->o[ky], b_z = tri->v1[kz] - r->o[kz];
+  const float c_x = tri->v2[kx] - r->o[kx], c_y = tri->v2[ky] - r->o[ky], c_z = tri->v2[kz] - r->o[kz];
+  const float ax = a_x - r->sx * a_z, ay = a_y - r->sy * a_z;
+  const float bx = b_x - r->sx * b_z, by = b_y - r->sy * b_z;
+  const float cx = c_x - r->sx * c_z, cy = c_y - r->sy * c_z;
+  const float eu = cx * by - cy * bx;
+  const float ev = ax * cy - ay * cx;
+  const float ew = bx * ay - by * ax;
+  if ((eu < 0.0f || ev < 0.0f || ew < 0.0f) && (eu > 0.0f || ev > 0.0f || ew > 0.0f)) return 0;
+  const float det = eu + ev + ew;
+  if (det == 0.0f) return 0;
+  const float t_scaled = eu * (r->sz * a_z) + ev * (r->sz * b_z) + ew * (r->sz * c_z);
+  *t_out = t_scaled / det;
+  *u_out = ev / det;
+  *v_out = ew / det;
+  return 1;
+}
+
+/* World-space unit geometric normal, cross(v1 - v0, v2 - v0) as wound in the
+ * file, taken through the instance's normal matrix. Scaled by its largest
+ * component before squaring so that large scenes cannot overflow. */
+RF_INLINE void rf_geometric_normal(const RF_GLOBAL rf_tri* tri, const RF_GLOBAL rf_normal_xform* xf, float n[3]) {
+  const float e1x = tri->v1[0] - tri->v0[0], e1y = tri->v1[1] - tri->v0[1], e1z = tri->v1[2] - tri->v0[2];
+  const float e2x = tri->v2[0] - tri->v0[0], e2y = tri->v2[1] - tri->v0[1], e2z = tri->v2[2] - tri->v0[2];
+  const float cx = e1y * e2z - e1z * e2y;
+  const float cy = e1z * e2x - e1x * e2z;
+  const float cz = e1x * e2y - e1y * e2x;
+  const RF_GLOBAL float* m = xf->m;
+  float wx = m[0] * cx + m[1] * cy + m[2] * cz;
+  float wy = m[3] * cx + m[4] * cy + m[5] * cz;
+  float wz = m[6] * cx + m[7] * cy + m[8] * cz;
+  const float big = rf_maxf(rf_maxf(RF_FABS(wx), RF_FABS(wy)), RF_FABS(wz));
+  if (!(big > 0.0f)) {
+    n[0] = 0.0f;
+    n[1] = 0.0f;
+    n[2] = 0.0f;
+    return;
+  }
+  wx = wx / big;
+  wy = wy / big;
+  wz = wz / big;
+  const float len = RF_SQRT(wx * wx + wy * wy + wz * wz);
+  n[0] = wx / len;
+  n[1] = wy / len;
+  n[2] = wz / len;
+}
+
+#endif /* RF_GEOMETRY_H */

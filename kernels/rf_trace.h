@@ -1,0 +1,210 @@
+/* rf_trace.h - two-level closest-hit traversal with one hit record per
+ * transform group, and the per-ray entry point that writes every pixel the ray
+ * answers. Shared by the kernels and the CPU reference (see rf_common.h). */
+#ifndef RF_TRACE_H
+#define RF_TRACE_H
+
+#ifndef __OPENCL_C_VERSION__
+#include "rf_common.h"
+#include "rf_geometry.h"
+#include "rf_types.h"
+#endif
+
+/* Deepest traversal stack; the builders cap tree depth below it. */
+#define RF_STACK_SIZE 64
+
+/* The closest hit found so far for one transform group. */
+typedef struct {
+  float t, u, v;
+  rf_u32 instance; /* scene instance id, RF_INVALID while nothing is hit */
+  rf_u32 prim;     /* triangle index within the mesh */
+  rf_u32 tri;      /* index into the triangle array, for the normal */
+} rf_hit;
+
+RF_INLINE void rf_hit_reset(rf_hit* h) {
+  h->t = RF_INF;
+  h->u = 0.0f;
+  h->v = 0.0f;
+  h->instance = RF_INVALID;
+  h->prim = RF_INVALID;
+  h->tri = RF_INVALID;
+}
+
+/* The tie rule: equal t, the lower instance id wins, then the lower primitive.
+ * A total order, so the closest hit does not depend on traversal order. */
+RF_INLINE int rf_hit_is_closer(float t, rf_u32 instance, rf_u32 prim, const rf_hit* best) {
+  if (t != best->t) return t < best->t;
+  if (instance != best->instance) return instance < best->instance;
+  return prim < best->prim;
+}
+
+/* Closest hit of one object-space ray in one bottom-level tree. */
+RF_INLINE void rf_trace_blas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_tri* tris, rf_u32 root,
+                             const rf_ray* r, rf_u32 instance_id, rf_hit* best) {
+  rf_u32 stack_node[RF_STACK_SIZE];
+  float stack_t[RF_STACK_SIZE];
+  int sp = 0;
+  if (rf_intersect_box(&nodes[root], r, best->t) == RF_INF) return;
+  rf_u32 ni = root;
+  for (;;) {
+    const RF_GLOBAL rf_node* n = &nodes[ni];
+    const rf_u32 count = n->meta & RF_NODE_COUNT_MASK;
+    if (count != 0) {
+      for (rf_u32 k = 0; k < count; ++k) {
+        const rf_u32 ti = n->first + k;
+        float t, u, v;
+        if (rf_intersect_triangle(&tris[ti], r, &t, &u, &v) && t > 0.0f &&
+            rf_hit_is_closer(t, instance_id, tris[ti].prim, best)) {
+          best->t = t;
+          best->u = u;
+          best->v = v;
+          best->instance = instance_id;
+          best->prim = tris[ti].prim;
+          best->tri = ti;
+        }
+      }
+    } else {
+      const rf_u32 c = n->first;
+      const float t0 = rf_intersect_box(&nodes[c], r, best->t);
+      const float t1 = rf_intersect_box(&nodes[c + 1], r, best->t);
+      if (t0 != RF_INF || t1 != RF_INF) {
+        const int left_first = t0 <= t1;
+        const rf_u32 near_node = left_first ? c : c + 1;
+        if (t0 != RF_INF && t1 != RF_INF) {
+          stack_node[sp] = left_first ? c + 1 : c;
+          stack_t[sp] = left_first ? t1 : t0;
+          ++sp;
+        }
+        ni = near_node;
+        continue;
+      }
+    }
+    /* Pop, skipping entries whose entry distance the hit has since passed. */
+    for (;;) {
+      if (sp == 0) return;
+      --sp;
+      if (stack_t[sp] <= best->t) {
+        ni = stack_node[sp];
+        break;
+      }
+    }
+  }
+}
+
+/* Pruning bound of a top-level node: the farthest current hit among the
+ * groups that both lie below the node and are traced by this ray. A node is
+ * skipped only when it cannot improve any of them; -1 when none applies. */
+RF_INLINE float rf_group_bound(rf_u32 meta, rf_u32 ray_groups, const rf_hit* hits) {
+  const rf_u32 groups = (meta >> RF_NODE_GROUP_SHIFT) & ray_groups;
+  float bound = -1.0f;
+  for (int g = 0; g < RF_MAX_GROUPS; ++g) {
+    if ((groups >> g) & 1u) bound = rf_maxf(bound, hits[g].t);
+  }
+  return bound;
+}
+
+/* Closest hit per group of one camera-space ray from the eye through the
+ * top-level tree. ray_groups: bit g set when the ray answers group g. */
+RF_INLINE void rf_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_tri* tris,
+                             const RF_GLOBAL rf_instance* instances, rf_u32 tlas_root, float dx, float dy, float dz,
+                             rf_u32 ray_groups, rf_hit* hits) {
+  rf_u32 stack_node[RF_STACK_SIZE];
+  float stack_t[RF_STACK_SIZE];
+  int sp = 0;
+  rf_ray r;
+  rf_ray_init(&r, 0.0f, 0.0f, 0.0f, dx, dy, dz);
+  if (rf_intersect_box(&nodes[tlas_root], &r, rf_group_bound(nodes[tlas_root].meta, ray_groups, hits)) == RF_INF)
+    return;
+  rf_u32 ni = tlas_root;
+  for (;;) {
+    const RF_GLOBAL rf_node* n = &nodes[ni];
+    const rf_u32 count = n->meta & RF_NODE_COUNT_MASK;
+    if (count != 0) {
+      for (rf_u32 k = 0; k < count; ++k) {
+        const RF_GLOBAL rf_instance* inst = &instances[n->first + k];
+        const rf_u32 g = inst->group;
+        if (((ray_groups >> g) & 1u) == 0u) continue;
+        rf_ray ro;
+        rf_ray_to_object(&ro, inst->object_from_camera, dx, dy, dz);
+        rf_trace_blas(nodes, tris, inst->blas_root, &ro, inst->instance_id, &hits[g]);
+      }
+    } else {
+      const rf_u32 c = n->first;
+      const float t0 = rf_intersect_box(&nodes[c], &r, rf_group_bound(nodes[c].meta, ray_groups, hits));
+      const float t1 = rf_intersect_box(&nodes[c + 1], &r, rf_group_bound(nodes[c + 1].meta, ray_groups, hits));
+      if (t0 != RF_INF || t1 != RF_INF) {
+        const int left_first = t0 <= t1;
+        if (t0 != RF_INF && t1 != RF_INF) {
+          stack_node[sp] = left_first ? c + 1 : c;
+          stack_t[sp] = left_first ? t1 : t0;
+          ++sp;
+        }
+        ni = left_first ? c : c + 1;
+        continue;
+      }
+    }
+    for (;;) {
+      if (sp == 0) return;
+      --sp;
+      if (stack_t[sp] <= rf_group_bound(nodes[stack_node[sp]].meta, ray_groups, hits)) {
+        ni = stack_node[sp];
+        break;
+      }
+    }
+  }
+}
+
+/* Writes one pixel's hit info. len_d is the length of the camera-space ray
+ * direction, which turns t into distance along the normalised ray. */
+RF_INLINE void rf_write_pixel(RF_GLOBAL rf_pixel_hit* px, const rf_hit* h, float len_d, const RF_GLOBAL rf_tri* tris,
+                              const RF_GLOBAL rf_normal_xform* normal_xforms) {
+  if (h->instance == RF_INVALID) {
+    px->z = RF_INF;
+    px->nx = 0.0f;
+    px->ny = 0.0f;
+    px->nz = 0.0f;
+    px->u = 0.0f;
+    px->v = 0.0f;
+    px->instance = RF_INVALID;
+    px->primitive = RF_INVALID;
+    return;
+  }
+  float n[3];
+  rf_geometric_normal(&tris[h->tri], &normal_xforms[h->instance], n);
+  px->z = h->t * len_d;
+  px->nx = n[0];
+  px->ny = n[1];
+  px->nz = n[2];
+  px->u = h->u;
+  px->v = h->v;
+  px->instance = h->instance;
+  px->primitive = h->prim;
+}
+
+/* Traces one entry of the compacted ray list and writes the hit info of every
+ * pixel it answers (1, 2 or 4). */
+RF_INLINE void rf_trace_entry(rf_u32 entry, const rf_camera* cam, const RF_GLOBAL rf_node* nodes,
+                              const RF_GLOBAL rf_tri* tris, const RF_GLOBAL rf_instance* instances,
+                              const RF_GLOBAL rf_normal_xform* normal_xforms, rf_u32 tlas_root,
+                              RF_GLOBAL rf_pixel_hit* out) {
+  const rf_i32 x = (rf_i32)(entry & RF_RAY_COORD_MASK);
+  const rf_i32 y = (rf_i32)((entry >> RF_RAY_COORD_BITS) & RF_RAY_COORD_MASK);
+  const rf_u32 mirror_x = (entry & RF_RAY_MIRROR_X) != 0u;
+  const rf_u32 mirror_y = (entry & RF_RAY_MIRROR_Y) != 0u;
+  const rf_u32 ray_groups = 1u | (mirror_x << 1) | (mirror_y << 2) | ((mirror_x & mirror_y) << 3);
+  const float dx = cam->scale_x * (float)(2 * x + cam->kx0);
+  const float dy = cam->scale_y * (float)(cam->ky0 - 2 * y);
+  const float dz = -1.0f;
+  rf_hit hits[RF_MAX_GROUPS];
+  for (int g = 0; g < RF_MAX_GROUPS; ++g) rf_hit_reset(&hits[g]);
+  if (tlas_root != RF_INVALID) rf_trace_tlas(nodes, tris, instances, tlas_root, dx, dy, dz, ray_groups, hits);
+  const float len_d = RF_SQRT(dx * dx + dy * dy + dz * dz);
+  for (int g = 0; g < RF_MAX_GROUPS; ++g) {
+    if (((ray_groups >> g) & 1u) == 0u) continue;
+    const rf_i32 px = (g & 1) ? cam->xpair - x : x;
+    const rf_i32 py = (g & 2) ? cam->ypair - y : y;
+    rf_write_pixel(&out[py * cam->width + px], &hits[g], len_d, tris, normal_xforms);
+  }
+}
+
+#endif /* RF_TRACE_H */

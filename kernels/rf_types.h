@@ -1,0 +1,115 @@
+/* rf_types.h - the compact traversal layout shared by host and device.
+ *
+ * These structs are what the kernels read; the host's build-time trees
+ * (host/bvh_build.h) are separate and are flattened into this layout.
+ * Every field is 4 bytes and every struct a multiple of 4 bytes, so OpenCL C
+ * and C++ agree on the layout without packing pragmas; host/device_layout.cpp
+ * checks the sizes with static_assert.
+ */
+#ifndef RF_TYPES_H
+#define RF_TYPES_H
+
+#ifndef __OPENCL_C_VERSION__
+#include "rf_common.h"
+#endif
+
+/* One BVH node, 32 bytes. Bottom-level and top-level nodes share one array.
+ * The two children of an interior node sit next to each other (first,
+ * first+1) at an even index, so both boxes come in one 64-byte line and the
+ * traversal tests them together.
+ *   bytes  0..11  bmin   box minimum (object space for BLAS nodes, camera
+ *                        space for TLAS nodes)
+ *   bytes 12..15  first  interior: index of the left child;
+ *                        leaf: first triangle (BLAS) or first instance (TLAS)
+ *   bytes 16..27  bmax   box maximum
+ *   bytes 28..31  meta   bits 0..23: leaf item count, 0 for an interior node;
+ *                        bits 24..27: TLAS only, the transform groups that
+ *                        occur below this node (bit g = group g) */
+typedef struct {
+  float bmin[3];
+  rf_u32 first;
+  float bmax[3];
+  rf_u32 meta;
+} rf_node;
+
+#define RF_NODE_COUNT_MASK 0x00FFFFFFu
+#define RF_NODE_GROUP_SHIFT 24u
+#define RF_MAX_GROUPS 4
+
+/* One triangle in BVH leaf order, 40 bytes.
+ *   bytes  0..35  v0, v1, v2   object-space vertices, in the file's winding
+ *   bytes 36..39  prim         triangle index within its mesh, as in the file
+ *                              (after strips and fans are made triangles) */
+typedef struct {
+  float v0[3];
+  float v1[3];
+  float v2[3];
+  rf_u32 prim;
+} rf_tri;
+
+/* One traced instance (a scene instance, or a mirrored copy of one), 64 bytes.
+ *   bytes  0..47  object_from_camera  row-major 3x4 affine: row r is
+ *                 (m[4r], m[4r+1], m[4r+2]) with translation m[4r+3].
+ *                 Rays stay unnormalised under it, so a hit's t is the same
+ *                 parameter in camera and object space.
+ *   bytes 48..51  blas_root    node index of the mesh's bottom-level root
+ *   bytes 52..55  instance_id  index of the scene instance; mirrored copies
+ *                              keep the id of the instance they mirror
+ *   bytes 56..59  group        transform group 0..3 (0 = not mirrored)
+ *   bytes 60..63  pad */
+typedef struct {
+  float object_from_camera[12];
+  rf_u32 blas_root;
+  rf_u32 instance_id;
+  rf_u32 group;
+  rf_u32 pad;
+} rf_instance;
+
+/* Per scene instance, 36 bytes: the row-major 3x3 that takes an object-space
+ * normal to world space (the inverse transpose of world_from_object), so the
+ * normal keeps the file's front side also under mirroring node transforms. */
+typedef struct {
+  float m[9];
+} rf_normal_xform;
+
+/* The hit info of one pixel, 32 bytes: the layout of the output buffer.
+ *   z          distance from the eye along the normalised ray, +inf on a miss
+ *   nx, ny, nz world-space geometric normal, unit length (0 on a miss)
+ *   u, v       barycentrics of v1 and v2 (0 on a miss)
+ *   instance   scene instance index, RF_INVALID on a miss
+ *   primitive  triangle index within the mesh, RF_INVALID on a miss */
+typedef struct {
+  float z;
+  float nx, ny, nz;
+  float u, v;
+  rf_u32 instance;
+  rf_u32 primitive;
+} rf_pixel_hit;
+
+/* One entry of the compacted ray list, 4 bytes:
+ *   bits  0..14  pixel column x of the traced ray
+ *   bits 15..29  pixel row y
+ *   bit  30      the ray also answers the pixel mirrored in x (column
+ *                xpair - x), through the group-1 instances
+ *   bit  31      the ray also answers the pixel mirrored in y (row
+ *                ypair - y), through the group-2 instances; with both bits
+ *                it answers a fourth pixel through group 3 */
+#define RF_RAY_COORD_BITS 15u
+#define RF_RAY_COORD_MASK 0x7FFFu
+#define RF_RAY_MIRROR_X (1u << 30)
+#define RF_RAY_MIRROR_Y (1u << 31)
+#define RF_MAX_IMAGE_SIDE 32767
+
+/* How pixel (x, y) becomes a camera-space ray, origin at the eye:
+ *   d = (scale_x * (2x + kx0), scale_y * (ky0 - 2y), -1)
+ * The integer offsets keep mirror partners exact: the column xpair - x gives
+ * exactly the negated float. A centred W x H image has kx0 = 1 - W,
+ * ky0 = H - 1, xpair = W - 1, ypair = H - 1. */
+typedef struct {
+  float scale_x, scale_y;
+  rf_i32 kx0, ky0;
+  rf_i32 width, height;
+  rf_i32 xpair, ypair;
+} rf_camera;
+
+#endif /* RF_TYPES_H */

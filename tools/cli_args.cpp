@@ -1,0 +1,59 @@
+#include "cli_args.h"
+
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+
+#include "../host/errors.h"
+
+namespace rayfold::cli {
+
+Args::Args(int argc, char** argv, int first) {
+  for (int i = first; i < argc; ++i) args_.emplace_back(argv[i]);
+}
+
+std::string Args::value(const std::string& option) {
+  if (done()) throw UsageError(option + " needs a value");
+  return next();
+}
+
+int parse_int(const std::string& option, const std::string& text, int lo, int hi) {
+  char* end = nullptr;
+  errno = 0;
+  const long v = std::strtol(text.c_str(), &end, 10);
+  if (text.empty() || *end != '\0' || errno == ERANGE)
+    throw UsageError(option + ": '" + text + "' is not an integer");
+  if (v < lo || v > hi)
+    throw UsageError(option + ": " + text + " is out of range (" + std::to_string(lo) + ".." + std::to_string(hi) + ")");
+  return static_cast<int>(v);
+}
+
+double parse_double(const std::string& option, const std::string& text) {
+  char* end = nullptr;
+  const double v = std::strtod(text.c_str(), &end);
+  if (text.empty() || *end != '\0' || !std::isfinite(v))
+    throw UsageError(option + ": '" + text + "' is not a finite number");
+  return v;
+}
+
+glm::dvec3 parse_vec3(const std::string& option, const std::string& text) {
+  glm::dvec3 v;
+  size_t start = 0;
+  for (int k = 0; k < 3; ++k) {
+    const size_t comma = text.find(',', start);
+    if ((k < 2) != (comma != std::string::npos))
+      throw UsageError(option + ": '" + text + "' is not X,Y,Z");
+    v[k] = parse_double(option, text.substr(start, k < 2 ? comma - start : std::string::npos));
+    start = comma + 1;
+  }
+  return v;
+}
+
+void parse_size(const std::string& option, const std::string& text, int* width, int* height) {
+  const size_t x = text.find('x');
+  if (x == std::string::npos) throw UsageError(option + ": '" + text + "' is not WIDTHxHEIGHT");
+  *width = parse_int(option, text.substr(0, x), 1, 32767);
+  *height = parse_int(option, text.substr(x + 1), 1, 32767);
+}
+
+}  // namespace rayfold::cli

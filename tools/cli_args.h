@@ -1,0 +1,31 @@
+// Small, strict command-line parsing helpers: every malformed value is a
+// UsageError that names the option.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <glm/vec3.hpp>
+
+namespace rayfold::cli {
+
+class Args {
+ public:
+  Args(int argc, char** argv, int first);
+  bool done() const { return pos_ >= args_.size(); }
+  const std::string& peek() const { return args_[pos_]; }
+  std::string next() { return args_[pos_++]; }
+  // The value after an option, or a UsageError naming the option.
+  std::string value(const std::string& option);
+
+ private:
+  std::vector<std::string> args_;
+  size_t pos_ = 0;
+};
+
+int parse_int(const std::string& option, const std::string& text, int lo, int hi);
+double parse_double(const std::string& option, const std::string& text);
+glm::dvec3 parse_vec3(const std::string& option, const std::string& text);
+void parse_size(const std::string& option, const std::string& text, int* width, int* height);
+
+}  // namespace rayfold::cli
