@@ -41,6 +41,18 @@ typedef int32_t rf_i32;
 #define RF_INF INFINITY
 #endif
 
+/* Traversal counters for host diagnostics (tools/rayfold-stats); they compile
+ * to nothing in the kernels and in the normal host build. */
+#if defined(RF_TRAVERSAL_STATS) && !defined(__OPENCL_C_VERSION__)
+typedef struct {
+  unsigned long long tlas_nodes, instances, blas_nodes, triangles;
+} rf_traversal_stats;
+extern thread_local rf_traversal_stats rf_stats;
+#define RF_STAT(field) (++rf_stats.field)
+#else
+#define RF_STAT(field) ((void)0)
+#endif
+
 /* Marks "no hit" / "no node" in 32-bit index fields. */
 #define RF_INVALID 0xFFFFFFFFu
 

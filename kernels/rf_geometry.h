@@ -61,9 +61,12 @@ RF_INLINE void rf_ray_init(rf_ray* r, float ox, float oy, float oz, float dx, fl
   r->kx = kx;
   r->ky = ky;
   r->kz = kz;
-  r->sx = r->d[kx] / r->d[kz];
-  r->sy = r->d[ky] / r->d[kz];
+  /* From the reciprocal rather than three more divisions: a ray is set up
+   * once per instance it enters, and the shear only has to be the same for
+   * every triangle the ray meets, not correctly rounded. */
   r->sz = 1.0f / r->d[kz];
+  r->sx = r->d[kx] * r->sz;
+  r->sy = r->d[ky] * r->sz;
 }
 
 /* Object-space ray of an instance: o = translation column, d = linear part

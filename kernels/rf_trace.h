@@ -49,9 +49,11 @@ RF_INLINE void rf_trace_blas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_
   for (;;) {
     const RF_GLOBAL rf_node* n = &nodes[ni];
     const rf_u32 count = n->meta & RF_NODE_COUNT_MASK;
+    RF_STAT(blas_nodes);
     if (count != 0) {
       for (rf_u32 k = 0; k < count; ++k) {
         const rf_u32 ti = n->first + k;
+        RF_STAT(triangles);
         float t, u, v;
         if (rf_intersect_triangle(&tris[ti], r, &t, &u, &v) && t > 0.0f &&
             rf_hit_is_closer(t, instance_id, tris[ti].prim, best)) {
@@ -119,11 +121,13 @@ RF_INLINE void rf_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_
   for (;;) {
     const RF_GLOBAL rf_node* n = &nodes[ni];
     const rf_u32 count = n->meta & RF_NODE_COUNT_MASK;
+    RF_STAT(tlas_nodes);
     if (count != 0) {
       for (rf_u32 k = 0; k < count; ++k) {
         const RF_GLOBAL rf_instance* inst = &instances[n->first + k];
         const rf_u32 g = inst->group;
         if (((ray_groups >> g) & 1u) == 0u) continue;
+        RF_STAT(instances);
         rf_ray ro;
         rf_ray_to_object(&ro, inst->object_from_camera, dx, dy, dz);
         rf_trace_blas(nodes, tris, inst->blas_root, &ro, inst->instance_id, &hits[g]);

@@ -1,0 +1,123 @@
+// The command-line tool as a user meets it: outputs, exit codes, messages,
+// and no file left behind on failure.
+#include <gtest/gtest.h>
+
+#include <sys/wait.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+
+#include "../host/image_output.h"
+#include "test_util.h"
+
+namespace rayfold {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct CliRun {
+  int code = -1;
+  std::string out, err;
+};
+
+CliRun rayfold(const std::string& args) {
+  const fs::path dir = fs::temp_directory_path() / ("rayfold_cli_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  const std::string out = (dir / "stdout").string(), err = (dir / "stderr").string();
+  const std::string cmd = std::string(RAYFOLD_BIN) + " " + args + " >" + out + " 2>" + err;
+  const int status = std::system(cmd.c_str());
+  CliRun r;
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : 128;
+  std::ifstream o(out), e(err);
+  r.out.assign(std::istreambuf_iterator<char>(o), {});
+  r.err.assign(std::istreambuf_iterator<char>(e), {});
+  return r;
+}
+
+fs::path work_dir() {
+  const fs::path d = fs::temp_directory_path() / ("rayfold_cli_work_" + std::to_string(::getpid()));
+  fs::create_directories(d);
+  return d;
+}
+
+TEST(Cli, RenderWritesEverythingAndPrintsTheTable) {
+  const fs::path d = work_dir();
+  const std::string exr = (d / "a.exr").string(), png = (d / "a.png").string(), json = (d / "a.json").string();
+  const CliRun r = rayfold("render --size 96x54 --frames 2 -o " + exr + " --png " + png + " --stats " + json);
+  ASSERT_EQ(r.code, 0) << r.err;
+  for (const char* key : {"BLAS build", "TLAS build", "trace", "Mrays/s", "device", "triangles"})
+    EXPECT_NE(r.out.find(key), std::string::npos) << key << " missing from:\n" << r.out;
+  int w = 0, h = 0;
+  const std::vector<rf_pixel_hit> hits = read_exr(exr, &w, &h);
+  EXPECT_EQ(w, 96);
+  EXPECT_EQ(h, 54);
+  size_t hit = 0;
+  for (const rf_pixel_hit& p : hits) hit += p.instance != RF_INVALID;
+  EXPECT_GT(hit, hits.size() / 2);
+  EXPECT_GT(fs::file_size(png), 100u);
+  std::ifstream js(json);
+  const std::string text((std::istreambuf_iterator<char>(js)), {});
+  for (const char* key : {"\"trace\"", "\"readback\"", "\"upload\"", "\"blas_build\"", "\"tlas_build\"", "\"load\"",
+                          "\"nodes\"", "\"triangles\"", "\"hits\""})
+    EXPECT_NE(text.find(key), std::string::npos) << key;
+  for (const auto& e : fs::directory_iterator(d))
+    EXPECT_EQ(e.path().string().find(".tmp-"), std::string::npos) << "temporary file left: " << e.path();
+}
+
+TEST(Cli, CpuAndOpenClWriteIdenticalFiles) {
+  const fs::path d = work_dir();
+  const std::string a = (d / "cpu.exr").string(), b = (d / "cl.exr").string();
+  ASSERT_EQ(rayfold("render --size 64x40 --backend cpu -q -o " + a).code, 0);
+  ASSERT_EQ(rayfold("render --size 64x40 --backend opencl -q -o " + b).code, 0);
+  int w, h;
+  EXPECT_EQ(testing::compare_hits(read_exr(a, &w, &h), read_exr(b, &w, &h), w), "");
+}
+
+TEST(Cli, UsageErrorsExitTwoWithAMessage) {
+  for (const char* args : {"render --size 0x10", "render --size -5x10", "render --size 10", "render --bogus",
+                           "render --eye 0,0,0", "render --eye 0,0,0 --look-at 0,1,0 --up 0,2,0",
+                           "render --vfov 180", "render --frames 0", "frobnicate", "info"}) {
+    const CliRun r = rayfold(args);
+    EXPECT_EQ(r.code, 2) << args << "\n" << r.err;
+    EXPECT_EQ(r.err.rfind("error: ", 0), 0u) << args << ": " << r.err;
+  }
+}
+
+TEST(Cli, BadFilesExitTwoNamingTheFile) {
+  const fs::path d = work_dir();
+  const std::string missing = (d / "nope.glb").string();
+  CliRun r = rayfold("render " + missing);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("error: " + missing + ": "), std::string::npos) << r.err;
+  const std::string garbage = (d / "garbage.glb").string();
+  std::ofstream(garbage) << "glTF but not really";
+  r = rayfold("info " + garbage);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find(garbage), std::string::npos) << r.err;
+}
+
+TEST(Cli, UnwritableOutputFailsBeforeTracingAndLeavesNothing) {
+  const CliRun r = rayfold("render --size 16x16 -o /nonexistent-dir/x.exr");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("/nonexistent-dir/x.exr"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists("/nonexistent-dir"));
+}
+
+TEST(Cli, HelpForEveryCommand) {
+  for (const char* args : {"--help", "render --help", "info --help"}) {
+    const CliRun r = rayfold(args);
+    EXPECT_EQ(r.code, 0) << args;
+    EXPECT_NE(r.out.find("usage: rayfold"), std::string::npos) << args;
+  }
+}
+
+TEST(Cli, InfoDescribesTheDefaultScene) {
+  const CliRun r = rayfold(std::string("info ") + RAYFOLD_SOURCE_DIR + "/scenes/atrium.glb");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("instances"), std::string::npos);
+  EXPECT_NE(r.out.find("bounds"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace rayfold

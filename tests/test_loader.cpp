@@ -1,0 +1,293 @@
+// The glTF loader: round trips of generated files, hand-built files that use
+// strips, fans, every index type, strides, matrices and TRS, clear errors on
+// broken files, and every real scene in ../shared/scenes when present.
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <map>
+
+#include <glm/gtc/matrix_transform.hpp>
+#include <nlohmann/json.hpp>
+
+#include "../host/errors.h"
+#include "../host/gltf_loader.h"
+#include "../host/renderer.h"
+#include "../tools/gltf_writer.h"
+#include "../tools/scene_gen.h"
+#include "test_util.h"
+
+namespace rayfold {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+fs::path temp_dir() {
+  const fs::path d = fs::temp_directory_path() / ("rayfold_loader_" + std::to_string(::getpid()));
+  fs::create_directories(d);
+  return d;
+}
+
+// Builds a .gltf with an external .bin, one accessor at a time.
+struct GltfFile {
+  std::vector<unsigned char> bin;
+  json j = {{"asset", {{"version", "2.0"}}}, {"bufferViews", json::array()}, {"accessors", json::array()},
+            {"meshes", json::array()}, {"nodes", json::array()}};
+
+  int view(const void* data, size_t bytes, size_t stride = 0) {
+    while (bin.size() % 4) bin.push_back(0);
+    json v = {{"buffer", 0}, {"byteOffset", bin.size()}, {"byteLength", bytes}};
+    if (stride) v["byteStride"] = stride;
+    bin.insert(bin.end(), static_cast<const unsigned char*>(data), static_cast<const unsigned char*>(data) + bytes);
+    j["bufferViews"].push_back(v);
+    return static_cast<int>(j["bufferViews"].size()) - 1;
+  }
+  int accessor(int view, int component, const char* type, size_t count, size_t offset = 0) {
+    j["accessors"].push_back({{"bufferView", view}, {"componentType", component}, {"type", type}, {"count", count},
+                              {"byteOffset", offset}});
+    return static_cast<int>(j["accessors"].size()) - 1;
+  }
+  int positions(const std::vector<glm::vec3>& p) {
+    json& a = j["accessors"][accessor(view(p.data(), p.size() * 12), 5126, "VEC3", p.size())];
+    glm::vec3 lo(INFINITY), hi(-INFINITY);
+    for (auto& v : p) {
+      lo = glm::min(lo, v);
+      hi = glm::max(hi, v);
+    }
+    a["min"] = {lo.x, lo.y, lo.z};
+    a["max"] = {hi.x, hi.y, hi.z};
+    return static_cast<int>(j["accessors"].size()) - 1;
+  }
+  std::string write(const std::string& name) {
+    const fs::path dir = temp_dir();
+    j["buffers"] = {{{"uri", name + ".bin"}, {"byteLength", bin.size()}}};
+    std::ofstream(dir / (name + ".bin"), std::ios::binary).write(reinterpret_cast<const char*>(bin.data()), bin.size());
+    std::ofstream(dir / (name + ".gltf")) << j.dump();
+    return (dir / (name + ".gltf")).string();
+  }
+};
+
+json prim(int position, int indices = -1, int mode = -1) {
+  json p;
+  p["attributes"]["POSITION"] = position;
+  if (indices >= 0) p["indices"] = indices;
+  if (mode >= 0) p["mode"] = mode;
+  return p;
+}
+
+json mesh(std::vector<json> primitives) {
+  json m;
+  m["primitives"] = primitives;
+  return m;
+}
+
+json node_with_mesh(int m) {
+  json n;
+  n["mesh"] = m;
+  return n;
+}
+
+// Expects load_gltf(path) to fail with a message that names the file and
+// contains `what`.
+void expect_error(const std::string& path, const std::string& what) {
+  try {
+    load_gltf(path);
+    ADD_FAILURE() << path << ": loaded, expected an error containing '" << what << "'";
+  } catch (const InputError& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find(path), std::string::npos) << msg;
+    EXPECT_NE(msg.find(what), std::string::npos) << msg;
+  }
+}
+
+TEST(Loader, GeneratedSceneRoundTrips) {
+  GenOptions gen;
+  gen.objects = 60;
+  gen.triangle_budget = 30000;
+  const Scene a = generate_atrium(gen);
+  const std::string path = (temp_dir() / "roundtrip.glb").string();
+  write_glb(a, path);
+  const Scene b = load_gltf(path);
+  ASSERT_EQ(a.meshes.size(), b.meshes.size());
+  ASSERT_EQ(a.instances.size(), b.instances.size());
+  for (size_t m = 0; m < a.meshes.size(); ++m) {
+    EXPECT_EQ(a.meshes[m].indices, b.meshes[m].indices);
+    ASSERT_EQ(a.meshes[m].positions.size(), b.meshes[m].positions.size());
+    EXPECT_EQ(0, std::memcmp(a.meshes[m].positions.data(), b.meshes[m].positions.data(),
+                             a.meshes[m].positions.size() * sizeof(glm::vec3)));
+  }
+  for (size_t i = 0; i < a.instances.size(); ++i) {
+    EXPECT_EQ(a.instances[i].mesh, b.instances[i].mesh);
+    EXPECT_TRUE(a.instances[i].world_from_object == b.instances[i].world_from_object) << "instance " << i;
+  }
+  ASSERT_TRUE(b.camera.has_value());
+  EXPECT_NEAR(glm::length(a.camera->eye - b.camera->eye), 0.0, 1e-9);
+  EXPECT_NEAR(b.camera->vfov_degrees, a.camera->vfov_degrees, 1e-9);
+  const glm::dvec3 da = glm::normalize(a.camera->look_at - a.camera->eye);
+  const glm::dvec3 db = glm::normalize(b.camera->look_at - b.camera->eye);
+  EXPECT_NEAR(glm::length(da - db), 0.0, 1e-9);
+}
+
+TEST(Loader, IndexTypesStridesStripsFansAndTransforms) {
+  GltfFile f;
+  // Four vertices of a unit quad, interleaved with 12 bytes of padding (a
+  // stride of 24, as a normal attribute would leave).
+  const float inter[] = {0, 0, 0, 9, 9, 9, 1, 0, 0, 9, 9, 9, 1, 1, 0, 9, 9, 9, 0, 1, 0, 9, 9, 9};
+  const int strided = f.accessor(f.view(inter, sizeof inter, 24), 5126, "VEC3", 4);
+  f.j["accessors"][strided]["min"] = {0, 0, 0};
+  f.j["accessors"][strided]["max"] = {1, 1, 0};
+  const uint8_t i8[] = {0, 1, 2, 0, 2, 3};
+  const uint16_t i16[] = {0, 1, 2, 0, 2, 3};
+  const uint32_t i32[] = {0, 1, 2, 0, 2, 3};
+  const int a8 = f.accessor(f.view(i8, sizeof i8), 5121, "SCALAR", 6);
+  const int a16 = f.accessor(f.view(i16, sizeof i16), 5123, "SCALAR", 6);
+  const int a32 = f.accessor(f.view(i32, sizeof i32), 5125, "SCALAR", 6);
+  // A strip and a fan over 5 vertices: 3 triangles each.
+  const int strip_pos = f.positions({{0, 0, 0}, {0, 1, 0}, {1, 0, 0}, {1, 1, 0}, {2, 0, 0}});
+  const int fan_pos = f.positions({{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {-1, 1, 0}});
+  const int points_pos = f.positions({{0, 0, 0}});
+  f.j["meshes"] = json::array({mesh({prim(strided, a8)}), mesh({prim(strided, a16)}), mesh({prim(strided, a32)}),
+                               mesh({prim(strided)}),  // non-indexed: 1 triangle of 4 vertices
+                               mesh({prim(strip_pos, -1, 5), prim(fan_pos, -1, 6), prim(points_pos, -1, 0)})});
+  json n0, n1, n2, n3, n4;
+  n0["mesh"] = 0;
+  n0["children"] = {1};
+  n0["translation"] = {10, 0, 0};
+  n1["mesh"] = 1;
+  n1["matrix"] = {2, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 5, 0, 1};
+  n2["mesh"] = 2;
+  n2["rotation"] = {0, 0, 0.7071067811865476, 0.7071067811865476};
+  n2["scale"] = {1, 2, 3};
+  n3["mesh"] = 3;
+  n4["mesh"] = 4;
+  f.j["nodes"] = json::array({n0, n1, n2, n3, n4});
+  f.j["scenes"] = json::array({json{{"nodes", {0, 2, 3, 4}}}});
+  f.j["scene"] = 0;
+  std::vector<std::string> warnings;
+  const Scene s = load_gltf(f.write("kinds"), &warnings);
+  ASSERT_EQ(s.meshes.size(), 5u);
+  ASSERT_EQ(s.instances.size(), 5u);
+  const std::vector<uint32_t> quad = {0, 1, 2, 0, 2, 3};
+  for (int m = 0; m < 3; ++m) {
+    EXPECT_EQ(s.meshes[m].indices, quad) << m;
+    EXPECT_EQ(s.meshes[m].positions[2], glm::vec3(1, 1, 0)) << "stride skipped the padding";
+  }
+  EXPECT_EQ(s.meshes[3].indices, (std::vector<uint32_t>{0, 1, 2}));
+  // Strip (spec order i, i+1+i%2, i+2-i%2) then fan (i+1, i+2, 0), offset by 5.
+  EXPECT_EQ(s.meshes[4].indices, (std::vector<uint32_t>{0, 1, 2, 1, 3, 2, 2, 3, 4, 6, 7, 5, 7, 8, 5, 8, 9, 5}));
+  bool warned_points = false;
+  for (const std::string& w : warnings) warned_points |= w.find("points or lines") != std::string::npos;
+  EXPECT_TRUE(warned_points);
+  // Depth-first order: node 0, its child 1, then 2, 3, 4.
+  const glm::dvec3 p1 = transform_point(s.instances[1].world_from_object, glm::dvec3(1, 1, 0));
+  EXPECT_NEAR(p1.x, 12.0, 1e-12);  // child: parent translation 10 + matrix scale 2 * 1
+  EXPECT_NEAR(p1.y, 6.0, 1e-12);   // matrix translation 5 + 1
+  const glm::dvec3 p2 = transform_point(s.instances[2].world_from_object, glm::dvec3(1, 0, 0));
+  EXPECT_NEAR(p2.x, 0.0, 1e-9);  // 90 degrees about z takes +x to +y
+  EXPECT_NEAR(p2.y, 1.0, 1e-9);
+}
+
+TEST(Loader, BrokenFilesGiveClearErrors) {
+  const fs::path dir = temp_dir();
+  expect_error((dir / "missing.glb").string(), "cannot open");
+  {
+    std::ofstream((dir / "empty.gltf").string());
+    expect_error((dir / "empty.gltf").string(), "empty");
+  }
+  {
+    std::ofstream(dir / "bad.gltf") << "{ this is not json";
+    expect_error((dir / "bad.gltf").string(), "");
+  }
+  {
+    GenOptions gen;
+    gen.objects = 5;
+    gen.triangle_budget = 2000;
+    const std::string good = (dir / "good.glb").string();
+    write_glb(generate_atrium(gen), good);
+    std::ifstream in(good, std::ios::binary);
+    std::string bytes((std::istreambuf_iterator<char>(in)), {});
+    std::ofstream(dir / "truncated.glb", std::ios::binary).write(bytes.data(), bytes.size() / 2);
+    expect_error((dir / "truncated.glb").string(), "");
+  }
+  auto one_triangle = [](GltfFile& f, std::vector<uint16_t> idx) {
+    const int p = f.positions({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}});
+    const int i = f.accessor(f.view(idx.data(), idx.size() * 2), 5123, "SCALAR", idx.size());
+    f.j["meshes"] = json::array({mesh({prim(p, i)})});
+  };
+  {
+    GltfFile f;
+    one_triangle(f, {0, 1, 7});
+    f.j["nodes"] = json::array({node_with_mesh(0)});
+    expect_error(f.write("index_range"), "past the 3 vertices");
+  }
+  {
+    GltfFile f;
+    one_triangle(f, {0, 1, 2});
+    json a = node_with_mesh(0), b;
+    a["children"] = {1};
+    b["children"] = {0};
+    f.j["nodes"] = json::array({a, b});
+    f.j["scenes"] = json::array({json{{"nodes", {0}}}});
+    expect_error(f.write("cycle"), "cycle");
+  }
+  {
+    GltfFile f;
+    one_triangle(f, {0, 1, 2});
+    f.j["nodes"] = json::array({node_with_mesh(0)});
+    f.j["extensionsUsed"] = {"KHR_draco_mesh_compression"};
+    f.j["extensionsRequired"] = {"KHR_draco_mesh_compression"};
+    expect_error(f.write("draco"), "KHR_draco_mesh_compression");
+  }
+  {
+    GltfFile f;
+    one_triangle(f, {0, 1, 2});
+    f.j["accessors"][0]["count"] = 1000;
+    f.j["nodes"] = json::array({node_with_mesh(0)});
+    expect_error(f.write("past_view"), "");
+  }
+  {
+    GltfFile f;
+    const std::vector<glm::vec3> p = {{0, 0, 0}, {NAN, 0, 0}, {0, 1, 0}};
+    const int a = f.accessor(f.view(p.data(), 36), 5126, "VEC3", 3);
+    f.j["accessors"][a]["min"] = {0, 0, 0};
+    f.j["accessors"][a]["max"] = {1, 1, 0};
+    f.j["meshes"] = json::array({mesh({prim(a)})});
+    f.j["nodes"] = json::array({node_with_mesh(0)});
+    expect_error(f.write("nan"), "not finite");
+  }
+  {
+    GltfFile f;
+    one_triangle(f, {0, 1, 2});
+    f.j["nodes"] = json::array({node_with_mesh(3)});
+    expect_error(f.write("mesh_ref"), "mesh 3");
+  }
+}
+
+// The real scenes, with the triangle and mesh counts their README gives.
+TEST(Loader, SharedScenes) {
+  const std::string dir = testing::shared_scenes_dir();
+  if (dir.empty()) GTEST_SKIP() << "../shared/scenes not found (set RAYFOLD_SCENES_DIR); real scenes not tested";
+  const std::map<std::string, std::pair<size_t, size_t>> expected = {
+      {"conference.glb", {331179, 41}},     {"lost_empire.glb", {224998, 45}}, {"sports_car.glb", {300603, 1075}},
+      {"dabrovic_sponza.glb", {66447, 33}}, {"stanford_dragon.glb", {871414, 1}}, {"armadillo.glb", {345944, 1}},
+  };
+  int found = 0;
+  for (const auto& [name, counts] : expected) {
+    const fs::path p = fs::path(dir) / name;
+    if (!fs::exists(p)) {
+      std::printf("note: %s absent; skipped\n", p.c_str());
+      continue;
+    }
+    ++found;
+    const Scene s = load_gltf(p.string());
+    EXPECT_EQ(s.unique_triangle_count(), counts.first) << name;
+    EXPECT_EQ(s.meshes.size(), counts.second) << name;
+    EXPECT_FALSE(s.world_bounds().empty()) << name;
+  }
+  EXPECT_GT(found, 0);
+}
+
+}  // namespace
+}  // namespace rayfold

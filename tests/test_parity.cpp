@@ -1,0 +1,117 @@
+// CPU reference vs OpenCL, bit for bit, on every field of every pixel: the
+// bundled default scene at full size and many random cameras over generated
+// scenes.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+
+#include "../host/gltf_loader.h"
+#include "../host/renderer.h"
+#include "../tools/scene_gen.h"
+#include "test_util.h"
+
+namespace rayfold {
+namespace {
+
+RendererOptions cpu_options() {
+  RendererOptions o;
+  o.backend = Backend::cpu;
+  return o;
+}
+
+TEST(Parity, DefaultSceneFullSize) {
+  const std::string path = std::string(RAYFOLD_SOURCE_DIR) + "/scenes/atrium.glb";
+  const Scene scene = load_gltf(path);
+  ASSERT_TRUE(scene.camera.has_value());
+  const Camera cam = make_camera(*scene.camera, 1280, 720);
+  Renderer cpu(scene, cpu_options());
+  Renderer cl(scene, RendererOptions{});
+  const RenderResult a = cpu.render(cam);
+  const RenderResult b = cl.render(cam);
+  EXPECT_EQ(testing::compare_hits(a.hits, b.hits, cam.width), "");
+  size_t hits = 0;
+  for (const rf_pixel_hit& h : a.hits) hits += h.instance != RF_INVALID;
+  EXPECT_GT(hits, a.hits.size() / 2);
+}
+
+TEST(Parity, RandomCamerasOverGeneratedScenes) {
+  testing::Rng rng(99);
+  int cameras = 0;
+  for (int s = 0; s < 3; ++s) {
+    GenOptions gen;
+    gen.seed = 1000 + s;
+    gen.objects = 30 + 60 * s;
+    gen.triangle_budget = 20000;
+    const Scene scene = generate_atrium(gen);
+    Renderer cpu(scene, cpu_options());
+    Renderer cl(scene, RendererOptions{});
+    for (int v = 0; v < 20; ++v, ++cameras) {
+      const int w = 40 + rng.below(120), h = 30 + rng.below(90);
+      const Camera cam = make_camera(testing::random_camera(rng, scene.world_bounds()), w, h);
+      const RenderResult a = cpu.render(cam);
+      const RenderResult b = cl.render(cam);
+      EXPECT_EQ(testing::compare_hits(a.hits, b.hits, w), "") << "scene " << s << " camera " << v;
+    }
+  }
+  EXPECT_GE(cameras, 50);
+}
+
+TEST(Parity, RandomTriangleSoupsWithMirrors) {
+  testing::Rng rng(123);
+  for (int s = 0; s < 4; ++s) {
+    const Scene scene = testing::random_scene(rng, 3, 15, 400);
+    Renderer cpu(scene, cpu_options());
+    Renderer cl(scene, RendererOptions{});
+    for (int v = 0; v < 5; ++v) {
+      const Camera cam = make_camera(testing::random_camera(rng, scene.world_bounds()), 96, 64);
+      EXPECT_EQ(testing::compare_hits(cpu.render(cam).hits, cl.render(cam).hits, 96), "") << s << "/" << v;
+    }
+  }
+}
+
+}  // namespace
+}  // namespace rayfold
+
+namespace rayfold {
+namespace {
+
+// The suggested views of ../shared/scenes/README.md.
+struct View {
+  const char* file;
+  glm::dvec3 eye, look_at;
+};
+const View kSharedViews[] = {
+    {"dabrovic_sponza.glb", {0, 3, 0}, {10, 3, 0}},
+    {"conference.glb", {330, 300, -300}, {1000, 200, 0}},
+    {"sports_car.glb", {1.8, 0.9, 2.2}, {0, 0.45, 0}},
+    {"stanford_dragon.glb", {0, 0.13, 0.22}, {0, 0.12, 0}},
+    {"armadillo.glb", {0, 20, 170}, {0, 20, 0}},
+    {"lost_empire.glb", {-10, 20, 40}, {10, 10, 0}},
+};
+
+TEST(Parity, SharedScenesSuggestedViews) {
+  const std::string dir = testing::shared_scenes_dir();
+  if (dir.empty()) GTEST_SKIP() << "../shared/scenes not found (set RAYFOLD_SCENES_DIR); real scenes not tested";
+  int rendered = 0;
+  for (const View& v : kSharedViews) {
+    const std::string path = dir + "/" + v.file;
+    if (!std::filesystem::exists(path)) continue;
+    const Scene scene = load_gltf(path);
+    CameraSpec spec;
+    spec.eye = v.eye;
+    spec.look_at = v.look_at;
+    const Camera cam = make_camera(spec, 160, 90);
+    Renderer cpu(scene, cpu_options());
+    Renderer cl(scene, RendererOptions{});
+    const RenderResult a = cpu.render(cam);
+    EXPECT_EQ(testing::compare_hits(a.hits, cl.render(cam).hits, cam.width), "") << v.file;
+    size_t hits = 0;
+    for (const rf_pixel_hit& h : a.hits) hits += h.instance != RF_INVALID;
+    EXPECT_GT(hits, a.hits.size() / 10) << v.file << ": the suggested view should see the scene";
+    ++rendered;
+  }
+  EXPECT_GT(rendered, 0);
+}
+
+}  // namespace
+}  // namespace rayfold

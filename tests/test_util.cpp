@@ -1,0 +1,169 @@
+#include "test_util.h"
+
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <sstream>
+
+#include <glm/gtc/matrix_transform.hpp>
+
+#include "../kernels/rf_trace.h"
+
+namespace rayfold::testing {
+
+uint64_t Rng::next() {
+  uint64_t z = (s_ += 0x9E3779B97F4A7C15ull);
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+  return z ^ (z >> 31);
+}
+
+double Rng::uniform(double lo, double hi) { return lo + (hi - lo) * (next() >> 11) * 0x1p-53; }
+
+std::vector<rf_pixel_hit> brute_force(const Scene& scene, const SceneData& data, const Camera& camera) {
+  const rf_camera& cam = camera.params;
+  // Per instance: its object_from_camera floats, exactly as a frame stores them.
+  std::vector<rf_instance> insts;
+  for (size_t i = 0; i < scene.instances.size(); ++i) {
+    if (!data.renderable[i]) continue;
+    rf_instance inst{};
+    to_rows3x4(data.object_from_world[i] * camera.world_from_camera, inst.object_from_camera);
+    inst.instance_id = static_cast<uint32_t>(i);
+    insts.push_back(inst);
+  }
+  std::vector<std::vector<rf_tri>> mesh_tris(scene.meshes.size());
+  for (size_t m = 0; m < scene.meshes.size(); ++m) {
+    const Mesh& mesh = scene.meshes[m];
+    for (size_t t = 0; t < mesh.triangle_count(); ++t) {
+      rf_tri tri{};
+      for (int k = 0; k < 3; ++k) {
+        tri.v0[k] = mesh.positions[mesh.indices[3 * t]][k];
+        tri.v1[k] = mesh.positions[mesh.indices[3 * t + 1]][k];
+        tri.v2[k] = mesh.positions[mesh.indices[3 * t + 2]][k];
+      }
+      tri.prim = static_cast<uint32_t>(t);
+      mesh_tris[m].push_back(tri);
+    }
+  }
+  std::vector<rf_pixel_hit> out(static_cast<size_t>(cam.width) * cam.height);
+  for (int y = 0; y < cam.height; ++y)
+    for (int x = 0; x < cam.width; ++x) {
+      const float dx = cam.scale_x * static_cast<float>(2 * x + cam.kx0);
+      const float dy = cam.scale_y * static_cast<float>(cam.ky0 - 2 * y);
+      const float dz = -1.0f;
+      rf_hit best;
+      rf_hit_reset(&best);
+      const rf_tri* best_tri = nullptr;
+      for (const rf_instance& inst : insts) {
+        rf_ray r;
+        rf_ray_to_object(&r, inst.object_from_camera, dx, dy, dz);
+        for (const rf_tri& tri : mesh_tris[scene.instances[inst.instance_id].mesh]) {
+          float t, u, v;
+          if (rf_intersect_triangle(&tri, &r, &t, &u, &v) && t > 0.0f &&
+              rf_hit_is_closer(t, inst.instance_id, tri.prim, &best)) {
+            best.t = t;
+            best.u = u;
+            best.v = v;
+            best.instance = inst.instance_id;
+            best.prim = tri.prim;
+            best_tri = &tri;
+          }
+        }
+      }
+      const float len_d = RF_SQRT(dx * dx + dy * dy + dz * dz);
+      // rf_write_pixel finds the triangle through an index; hand it this one.
+      best.tri = 0;
+      rf_write_pixel(&out[static_cast<size_t>(y) * cam.width + x], &best, len_d, best_tri ? best_tri : nullptr,
+                     data.normal_xforms.data());
+    }
+  return out;
+}
+
+std::string compare_hits(const std::vector<rf_pixel_hit>& expected, const std::vector<rf_pixel_hit>& actual,
+                         int width) {
+  if (expected.size() != actual.size()) return "sizes differ";
+  size_t bad = 0;
+  std::ostringstream first;
+  for (size_t i = 0; i < expected.size(); ++i) {
+    if (std::memcmp(&expected[i], &actual[i], sizeof(rf_pixel_hit)) == 0) continue;
+    if (bad++ == 0) {
+      const rf_pixel_hit &e = expected[i], &a = actual[i];
+      first.precision(9);
+      first << "pixel (" << i % width << ", " << i / width << "): expected z=" << e.z << " n=(" << e.nx << ","
+            << e.ny << "," << e.nz << ") uv=(" << e.u << "," << e.v << ") inst=" << e.instance
+            << " prim=" << e.primitive << "; got z=" << a.z << " n=(" << a.nx << "," << a.ny << "," << a.nz
+            << ") uv=(" << a.u << "," << a.v << ") inst=" << a.instance << " prim=" << a.primitive;
+    }
+  }
+  if (bad == 0) return "";
+  return std::to_string(bad) + " of " + std::to_string(expected.size()) + " pixels differ; first: " + first.str();
+}
+
+CameraSpec random_camera(Rng& rng, const Aabb& b) {
+  const glm::dvec3 lo(b.lo), hi(b.hi), size = hi - lo;
+  CameraSpec c;
+  c.eye = lo - 0.3 * size + glm::dvec3(rng.uniform(0, 1), rng.uniform(0, 1), rng.uniform(0, 1)) * 1.6 * size;
+  glm::dvec3 dir;
+  const int kind = rng.below(4);
+  if (kind == 0) {  // along an axis, exactly
+    dir = glm::dvec3(0.0);
+    dir[rng.below(3)] = rng.below(2) ? 1.0 : -1.0;
+  } else if (kind == 1) {  // at the middle of the scene
+    dir = (lo + hi) * 0.5 - c.eye;
+  } else {
+    dir = glm::dvec3(rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-1, 1));
+  }
+  if (glm::length(dir) < 1e-6) dir = glm::dvec3(0.0, 0.0, -1.0);
+  c.look_at = c.eye + dir;
+  // Roll: any up vector not parallel to the view.
+  for (;;) {
+    c.up = glm::dvec3(rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-1, 1));
+    if (rng.below(3) == 0) c.up = glm::dvec3(0.0, 1.0, 0.0);
+    if (glm::length(glm::cross(c.up, dir)) > 1e-3 * glm::length(c.up) * glm::length(dir)) break;
+  }
+  c.vfov_degrees = rng.uniform(20.0, 110.0);
+  return c;
+}
+
+Scene random_scene(Rng& rng, int meshes, int instances, int triangles_per_mesh) {
+  Scene s;
+  for (int m = 0; m < meshes; ++m) {
+    Mesh mesh;
+    const glm::vec3 centre(rng.uniformf(-1, 1), rng.uniformf(-1, 1), rng.uniformf(-1, 1));
+    for (int t = 0; t < triangles_per_mesh; ++t) {
+      const glm::vec3 c = centre + glm::vec3(rng.uniformf(-1, 1), rng.uniformf(-1, 1), rng.uniformf(-1, 1));
+      const float r = rng.uniformf(0.05f, 0.6f);
+      const uint32_t base = static_cast<uint32_t>(mesh.positions.size());
+      for (int k = 0; k < 3; ++k)
+        mesh.positions.push_back(c + r * glm::vec3(rng.uniformf(-1, 1), rng.uniformf(-1, 1), rng.uniformf(-1, 1)));
+      if (rng.below(20) == 0) mesh.positions[base + 2] = mesh.positions[base + 1];  // zero area
+      mesh.indices.insert(mesh.indices.end(), {base, base + 1, base + 2});
+    }
+    s.meshes.push_back(std::move(mesh));
+  }
+  for (int i = 0; i < instances; ++i) {
+    Instance inst;
+    inst.mesh = static_cast<uint32_t>(rng.below(meshes));
+    Xform m = glm::translate(Xform(1.0), glm::dvec3(rng.uniform(-4, 4), rng.uniform(-4, 4), rng.uniform(-4, 4)));
+    m = glm::rotate(m, rng.uniform(0, 6.3), glm::normalize(glm::dvec3(rng.uniform(-1, 1), rng.uniform(-1, 1), 0.7)));
+    glm::dvec3 scale(rng.uniform(0.3, 2.0), rng.uniform(0.3, 2.0), rng.uniform(0.3, 2.0));
+    if (rng.below(3) == 0) scale[rng.below(3)] *= -1.0;  // a mirror
+    inst.world_from_object = glm::scale(m, scale);
+    s.instances.push_back(inst);
+  }
+  return s;
+}
+
+ClDevice& test_device() {
+  static ClDevice device;
+  return device;
+}
+
+std::string shared_scenes_dir() {
+  namespace fs = std::filesystem;
+  if (const char* env = std::getenv("RAYFOLD_SCENES_DIR")) return fs::is_directory(env) ? env : "";
+  const fs::path p = fs::path(RAYFOLD_SOURCE_DIR) / ".." / "shared" / "scenes";
+  return fs::is_directory(p) ? p.lexically_normal().string() : "";
+}
+
+}  // namespace rayfold::testing

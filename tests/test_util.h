@@ -1,0 +1,54 @@
+// Helpers shared by the tests: a brute-force tracer (no trees, no culling),
+// random cameras and scenes, bitwise image comparison, the OpenCL device.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "../host/camera.h"
+#include "../host/cl_device.h"
+#include "../host/device_layout.h"
+#include "../host/frame.h"
+#include "../host/scene.h"
+
+namespace rayfold::testing {
+
+// splitmix64, for reproducible test inputs.
+class Rng {
+ public:
+  explicit Rng(uint64_t seed) : s_(seed) {}
+  uint64_t next();
+  double uniform(double lo, double hi);
+  float uniformf(float lo, float hi) { return static_cast<float>(uniform(lo, hi)); }
+  int below(int n) { return static_cast<int>(next() % static_cast<uint64_t>(n)); }
+
+ private:
+  uint64_t s_;
+};
+
+// Every pixel's closest hit by testing every triangle of every instance with
+// the shared triangle test and tie rule: what the trees must reproduce.
+std::vector<rf_pixel_hit> brute_force(const Scene& scene, const SceneData& data, const Camera& camera);
+
+// "" when equal bit for bit, else a description of the first difference and
+// the number of differing pixels.
+std::string compare_hits(const std::vector<rf_pixel_hit>& expected, const std::vector<rf_pixel_hit>& actual,
+                         int width);
+
+// A camera somewhere in or around the bounds, looking anywhere, with roll;
+// sometimes along an axis, sometimes from inside an object's box.
+CameraSpec random_camera(Rng& rng, const Aabb& bounds);
+
+// A scene of random triangle soups (including zero-area triangles) placed by
+// random affine transforms: rotations, non-uniform scales and mirrors.
+Scene random_scene(Rng& rng, int meshes, int instances, int triangles_per_mesh);
+
+// The process-wide OpenCL device (PoCL on CI machines).
+ClDevice& test_device();
+
+// ../shared/scenes beside the repository, or $RAYFOLD_SCENES_DIR; "" when
+// absent.
+std::string shared_scenes_dir();
+
+}  // namespace rayfold::testing
