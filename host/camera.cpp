@@ -10,12 +10,14 @@
 
 namespace rayfold {
 
-Camera make_camera(const CameraSpec& spec, int width, int height) {
+Camera make_camera(const CameraSpec& spec, int width, int height, double shift_x, double shift_y) {
   if (width <= 0 || height <= 0 || width > RF_MAX_IMAGE_SIDE || height > RF_MAX_IMAGE_SIDE) {
     std::ostringstream s;
     s << "image size " << width << "x" << height << " is out of range (1.." << RF_MAX_IMAGE_SIDE << " per side)";
     throw UsageError(s.str());
   }
+  if (!(std::fabs(shift_x) <= 100.0 && std::fabs(shift_y) <= 100.0))
+    throw UsageError("lens shift must be finite and at most 100 half-images (ray coordinates must stay exact floats)");
   if (!(spec.vfov_degrees > 0.0 && spec.vfov_degrees < 180.0))
     throw UsageError("vertical field of view must be in (0, 180) degrees");
   const glm::dvec3 forward = spec.look_at - spec.eye;
@@ -35,16 +37,18 @@ Camera make_camera(const CameraSpec& spec, int width, int height) {
   cam.vfov_degrees = spec.vfov_degrees;
   cam.world_from_camera = Xform(glm::dvec4(u, 0.0), glm::dvec4(v, 0.0), glm::dvec4(w, 0.0), glm::dvec4(spec.eye, 1.0));
   cam.camera_from_world = glm::affineInverse(cam.world_from_camera);
-  // Square pixels: pixel column x sits at (2x + 1 - W) / H * tan(vfov / 2).
+  // Square pixels: pixel column x sits at (2x + kx0) / H * tan(vfov / 2),
+  // in units of half a pixel from the optical axis.
   const float scale = static_cast<float>(std::tan(spec.vfov_degrees * M_PI / 360.0) / height);
   cam.params.scale_x = scale;
   cam.params.scale_y = scale;
-  cam.params.kx0 = 1 - width;
-  cam.params.ky0 = height - 1;
+  cam.params.kx0 = 1 - width + static_cast<int>(std::lround(shift_x * width));
+  cam.params.ky0 = height - 1 + static_cast<int>(std::lround(shift_y * height));
   cam.params.width = width;
   cam.params.height = height;
-  cam.params.xpair = width - 1;
-  cam.params.ypair = height - 1;
+  // The partner of column x has coordinate -(2x + kx0), i.e. column -kx0 - x.
+  cam.params.xpair = -cam.params.kx0;
+  cam.params.ypair = cam.params.ky0;
   return cam;
 }
 

@@ -18,7 +18,10 @@ struct Camera {
 
 // Throws UsageError for a degenerate view (eye == look_at, up parallel to the
 // view direction, fov outside (0, 180), non-positive or too large sizes).
-Camera make_camera(const CameraSpec& spec, int width, int height);
+// shift_x, shift_y move the image window (an off-centre principal point) in
+// units of half the image width and height; they are rounded to whole half
+// pixels so that mirror partners keep exactly negated rays.
+Camera make_camera(const CameraSpec& spec, int width, int height, double shift_x = 0.0, double shift_y = 0.0);
 
 // A view of the whole scene from its +z side, slightly above, as a default.
 CameraSpec frame_bounds(const Aabb& world_bounds, double vfov_degrees = 60.0);

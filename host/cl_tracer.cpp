@@ -90,6 +90,9 @@ double ClTracer::upload_frame(const Frame& frame) {
     if (!frame.instances.empty())
       q.enqueueWriteBuffer(instances_, CL_FALSE, 0, frame.instances.size() * sizeof(rf_instance),
                            frame.instances.data());
+    if (!frame.normal_xforms.empty())
+      q.enqueueWriteBuffer(normal_xforms_, CL_FALSE, 0, frame.normal_xforms.size() * sizeof(rf_normal_xform),
+                           frame.normal_xforms.data());
     q.finish();
   } catch (const cl::Error& e) {
     throw RuntimeFailure("cannot upload a frame: " + cl_error_text(e));

@@ -5,15 +5,6 @@
 
 namespace rayfold {
 
-TracedRegion full_region(const rf_camera& cam) {
-  TracedRegion r;
-  r.kx_min = cam.kx0;
-  r.kx_max = 2 * (cam.width - 1) + cam.kx0;
-  r.ky_min = cam.ky0 - 2 * (cam.height - 1);
-  r.ky_max = cam.ky0;
-  return r;
-}
-
 Frustum::Frustum(const rf_camera& cam, const TracedRegion& region) {
   // A ray is t * (sx * kx, sy * ky, -1); a point p in front (p.z < 0) lies in
   // the region when sx * kx_min <= p.x / -p.z <= sx * kx_max, and so on.

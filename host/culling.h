@@ -15,9 +15,6 @@ struct TracedRegion {
   int kx_min = 0, kx_max = 0, ky_min = 0, ky_max = 0;
 };
 
-// The whole image.
-TracedRegion full_region(const rf_camera& cam);
-
 // Planes through the eye bounding every ray of a region, plus the plane
 // z = 0 behind which no ray (t > 0, dz = -1) goes.
 class Frustum {

@@ -2,13 +2,39 @@
 
 #include <chrono>
 
+#include "animation.h"
 #include "bvh_flatten.h"
+#include "errors.h"
 
 namespace rayfold {
 namespace {
 
 double ms_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+// Mirroring camera x (or y) is exact: negate the coordinate and swap ends.
+Aabb mirror_box(const Aabb& b, int group) {
+  Aabb m = b;
+  if (group_mirrors_x(group)) {
+    m.lo.x = -b.hi.x;
+    m.hi.x = -b.lo.x;
+  }
+  if (group_mirrors_y(group)) {
+    m.lo.y = -b.hi.y;
+    m.hi.y = -b.lo.y;
+  }
+  return m;
+}
+
+// object_from_camera of a mirrored copy: the original times the mirror,
+// i.e. the x (or y) column negated. A traced ray then reaches object space
+// bit-identical to the partner pixel's ray through the original.
+void mirror_columns(float rows[12], int group) {
+  for (int r = 0; r < 3; ++r) {
+    if (group_mirrors_x(group)) rows[4 * r + 0] = -rows[4 * r + 0];
+    if (group_mirrors_y(group)) rows[4 * r + 1] = -rows[4 * r + 1];
+  }
 }
 
 }  // namespace
@@ -33,28 +59,46 @@ SceneData prepare_scene(const Scene& scene, unsigned threads) {
 
 size_t max_tlas_nodes(const Scene& scene) { return 2 * RF_MAX_GROUPS * scene.instances.size() + 2; }
 
-Frame build_frame(const Scene& scene, const SceneData& data, const Camera& camera, const FrameOptions& options) {
+Frame build_frame(const Scene& scene, const SceneData& data, const Camera& camera, const RayList& rays,
+                  const FrameOptions& options) {
   Frame frame;
   frame.node_base = static_cast<uint32_t>(data.blas.nodes.size());
 
   auto t0 = std::chrono::steady_clock::now();
-  const Frustum frustum(camera.params, full_region(camera.params));
+  std::vector<Frustum> frusta;
+  for (int g = 0; g < RF_MAX_GROUPS; ++g) frusta.emplace_back(camera.params, rays.regions[g]);
+  const bool animate = options.animate_frame >= 0;
+  if (animate) frame.normal_xforms = data.normal_xforms;
   std::vector<Aabb> boxes;
   std::vector<rf_instance> candidates;
   for (size_t i = 0; i < scene.instances.size(); ++i) {
     if (!data.renderable[i]) continue;
     frame.stats.candidates++;
     const Instance& inst = scene.instances[i];
-    const Xform camera_from_object = camera.camera_from_world * inst.world_from_object;
+    Xform world_from_object = inst.world_from_object;
+    Xform object_from_world = data.object_from_world[i];
+    if (animate && is_animated(i)) {
+      world_from_object = animated_world_from_object(inst, data.blas.bounds[inst.mesh], i, options.animate_frame);
+      const bool ok = affine_inverse(world_from_object, &object_from_world);
+      RF_CHECK(ok, "animation made a transform singular");
+      normal_matrix_rows3x3(world_from_object, frame.normal_xforms[i].m);
+    }
+    const Xform camera_from_object = camera.camera_from_world * world_from_object;
     const Aabb box = transform_bounds_conservative(camera_from_object, data.blas.bounds[inst.mesh]);
-    if (options.cull && !frustum.may_see(box)) continue;
-    rf_instance out{};
-    to_rows3x4(data.object_from_world[i] * camera.world_from_camera, out.object_from_camera);
-    out.blas_root = data.blas.roots[inst.mesh];
-    out.instance_id = static_cast<uint32_t>(i);
-    out.group = 0;
-    candidates.push_back(out);
-    boxes.push_back(box);
+    rf_instance base{};
+    to_rows3x4(object_from_world * camera.world_from_camera, base.object_from_camera);
+    base.blas_root = data.blas.roots[inst.mesh];
+    base.instance_id = static_cast<uint32_t>(i);
+    for (int g = 0; g < RF_MAX_GROUPS; ++g) {
+      if (!rays.group_used[g]) continue;
+      const Aabb mirrored = mirror_box(box, g);
+      if (options.cull && !frusta[g].may_see(mirrored)) continue;
+      rf_instance out = base;
+      mirror_columns(out.object_from_camera, g);
+      out.group = static_cast<uint32_t>(g);
+      candidates.push_back(out);
+      boxes.push_back(mirrored);
+    }
   }
   frame.stats.kept = candidates.size();
   frame.stats.cull_ms = ms_since(t0);

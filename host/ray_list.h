@@ -1,17 +1,26 @@
 // The compacted ray list: one 4-byte entry per traced ray (kernels/rf_types.h
-// documents the bits). The unfolded list holds every pixel.
+// documents the bits). Folded lists trace one ray per mirror-partner set;
+// pixels without a partner (the centre column or row of odd sizes, the
+// asymmetric part of a shifted window) are traced unfolded.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <vector>
 
+#include "culling.h"
 #include "device_layout.h"
+#include "fold.h"
 
 namespace rayfold {
 
 struct RayList {
   std::vector<uint32_t> entries;
-  size_t pixels = 0;  // pixels answered; equals width * height for a full list
+  size_t pixels = 0;  // pixels answered: width * height
+  // Per transform group, the bounds of the rays that answer it (for
+  // culling); groups no ray answers are marked unused.
+  std::array<TracedRegion, RF_MAX_GROUPS> regions{};
+  std::array<bool, RF_MAX_GROUPS> group_used{};
 };
 
 inline uint32_t encode_ray(int x, int y, bool mirror_x, bool mirror_y) {
@@ -19,8 +28,8 @@ inline uint32_t encode_ray(int x, int y, bool mirror_x, bool mirror_y) {
          (mirror_x ? RF_RAY_MIRROR_X : 0u) | (mirror_y ? RF_RAY_MIRROR_Y : 0u);
 }
 
-// One ray per pixel, ordered in 8x8 tiles so that neighbouring work-items
-// trace neighbouring, coherent rays.
-RayList make_full_ray_list(int width, int height);
+// The rays to trace for a camera and fold mode, ordered in 8x8 tiles of the
+// traced region so that neighbouring work-items trace coherent rays.
+RayList make_ray_list(const rf_camera& camera, FoldMode fold);
 
 }  // namespace rayfold

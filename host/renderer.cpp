@@ -59,21 +59,24 @@ RenderResult Renderer::render(const Camera& camera, int frames, const FrameOptio
   frames = std::max(frames, 1);
   for (int f = 0; f < frames; ++f) {
     FrameTimes times;
-    const Frame frame = build_frame(scene_, data_, camera, frame_options);
+    FrameOptions options = frame_options;
+    if (options.animate_frame >= 0) options.animate_frame += f;
+    auto t0 = Clock::now();
+    const RayList rays = make_ray_list(camera.params, options.fold);
+    times.ray_list_ms = ms_since(t0);
+    result.rays = rays.entries.size();
+    const Frame frame = build_frame(scene_, data_, camera, rays, options);
     times.cull_ms = frame.stats.cull_ms;
     times.tlas_ms = frame.stats.tlas_ms;
     result.frame_stats = frame.stats;
-
-    auto t0 = Clock::now();
-    const RayList rays = make_full_ray_list(camera.width, camera.height);
-    result.rays = rays.entries.size();
+    result.tlas_nodes = frame.tlas_nodes.size();
+    result.instances = frame.instances.size();
     if (tracer_) {
-      times.ray_list_ms = ms_since(t0) + tracer_->upload_rays(rays);
+      times.ray_list_ms += tracer_->upload_rays(rays);
       times.upload_ms = tracer_->upload_frame(frame);
       times.trace_ms = tracer_->trace(camera.params);
       times.readback_ms = tracer_->read_hits(result.hits.data(), pixels);
     } else {
-      times.ray_list_ms = ms_since(t0);
       t0 = Clock::now();
       nodes_.resize(frame.node_base);
       nodes_.insert(nodes_.end(), frame.tlas_nodes.begin(), frame.tlas_nodes.end());
@@ -85,8 +88,9 @@ RenderResult Renderer::render(const Camera& camera, int frames, const FrameOptio
       in.tri_count = data_.blas.tris.size();
       in.instances = frame.instances.data();
       in.instance_count = frame.instances.size();
-      in.normal_xforms = data_.normal_xforms.data();
-      in.normal_xform_count = data_.normal_xforms.size();
+      const std::vector<rf_normal_xform>& normals = frame.normal_xforms.empty() ? data_.normal_xforms : frame.normal_xforms;
+      in.normal_xforms = normals.data();
+      in.normal_xform_count = normals.size();
       in.tlas_root = frame.tlas_root;
       t0 = Clock::now();
       trace_cpu(in, rays, camera.params, result.hits.data(), options_.threads);

@@ -39,6 +39,8 @@ struct RenderResult {
   std::vector<FrameTimes> frames;
   FrameStats frame_stats;  // of the last frame
   size_t rays = 0;         // rays traced per frame
+  size_t tlas_nodes = 0;   // of the last frame
+  size_t instances = 0;    // traced instances (mirrored copies included) of the last frame
 };
 
 class Renderer {

@@ -15,6 +15,7 @@
 #include "../host/gltf_loader.h"
 #include "../host/image_output.h"
 #include "../host/renderer.h"
+#include "bench.h"
 #include "cli_args.h"
 
 #ifndef RAYFOLD_DEFAULT_SCENE
@@ -32,6 +33,7 @@ const char* kUsage =
     "commands:\n"
     "  render [SCENE]   trace primary rays and write the hit info\n"
     "  info SCENE       meshes, instances, triangles and bounds of a scene\n"
+    "  bench [SCENE]    every fold mode on the same camera path: the paper's tables\n"
     "\n"
     "`rayfold <command> --help` describes a command. SCENE is a .gltf or .glb file;\n"
     "without it, render uses the bundled default scene.\n"
@@ -48,6 +50,11 @@ const char* kRenderUsage =
     "  --backend opencl|cpu   OpenCL device (default) or the CPU reference tracer\n"
     "  --device NAME          OpenCL device whose name contains NAME\n"
     "  --fast                 fast-math kernels (not bit-exact with the CPU reference)\n"
+    "  --fold none|y|x|xy     trace a half (y: left, x: top) or a quarter (xy) of the\n"
+    "                         rays, each answering its mirror pixels (default none)\n"
+    "  --shift SX,SY          off-centre image window, in half image widths/heights;\n"
+    "                         only its symmetric part folds\n"
+    "  --animate              move a fixed subset of instances every frame\n"
     "  --no-cull              keep instances outside the view in the top-level tree\n"
     "  --threads N            CPU threads for the CPU backend and builds (0 = all)\n"
     "  --frames N             trace N times and report the medians (default 1)\n"
@@ -56,6 +63,24 @@ const char* kRenderUsage =
     "  --stats F.json         phase times and device buffer sizes\n"
     "  -q, --quiet            print nothing but errors\n";
 
+const char* kBenchUsage =
+    "usage: rayfold bench [SCENE] [options]\n"
+    "\n"
+    "Renders every fold mode (and the unfolded baseline with and without culling)\n"
+    "on the same K views, checks every folded image bit for bit against the\n"
+    "unfolded one, and prints Table 1 (render time, memory) and Table 2\n"
+    "(pre-build, per-frame update) with ratios to the unfolded baseline.\n"
+    "\n"
+    "  --size WxH             image size (default 1280x720)\n"
+    "  --views K              cameras on a path around the base view (default 8)\n"
+    "  --frames N             measured frames per view and method (default 5)\n"
+    "  --warmup N             frames before measuring (default 1)\n"
+    "  --eye X,Y,Z --look-at X,Y,Z   base view (default: the file's camera)\n"
+    "  --animate              move a fixed subset of instances every frame\n"
+    "  --backend opencl|cpu   (default opencl)   --device NAME   --threads N\n"
+    "  --json F.json  --md F.md   also write the report\n"
+    "exit code 3 when a folded image differs from the unfolded one\n";
+
 const char* kInfoUsage = "usage: rayfold info SCENE\n\nprints meshes, instances, triangles and bounds\n";
 
 struct RenderArgs {
@@ -63,6 +88,7 @@ struct RenderArgs {
   int width = 1280, height = 720;
   std::optional<glm::dvec3> eye, look_at, up;
   std::optional<double> vfov;
+  double shift_x = 0.0, shift_y = 0.0;
   RendererOptions renderer;
   FrameOptions frame;
   int frames = 1;
@@ -111,6 +137,16 @@ RenderArgs parse_render(cli::Args& args) {
       r.renderer.device_hint = args.value(a);
     } else if (a == "--fast") {
       r.renderer.precision = KernelPrecision::fast;
+    } else if (a == "--fold") {
+      r.frame.fold = parse_fold(args.value(a));
+    } else if (a == "--shift") {
+      const std::string v = args.value(a);
+      const size_t comma = v.find(',');
+      if (comma == std::string::npos) throw UsageError("--shift: '" + v + "' is not SX,SY");
+      r.shift_x = cli::parse_double(a, v.substr(0, comma));
+      r.shift_y = cli::parse_double(a, v.substr(comma + 1));
+    } else if (a == "--animate") {
+      r.frame.animate_frame = 0;
     } else if (a == "--no-cull") {
       r.frame.cull = false;
     } else if (a == "--threads") {
@@ -138,6 +174,16 @@ RenderArgs parse_render(cli::Args& args) {
   return r;
 }
 
+void write_text(const std::string& path, const std::string& text) {
+  AtomicFile file(path);
+  {
+    std::ofstream out(file.temp_path());
+    out << text;
+    if (!out) throw InputError(path, "cannot write the file");
+  }
+  file.commit();
+}
+
 void write_stats(const std::string& path, const RenderArgs& args, const Scene& scene, const Renderer& renderer,
                  const RenderResult& result, double load_ms) {
   nlohmann::json j;
@@ -151,6 +197,7 @@ void write_stats(const std::string& path, const RenderArgs& args, const Scene& s
   j["meshes"] = scene.meshes.size();
   j["triangles"] = scene.triangle_count();
   j["rays"] = result.rays;
+  j["fold"] = fold_name(args.frame.fold);
   j["instances_after_culling"] = result.frame_stats.kept;
   j["times_ms"] = {{"load", load_ms},
                    {"blas_build", renderer.blas_build_ms()},
@@ -169,13 +216,7 @@ void write_stats(const std::string& path, const RenderArgs& args, const Scene& s
   }
   j["device_buffer_bytes"] = buffers;
   j["device_bytes_total"] = total;
-  AtomicFile file(path);
-  {
-    std::ofstream out(file.temp_path());
-    out << j.dump(2) << "\n";
-    if (!out) throw InputError(path, "cannot write the stats file");
-  }
-  file.commit();
+  write_text(path, j.dump(2) + "\n");
 }
 
 int run_render(cli::Args& args) {
@@ -196,7 +237,7 @@ int run_render(cli::Args& args) {
   }
   if (r.up) spec.up = *r.up;
   if (r.vfov) spec.vfov_degrees = *r.vfov;
-  const Camera camera = make_camera(spec, r.width, r.height);
+  const Camera camera = make_camera(spec, r.width, r.height, r.shift_x, r.shift_y);
 
   Renderer renderer(scene, r.renderer);
   const RenderResult result = renderer.render(camera, r.frames, r.frame);
@@ -208,18 +249,20 @@ int run_render(cli::Args& args) {
   if (!r.quiet) {
     const FrameTimes& m = result.median;
     const double mrays = result.rays / (m.trace_ms * 1e3);
-    std::printf("rayfold render  %s  %dx%d\n", r.scene.c_str(), r.width, r.height);
+    std::printf("rayfold render  %s  %dx%d  fold %s\n", r.scene.c_str(), r.width, r.height,
+                fold_name(r.frame.fold));
     std::printf("  %-12s %s\n", "device", renderer.device_name().c_str());
     std::printf("  %-12s %s instances, %s meshes, %s triangles (%s stored)\n", "scene",
                 with_commas(scene.instances.size()).c_str(), with_commas(scene.meshes.size()).c_str(),
                 with_commas(scene.triangle_count()).c_str(), with_commas(scene.unique_triangle_count()).c_str());
     std::printf("  %-12s %9.2f ms   (SAH cost %.1f, depth %d)\n", "BLAS build", renderer.blas_build_ms(),
                 renderer.scene_data().blas.sah_cost, renderer.scene_data().blas.max_depth);
-    std::printf("  %-12s %9.2f ms   (%zu of %zu instances after culling, SAH cost %.1f)\n", "TLAS build",
-                m.cull_ms + m.tlas_ms, result.frame_stats.kept, result.frame_stats.candidates,
+    std::printf("  %-12s %9.2f ms   (%zu instances traced, from %zu in the scene; SAH cost %.1f)\n",
+                "TLAS build", m.cull_ms + m.tlas_ms, result.frame_stats.kept, result.frame_stats.candidates,
                 result.frame_stats.tlas_sah);
     std::printf("  %-12s %9.2f ms   (median of %zu frames)\n", "trace", m.trace_ms, result.frames.size());
-    std::printf("  %-12s %9.2f\n", "Mrays/s", mrays);
+    std::printf("  %-12s %9.2f   (%zu rays for %zu pixels: %.2f Mpixels/s)\n", "Mrays/s", mrays, result.rays,
+                result.hits.size(), result.hits.size() / (m.trace_ms * 1e3));
     if (!r.exr.empty()) std::printf("  wrote %s\n", r.exr.c_str());
     if (!r.png.empty()) std::printf("  wrote %s\n", r.png.c_str());
     if (!r.stats.empty()) std::printf("  wrote %s\n", r.stats.c_str());
@@ -257,6 +300,67 @@ int run_info(cli::Args& args) {
   return 0;
 }
 
+int run_bench_command(cli::Args& args) {
+  BenchOptions opt;
+  opt.scene = RAYFOLD_DEFAULT_SCENE;
+  std::string json, md;
+  bool have_scene = false;
+  while (!args.done()) {
+    const std::string a = args.next();
+    if (a == "--help" || a == "-h") {
+      std::fputs(kBenchUsage, stdout);
+      return 0;
+    } else if (a == "--size") {
+      cli::parse_size(a, args.value(a), &opt.width, &opt.height);
+    } else if (a == "--views") {
+      opt.views = cli::parse_int(a, args.value(a), 1, 1000);
+    } else if (a == "--frames") {
+      opt.frames = cli::parse_int(a, args.value(a), 1, 100000);
+    } else if (a == "--warmup") {
+      opt.warmup = cli::parse_int(a, args.value(a), 0, 1000);
+    } else if (a == "--eye") {
+      opt.eye = cli::parse_vec3(a, args.value(a));
+    } else if (a == "--look-at") {
+      opt.look_at = cli::parse_vec3(a, args.value(a));
+    } else if (a == "--animate") {
+      opt.animate = true;
+    } else if (a == "--backend") {
+      const std::string b = args.value(a);
+      if (b == "opencl") opt.renderer.backend = Backend::opencl;
+      else if (b == "cpu") opt.renderer.backend = Backend::cpu;
+      else throw UsageError("--backend: '" + b + "' is not opencl or cpu");
+    } else if (a == "--device") {
+      opt.renderer.device_hint = args.value(a);
+    } else if (a == "--threads") {
+      opt.renderer.threads = static_cast<unsigned>(cli::parse_int(a, args.value(a), 0, 1024));
+    } else if (a == "--json") {
+      json = args.value(a);
+    } else if (a == "--md") {
+      md = args.value(a);
+    } else if (!a.empty() && a[0] == '-') {
+      throw UsageError("bench: unknown option '" + a + "' (see rayfold bench --help)");
+    } else if (!have_scene) {
+      opt.scene = a;
+      have_scene = true;
+    } else {
+      throw UsageError("bench: more than one scene given");
+    }
+  }
+  if (opt.eye.has_value() != opt.look_at.has_value()) throw UsageError("--eye and --look-at go together");
+  for (const std::string* out : {&json, &md})
+    if (!out->empty()) check_writable(*out);
+  const BenchReport report = run_bench(opt);
+  const std::string text = bench_markdown(report);
+  std::fputs(text.c_str(), stdout);
+  if (!json.empty()) write_text(json, bench_json(report));
+  if (!md.empty()) write_text(md, text);
+  if (!report.exact()) {
+    std::fprintf(stderr, "error: folded output differs from the unfolded output; the figures are not valid\n");
+    return 3;
+  }
+  return 0;
+}
+
 int run(int argc, char** argv) {
   if (argc < 2) {
     std::fputs(kUsage, stderr);
@@ -270,6 +374,7 @@ int run(int argc, char** argv) {
   }
   if (command == "render") return run_render(args);
   if (command == "info") return run_info(args);
+  if (command == "bench") return run_bench_command(args);
   throw UsageError("unknown command '" + command + "' (see rayfold --help)");
 }
 

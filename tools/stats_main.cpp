@@ -17,32 +17,36 @@ thread_local rf_traversal_stats rf_stats;
 int main(int argc, char** argv) {
   using namespace rayfold;
   try {
-    if (argc < 2) throw UsageError("usage: rayfold-stats SCENE [--eye X,Y,Z --look-at X,Y,Z] [--size WxH]");
+    if (argc < 2) throw UsageError("usage: rayfold-stats SCENE [--eye X,Y,Z --look-at X,Y,Z] [--size WxH] [--fold MODE]");
     cli::Args args(argc, argv, 2);
     const Scene scene = load_gltf(argv[1]);
     CameraSpec spec = scene.camera ? *scene.camera : frame_bounds(scene.world_bounds());
     int w = 320, h = 180;
+    FoldMode fold = FoldMode::none;
     while (!args.done()) {
       const std::string a = args.next();
       if (a == "--eye") spec.eye = cli::parse_vec3(a, args.value(a));
       else if (a == "--look-at") spec.look_at = cli::parse_vec3(a, args.value(a));
       else if (a == "--size") cli::parse_size(a, args.value(a), &w, &h);
+      else if (a == "--fold") fold = parse_fold(args.value(a));
       else throw UsageError("unknown option " + a);
     }
     const Camera cam = make_camera(spec, w, h);
     const SceneData data = prepare_scene(scene, 0);
-    const Frame frame = build_frame(scene, data, cam, FrameOptions{});
+    const RayList rays = make_ray_list(cam.params, fold);
+    FrameOptions options;
+    options.fold = fold;
+    const Frame frame = build_frame(scene, data, cam, rays, options);
     std::vector<rf_node> nodes = data.blas.nodes;
     nodes.insert(nodes.end(), frame.tlas_nodes.begin(), frame.tlas_nodes.end());
-    const RayList rays = make_full_ray_list(w, h);
     std::vector<rf_pixel_hit> out(static_cast<size_t>(w) * h);
     for (uint32_t e : rays.entries)
       rf_trace_entry(e, &cam.params, nodes.data(), data.blas.tris.data(), frame.instances.data(),
                      data.normal_xforms.data(), frame.tlas_root, out.data());
     const double n = static_cast<double>(rays.entries.size());
-    std::printf("%s: per ray %.1f TLAS nodes, %.2f instances, %.1f BLAS nodes, %.1f triangle tests "
+    std::printf("%s (fold %s, %zu rays): per ray %.1f TLAS nodes, %.2f instances, %.1f BLAS nodes, %.1f triangle tests "
                 "(BLAS SAH %.1f, TLAS SAH %.1f, %zu instances kept)\n",
-                argv[1], rf_stats.tlas_nodes / n, rf_stats.instances / n, rf_stats.blas_nodes / n,
+                argv[1], fold_name(fold), rays.entries.size(), rf_stats.tlas_nodes / n, rf_stats.instances / n, rf_stats.blas_nodes / n,
                 rf_stats.triangles / n, data.blas.sah_cost, frame.stats.tlas_sah, frame.stats.kept);
     return 0;
   } catch (const std::exception& e) {

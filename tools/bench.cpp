@@ -1,0 +1,196 @@
+#include "bench.h"
+
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <sstream>
+#include <thread>
+
+#include <glm/geometric.hpp>
+#include <glm/gtc/matrix_transform.hpp>
+#include <nlohmann/json.hpp>
+
+#include "../host/errors.h"
+#include "../host/gltf_loader.h"
+
+namespace rayfold {
+namespace {
+
+struct Method {
+  const char* name;
+  FoldMode fold;
+  bool cull;
+};
+const Method kMethods[] = {
+    {"none (no culling)", FoldMode::none, false}, {"none", FoldMode::none, true}, {"y", FoldMode::y, true},
+    {"x", FoldMode::x, true},                     {"xy", FoldMode::xy, true},
+};
+
+// Bytes a frame uses on the device: the scene (BLAS nodes, triangles, normal
+// matrices), the frame (TLAS nodes, instances), the ray list and the hits.
+double frame_bytes(const SceneData& data, const RenderResult& r, size_t pixels) {
+  return static_cast<double>(data.blas.nodes.size() * sizeof(rf_node) + data.blas.tris.size() * sizeof(rf_tri) +
+                             data.normal_xforms.size() * sizeof(rf_normal_xform) +
+                             r.tlas_nodes * sizeof(rf_node) + r.instances * sizeof(rf_instance) +
+                             r.rays * sizeof(uint32_t) + pixels * sizeof(rf_pixel_hit));
+}
+
+size_t count_mismatches(const std::vector<rf_pixel_hit>& a, const std::vector<rf_pixel_hit>& b) {
+  size_t n = 0;
+  for (size_t i = 0; i < a.size(); ++i) n += std::memcmp(&a[i], &b[i], sizeof(rf_pixel_hit)) != 0;
+  return n;
+}
+
+std::string fmt(const char* f, double v) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, f, v);
+  return buf;
+}
+
+}  // namespace
+
+bool BenchReport::exact() const {
+  for (const BenchRow& r : rows)
+    if (r.mismatched_pixels) return false;
+  return true;
+}
+
+std::vector<CameraSpec> camera_path(const CameraSpec& base, int views) {
+  std::vector<CameraSpec> path;
+  for (int k = 0; k < views; ++k) {
+    const double s = views > 1 ? static_cast<double>(k) / (views - 1) * 2.0 - 1.0 : 0.0;  // -1 .. 1
+    CameraSpec c = base;
+    const glm::dvec3 offset = base.eye - base.look_at;
+    const glm::dmat4 turn = glm::rotate(glm::dmat4(1.0), glm::radians(20.0 * s), glm::dvec3(0.0, 1.0, 0.0));
+    c.eye = base.look_at + glm::dvec3(turn * glm::dvec4(offset, 0.0)) * (1.0 + 0.1 * s * s - 0.05);
+    path.push_back(c);
+  }
+  return path;
+}
+
+BenchReport run_bench(const BenchOptions& opt) {
+  const Scene scene = load_gltf(opt.scene);
+  CameraSpec base = scene.camera ? *scene.camera : frame_bounds(scene.world_bounds());
+  if (opt.eye) {
+    base.eye = *opt.eye;
+    base.look_at = *opt.look_at;
+    base.up = glm::dvec3(0.0, 1.0, 0.0);
+  }
+  const std::vector<CameraSpec> path = camera_path(base, opt.views);
+  Renderer renderer(scene, opt.renderer);
+
+  BenchReport rep;
+  rep.scene = opt.scene;
+  rep.device = renderer.device_name();
+  rep.width = opt.width;
+  rep.height = opt.height;
+  rep.views = opt.views;
+  rep.frames = opt.frames;
+  rep.warmup = opt.warmup;
+  rep.animate = opt.animate;
+  rep.threads = opt.renderer.threads ? opt.renderer.threads : std::max(1u, std::thread::hardware_concurrency());
+  rep.instances = scene.instances.size();
+  rep.meshes = scene.meshes.size();
+  rep.triangles = scene.triangle_count();
+  rep.prebuild_ms = renderer.blas_build_ms();
+  for (const Method& m : kMethods) rep.rows.push_back({m.name, m.fold, m.cull});
+
+  const size_t pixels = static_cast<size_t>(opt.width) * opt.height;
+  for (int v = 0; v < opt.views; ++v) {
+    const Camera cam = make_camera(path[v], opt.width, opt.height);
+    std::vector<rf_pixel_hit> reference;
+    // Methods take turns within a view so that drift on a noisy machine
+    // affects them alike.
+    for (size_t mi = 0; mi < rep.rows.size(); ++mi) {
+      BenchRow& row = rep.rows[mi];
+      FrameOptions fo;
+      fo.fold = row.fold;
+      fo.cull = row.cull;
+      fo.animate_frame = opt.animate ? 0 : -1;
+      if (opt.warmup > 0) renderer.render(cam, opt.warmup, fo);
+      const RenderResult r = renderer.render(cam, opt.frames, fo);
+      if (mi == 0) reference = r.hits;
+      row.mismatched_pixels += count_mismatches(reference, r.hits);
+      std::vector<double> t, tr, up;
+      for (const FrameTimes& f : r.frames) {
+        t.push_back(f.ray_list_ms + f.trace_ms + f.readback_ms);
+        tr.push_back(f.trace_ms);
+        up.push_back(f.cull_ms + f.tlas_ms + f.upload_ms);
+      }
+      row.render_ms += median(t) / opt.views;
+      row.trace_ms += median(tr) / opt.views;
+      row.update_ms += median(up) / opt.views;
+      row.rays += static_cast<double>(r.rays) / opt.views;
+      row.instances += static_cast<double>(r.instances) / opt.views;
+      row.memory_bytes = std::max(row.memory_bytes, frame_bytes(renderer.scene_data(), r, pixels));
+    }
+  }
+  return rep;
+}
+
+std::string bench_markdown(const BenchReport& r) {
+  std::ostringstream s;
+  const BenchRow& none = r.rows[1];
+  const double pixels = static_cast<double>(r.width) * r.height;
+  s << "Scene `" << r.scene << "`: " << r.instances << " instances, " << r.meshes << " meshes, " << r.triangles
+    << " triangles; " << r.width << "x" << r.height << ", " << r.views << " views, median of " << r.frames
+    << " frames after " << r.warmup << " warm-up" << (r.animate ? ", animated" : "") << ".\n";
+  s << "Device: " << r.device << " (" << r.threads << " host threads). Folded output "
+    << (r.exact() ? "equals the unfolded output bit for bit in every view."
+                  : "DIFFERS from the unfolded output (see mismatched pixels).")
+    << "\n\n";
+  s << "Table 1 - render time T (ray list + trace + readback) and device memory M\n\n";
+  s << "| method (flip) | T ms | T ratio to none | trace ms | Mpixels/s | rays/frame | Mrays/s | instances | M MB | "
+       "M ratio | mismatched pixels |\n";
+  s << "|---|---|---|---|---|---|---|---|---|---|---|\n";
+  for (const BenchRow& row : r.rows) {
+    s << "| " << row.method << " | " << fmt("%.1f", row.render_ms) << " | "
+      << fmt("%.2fx", none.render_ms / row.render_ms) << " | " << fmt("%.1f", row.trace_ms) << " | "
+      << fmt("%.1f", pixels / (row.render_ms * 1e3)) << " | " << fmt("%.0f", row.rays) << " | "
+      << fmt("%.1f", row.rays / (row.trace_ms * 1e3)) << " | " << fmt("%.0f", row.instances) << " | "
+      << fmt("%.4f", row.memory_bytes / 1048576.0) << " | " << fmt("%.4f", row.memory_bytes / none.memory_bytes)
+      << " | " << row.mismatched_pixels << " |\n";
+  }
+  s << "\nTable 2 - BVH pre-build (all bottom-level trees) and per-frame update (culling + top-level build + "
+       "upload)\n\n";
+  s << "| method (flip) | pre-build ms | update ms | update ratio to none |\n|---|---|---|---|\n";
+  for (const BenchRow& row : r.rows)
+    s << "| " << row.method << " | " << fmt("%.1f", r.prebuild_ms) << " | " << fmt("%.3f", row.update_ms) << " | "
+      << fmt("%.2fx", row.update_ms / none.update_ms) << " |\n";
+  s << "\nRatios: T and update are 'none / method' for speed (above 1 is faster) and 'method / none' for the "
+       "update cost; M ratio is 'method / none'.\n";
+  return s.str();
+}
+
+std::string bench_json(const BenchReport& r) {
+  nlohmann::json j;
+  j["scene"] = r.scene;
+  j["device"] = r.device;
+  j["threads"] = r.threads;
+  j["width"] = r.width;
+  j["height"] = r.height;
+  j["views"] = r.views;
+  j["frames"] = r.frames;
+  j["warmup"] = r.warmup;
+  j["animate"] = r.animate;
+  j["instances"] = r.instances;
+  j["meshes"] = r.meshes;
+  j["triangles"] = r.triangles;
+  j["prebuild_ms"] = r.prebuild_ms;
+  j["exact"] = r.exact();
+  for (const BenchRow& row : r.rows) {
+    j["methods"].push_back({{"method", row.method},
+                            {"fold", fold_name(row.fold)},
+                            {"cull", row.cull},
+                            {"render_ms", row.render_ms},
+                            {"trace_ms", row.trace_ms},
+                            {"update_ms", row.update_ms},
+                            {"memory_bytes", row.memory_bytes},
+                            {"rays_per_frame", row.rays},
+                            {"instances", row.instances},
+                            {"mismatched_pixels", row.mismatched_pixels}});
+  }
+  return j.dump(2) + "\n";
+}
+
+}  // namespace rayfold

@@ -1,0 +1,61 @@
+// `rayfold bench`: every fold mode on the same camera path, side by side in
+// one run, with the paper's Table 1 (render time, memory) and Table 2
+// (pre-build, per-frame update). Every folded image is checked bit for bit
+// against the unfolded one before a figure is reported.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <glm/vec3.hpp>
+
+#include "../host/renderer.h"
+
+namespace rayfold {
+
+struct BenchOptions {
+  std::string scene;
+  int width = 1280, height = 720;
+  int views = 8;    // cameras on a short path through the scene
+  int frames = 5;   // measured frames per view and mode
+  int warmup = 1;   // frames per view and mode before measuring
+  bool animate = false;
+  std::optional<glm::dvec3> eye, look_at;
+  RendererOptions renderer;
+};
+
+struct BenchRow {
+  std::string method;  // "none (no culling)", "none", "y", "x", "xy"
+  FoldMode fold = FoldMode::none;
+  bool cull = true;
+  double render_ms = 0.0;  // T: ray list + trace + readback, mean over views of per-view medians
+  double trace_ms = 0.0;
+  double update_ms = 0.0;  // culling + TLAS build + upload
+  double memory_bytes = 0.0;  // M: the largest over views of the bytes the frame uses on the device
+  double rays = 0.0;          // traced per frame, mean over views
+  double instances = 0.0;     // in the TLAS, mean over views
+  size_t mismatched_pixels = 0;  // against the unfolded image, over all views
+};
+
+struct BenchReport {
+  std::string scene, device;
+  int width = 0, height = 0, views = 0, frames = 0, warmup = 0;
+  unsigned threads = 0;
+  size_t instances = 0, meshes = 0, triangles = 0;
+  double prebuild_ms = 0.0;  // all BLAS builds
+  bool animate = false;
+  std::vector<BenchRow> rows;
+  bool exact() const;
+};
+
+BenchReport run_bench(const BenchOptions& options);
+std::string bench_markdown(const BenchReport& report);
+std::string bench_json(const BenchReport& report);
+
+// The K cameras of the benchmark path around a base view: the eye swings
+// +-20 degrees about the vertical axis through the look-at point and dollies
+// in and out by 10%.
+std::vector<CameraSpec> camera_path(const CameraSpec& base, int views);
+
+}  // namespace rayfold
