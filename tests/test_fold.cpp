@@ -1,0 +1,243 @@
+// Folding is lossless: the hit info of every fold mode equals the unfolded
+// render bit for bit, on the CPU reference and on OpenCL, for the default
+// scene, random cameras, odd and tiny sizes, shifted windows and real scenes.
+// And the folded ray list answers every pixel exactly once with fewer rays.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <map>
+
+#include "../host/gltf_loader.h"
+#include "../host/ray_list.h"
+#include "../host/renderer.h"
+#include "../tools/scene_gen.h"
+#include "test_util.h"
+
+namespace rayfold {
+namespace {
+
+const FoldMode kFolds[] = {FoldMode::y, FoldMode::x, FoldMode::xy};
+
+RendererOptions backend(Backend b) {
+  RendererOptions o;
+  o.backend = b;
+  return o;
+}
+
+FrameOptions with_fold(FoldMode f, bool cull = true) {
+  FrameOptions o;
+  o.fold = f;
+  o.cull = cull;
+  return o;
+}
+
+// Renders `cam` unfolded and in every fold mode on one renderer; returns ""
+// when all agree bit for bit, else the first difference.
+std::string fold_differences(Renderer& r, const Camera& cam) {
+  const std::vector<rf_pixel_hit> none = r.render(cam, 1, with_fold(FoldMode::none)).hits;
+  std::string out;
+  for (FoldMode f : kFolds) {
+    const std::string d = testing::compare_hits(none, r.render(cam, 1, with_fold(f)).hits, cam.width);
+    if (!d.empty()) out += std::string("fold ") + fold_name(f) + ": " + d + "\n";
+  }
+  return out;
+}
+
+TEST(FoldRayList, AnswersEveryPixelExactlyOnce) {
+  testing::Rng rng(8);
+  for (int trial = 0; trial < 300; ++trial) {
+    const int w = 1 + rng.below(trial < 100 ? 6 : 70), h = 1 + rng.below(trial < 100 ? 6 : 50);
+    const double sx = trial % 3 == 0 ? rng.uniform(-1.5, 1.5) : 0.0, sy = trial % 4 == 0 ? rng.uniform(-1.5, 1.5) : 0.0;
+    const Camera cam = make_camera(CameraSpec{}, w, h, sx, sy);
+    for (FoldMode f : {FoldMode::none, FoldMode::y, FoldMode::x, FoldMode::xy}) {
+      const RayList list = make_ray_list(cam.params, f);
+      std::vector<int> answered(static_cast<size_t>(w) * h, 0);
+      for (uint32_t e : list.entries) {
+        const int x = e & RF_RAY_COORD_MASK, y = (e >> RF_RAY_COORD_BITS) & RF_RAY_COORD_MASK;
+        const bool mx = e & RF_RAY_MIRROR_X, my = e & RF_RAY_MIRROR_Y;
+        if (mx) {
+          ASSERT_TRUE(folds_columns(f));
+        }
+        if (my) {
+          ASSERT_TRUE(folds_rows(f));
+        }
+        for (int g = 0; g < 4; ++g) {
+          if ((g & 1 && !mx) || (g & 2 && !my)) continue;
+          const int px = g & 1 ? cam.params.xpair - x : x, py = g & 2 ? cam.params.ypair - y : y;
+          ASSERT_TRUE(px >= 0 && px < w && py >= 0 && py < h) << w << "x" << h << " " << fold_name(f);
+          // The partner's ray is exactly the mirror of this one.
+          const int kx = 2 * x + cam.params.kx0, pkx = 2 * px + cam.params.kx0;
+          const int ky = cam.params.ky0 - 2 * y, pky = cam.params.ky0 - 2 * py;
+          EXPECT_EQ(g & 1 ? -kx : kx, pkx);
+          EXPECT_EQ(g & 2 ? -ky : ky, pky);
+          answered[static_cast<size_t>(py) * w + px]++;
+        }
+      }
+      for (size_t i = 0; i < answered.size(); ++i)
+        ASSERT_EQ(answered[i], 1) << w << "x" << h << " shift " << sx << "," << sy << " fold " << fold_name(f)
+                                  << " pixel " << i;
+      // Centred images: exactly ceil(w/2) columns and ceil(h/2) rows traced.
+      if (sx == 0.0 && sy == 0.0) {
+        const size_t cols = folds_columns(f) ? (w + 1) / 2 : w, rows = folds_rows(f) ? (h + 1) / 2 : h;
+        EXPECT_EQ(list.entries.size(), cols * rows) << w << "x" << h << " " << fold_name(f);
+      }
+    }
+  }
+}
+
+TEST(Fold, HandBuiltSymmetricCase) {
+  // A triangle left of the centre only: folded in y, the right half's
+  // pixels must see its mirrored copy as nothing (the right half is empty),
+  // and the left half must see it; the images must match the unfolded one.
+  Scene scene;
+  Mesh tri;
+  tri.positions = {{-3, -1, -5}, {-1, -1, -5}, {-2, 1, -5}};
+  tri.indices = {0, 1, 2};
+  scene.meshes.push_back(tri);
+  scene.instances.push_back({0, Xform(1.0), "left"});
+  Renderer r(scene, backend(Backend::cpu));
+  const Camera cam = make_camera(CameraSpec{}, 64, 32);
+  const RenderResult folded = r.render(cam, 1, with_fold(FoldMode::y));
+  size_t left = 0, right = 0;
+  for (int y = 0; y < 32; ++y)
+    for (int x = 0; x < 64; ++x)
+      if (folded.hits[y * 64 + x].instance == 0) (x < 32 ? left : right)++;
+  EXPECT_GT(left, 20u);
+  EXPECT_EQ(right, 0u);
+  EXPECT_EQ(folded.rays, 32u * 32u);
+  EXPECT_EQ(fold_differences(r, cam), "");
+}
+
+TEST(Fold, DefaultSceneFullSizeCpuAndOpenCl) {
+  const Scene scene = load_gltf(std::string(RAYFOLD_SOURCE_DIR) + "/scenes/atrium.glb");
+  const Camera cam = make_camera(*scene.camera, 1280, 720);
+  for (Backend b : {Backend::cpu, Backend::opencl}) {
+    Renderer r(scene, backend(b));
+    EXPECT_EQ(fold_differences(r, cam), "") << (b == Backend::cpu ? "cpu" : "opencl");
+  }
+}
+
+TEST(Fold, OddAndTinySizes) {
+  const Scene scene = load_gltf(std::string(RAYFOLD_SOURCE_DIR) + "/scenes/atrium.glb");
+  Renderer cpu(scene, backend(Backend::cpu));
+  Renderer cl(scene, backend(Backend::opencl));
+  for (auto [w, h] : std::vector<std::pair<int, int>>{{1, 1}, {2, 1}, {1, 2}, {3, 3}, {2, 2}, {5, 4}, {1279, 719}}) {
+    const Camera cam = make_camera(*scene.camera, w, h);
+    EXPECT_EQ(fold_differences(cpu, cam), "") << w << "x" << h << " cpu";
+    EXPECT_EQ(fold_differences(cl, cam), "") << w << "x" << h << " opencl";
+  }
+}
+
+TEST(Fold, RandomCamerasOverGeneratedScenes) {
+  testing::Rng rng(31337);
+  int cameras = 0;
+  for (int s = 0; s < 4; ++s) {
+    GenOptions gen;
+    gen.seed = 500 + s;
+    gen.objects = 20 + 70 * s;
+    gen.triangle_budget = 15000;
+    const Scene scene = generate_atrium(gen);
+    Renderer cpu(scene, backend(Backend::cpu));
+    Renderer cl(scene, backend(Backend::opencl));
+    for (int v = 0; v < 26; ++v, ++cameras) {
+      CameraSpec spec = testing::random_camera(rng, scene.world_bounds());
+      if (v % 5 == 0) {
+        // The eye inside an object: the centre of a random instance's box.
+        const Instance& inst = scene.instances[rng.below(static_cast<int>(scene.instances.size()))];
+        const Aabb b = transform_bounds_conservative(inst.world_from_object, scene.mesh_bounds(inst.mesh));
+        spec.look_at = spec.look_at - spec.eye + glm::dvec3(b.centre());
+        spec.eye = glm::dvec3(b.centre());
+      }
+      const int w = 1 + rng.below(90), h = 1 + rng.below(70);
+      const double sx = v % 3 == 0 ? rng.uniform(-0.8, 0.8) : 0.0, sy = v % 4 == 0 ? rng.uniform(-0.8, 0.8) : 0.0;
+      const Camera cam = make_camera(spec, w, h, sx, sy);
+      Renderer& r = v % 2 ? cpu : cl;
+      EXPECT_EQ(fold_differences(r, cam), "") << "scene " << s << " camera " << v << " " << w << "x" << h;
+    }
+  }
+  EXPECT_GE(cameras, 100);
+}
+
+TEST(Fold, RandomMirroredSoupsAgainstBruteForce) {
+  // Folded and culled renders equal brute force without trees or culling.
+  testing::Rng rng(77);
+  for (int s = 0; s < 4; ++s) {
+    const Scene scene = testing::random_scene(rng, 2, 12, 150);
+    Renderer r(scene, backend(Backend::cpu));
+    for (int v = 0; v < 6; ++v) {
+      const Camera cam = make_camera(testing::random_camera(rng, scene.world_bounds()), 33 + v, 24 + v,
+                                     v % 2 ? 0.3 : 0.0, 0.0);
+      const std::vector<rf_pixel_hit> expected = testing::brute_force(scene, r.scene_data(), cam);
+      for (FoldMode f : kFolds)
+        EXPECT_EQ(testing::compare_hits(expected, r.render(cam, 1, with_fold(f)).hits, cam.width), "")
+            << fold_name(f) << " scene " << s << " view " << v;
+    }
+  }
+}
+
+TEST(Fold, CullingPerGroupIsConservative) {
+  const Scene scene = load_gltf(std::string(RAYFOLD_SOURCE_DIR) + "/scenes/atrium.glb");
+  Renderer r(scene, backend(Backend::cpu));
+  testing::Rng rng(4);
+  for (int v = 0; v < 8; ++v) {
+    const Camera cam = make_camera(testing::random_camera(rng, scene.world_bounds()), 80, 45);
+    for (FoldMode f : kFolds) {
+      const RenderResult culled = r.render(cam, 1, with_fold(f, true));
+      const RenderResult all = r.render(cam, 1, with_fold(f, false));
+      EXPECT_EQ(testing::compare_hits(all.hits, culled.hits, cam.width), "") << fold_name(f) << " view " << v;
+      EXPECT_LE(culled.instances, all.instances);
+    }
+  }
+}
+
+TEST(Fold, AnimatedFramesStayLossless) {
+  const Scene scene = load_gltf(std::string(RAYFOLD_SOURCE_DIR) + "/scenes/atrium.glb");
+  Renderer cpu(scene, backend(Backend::cpu));
+  Renderer cl(scene, backend(Backend::opencl));
+  const Camera cam = make_camera(*scene.camera, 160, 90);
+  for (int frame : {0, 3, 17}) {
+    FrameOptions none = with_fold(FoldMode::none);
+    none.animate_frame = frame;
+    const std::vector<rf_pixel_hit> ref = cpu.render(cam, 1, none).hits;
+    if (frame > 0) {
+      EXPECT_NE(testing::compare_hits(ref, cpu.render(cam, 1, with_fold(FoldMode::none)).hits, 160), "")
+          << "animation should move something in view";
+    }
+    for (FoldMode f : kFolds) {
+      FrameOptions o = with_fold(f);
+      o.animate_frame = frame;
+      EXPECT_EQ(testing::compare_hits(ref, cpu.render(cam, 1, o).hits, 160), "") << fold_name(f) << " cpu " << frame;
+      EXPECT_EQ(testing::compare_hits(ref, cl.render(cam, 1, o).hits, 160), "") << fold_name(f) << " cl " << frame;
+    }
+  }
+}
+
+TEST(Fold, SharedScenes) {
+  const std::string dir = testing::shared_scenes_dir();
+  if (dir.empty()) GTEST_SKIP() << "../shared/scenes not found (set RAYFOLD_SCENES_DIR); real scenes not tested";
+  const std::map<std::string, std::pair<glm::dvec3, glm::dvec3>> views = {
+      {"dabrovic_sponza.glb", {{0, 3, 0}, {10, 3, 0}}},
+      {"conference.glb", {{330, 300, -300}, {1000, 200, 0}}},
+      {"sports_car.glb", {{1.8, 0.9, 2.2}, {0, 0.45, 0}}},
+      {"stanford_dragon.glb", {{0, 0.13, 0.22}, {0, 0.12, 0}}},
+      {"armadillo.glb", {{0, 20, 170}, {0, 20, 0}}},
+      {"lost_empire.glb", {{-10, 20, 40}, {10, 10, 0}}},
+  };
+  int rendered = 0;
+  for (const auto& [file, view] : views) {
+    const std::string path = dir + "/" + file;
+    if (!std::filesystem::exists(path)) continue;
+    const Scene scene = load_gltf(path);
+    CameraSpec spec;
+    spec.eye = view.first;
+    spec.look_at = view.second;
+    const Camera cam = make_camera(spec, 121, 67);
+    Renderer cl(scene, backend(Backend::opencl));
+    EXPECT_EQ(fold_differences(cl, cam), "") << file;
+    ++rendered;
+  }
+  EXPECT_GT(rendered, 0);
+}
+
+}  // namespace
+}  // namespace rayfold
