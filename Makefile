@@ -14,10 +14,12 @@ configure: deps
 build: configure
 	@cmake --build $(BUILD_DIR) -j $(JOBS)
 
-# Renders the bundled default scene on the OpenCL device and prints the figures.
+# Renders the bundled default scene on the OpenCL device, unfolded and folded
+# (xy), checks the two agree bit for bit and prints them side by side.
 demo: build
 	@mkdir -p out
-	$(BUILD_DIR)/rayfold render --size 1280x720 --frames 5 -o out/demo.exr --png out/demo.png --stats out/demo.json
+	$(BUILD_DIR)/rayfold render --size 1280x720 --frames 5 --compare --fold xy \
+	    -o out/demo.exr --png out/demo.png --stats out/demo.json
 
 test: build
 	@cd $(BUILD_DIR) && ctest --output-on-failure -j 2

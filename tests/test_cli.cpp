@@ -74,10 +74,43 @@ TEST(Cli, CpuAndOpenClWriteIdenticalFiles) {
   EXPECT_EQ(testing::compare_hits(read_exr(a, &w, &h), read_exr(b, &w, &h), w), "");
 }
 
+TEST(Cli, FoldedFilesEqualUnfoldedFiles) {
+  const fs::path d = work_dir();
+  const std::string none = (d / "none.exr").string();
+  ASSERT_EQ(rayfold("render --size 65x37 --shift 0.2,-0.1 -q -o " + none).code, 0);
+  int w, h;
+  const std::vector<rf_pixel_hit> ref = read_exr(none, &w, &h);
+  for (const char* f : {"y", "x", "xy"}) {
+    const std::string out = (d / (std::string("fold_") + f + ".exr")).string();
+    ASSERT_EQ(rayfold(std::string("render --size 65x37 --shift 0.2,-0.1 -q --fold ") + f + " -o " + out).code, 0);
+    EXPECT_EQ(testing::compare_hits(ref, read_exr(out, &w, &h), w), "") << f;
+  }
+}
+
+TEST(Cli, CompareAndAnimatePrintTheComparison) {
+  const CliRun r = rayfold("render --size 80x45 --frames 2 --compare --animate");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("folded xy"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("identical"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("speed-up"), std::string::npos) << r.out;
+}
+
+TEST(Cli, BenchPrintsBothTablesAndWritesReports) {
+  const fs::path d = work_dir();
+  const std::string json = (d / "b.json").string(), md = (d / "b.md").string();
+  const CliRun r = rayfold("bench --size 64x36 --views 2 --frames 1 --warmup 0 --json " + json + " --md " + md);
+  ASSERT_EQ(r.code, 0) << r.err;
+  for (const char* key : {"Table 1", "Table 2", "none (no culling)", "| xy |", "bit for bit"})
+    EXPECT_NE(r.out.find(key), std::string::npos) << key << "\n" << r.out;
+  EXPECT_GT(fs::file_size(json), 100u);
+  EXPECT_GT(fs::file_size(md), 100u);
+}
+
 TEST(Cli, UsageErrorsExitTwoWithAMessage) {
   for (const char* args : {"render --size 0x10", "render --size -5x10", "render --size 10", "render --bogus",
                            "render --eye 0,0,0", "render --eye 0,0,0 --look-at 0,1,0 --up 0,2,0",
-                           "render --vfov 180", "render --frames 0", "frobnicate", "info"}) {
+                           "render --vfov 180", "render --frames 0", "frobnicate", "info", "render --fold z",
+                           "render --shift 1", "render --shift 1e9,0", "bench --views 0", "bench --bogus"}) {
     const CliRun r = rayfold(args);
     EXPECT_EQ(r.code, 2) << args << "\n" << r.err;
     EXPECT_EQ(r.err.rfind("error: ", 0), 0u) << args << ": " << r.err;
@@ -105,7 +138,7 @@ TEST(Cli, UnwritableOutputFailsBeforeTracingAndLeavesNothing) {
 }
 
 TEST(Cli, HelpForEveryCommand) {
-  for (const char* args : {"--help", "render --help", "info --help"}) {
+  for (const char* args : {"--help", "render --help", "info --help", "bench --help"}) {
     const CliRun r = rayfold(args);
     EXPECT_EQ(r.code, 0) << args;
     EXPECT_NE(r.out.find("usage: rayfold"), std::string::npos) << args;

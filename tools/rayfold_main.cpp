@@ -2,6 +2,7 @@
 // writes the hit info; `rayfold info` describes a scene.
 #include <chrono>
 #include <cstdio>
+#include <cstring>
 #include <fstream>
 #include <iostream>
 #include <new>
@@ -55,6 +56,8 @@ const char* kRenderUsage =
     "  --shift SX,SY          off-centre image window, in half image widths/heights;\n"
     "                         only its symmetric part folds\n"
     "  --animate              move a fixed subset of instances every frame\n"
+    "  --compare              also render unfolded, check the two agree bit for bit\n"
+    "                         and print them side by side (--fold defaults to xy)\n"
     "  --no-cull              keep instances outside the view in the top-level tree\n"
     "  --threads N            CPU threads for the CPU backend and builds (0 = all)\n"
     "  --frames N             trace N times and report the medians (default 1)\n"
@@ -94,6 +97,7 @@ struct RenderArgs {
   int frames = 1;
   std::string exr, png, stats;
   bool quiet = false;
+  bool compare = false;
 };
 
 std::string with_commas(size_t n) {
@@ -147,6 +151,8 @@ RenderArgs parse_render(cli::Args& args) {
       r.shift_y = cli::parse_double(a, v.substr(comma + 1));
     } else if (a == "--animate") {
       r.frame.animate_frame = 0;
+    } else if (a == "--compare") {
+      r.compare = true;
     } else if (a == "--no-cull") {
       r.frame.cull = false;
     } else if (a == "--threads") {
@@ -171,6 +177,7 @@ RenderArgs parse_render(cli::Args& args) {
     }
   }
   if (r.eye.has_value() != r.look_at.has_value()) throw UsageError("--eye and --look-at go together");
+  if (r.compare && r.frame.fold == FoldMode::none) r.frame.fold = FoldMode::xy;
   return r;
 }
 
@@ -219,6 +226,35 @@ void write_stats(const std::string& path, const RenderArgs& args, const Scene& s
   write_text(path, j.dump(2) + "\n");
 }
 
+size_t count_differing_pixels(const std::vector<rf_pixel_hit>& a, const std::vector<rf_pixel_hit>& b) {
+  size_t n = 0;
+  for (size_t i = 0; i < a.size(); ++i) n += std::memcmp(&a[i], &b[i], sizeof(rf_pixel_hit)) != 0;
+  return n;
+}
+
+// The folded and unfolded renders of one view side by side.
+void print_comparison(const RenderResult& none, const RenderResult& folded, FoldMode fold) {
+  auto total = [](const FrameTimes& t) { return t.ray_list_ms + t.trace_ms + t.readback_ms; };
+  const double pixels = static_cast<double>(none.hits.size());
+  const size_t differ = count_differing_pixels(none.hits, folded.hits);
+  const std::string folded_name = std::string("folded ") + fold_name(fold);
+  std::printf("\n  %-28s %14s %14s\n", "", "unfolded", folded_name.c_str());
+  std::printf("  %-28s %14s %14s\n", "rays traced", with_commas(none.rays).c_str(), with_commas(folded.rays).c_str());
+  std::printf("  %-28s %14zu %14zu\n", "instances in the TLAS", none.instances, folded.instances);
+  std::printf("  %-28s %14.2f %14.2f\n", "update ms (cull+TLAS+upload)",
+              none.median.cull_ms + none.median.tlas_ms + none.median.upload_ms,
+              folded.median.cull_ms + folded.median.tlas_ms + folded.median.upload_ms);
+  std::printf("  %-28s %14.2f %14.2f\n", "trace ms", none.median.trace_ms, folded.median.trace_ms);
+  std::printf("  %-28s %14.2f %14.2f\n", "T ms (rays+trace+readback)", total(none.median), total(folded.median));
+  std::printf("  %-28s %14.2f %14.2f\n", "Mpixels/s (T)", pixels / (total(none.median) * 1e3),
+              pixels / (total(folded.median) * 1e3));
+  std::printf("  %-28s %14s %13.2fx\n", "speed-up (T)", "", total(none.median) / total(folded.median));
+  if (differ == 0)
+    std::printf("  %-28s %29s\n", "hit info", "identical (8 channels, every pixel)");
+  else
+    std::printf("  %-28s %22zu pixels DIFFER\n", "hit info", differ);
+}
+
 int run_render(cli::Args& args) {
   const RenderArgs r = parse_render(args);
   // Fail on unwritable outputs before any expensive work.
@@ -240,6 +276,12 @@ int run_render(cli::Args& args) {
   const Camera camera = make_camera(spec, r.width, r.height, r.shift_x, r.shift_y);
 
   Renderer renderer(scene, r.renderer);
+  std::optional<RenderResult> unfolded;
+  if (r.compare) {
+    FrameOptions none = r.frame;
+    none.fold = FoldMode::none;
+    unfolded = renderer.render(camera, r.frames, none);
+  }
   const RenderResult result = renderer.render(camera, r.frames, r.frame);
 
   if (!r.exr.empty()) write_exr(r.exr, result.hits, r.width, r.height);
@@ -263,9 +305,14 @@ int run_render(cli::Args& args) {
     std::printf("  %-12s %9.2f ms   (median of %zu frames)\n", "trace", m.trace_ms, result.frames.size());
     std::printf("  %-12s %9.2f   (%zu rays for %zu pixels: %.2f Mpixels/s)\n", "Mrays/s", mrays, result.rays,
                 result.hits.size(), result.hits.size() / (m.trace_ms * 1e3));
+    if (unfolded) print_comparison(*unfolded, result, r.frame.fold);
     if (!r.exr.empty()) std::printf("  wrote %s\n", r.exr.c_str());
     if (!r.png.empty()) std::printf("  wrote %s\n", r.png.c_str());
     if (!r.stats.empty()) std::printf("  wrote %s\n", r.stats.c_str());
+  }
+  if (unfolded && count_differing_pixels(unfolded->hits, result.hits) != 0) {
+    std::fprintf(stderr, "error: the folded render differs from the unfolded one\n");
+    return 3;
   }
   return 0;
 }
