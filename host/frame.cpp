@@ -1,6 +1,8 @@
 #include "frame.h"
 
+#include <algorithm>
 #include <chrono>
+#include <queue>
 
 #include "animation.h"
 #include "bvh_flatten.h"
@@ -37,9 +39,62 @@ void mirror_columns(float rows[12], int group) {
   }
 }
 
+// Opens the largest (in world space) BLAS nodes of all instances until the
+// budget is spent; the open frontier is each instance's cut.
+void choose_braid_cuts(const Scene& scene, SceneData& data, const BraidOptions& opt) {
+  struct Item {
+    double area;
+    uint32_t instance, node;
+    bool operator<(const Item& o) const {
+      if (area != o.area) return area < o.area;
+      if (instance != o.instance) return instance > o.instance;
+      return node > o.node;
+    }
+  };
+  const size_t n = scene.instances.size();
+  std::vector<std::vector<uint32_t>> cuts(n);
+  std::priority_queue<Item> open;
+  auto world_area = [&](uint32_t i, uint32_t node) {
+    Aabb b;
+    b.grow(glm::vec3(data.blas.nodes[node].bmin[0], data.blas.nodes[node].bmin[1], data.blas.nodes[node].bmin[2]));
+    b.grow(glm::vec3(data.blas.nodes[node].bmax[0], data.blas.nodes[node].bmax[1], data.blas.nodes[node].bmax[2]));
+    return static_cast<double>(transform_bounds_conservative(scene.instances[i].world_from_object, b).half_area());
+  };
+  size_t items = 0;
+  for (uint32_t i = 0; i < n; ++i) {
+    if (!data.renderable[i]) continue;
+    open.push({world_area(i, data.blas.roots[scene.instances[i].mesh]), i, data.blas.roots[scene.instances[i].mesh]});
+    ++items;
+  }
+  if (opt.enabled) {
+    const size_t budget = std::max(opt.min_items, opt.items_per_instance * items);
+    const double min_area = opt.min_area_fraction * scene.world_bounds().half_area();
+    while (!open.empty() && items < budget && open.top().area >= min_area) {
+      const Item top = open.top();
+      const rf_node& node = data.blas.nodes[top.node];
+      if ((node.meta & RF_NODE_COUNT_MASK) != 0) {  // a leaf cannot open
+        cuts[top.instance].push_back(top.node);
+        open.pop();
+        continue;
+      }
+      open.pop();
+      open.push({world_area(top.instance, node.first), top.instance, node.first});
+      open.push({world_area(top.instance, node.first + 1), top.instance, node.first + 1});
+      ++items;
+    }
+  }
+  for (; !open.empty(); open.pop()) cuts[open.top().instance].push_back(open.top().node);
+  data.braid_offsets.assign(1, 0);
+  for (uint32_t i = 0; i < n; ++i) {
+    std::sort(cuts[i].begin(), cuts[i].end());
+    data.braid_nodes.insert(data.braid_nodes.end(), cuts[i].begin(), cuts[i].end());
+    data.braid_offsets.push_back(static_cast<uint32_t>(data.braid_nodes.size()));
+  }
+}
+
 }  // namespace
 
-SceneData prepare_scene(const Scene& scene, unsigned threads) {
+SceneData prepare_scene(const Scene& scene, unsigned threads, const BraidOptions& braid) {
   SceneData data;
   data.blas = build_blas_set(scene, BuildOptions{}, threads);
   const size_t n = scene.instances.size();
@@ -54,10 +109,12 @@ SceneData prepare_scene(const Scene& scene, unsigned threads) {
     if (invertible) normal_matrix_rows3x3(inst.world_from_object, data.normal_xforms[i].m);
     if (!invertible) data.hidden_instances++;
   }
+  choose_braid_cuts(scene, data, braid);
   return data;
 }
 
-size_t max_tlas_nodes(const Scene& scene) { return 2 * RF_MAX_GROUPS * scene.instances.size() + 2; }
+size_t max_tlas_items(const SceneData& data) { return RF_MAX_GROUPS * data.braid_nodes.size(); }
+size_t max_tlas_nodes(const SceneData& data) { return 2 * max_tlas_items(data) + 2; }
 
 Frame build_frame(const Scene& scene, const SceneData& data, const Camera& camera, const RayList& rays,
                   const FrameOptions& options) {
@@ -84,20 +141,26 @@ Frame build_frame(const Scene& scene, const SceneData& data, const Camera& camer
       normal_matrix_rows3x3(world_from_object, frame.normal_xforms[i].m);
     }
     const Xform camera_from_object = camera.camera_from_world * world_from_object;
-    const Aabb box = transform_bounds_conservative(camera_from_object, data.blas.bounds[inst.mesh]);
     rf_instance base{};
     to_rows3x4(object_from_world * camera.world_from_camera, base.object_from_camera);
-    base.blas_root = data.blas.roots[inst.mesh];
     base.instance_id = static_cast<uint32_t>(i);
-    for (int g = 0; g < RF_MAX_GROUPS; ++g) {
-      if (!rays.group_used[g]) continue;
-      const Aabb mirrored = mirror_box(box, g);
-      if (options.cull && !frusta[g].may_see(mirrored)) continue;
-      rf_instance out = base;
-      mirror_columns(out.object_from_camera, g);
-      out.group = static_cast<uint32_t>(g);
-      candidates.push_back(out);
-      boxes.push_back(mirrored);
+    for (uint32_t c = data.braid_offsets[i]; c < data.braid_offsets[i + 1]; ++c) {
+      const rf_node& node = data.blas.nodes[data.braid_nodes[c]];
+      Aabb object_box;
+      object_box.grow(glm::vec3(node.bmin[0], node.bmin[1], node.bmin[2]));
+      object_box.grow(glm::vec3(node.bmax[0], node.bmax[1], node.bmax[2]));
+      const Aabb box = transform_bounds_conservative(camera_from_object, object_box);
+      base.blas_root = data.braid_nodes[c];
+      for (int g = 0; g < RF_MAX_GROUPS; ++g) {
+        if (!rays.group_used[g]) continue;
+        const Aabb mirrored = mirror_box(box, g);
+        if (options.cull && !frusta[g].may_see(mirrored)) continue;
+        rf_instance out = base;
+        mirror_columns(out.object_from_camera, g);
+        out.group = static_cast<uint32_t>(g);
+        candidates.push_back(out);
+        boxes.push_back(mirrored);
+      }
     }
   }
   frame.stats.kept = candidates.size();

@@ -15,15 +15,33 @@
 
 namespace rayfold {
 
+// Partial re-braiding (Benthin, Wald, Woop, Afra 2017): the top-level tree
+// is built not over whole instances but over a cut through each instance's
+// bottom-level tree, opened largest-first in world space. Meshes grouped by
+// material overlap the whole scene; their upper nodes in the top level make it
+// a spatial tree again, where near-to-far order stops rays early and culling
+// (per fold group) drops the parts of a mesh a quadrant cannot see.
+struct BraidOptions {
+  bool enabled = true;
+  size_t items_per_instance = 6;      // budget: this many items per instance on average...
+  size_t min_items = 0;               // ...but at least this many
+  double min_area_fraction = 1e-3;    // never open a node smaller than this share of the scene
+};
+
 struct SceneData {
   BlasSet blas;
+  // The cut of each instance's tree: braid_nodes[braid_offsets[i] ..
+  // braid_offsets[i + 1]) are the BLAS nodes that enter the top level for
+  // instance i (just its root when re-braiding is off).
+  std::vector<uint32_t> braid_offsets;
+  std::vector<uint32_t> braid_nodes;
   std::vector<Xform> object_from_world;         // per scene instance
   std::vector<bool> renderable;                 // false: singular transform or empty mesh
   std::vector<rf_normal_xform> normal_xforms;   // per scene instance
   size_t hidden_instances = 0;
 };
 
-SceneData prepare_scene(const Scene& scene, unsigned threads = 0);
+SceneData prepare_scene(const Scene& scene, unsigned threads = 0, const BraidOptions& braid = {});
 
 struct FrameOptions {
   FoldMode fold = FoldMode::none;
@@ -57,8 +75,9 @@ struct Frame {
 Frame build_frame(const Scene& scene, const SceneData& data, const Camera& camera, const RayList& rays,
                   const FrameOptions& options);
 
-// The most top-level nodes a frame of this scene can need; device buffers are
-// sized by it once.
-size_t max_tlas_nodes(const Scene& scene);
+// The most top-level items (instances and their mirrored copies) and nodes a
+// frame of this scene can need; device buffers are sized by them once.
+size_t max_tlas_items(const SceneData& data);
+size_t max_tlas_nodes(const SceneData& data);
 
 }  // namespace rayfold

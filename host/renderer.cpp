@@ -24,7 +24,7 @@ double median(std::vector<double> values) {
 }
 
 Renderer::Renderer(const Scene& scene, const RendererOptions& options)
-    : scene_(scene), options_(options), data_(prepare_scene(scene, options.threads)) {
+    : scene_(scene), options_(options), data_(prepare_scene(scene, options.threads, options.braid)) {
   nodes_ = data_.blas.nodes;
   if (options_.backend == Backend::opencl) {
     device_ = std::make_unique<ClDevice>(options_.device_hint);
@@ -46,8 +46,7 @@ std::vector<BufferInfo> Renderer::device_buffers() const {
 
 void Renderer::ensure_capacity(size_t pixels) {
   if (!tracer_ || pixels <= pixel_capacity_) return;
-  const size_t max_instances = RF_MAX_GROUPS * scene_.instances.size();
-  tracer_->upload_scene(data_, max_tlas_nodes(scene_), max_instances, pixels, pixels);
+  tracer_->upload_scene(data_, max_tlas_nodes(data_), max_tlas_items(data_), pixels, pixels);
   pixel_capacity_ = pixels;
 }
 

@@ -21,6 +21,7 @@ struct RendererOptions {
   KernelPrecision precision = KernelPrecision::exact;
   std::string device_hint;  // see ClDevice
   unsigned threads = 0;     // CPU backend and BLAS builds; 0 = all cores
+  BraidOptions braid;       // how the top level opens the bottom-level trees
 };
 
 // Per-frame phase times in ms (medians when several frames are rendered).

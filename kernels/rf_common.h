@@ -45,7 +45,7 @@ typedef int32_t rf_i32;
  * to nothing in the kernels and in the normal host build. */
 #if defined(RF_TRAVERSAL_STATS) && !defined(__OPENCL_C_VERSION__)
 typedef struct {
-  unsigned long long tlas_nodes, instances, blas_nodes, triangles;
+  unsigned long long tlas_nodes, instances, setups, blas_nodes, triangles;
 } rf_traversal_stats;
 extern thread_local rf_traversal_stats rf_stats;
 #define RF_STAT(field) (++rf_stats.field)

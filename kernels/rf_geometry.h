@@ -64,7 +64,7 @@ RF_INLINE void rf_ray_init(rf_ray* r, float ox, float oy, float oz, float dx, fl
   /* From the reciprocal rather than three more divisions: a ray is set up
    * once per instance it enters, and the shear only has to be the same for
    * every triangle the ray meets, not correctly rounded. */
-  r->sz = 1.0f / r->d[kz];
+  r->sz = r->invd[kz];
   r->sx = r->d[kx] * r->sz;
   r->sy = r->d[ky] * r->sz;
 }

@@ -12,6 +12,8 @@
 
 /* Deepest traversal stack; the builders cap tree depth below it. */
 #define RF_STACK_SIZE 64
+/* Object-space rays kept per camera ray (a power of two). */
+#define RF_RAY_CACHE 8
 
 /* The closest hit found so far for one transform group. */
 typedef struct {
@@ -115,6 +117,13 @@ RF_INLINE void rf_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_
   int sp = 0;
   rf_ray r;
   rf_ray_init(&r, 0.0f, 0.0f, 0.0f, dx, dy, dz);
+  /* With re-braiding, one instance enters the top level as several subtrees
+   * that a ray meets at different times; a small direct-mapped cache keeps
+   * the object-space rays of recent (instance, group) pairs. Reuse gives the
+   * same bits as setting the ray up again. */
+  rf_ray ro_cache[RF_RAY_CACHE];
+  rf_u32 ro_key[RF_RAY_CACHE];
+  for (int c = 0; c < RF_RAY_CACHE; ++c) ro_key[c] = RF_INVALID;
   if (rf_intersect_box(&nodes[tlas_root], &r, rf_group_bound(nodes[tlas_root].meta, ray_groups, hits)) == RF_INF)
     return;
   rf_u32 ni = tlas_root;
@@ -128,9 +137,14 @@ RF_INLINE void rf_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_
         const rf_u32 g = inst->group;
         if (((ray_groups >> g) & 1u) == 0u) continue;
         RF_STAT(instances);
-        rf_ray ro;
-        rf_ray_to_object(&ro, inst->object_from_camera, dx, dy, dz);
-        rf_trace_blas(nodes, tris, inst->blas_root, &ro, inst->instance_id, &hits[g]);
+        const rf_u32 key = inst->instance_id * (rf_u32)RF_MAX_GROUPS + g;
+        const rf_u32 slot = key & (rf_u32)(RF_RAY_CACHE - 1);
+        if (ro_key[slot] != key) {
+          RF_STAT(setups);
+          rf_ray_to_object(&ro_cache[slot], inst->object_from_camera, dx, dy, dz);
+          ro_key[slot] = key;
+        }
+        rf_trace_blas(nodes, tris, inst->blas_root, &ro_cache[slot], inst->instance_id, &hits[g]);
       }
     } else {
       const rf_u32 c = n->first;

@@ -58,6 +58,8 @@ const char* kRenderUsage =
     "  --animate              move a fixed subset of instances every frame\n"
     "  --compare              also render unfolded, check the two agree bit for bit\n"
     "                         and print them side by side (--fold defaults to xy)\n"
+    "  --braid N              top level opens each instance's tree into about N parts\n"
+    "                         (partial re-braiding; default 6, 0 = whole instances)\n"
     "  --no-cull              keep instances outside the view in the top-level tree\n"
     "  --threads N            CPU threads for the CPU backend and builds (0 = all)\n"
     "  --frames N             trace N times and report the medians (default 1)\n"
@@ -80,6 +82,7 @@ const char* kBenchUsage =
     "  --warmup N             frames before measuring (default 1)\n"
     "  --eye X,Y,Z --look-at X,Y,Z   base view (default: the file's camera)\n"
     "  --animate              move a fixed subset of instances every frame\n"
+    "  --braid N              re-braiding budget per instance (default 6, 0 = off)\n"
     "  --backend opencl|cpu   (default opencl)   --device NAME   --threads N\n"
     "  --json F.json  --md F.md   also write the report\n"
     "exit code 3 when a folded image differs from the unfolded one\n";
@@ -112,6 +115,13 @@ Scene load_scene(const std::string& path, bool quiet) {
   if (!quiet)
     for (const std::string& w : warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
   return scene;
+}
+
+BraidOptions parse_braid(const std::string& option, const std::string& text) {
+  BraidOptions b;
+  b.items_per_instance = static_cast<size_t>(cli::parse_int(option, text, 0, 1024));
+  b.enabled = b.items_per_instance > 0;
+  return b;
 }
 
 RenderArgs parse_render(cli::Args& args) {
@@ -153,6 +163,8 @@ RenderArgs parse_render(cli::Args& args) {
       r.frame.animate_frame = 0;
     } else if (a == "--compare") {
       r.compare = true;
+    } else if (a == "--braid") {
+      r.renderer.braid = parse_braid(a, args.value(a));
     } else if (a == "--no-cull") {
       r.frame.cull = false;
     } else if (a == "--threads") {
@@ -371,6 +383,8 @@ int run_bench_command(cli::Args& args) {
       opt.look_at = cli::parse_vec3(a, args.value(a));
     } else if (a == "--animate") {
       opt.animate = true;
+    } else if (a == "--braid") {
+      opt.renderer.braid = parse_braid(a, args.value(a));
     } else if (a == "--backend") {
       const std::string b = args.value(a);
       if (b == "opencl") opt.renderer.backend = Backend::opencl;

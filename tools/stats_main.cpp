@@ -23,16 +23,20 @@ int main(int argc, char** argv) {
     CameraSpec spec = scene.camera ? *scene.camera : frame_bounds(scene.world_bounds());
     int w = 320, h = 180;
     FoldMode fold = FoldMode::none;
+    BraidOptions braid;
     while (!args.done()) {
       const std::string a = args.next();
       if (a == "--eye") spec.eye = cli::parse_vec3(a, args.value(a));
       else if (a == "--look-at") spec.look_at = cli::parse_vec3(a, args.value(a));
       else if (a == "--size") cli::parse_size(a, args.value(a), &w, &h);
       else if (a == "--fold") fold = parse_fold(args.value(a));
+      else if (a == "--no-braid") braid.enabled = false;
+      else if (a == "--braid-items") braid.items_per_instance = cli::parse_int(a, args.value(a), 1, 1 << 20);
+      else if (a == "--braid-min") braid.min_items = cli::parse_int(a, args.value(a), 0, 1 << 24);
       else throw UsageError("unknown option " + a);
     }
     const Camera cam = make_camera(spec, w, h);
-    const SceneData data = prepare_scene(scene, 0);
+    const SceneData data = prepare_scene(scene, 0, braid);
     const RayList rays = make_ray_list(cam.params, fold);
     FrameOptions options;
     options.fold = fold;
@@ -44,9 +48,9 @@ int main(int argc, char** argv) {
       rf_trace_entry(e, &cam.params, nodes.data(), data.blas.tris.data(), frame.instances.data(),
                      data.normal_xforms.data(), frame.tlas_root, out.data());
     const double n = static_cast<double>(rays.entries.size());
-    std::printf("%s (fold %s, %zu rays): per ray %.1f TLAS nodes, %.2f instances, %.1f BLAS nodes, %.1f triangle tests "
+    std::printf("%s (fold %s, %zu rays): per ray %.1f TLAS nodes, %.2f instances (%.2f set-ups), %.1f BLAS nodes, %.1f triangle tests "
                 "(BLAS SAH %.1f, TLAS SAH %.1f, %zu instances kept)\n",
-                argv[1], fold_name(fold), rays.entries.size(), rf_stats.tlas_nodes / n, rf_stats.instances / n, rf_stats.blas_nodes / n,
+                argv[1], fold_name(fold), rays.entries.size(), rf_stats.tlas_nodes / n, rf_stats.instances / n, rf_stats.setups / n, rf_stats.blas_nodes / n,
                 rf_stats.triangles / n, data.blas.sah_cost, frame.stats.tlas_sah, frame.stats.kept);
     return 0;
   } catch (const std::exception& e) {
