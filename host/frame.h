@@ -23,8 +23,8 @@ namespace rayfold {
 // (per fold group) drops the parts of a mesh a quadrant cannot see.
 struct BraidOptions {
   bool enabled = true;
-  size_t items_per_instance = 6;      // budget: this many items per instance on average...
-  size_t min_items = 0;               // ...but at least this many
+  size_t items_per_instance = 2;      // budget: this many items per instance on average...
+  size_t min_items = 256;             // ...but at least this many, so scenes of a few big meshes open
   double min_area_fraction = 1e-3;    // never open a node smaller than this share of the scene
 };
 

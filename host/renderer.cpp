@@ -35,7 +35,9 @@ Renderer::Renderer(const Scene& scene, const RendererOptions& options)
 Renderer::~Renderer() = default;
 
 std::string Renderer::device_name() const {
-  if (device_) return device_->info().name;
+  if (device_)
+    return device_->info().name + " (" + device_->info().platform + ", " +
+           std::to_string(device_->info().compute_units) + " compute units)";
   unsigned threads = options_.threads ? options_.threads : std::max(1u, std::thread::hardware_concurrency());
   return "CPU reference (" + std::to_string(threads) + " threads)";
 }

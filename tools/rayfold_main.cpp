@@ -58,8 +58,9 @@ const char* kRenderUsage =
     "  --animate              move a fixed subset of instances every frame\n"
     "  --compare              also render unfolded, check the two agree bit for bit\n"
     "                         and print them side by side (--fold defaults to xy)\n"
-    "  --braid N              top level opens each instance's tree into about N parts\n"
-    "                         (partial re-braiding; default 6, 0 = whole instances)\n"
+    "  --braid N              top level opens the instances' trees into about N items\n"
+    "                         per instance, at least 256 (partial re-braiding;\n"
+    "                         default 2, 0 = whole instances)\n"
     "  --no-cull              keep instances outside the view in the top-level tree\n"
     "  --threads N            CPU threads for the CPU backend and builds (0 = all)\n"
     "  --frames N             trace N times and report the medians (default 1)\n"
@@ -82,7 +83,7 @@ const char* kBenchUsage =
     "  --warmup N             frames before measuring (default 1)\n"
     "  --eye X,Y,Z --look-at X,Y,Z   base view (default: the file's camera)\n"
     "  --animate              move a fixed subset of instances every frame\n"
-    "  --braid N              re-braiding budget per instance (default 6, 0 = off)\n"
+    "  --braid N              re-braiding budget per instance (default 2, 0 = off)\n"
     "  --backend opencl|cpu   (default opencl)   --device NAME   --threads N\n"
     "  --json F.json  --md F.md   also write the report\n"
     "exit code 3 when a folded image differs from the unfolded one\n";
@@ -121,6 +122,7 @@ BraidOptions parse_braid(const std::string& option, const std::string& text) {
   BraidOptions b;
   b.items_per_instance = static_cast<size_t>(cli::parse_int(option, text, 0, 1024));
   b.enabled = b.items_per_instance > 0;
+  b.min_items = b.enabled ? b.min_items : 0;
   return b;
 }
 

@@ -1,0 +1,27 @@
+#!/usr/bin/env bash
+# Runs `rayfold bench` on the bundled scene and on every scene of
+# ../shared/scenes that exists (skipping, with a note, those that do not),
+# writing out/bench/<scene>.md and .json. Views start from the scenes'
+# suggested starting points (../shared/scenes/README.md).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bin=${RAYFOLD_BIN:-build/rayfold}
+shared=${RAYFOLD_SCENES_DIR:-../shared/scenes}
+out=${OUT_DIR:-out/bench}
+mkdir -p "$out"
+args=("$@")
+
+run() {
+  local name=$1 file=$2; shift 2
+  if [ ! -f "$file" ]; then echo "bench_all: $file absent; skipped"; return; fi
+  echo "== $name"
+  "$bin" bench "$file" "$@" "${args[@]}" --json "$out/$name.json" --md "$out/$name.md"
+}
+
+run atrium scenes/atrium.glb
+run conference "$shared/conference.glb" --eye 330,300,-300 --look-at 1000,200,0
+run dabrovic_sponza "$shared/dabrovic_sponza.glb" --eye 0,3,0 --look-at 10,3,0
+run sports_car "$shared/sports_car.glb" --eye 1.8,0.9,2.2 --look-at 0,0.45,0
+run stanford_dragon "$shared/stanford_dragon.glb" --eye 0,0.13,0.22 --look-at 0,0.12,0
+run lost_empire "$shared/lost_empire.glb" --eye -10,20,40 --look-at 10,10,0
+run armadillo "$shared/armadillo.glb" --eye 0,20,170 --look-at 0,20,0
