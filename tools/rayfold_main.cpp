@@ -126,6 +126,28 @@ BraidOptions parse_braid(const std::string& option, const std::string& text) {
   return b;
 }
 
+// Options render and bench share: which tracer, which device, how built.
+// Returns false when `a` is none of them.
+bool parse_renderer_option(const std::string& a, cli::Args& args, RendererOptions& r) {
+  if (a == "--backend") {
+    const std::string b = args.value(a);
+    if (b == "opencl") r.backend = Backend::opencl;
+    else if (b == "cpu") r.backend = Backend::cpu;
+    else throw UsageError("--backend: '" + b + "' is not opencl or cpu");
+  } else if (a == "--device") {
+    r.device_hint = args.value(a);
+  } else if (a == "--fast") {
+    r.precision = KernelPrecision::fast;
+  } else if (a == "--threads") {
+    r.threads = static_cast<unsigned>(cli::parse_int(a, args.value(a), 0, 1024));
+  } else if (a == "--braid") {
+    r.braid = parse_braid(a, args.value(a));
+  } else {
+    return false;
+  }
+  return true;
+}
+
 RenderArgs parse_render(cli::Args& args) {
   RenderArgs r;
   bool have_scene = false;
@@ -144,15 +166,7 @@ RenderArgs parse_render(cli::Args& args) {
       r.up = cli::parse_vec3(a, args.value(a));
     } else if (a == "--vfov") {
       r.vfov = cli::parse_double(a, args.value(a));
-    } else if (a == "--backend") {
-      const std::string b = args.value(a);
-      if (b == "opencl") r.renderer.backend = Backend::opencl;
-      else if (b == "cpu") r.renderer.backend = Backend::cpu;
-      else throw UsageError("--backend: '" + b + "' is not opencl or cpu");
-    } else if (a == "--device") {
-      r.renderer.device_hint = args.value(a);
-    } else if (a == "--fast") {
-      r.renderer.precision = KernelPrecision::fast;
+    } else if (parse_renderer_option(a, args, r.renderer)) {
     } else if (a == "--fold") {
       r.frame.fold = parse_fold(args.value(a));
     } else if (a == "--shift") {
@@ -165,12 +179,8 @@ RenderArgs parse_render(cli::Args& args) {
       r.frame.animate_frame = 0;
     } else if (a == "--compare") {
       r.compare = true;
-    } else if (a == "--braid") {
-      r.renderer.braid = parse_braid(a, args.value(a));
     } else if (a == "--no-cull") {
       r.frame.cull = false;
-    } else if (a == "--threads") {
-      r.renderer.threads = static_cast<unsigned>(cli::parse_int(a, args.value(a), 0, 1024));
     } else if (a == "--frames") {
       r.frames = cli::parse_int(a, args.value(a), 1, 100000);
     } else if (a == "-o" || a == "--output") {
@@ -385,17 +395,7 @@ int run_bench_command(cli::Args& args) {
       opt.look_at = cli::parse_vec3(a, args.value(a));
     } else if (a == "--animate") {
       opt.animate = true;
-    } else if (a == "--braid") {
-      opt.renderer.braid = parse_braid(a, args.value(a));
-    } else if (a == "--backend") {
-      const std::string b = args.value(a);
-      if (b == "opencl") opt.renderer.backend = Backend::opencl;
-      else if (b == "cpu") opt.renderer.backend = Backend::cpu;
-      else throw UsageError("--backend: '" + b + "' is not opencl or cpu");
-    } else if (a == "--device") {
-      opt.renderer.device_hint = args.value(a);
-    } else if (a == "--threads") {
-      opt.renderer.threads = static_cast<unsigned>(cli::parse_int(a, args.value(a), 0, 1024));
+    } else if (parse_renderer_option(a, args, opt.renderer)) {
     } else if (a == "--json") {
       json = args.value(a);
     } else if (a == "--md") {

@@ -1,0 +1,70 @@
+#!/usr/bin/env python3
+"""Combines `rayfold bench --json` reports into the Markdown tables of
+docs/results.md: Table 1 (render time T, memory M) and Table 2 (pre-build,
+update), one row per scene, one column group per method, ratios to the
+culled unfolded baseline. Standard library only.
+
+usage: tools/bench_tables.py out/bench/*.json > tables.md
+"""
+import json
+import os
+import sys
+
+METHODS = ["none (no culling)", "none", "y", "x", "xy"]
+
+
+def load(paths):
+    reports = []
+    for p in paths:
+        with open(p) as f:
+            r = json.load(f)
+        r["name"] = os.path.splitext(os.path.basename(p))[0]
+        r["by_method"] = {m["method"]: m for m in r["methods"]}
+        reports.append(r)
+    return reports
+
+
+def table1(reports):
+    out = ["| scene | triangles | instances | " + " | ".join(f"T {m}" for m in METHODS) +
+           " | M none MB | M xy / none | exact |",
+           "|---|---|---|" + "---|" * len(METHODS) + "---|---|---|"]
+    for r in reports:
+        base = r["by_method"]["none"]
+        cells = []
+        for m in METHODS:
+            t = r["by_method"][m]["render_ms"]
+            cells.append(f"{t:.0f} ms ({base['render_ms'] / t:.2f}x)")
+        mxy = r["by_method"]["xy"]["memory_bytes"] / base["memory_bytes"]
+        out.append(f"| {r['name']} | {r['triangles']:,} | {r['instances']:,} | " + " | ".join(cells) +
+                   f" | {base['memory_bytes'] / 2**20:.2f} | {mxy:.4f} | {'yes' if r['exact'] else 'NO'} |")
+    return "\n".join(out)
+
+
+def table2(reports):
+    out = ["| scene | pre-build ms | " + " | ".join(f"update {m}" for m in METHODS) + " |",
+           "|---|---|" + "---|" * len(METHODS)]
+    for r in reports:
+        base = r["by_method"]["none"]["update_ms"]
+        cells = [f"{r['by_method'][m]['update_ms']:.2f} ms ({r['by_method'][m]['update_ms'] / base:.2f}x)"
+                 for m in METHODS]
+        out.append(f"| {r['name']} | {r['prebuild_ms']:.0f} | " + " | ".join(cells) + " |")
+    return "\n".join(out)
+
+
+def main():
+    if len(sys.argv) < 2:
+        sys.exit("usage: bench_tables.py REPORT.json...")
+    reports = load(sys.argv[1:])
+    r0 = reports[0]
+    print(f"{r0['width']}x{r0['height']}, {r0['views']} views per scene, median of {r0['frames']} frames "
+          f"after {r0['warmup']} warm-up; device: {r0['device']}.\n")
+    print("Table 1 - render time T per frame (ray list + trace + readback; ratio: none / method) and device "
+          "memory M\n")
+    print(table1(reports))
+    print("\nTable 2 - pre-build (all bottom-level trees, once) and update per frame (culling + top-level "
+          "build + upload; ratio: method / none)\n")
+    print(table2(reports))
+
+
+if __name__ == "__main__":
+    main()
