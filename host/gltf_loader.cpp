@@ -10,6 +10,7 @@
 #include <glm/gtc/matrix_transform.hpp>
 #include <glm/gtc/quaternion.hpp>
 #include <glm/gtc/type_ptr.hpp>
+#include <nlohmann/json.hpp>
 #include <tiny_gltf.h>
 
 #include "errors.h"
@@ -72,6 +73,7 @@ class Loader {
       for (auto it = node.children.rbegin(); it != node.children.rend(); ++it)
         stack.push_back({*it, world_from_node, false});
     }
+    if (scene_.triangle_count() == 0) warn("the scene has no triangles; every pixel will miss");
     return std::move(scene_);
   }
 
@@ -81,16 +83,47 @@ class Loader {
     if (warnings_) warnings_->push_back(path_ + ": " + what);
   }
 
+  // What tinygltf does not check: the GLB header's version and length, and
+  // nodes that carry both a matrix and TRS (tinygltf silently drops the TRS).
+  void check_raw(const std::string& bytes) const {
+    std::string json_text = bytes;
+    if (binary_) {
+      if (bytes.size() < 20) fail("the GLB header is truncated");
+      uint32_t version, length, chunk_length, chunk_type;
+      std::memcpy(&version, &bytes[4], 4);
+      std::memcpy(&length, &bytes[8], 4);
+      std::memcpy(&chunk_length, &bytes[12], 4);
+      std::memcpy(&chunk_type, &bytes[16], 4);
+      if (version != 2) fail("GLB version " + std::to_string(version) + "; only glTF 2.0 (version 2) is read");
+      if (length != bytes.size())
+        fail("the GLB header gives a length of " + std::to_string(length) + " bytes, the file has " +
+             std::to_string(bytes.size()));
+      if (chunk_type != 0x4E4F534Au) fail("the first GLB chunk is not of type JSON");
+      if (chunk_length > bytes.size() - 20) fail("the GLB JSON chunk runs past the end of the file");
+      json_text = bytes.substr(20, chunk_length);
+    }
+    const nlohmann::json j = nlohmann::json::parse(json_text, nullptr, false);
+    if (j.is_discarded() || !j.is_object()) return;  // tinygltf reports these
+    const auto nodes = j.find("nodes");
+    if (nodes == j.end() || !nodes->is_array()) return;
+    for (size_t i = 0; i < nodes->size(); ++i) {
+      const nlohmann::json& n = (*nodes)[i];
+      if (n.is_object() && n.contains("matrix") &&
+          (n.contains("translation") || n.contains("rotation") || n.contains("scale")))
+        fail("node " + std::to_string(i) + " has both a matrix and translation, rotation or scale (glTF 2.0, 5.25)");
+    }
+  }
+
   void read_model() {
+    std::string bytes;
     {
       std::ifstream f(path_, std::ios::binary);
       if (!f) fail("cannot open the file");
-      char magic[4] = {};
-      f.read(magic, 4);
-      binary_ = f.gcount() == 4 && std::memcmp(magic, "glTF", 4) == 0;
-      f.seekg(0, std::ios::end);
-      if (f.tellg() <= 0) fail("the file is empty");
+      bytes.assign(std::istreambuf_iterator<char>(f), {});
+      if (bytes.empty()) fail("the file is empty");
+      binary_ = bytes.size() >= 4 && std::memcmp(bytes.data(), "glTF", 4) == 0;
     }
+    check_raw(bytes);
     tinygltf::TinyGLTF gltf;
     gltf.SetImageLoader(skip_image, nullptr);
     std::string err, warn;
@@ -200,6 +233,8 @@ class Loader {
     auto found = mesh_slot_.find(mi);
     if (found == mesh_slot_.end()) found = mesh_slot_.emplace(mi, convert_mesh(mi)).first;
     if (found->second < 0) return;  // a mesh without triangles
+    if (linear_determinant(world_from_node) == 0.0)
+      warn("node " + std::to_string(ni) + " has a zero scale; it is hidden");
     Instance inst;
     inst.mesh = static_cast<uint32_t>(found->second);
     inst.world_from_object = world_from_node;
@@ -237,7 +272,11 @@ class Loader {
         seq.resize(vertex_count);
         for (uint32_t i = 0; i < vertex_count; ++i) seq[i] = i;
       }
-      append_triangles(mode, seq, base, mesh.indices);
+      size_t dropped = 0;
+      append_triangles(mode, seq, base, mesh.indices, &dropped);
+      if (dropped)
+        warn(where + " has " + std::to_string(seq.size()) + " triangle vertices, not a multiple of 3; the last " +
+             std::to_string(dropped) + " are ignored");
     }
     if (mesh.indices.empty()) {
       warn("mesh " + std::to_string(mi) + (gm.name.empty() ? "" : " (" + gm.name + ")") + " has no triangles");
@@ -247,7 +286,8 @@ class Loader {
     return static_cast<int>(scene_.meshes.size()) - 1;
   }
 
-  static void append_triangles(int mode, const std::vector<uint32_t>& seq, uint32_t base, std::vector<uint32_t>& out) {
+  static void append_triangles(int mode, const std::vector<uint32_t>& seq, uint32_t base, std::vector<uint32_t>& out,
+                               size_t* dropped) {
     auto tri = [&](uint32_t a, uint32_t b, uint32_t c) {
       out.push_back(base + seq[a]);
       out.push_back(base + seq[b]);
@@ -256,6 +296,7 @@ class Loader {
     const size_t n = seq.size();
     if (mode == TINYGLTF_MODE_TRIANGLES) {
       for (size_t i = 0; i + 2 < n; i += 3) tri(i, i + 1, i + 2);
+      if (n % 3 != 0 && dropped) *dropped = n % 3;
     } else if (mode == TINYGLTF_MODE_TRIANGLE_STRIP) {
       // glTF 2.0 spec 3.7.2.1: triangle i is (i, i + 1 + i % 2, i + 2 - i % 2).
       for (size_t i = 0; i + 2 < n; ++i) tri(i, i + 1 + i % 2, i + 2 - i % 2);
@@ -267,8 +308,8 @@ class Loader {
 
   // Validates an accessor against its view and buffer; returns the bytes of
   // element 0 and the stride between elements.
-  const unsigned char* accessor_data(int ai, const std::string& where, size_t element_bytes, size_t* stride,
-                                     size_t* count) const {
+  const unsigned char* accessor_data(int ai, const std::string& where, size_t element_bytes, size_t component_bytes,
+                                     bool is_index, size_t* stride, size_t* count) const {
     const std::string acc = where + ": accessor " + std::to_string(ai);
     if (ai < 0 || static_cast<size_t>(ai) >= model_.accessors.size()) fail(acc + " does not exist");
     const tinygltf::Accessor& a = model_.accessors[ai];
@@ -287,6 +328,14 @@ class Loader {
     if (v.byteOffset > data.size() || v.byteLength > data.size() - v.byteOffset)
       fail(acc + ": its buffer view (offset " + std::to_string(v.byteOffset) + ", length " +
            std::to_string(v.byteLength) + ") runs past its buffer of " + std::to_string(data.size()) + " bytes");
+    // glTF 2.0, 3.6.2.4 and 5.11: strides are 4..252 and a multiple of 4;
+    // index views have none; accessors are aligned to their component size.
+    if (v.byteStride != 0 && (v.byteStride < 4 || v.byteStride > 252 || v.byteStride % 4 != 0))
+      fail(acc + ": its buffer view's byteStride " + std::to_string(v.byteStride) +
+           " is not a multiple of 4 between 4 and 252");
+    if (is_index && v.byteStride != 0) fail(acc + " holds indices but its buffer view defines a byteStride");
+    if ((v.byteOffset + a.byteOffset) % component_bytes != 0)
+      fail(acc + " is not aligned to its " + std::to_string(component_bytes) + "-byte components");
     *stride = v.byteStride ? v.byteStride : element_bytes;
     if (*stride < element_bytes) fail(acc + " has a byte stride smaller than its element");
     // Written so that no product can overflow: the last element must end
@@ -305,7 +354,7 @@ class Loader {
     if (a.type != TINYGLTF_TYPE_VEC3 || a.componentType != TINYGLTF_COMPONENT_TYPE_FLOAT)
       fail(where + ": POSITION must be VEC3 of FLOAT");
     size_t stride = 0, count = 0;
-    const unsigned char* p = accessor_data(ai, where, 12, &stride, &count);
+    const unsigned char* p = accessor_data(ai, where, 12, 4, false, &stride, &count);
     out.reserve(out.size() + count);
     for (size_t i = 0; i < count; ++i) {
       glm::vec3 v;
@@ -329,7 +378,7 @@ class Loader {
       default: fail(where + ": indices must be unsigned byte, short or int");
     }
     size_t stride = 0, count = 0;
-    const unsigned char* p = accessor_data(ai, where, bytes, &stride, &count);
+    const unsigned char* p = accessor_data(ai, where, bytes, bytes, true, &stride, &count);
     out.resize(count);
     for (size_t i = 0; i < count; ++i) {
       uint32_t v = 0;

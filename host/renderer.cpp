@@ -4,6 +4,10 @@
 #include <chrono>
 #include <thread>
 
+#include <unistd.h>
+
+#include "errors.h"
+
 #include "cpu_tracer.h"
 #include "ray_list.h"
 
@@ -52,8 +56,22 @@ void Renderer::ensure_capacity(size_t pixels) {
   pixel_capacity_ = pixels;
 }
 
+// Image-sized host buffers are checked against physical memory first, so a
+// huge size fails with a message instead of an allocation failure or, with
+// overcommit, the OOM killer mid-trace.
+void check_host_memory(size_t pixels) {
+  const double need = static_cast<double>(pixels) * (sizeof(rf_pixel_hit) + sizeof(uint32_t));
+  const double have = static_cast<double>(sysconf(_SC_PHYS_PAGES)) * static_cast<double>(sysconf(_SC_PAGE_SIZE));
+  if (have > 0 && need > 0.75 * have) {
+    throw RuntimeFailure("the image needs " + std::to_string(static_cast<long long>(need / 1048576)) +
+                         " MiB of host memory for its hits and rays; this machine has " +
+                         std::to_string(static_cast<long long>(have / 1048576)) + " MiB");
+  }
+}
+
 RenderResult Renderer::render(const Camera& camera, int frames, const FrameOptions& frame_options) {
   const size_t pixels = static_cast<size_t>(camera.width) * camera.height;
+  check_host_memory(pixels);
   ensure_capacity(pixels);
   RenderResult result;
   result.hits.resize(pixels);

@@ -16,6 +16,7 @@
 #include "../host/renderer.h"
 #include "../tools/gltf_writer.h"
 #include "../tools/scene_gen.h"
+#include "gltf_fixture.h"
 #include "test_util.h"
 
 namespace rayfold {
@@ -23,84 +24,12 @@ namespace {
 
 namespace fs = std::filesystem;
 using nlohmann::json;
-
-fs::path temp_dir() {
-  const fs::path d = fs::temp_directory_path() / ("rayfold_loader_" + std::to_string(::getpid()));
-  fs::create_directories(d);
-  return d;
-}
-
-// Builds a .gltf with an external .bin, one accessor at a time.
-struct GltfFile {
-  std::vector<unsigned char> bin;
-  json j = {{"asset", {{"version", "2.0"}}}, {"bufferViews", json::array()}, {"accessors", json::array()},
-            {"meshes", json::array()}, {"nodes", json::array()}};
-
-  int view(const void* data, size_t bytes, size_t stride = 0) {
-    while (bin.size() % 4) bin.push_back(0);
-    json v = {{"buffer", 0}, {"byteOffset", bin.size()}, {"byteLength", bytes}};
-    if (stride) v["byteStride"] = stride;
-    bin.insert(bin.end(), static_cast<const unsigned char*>(data), static_cast<const unsigned char*>(data) + bytes);
-    j["bufferViews"].push_back(v);
-    return static_cast<int>(j["bufferViews"].size()) - 1;
-  }
-  int accessor(int view, int component, const char* type, size_t count, size_t offset = 0) {
-    j["accessors"].push_back({{"bufferView", view}, {"componentType", component}, {"type", type}, {"count", count},
-                              {"byteOffset", offset}});
-    return static_cast<int>(j["accessors"].size()) - 1;
-  }
-  int positions(const std::vector<glm::vec3>& p) {
-    json& a = j["accessors"][accessor(view(p.data(), p.size() * 12), 5126, "VEC3", p.size())];
-    glm::vec3 lo(INFINITY), hi(-INFINITY);
-    for (auto& v : p) {
-      lo = glm::min(lo, v);
-      hi = glm::max(hi, v);
-    }
-    a["min"] = {lo.x, lo.y, lo.z};
-    a["max"] = {hi.x, hi.y, hi.z};
-    return static_cast<int>(j["accessors"].size()) - 1;
-  }
-  std::string write(const std::string& name) {
-    const fs::path dir = temp_dir();
-    j["buffers"] = {{{"uri", name + ".bin"}, {"byteLength", bin.size()}}};
-    std::ofstream(dir / (name + ".bin"), std::ios::binary).write(reinterpret_cast<const char*>(bin.data()), bin.size());
-    std::ofstream(dir / (name + ".gltf")) << j.dump();
-    return (dir / (name + ".gltf")).string();
-  }
-};
-
-json prim(int position, int indices = -1, int mode = -1) {
-  json p;
-  p["attributes"]["POSITION"] = position;
-  if (indices >= 0) p["indices"] = indices;
-  if (mode >= 0) p["mode"] = mode;
-  return p;
-}
-
-json mesh(std::vector<json> primitives) {
-  json m;
-  m["primitives"] = primitives;
-  return m;
-}
-
-json node_with_mesh(int m) {
-  json n;
-  n["mesh"] = m;
-  return n;
-}
-
-// Expects load_gltf(path) to fail with a message that names the file and
-// contains `what`.
-void expect_error(const std::string& path, const std::string& what) {
-  try {
-    load_gltf(path);
-    ADD_FAILURE() << path << ": loaded, expected an error containing '" << what << "'";
-  } catch (const InputError& e) {
-    const std::string msg = e.what();
-    EXPECT_NE(msg.find(path), std::string::npos) << msg;
-    EXPECT_NE(msg.find(what), std::string::npos) << msg;
-  }
-}
+using testing::GltfFile;
+using testing::expect_error;
+using testing::mesh;
+using testing::node_with_mesh;
+using testing::prim;
+using testing::temp_dir;
 
 TEST(Loader, GeneratedSceneRoundTrips) {
   GenOptions gen;
@@ -211,20 +140,15 @@ TEST(Loader, BrokenFilesGiveClearErrors) {
     std::ofstream(dir / "truncated.glb", std::ios::binary).write(bytes.data(), bytes.size() / 2);
     expect_error((dir / "truncated.glb").string(), "");
   }
-  auto one_triangle = [](GltfFile& f, std::vector<uint16_t> idx) {
-    const int p = f.positions({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}});
-    const int i = f.accessor(f.view(idx.data(), idx.size() * 2), 5123, "SCALAR", idx.size());
-    f.j["meshes"] = json::array({mesh({prim(p, i)})});
-  };
   {
     GltfFile f;
-    one_triangle(f, {0, 1, 7});
+    f.one_triangle({0, 1, 7});
     f.j["nodes"] = json::array({node_with_mesh(0)});
     expect_error(f.write("index_range"), "past the 3 vertices");
   }
   {
     GltfFile f;
-    one_triangle(f, {0, 1, 2});
+    f.one_triangle();
     json a = node_with_mesh(0), b;
     a["children"] = {1};
     b["children"] = {0};
@@ -234,7 +158,7 @@ TEST(Loader, BrokenFilesGiveClearErrors) {
   }
   {
     GltfFile f;
-    one_triangle(f, {0, 1, 2});
+    f.one_triangle();
     f.j["nodes"] = json::array({node_with_mesh(0)});
     f.j["extensionsUsed"] = {"KHR_draco_mesh_compression"};
     f.j["extensionsRequired"] = {"KHR_draco_mesh_compression"};
@@ -242,7 +166,7 @@ TEST(Loader, BrokenFilesGiveClearErrors) {
   }
   {
     GltfFile f;
-    one_triangle(f, {0, 1, 2});
+    f.one_triangle();
     f.j["accessors"][0]["count"] = 1000;
     f.j["nodes"] = json::array({node_with_mesh(0)});
     expect_error(f.write("past_view"), "");
@@ -259,7 +183,7 @@ TEST(Loader, BrokenFilesGiveClearErrors) {
   }
   {
     GltfFile f;
-    one_triangle(f, {0, 1, 2});
+    f.one_triangle();
     f.j["nodes"] = json::array({node_with_mesh(3)});
     expect_error(f.write("mesh_ref"), "mesh 3");
   }
