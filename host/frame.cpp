@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <queue>
 
 #include "animation.h"
@@ -143,13 +144,26 @@ Frame build_frame(const Scene& scene, const SceneData& data, const Camera& camer
     const Xform camera_from_object = camera.camera_from_world * world_from_object;
     rf_instance base{};
     to_rows3x4(object_from_world * camera.world_from_camera, base.object_from_camera);
+    // The object-space ray starts at the float-rounded eye (the translation
+    // column), up to half an ulp of its coordinates beside the exact one;
+    // mapped back to camera space that shift must fit inside the item's box,
+    // or the top level could prune the item holding the closest hit in one
+    // traversal order and not in another (geometry stored far from its
+    // origin, docs/exactness.md).
+    double origin = 0.0, stretch = 0.0;
+    for (int r = 0; r < 3; ++r) {
+      origin = std::max(origin, static_cast<double>(std::fabs(base.object_from_camera[4 * r + 3])));
+      stretch = std::max(stretch, std::fabs(camera_from_object[0][r]) + std::fabs(camera_from_object[1][r]) +
+                                      std::fabs(camera_from_object[2][r]));
+    }
+    const double origin_pad = origin * stretch * 0x1p-22;
     base.instance_id = static_cast<uint32_t>(i);
     for (uint32_t c = data.braid_offsets[i]; c < data.braid_offsets[i + 1]; ++c) {
       const rf_node& node = data.blas.nodes[data.braid_nodes[c]];
       Aabb object_box;
       object_box.grow(glm::vec3(node.bmin[0], node.bmin[1], node.bmin[2]));
       object_box.grow(glm::vec3(node.bmax[0], node.bmax[1], node.bmax[2]));
-      const Aabb box = transform_bounds_conservative(camera_from_object, object_box);
+      const Aabb box = transform_bounds_conservative(camera_from_object, object_box, origin_pad);
       base.blas_root = data.braid_nodes[c];
       for (int g = 0; g < RF_MAX_GROUPS; ++g) {
         if (!rays.group_used[g]) continue;

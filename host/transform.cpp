@@ -32,7 +32,7 @@ void normal_matrix_rows3x3(const Xform& m, float out[9]) {
 
 glm::dvec3 transform_point(const Xform& m, const glm::dvec3& p) { return glm::dvec3(m * glm::dvec4(p, 1.0)); }
 
-Aabb transform_bounds_conservative(const Xform& m, const Aabb& b) {
+Aabb transform_bounds_conservative(const Xform& m, const Aabb& b, double extra_pad) {
   Aabb out;
   if (b.empty()) return out;
   glm::dvec3 lo(INFINITY), hi(-INFINITY);
@@ -47,7 +47,7 @@ Aabb transform_bounds_conservative(const Xform& m, const Aabb& b) {
   const glm::dvec3 size = hi - lo;
   const double scale = std::max({size.x, size.y, size.z, std::fabs(lo.x), std::fabs(lo.y), std::fabs(lo.z),
                                  std::fabs(hi.x), std::fabs(hi.y), std::fabs(hi.z)});
-  const double pad = scale * 0x1p-20;
+  const double pad = scale * 0x1p-20 + extra_pad;
   for (int k = 0; k < 3; ++k) {
     out.lo[k] = std::nextafter(static_cast<float>(lo[k] - pad), -INFINITY);
     out.hi[k] = std::nextafter(static_cast<float>(hi[k] + pad), INFINITY);

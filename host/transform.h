@@ -29,8 +29,9 @@ void normal_matrix_rows3x3(const Xform& m, float out[9]);
 glm::dvec3 transform_point(const Xform& m, const glm::dvec3& p);
 
 // Bounds of a float box under an affine transform, rounded outwards and padded
-// by a relative 2^-20 of the box's size and position, so the result contains
-// the float image of every point in the box whatever the rounding.
-Aabb transform_bounds_conservative(const Xform& m, const Aabb& b);
+// by a relative 2^-20 of the box's size and position plus `extra_pad`, so the
+// result contains the float image of every point in the box whatever the
+// rounding.
+Aabb transform_bounds_conservative(const Xform& m, const Aabb& b, double extra_pad = 0.0);
 
 }  // namespace rayfold
