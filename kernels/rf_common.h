@@ -53,6 +53,12 @@ extern thread_local rf_traversal_stats rf_stats;
 #define RF_STAT(field) ((void)0)
 #endif
 
+/* "Nothing hit yet" and "box missed" inside the traversal: the largest
+ * finite float, not +inf, because the fast build (-cl-fast-relaxed-math)
+ * assumes finite math and may fold comparisons with infinity away. Only the
+ * miss distance written to the output is +inf. */
+#define RF_FAR 3.402823466e+38f
+
 /* Marks "no hit" / "no node" in 32-bit index fields. */
 #define RF_INVALID 0xFFFFFFFFu
 

@@ -80,7 +80,7 @@ RF_INLINE void rf_ray_to_object(rf_ray* out, const RF_GLOBAL float* m, float dx,
   rf_ray_init(out, ox, oy, oz, ex, ey, ez);
 }
 
-/* Slab test. Returns the (widened) entry distance, or +inf when the ray misses
+/* Slab test. Returns the (widened) entry distance, or RF_FAR when the ray misses
  * the box or enters it beyond tmax. A negative tmax means "skip". */
 RF_INLINE float rf_intersect_box(const RF_GLOBAL rf_node* n, const rf_ray* r, float tmax) {
   const float tx0 = (n->bmin[0] - r->o[0]) * r->invd[0];
@@ -92,7 +92,7 @@ RF_INLINE float rf_intersect_box(const RF_GLOBAL rf_node* n, const rf_ray* r, fl
   const float tnear = rf_maxf(rf_maxf(rf_minf(tx0, tx1), rf_minf(ty0, ty1)), rf_maxf(rf_minf(tz0, tz1), 0.0f)) *
                       RF_BOX_NEAR_SCALE;
   const float tfar = rf_minf(rf_minf(rf_maxf(tx0, tx1), rf_maxf(ty0, ty1)), rf_maxf(tz0, tz1)) * RF_BOX_FAR_SCALE;
-  return tnear <= rf_minf(tfar, tmax) ? tnear : RF_INF;
+  return tnear <= rf_minf(tfar, tmax) ? tnear : RF_FAR;
 }
 
 /* Watertight ray-triangle test (Woop, Benthin, Wald 2013), without the double

@@ -24,7 +24,7 @@ typedef struct {
 } rf_hit;
 
 RF_INLINE void rf_hit_reset(rf_hit* h) {
-  h->t = RF_INF;
+  h->t = RF_FAR;
   h->u = 0.0f;
   h->v = 0.0f;
   h->instance = RF_INVALID;
@@ -46,7 +46,7 @@ RF_INLINE void rf_trace_blas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_
   rf_u32 stack_node[RF_STACK_SIZE];
   float stack_t[RF_STACK_SIZE];
   int sp = 0;
-  if (rf_intersect_box(&nodes[root], r, best->t) == RF_INF) return;
+  if (rf_intersect_box(&nodes[root], r, best->t) == RF_FAR) return;
   rf_u32 ni = root;
   for (;;) {
     const RF_GLOBAL rf_node* n = &nodes[ni];
@@ -71,10 +71,10 @@ RF_INLINE void rf_trace_blas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_
       const rf_u32 c = n->first;
       const float t0 = rf_intersect_box(&nodes[c], r, best->t);
       const float t1 = rf_intersect_box(&nodes[c + 1], r, best->t);
-      if (t0 != RF_INF || t1 != RF_INF) {
+      if (t0 != RF_FAR || t1 != RF_FAR) {
         const int left_first = t0 <= t1;
         const rf_u32 near_node = left_first ? c : c + 1;
-        if (t0 != RF_INF && t1 != RF_INF) {
+        if (t0 != RF_FAR && t1 != RF_FAR) {
           stack_node[sp] = left_first ? c + 1 : c;
           stack_t[sp] = left_first ? t1 : t0;
           ++sp;
@@ -124,7 +124,7 @@ RF_INLINE void rf_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_
   rf_ray ro_cache[RF_RAY_CACHE];
   rf_u32 ro_key[RF_RAY_CACHE];
   for (int c = 0; c < RF_RAY_CACHE; ++c) ro_key[c] = RF_INVALID;
-  if (rf_intersect_box(&nodes[tlas_root], &r, rf_group_bound(nodes[tlas_root].meta, ray_groups, hits)) == RF_INF)
+  if (rf_intersect_box(&nodes[tlas_root], &r, rf_group_bound(nodes[tlas_root].meta, ray_groups, hits)) == RF_FAR)
     return;
   rf_u32 ni = tlas_root;
   for (;;) {
@@ -150,9 +150,9 @@ RF_INLINE void rf_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_
       const rf_u32 c = n->first;
       const float t0 = rf_intersect_box(&nodes[c], &r, rf_group_bound(nodes[c].meta, ray_groups, hits));
       const float t1 = rf_intersect_box(&nodes[c + 1], &r, rf_group_bound(nodes[c + 1].meta, ray_groups, hits));
-      if (t0 != RF_INF || t1 != RF_INF) {
+      if (t0 != RF_FAR || t1 != RF_FAR) {
         const int left_first = t0 <= t1;
-        if (t0 != RF_INF && t1 != RF_INF) {
+        if (t0 != RF_FAR && t1 != RF_FAR) {
           stack_node[sp] = left_first ? c + 1 : c;
           stack_t[sp] = left_first ? t1 : t0;
           ++sp;

@@ -24,7 +24,7 @@ __kernel void ut_ray_init(__global const float* ray, __global float* out) {
   }
 }
 
-/* One box and one ray (6 floats) per case; out: entry distance or +inf. */
+/* One box and one ray (6 floats) per case; out: entry distance or RF_FAR. */
 __kernel void ut_ray_box(__global const rf_node* boxes, __global const float* ray, __global const float* tmax,
                          __global float* out) {
   const uint i = get_global_id(0);

@@ -114,7 +114,7 @@ TEST_F(KernelUnits, RayBox) {
     rf_ray ray;
     rf_ray_init(&ray, r[6 * i], r[6 * i + 1], r[6 * i + 2], r[6 * i + 3], r[6 * i + 4], r[6 * i + 5]);
     host[i] = rf_intersect_box(&boxes[i], &ray, tmax[i]);
-    hits += host[i] != INFINITY;
+    hits += host[i] != RF_FAR;
   }
   EXPECT_GT(hits, n / 10);  // both outcomes are exercised
   EXPECT_LT(hits, n - n / 10);

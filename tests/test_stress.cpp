@@ -4,7 +4,10 @@
 // docs/exactness.md.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstring>
+#include <filesystem>
 #include <map>
 
 #include <glm/gtc/matrix_transform.hpp>
@@ -243,6 +246,85 @@ TEST(Exactness, FarFromTheOriginAndTiny) {
   const double share = same_hit_share(ref, render_everywhere(tiny, make_camera(spec, 160, 90), "scaled 1e-4"));
   std::printf("scaled by 1e-4: %.4f%% of pixels hit the same triangle\n", 100 * share);
   EXPECT_GT(share, 0.99);
+}
+
+}  // namespace
+}  // namespace rayfold
+
+namespace rayfold {
+namespace {
+
+struct Agreement {
+  double same_hit = 0, hit_miss = 0, max_rel_depth = 0, median_rel_depth = 0;
+  size_t differing = 0;
+};
+
+Agreement agreement(const std::vector<rf_pixel_hit>& exact, const std::vector<rf_pixel_hit>& other) {
+  Agreement a;
+  std::vector<double> rel;
+  size_t same = 0, hit_miss = 0;
+  for (size_t i = 0; i < exact.size(); ++i) {
+    const rf_pixel_hit &e = exact[i], &o = other[i];
+    a.differing += std::memcmp(&e, &o, sizeof e) != 0;
+    if ((e.instance == RF_INVALID) != (o.instance == RF_INVALID)) ++hit_miss;
+    if (e.instance == o.instance && e.primitive == o.primitive) {
+      ++same;
+      if (e.instance != RF_INVALID) rel.push_back(std::fabs(double(o.z) - e.z) / e.z);
+    }
+  }
+  a.same_hit = double(same) / exact.size();
+  a.hit_miss = double(hit_miss) / exact.size();
+  if (!rel.empty()) {
+    std::sort(rel.begin(), rel.end());
+    a.max_rel_depth = rel.back();
+    a.median_rel_depth = rel[rel.size() / 2];
+  }
+  return a;
+}
+
+// The fast build (-cl-fast-relaxed-math -cl-mad-enable) trades bits for
+// speed: measured here against the exact build, on the default scene and on
+// every real scene present. The bounds only catch gross regressions.
+TEST(Exactness, FastBuildAgainstExact) {
+  std::vector<std::pair<std::string, CameraSpec>> scenes;
+  const std::string atrium = std::string(RAYFOLD_SOURCE_DIR) + "/scenes/atrium.glb";
+  scenes.push_back({atrium, *load_gltf(atrium).camera});
+  const std::string dir = testing::shared_scenes_dir();
+  const std::map<std::string, std::pair<glm::dvec3, glm::dvec3>> views = {
+      {"dabrovic_sponza.glb", {{0, 3, 0}, {10, 3, 0}}},
+      {"conference.glb", {{330, 300, -300}, {1000, 200, 0}}},
+      {"stanford_dragon.glb", {{0, 0.13, 0.22}, {0, 0.12, 0}}},
+  };
+  for (const auto& [file, v] : views)
+    if (!dir.empty() && std::filesystem::exists(dir + "/" + file)) {
+      CameraSpec c;
+      c.eye = v.first;
+      c.look_at = v.second;
+      scenes.push_back({dir + "/" + file, c});
+    }
+  for (const auto& [path, spec] : scenes) {
+    const Scene scene = load_gltf(path);
+    const Camera cam = make_camera(spec, 320, 180);
+    RendererOptions fast;
+    fast.precision = KernelPrecision::fast;
+    Renderer exact_r(scene, RendererOptions{}), fast_r(scene, fast);
+    const auto exact = exact_r.render(cam).hits;
+    const auto fast_none = fast_r.render(cam).hits;
+    const Agreement a = agreement(exact, fast_none);
+    size_t fold_diff = 0;
+    for (FoldMode f : {FoldMode::y, FoldMode::x, FoldMode::xy}) {
+      const auto folded = fast_r.render(cam, 1, FrameOptions{f}).hits;
+      for (size_t i = 0; i < folded.size(); ++i)
+        fold_diff += std::memcmp(&folded[i], &fast_none[i], sizeof(rf_pixel_hit)) != 0;
+    }
+    std::printf("fast build, %s: %.3f%% of pixels differ in some bit; same triangle %.4f%%; hit/miss "
+                "disagreements %.4f%%; relative depth error median %.2e, max %.2e; fast folded vs fast "
+                "unfolded: %zu differing pixels over 3 modes\n",
+                std::filesystem::path(path).filename().c_str(), 100.0 * a.differing / exact.size(),
+                100 * a.same_hit, 100 * a.hit_miss, a.median_rel_depth, a.max_rel_depth, fold_diff);
+    EXPECT_GT(a.same_hit, 0.98) << path;
+    EXPECT_LT(a.hit_miss, 0.01) << path;
+  }
 }
 
 }  // namespace
