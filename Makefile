@@ -3,7 +3,9 @@ BUILD_DIR ?= build
 JOBS ?= $(shell nproc)
 CMAKE_FLAGS ?=
 
-.PHONY: deps configure build demo test clean
+FUZZ_SECONDS ?= 60
+
+.PHONY: deps configure build demo test test-asan fuzz bench clean
 
 deps:
 	@tools/install-deps.sh
@@ -24,5 +26,25 @@ demo: build
 test: build
 	@cd $(BUILD_DIR) && ctest --output-on-failure -j 2
 
+# The whole suite under AddressSanitizer and UndefinedBehaviorSanitizer.
+# Leaks inside the OpenCL runtime (PoCL, LLVM) are suppressed; ours are not.
+test-asan: deps
+	@cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DRAYFOLD_SANITIZE=ON >/dev/null
+	@cmake --build build-asan -j $(JOBS)
+	@cd build-asan && ASAN_OPTIONS=detect_leaks=1:abort_on_error=0 \
+	    LSAN_OPTIONS=suppressions=$(CURDIR)/tests/lsan.supp:print_suppressions=0 \
+	    UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 ctest --output-on-failure -j 2
+
+# Fuzzes loading, building and tracing for FUZZ_SECONDS (default 60) from the
+# seed corpus in tests/fuzz/corpus; findings land in build-fuzz/.
+fuzz:
+	@tools/install-deps.sh clang libclang-rt-14-dev
+	@CC=clang CXX=clang++ cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=RelWithDebInfo -DRAYFOLD_FUZZ=ON \
+	    -DBUILD_TESTING=OFF >/dev/null
+	@cmake --build build-fuzz --target fuzz_scene -j $(JOBS)
+	@mkdir -p build-fuzz/corpus build-fuzz/findings
+	build-fuzz/fuzz_scene build-fuzz/corpus tests/fuzz/corpus -max_total_time=$(FUZZ_SECONDS) \
+	    -max_len=65536 -rss_limit_mb=4096 -timeout=30 -artifact_prefix=build-fuzz/findings/ -print_final_stats=1
+
 clean:
-	rm -rf $(BUILD_DIR) out
+	rm -rf $(BUILD_DIR) build-asan build-fuzz out

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <map>
 #include <set>
@@ -21,6 +22,18 @@ namespace {
 // Hit info needs no pixels: images are neither decoded nor required.
 bool skip_image(tinygltf::Image*, const int, std::string*, std::string*, int, int, const unsigned char*, int, void*) {
   return true;
+}
+
+// External buffers are read only from regular files: a URI naming a device
+// or a pipe (/dev/zero, a FIFO) would otherwise hang the loader or exhaust
+// memory. Files are otherwise read as tinygltf would.
+bool read_regular_file(std::vector<unsigned char>* out, std::string* err, const std::string& path, void* user) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) {
+    if (err) *err += "'" + path + "' is not a regular file\n";
+    return false;
+  }
+  return tinygltf::ReadWholeFile(out, err, path, user);
 }
 
 // Required extensions that change nothing about geometry can be ignored;
@@ -126,6 +139,7 @@ class Loader {
     check_raw(bytes);
     tinygltf::TinyGLTF gltf;
     gltf.SetImageLoader(skip_image, nullptr);
+    gltf.SetFsCallbacks({tinygltf::FileExists, tinygltf::ExpandFilePath, read_regular_file, tinygltf::WriteWholeFile, nullptr});
     std::string err, warn;
     bool ok = false;
     try {
