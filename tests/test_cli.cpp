@@ -137,6 +137,29 @@ TEST(Cli, UnwritableOutputFailsBeforeTracingAndLeavesNothing) {
   EXPECT_FALSE(fs::exists("/nonexistent-dir"));
 }
 
+TEST(Cli, TooLargeForMemoryFailsBeforeAllocatingAndWritesNothing) {
+  const fs::path d = work_dir();
+  const std::string out = (d / "huge.exr").string();
+  for (const char* backend : {"opencl", "cpu"}) {
+    const CliRun r = rayfold(std::string("render --size 32767x32767 --backend ") + backend + " -o " + out);
+    EXPECT_EQ(r.code, 3) << backend << ": " << r.err;
+    EXPECT_NE(r.err.find("MiB"), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(out));
+  }
+}
+
+TEST(Cli, BadSceneWritesNoOutput) {
+  const fs::path d = work_dir();
+  const std::string bad = (d / "bad.gltf").string(), out = (d / "bad.exr").string();
+  std::ofstream(bad) << "{\"asset\": {\"version\": \"2.0\"}, \"nodes\": [{\"mesh\": 4}]}";
+  const CliRun r = rayfold("render " + bad + " -o " + out + " --png " + out + ".png");
+  EXPECT_EQ(r.code, 2) << r.err;
+  EXPECT_FALSE(fs::exists(out));
+  EXPECT_FALSE(fs::exists(out + ".png"));
+  for (const auto& e : fs::directory_iterator(d))
+    EXPECT_EQ(e.path().string().find(".tmp-"), std::string::npos) << "temporary file left: " << e.path();
+}
+
 TEST(Cli, HelpForEveryCommand) {
   for (const char* args : {"--help", "render --help", "info --help", "bench --help"}) {
     const CliRun r = rayfold(args);
