@@ -12,6 +12,7 @@
 
 #include "../host/errors.h"
 #include "../host/gltf_loader.h"
+#include "../host/hit_compare.h"
 
 namespace rayfold {
 namespace {
@@ -33,12 +34,6 @@ double frame_bytes(const SceneData& data, const RenderResult& r, size_t pixels) 
                              data.normal_xforms.size() * sizeof(rf_normal_xform) +
                              r.tlas_nodes * sizeof(rf_node) + r.instances * sizeof(rf_instance) +
                              r.rays * sizeof(uint32_t) + pixels * sizeof(rf_pixel_hit));
-}
-
-size_t count_mismatches(const std::vector<rf_pixel_hit>& a, const std::vector<rf_pixel_hit>& b) {
-  size_t n = 0;
-  for (size_t i = 0; i < a.size(); ++i) n += std::memcmp(&a[i], &b[i], sizeof(rf_pixel_hit)) != 0;
-  return n;
 }
 
 std::string fmt(const char* f, double v) {
@@ -110,7 +105,7 @@ BenchReport run_bench(const BenchOptions& opt) {
       if (opt.warmup > 0) renderer.render(cam, opt.warmup, fo);
       const RenderResult r = renderer.render(cam, opt.frames, fo);
       if (mi == 0) reference = r.hits;
-      row.mismatched_pixels += count_mismatches(reference, r.hits);
+      row.mismatched_pixels += count_differing_pixels(reference, r.hits);
       std::vector<double> t, tr, up;
       for (const FrameTimes& f : r.frames) {
         t.push_back(f.ray_list_ms + f.trace_ms + f.readback_ms);

@@ -14,6 +14,7 @@
 #include "../host/atomic_file.h"
 #include "../host/errors.h"
 #include "../host/gltf_loader.h"
+#include "../host/hit_compare.h"
 #include "../host/image_output.h"
 #include "../host/renderer.h"
 #include "bench.h"
@@ -248,12 +249,6 @@ void write_stats(const std::string& path, const RenderArgs& args, const Scene& s
   j["device_buffer_bytes"] = buffers;
   j["device_bytes_total"] = total;
   write_text(path, j.dump(2) + "\n");
-}
-
-size_t count_differing_pixels(const std::vector<rf_pixel_hit>& a, const std::vector<rf_pixel_hit>& b) {
-  size_t n = 0;
-  for (size_t i = 0; i < a.size(); ++i) n += std::memcmp(&a[i], &b[i], sizeof(rf_pixel_hit)) != 0;
-  return n;
 }
 
 // The folded and unfolded renders of one view side by side.

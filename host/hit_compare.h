@@ -1,0 +1,19 @@
+// Comparing two renders of the same view bit for bit: how the tools check
+// that a folded render is lossless before reporting anything about it.
+#pragma once
+
+#include <cstring>
+#include <vector>
+
+#include "device_layout.h"
+
+namespace rayfold {
+
+// Pixels whose hit info differs in any bit (0 for identical renders).
+inline size_t count_differing_pixels(const std::vector<rf_pixel_hit>& a, const std::vector<rf_pixel_hit>& b) {
+  size_t n = a.size() == b.size() ? 0 : (a.size() > b.size() ? a.size() - b.size() : b.size() - a.size());
+  for (size_t i = 0; i < a.size() && i < b.size(); ++i) n += std::memcmp(&a[i], &b[i], sizeof(rf_pixel_hit)) != 0;
+  return n;
+}
+
+}  // namespace rayfold
