@@ -74,7 +74,7 @@ class Builder {
     if (depth >= opt_.median_depth) {
       if (count <= opt_.max_leaf_size) return false;
     } else {
-      const Split split = find_split(first, count, centre_bounds);
+      const Split split = find_split(first, count, centre_bounds, node.bounds);
       const float leaf_cost = opt_.intersection_cost * static_cast<float>(count);
       const bool sah_prefers_leaf = split.axis < 0 || split.cost >= leaf_cost;
       if (sah_prefers_leaf && count <= opt_.max_leaf_size) return false;
@@ -122,43 +122,54 @@ class Builder {
     return static_cast<int>(f);
   }
 
-  Split find_split(uint32_t first, uint32_t count, const Aabb& centre_bounds) const {
+  // One pass over the primitives bins all three axes (the build's hot loop);
+  // the sweep then prices every bin boundary of every axis.
+  Split find_split(uint32_t first, uint32_t count, const Aabb& centre_bounds, const Aabb& node_bounds) const {
     Split best;
     best.cost = INFINITY;
     constexpr int kMaxBins = 64;
     RF_CHECK(opt_.bins >= 2 && opt_.bins <= kMaxBins, "bin count out of range");
-    const float parent_area = [&] {
-      Aabb b;
-      for (uint32_t i = first; i < first + count; ++i) b.grow(bounds_[(*order_)[i]]);
-      return b.half_area();
-    }();
+    const float parent_area = node_bounds.half_area();
+    bool splittable[3];
+    float lo[3], scale[3];
     for (int axis = 0; axis < 3; ++axis) {
-      const float lo = centre_bounds.lo[axis], hi = centre_bounds.hi[axis];
-      if (!(hi > lo)) continue;
-      const float scale = opt_.bins / (hi - lo);
-      std::array<Bin, kMaxBins> bins{};
-      for (uint32_t i = first; i < first + count; ++i) {
-        const uint32_t p = (*order_)[i];
-        Bin& b = bins[bin_of(centres_[p][axis], lo, scale)];
-        b.bounds.grow(bounds_[p]);
+      lo[axis] = centre_bounds.lo[axis];
+      splittable[axis] = centre_bounds.hi[axis] > lo[axis];
+      scale[axis] = splittable[axis] ? opt_.bins / (centre_bounds.hi[axis] - lo[axis]) : 0.0f;
+    }
+    // Only the bins in use are reset: resetting all 3 x 64 cost more than
+    // the binning itself on the many small nodes near the leaves.
+    std::array<std::array<Bin, kMaxBins>, 3> bins;
+    for (int axis = 0; axis < 3; ++axis)
+      for (int i = 0; i < opt_.bins; ++i) bins[axis][i] = Bin();
+    for (uint32_t i = first; i < first + count; ++i) {
+      const uint32_t p = (*order_)[i];
+      const Aabb& box = bounds_[p];
+      const glm::vec3& c = centres_[p];
+      for (int axis = 0; axis < 3; ++axis) {
+        Bin& b = bins[axis][bin_of(c[axis], lo[axis], scale[axis])];
+        b.bounds.grow(box);
         b.count++;
       }
+    }
+    for (int axis = 0; axis < 3; ++axis) {
+      if (!splittable[axis]) continue;
       // Sweep from the right to know each right side's area and count.
-      std::array<float, kMaxBins> right_area{};
-      std::array<uint32_t, kMaxBins> right_count{};
+      std::array<float, kMaxBins> right_area;
+      std::array<uint32_t, kMaxBins> right_count;
       Aabb acc;
       uint32_t n = 0;
       for (int i = opt_.bins - 1; i > 0; --i) {
-        acc.grow(bins[i].bounds);
-        n += bins[i].count;
+        acc.grow(bins[axis][i].bounds);
+        n += bins[axis][i].count;
         right_area[i] = acc.half_area();
         right_count[i] = n;
       }
       acc = Aabb();
       n = 0;
       for (int i = 0; i < opt_.bins - 1; ++i) {
-        acc.grow(bins[i].bounds);
-        n += bins[i].count;
+        acc.grow(bins[axis][i].bounds);
+        n += bins[axis][i].count;
         if (n == 0 || right_count[i + 1] == 0) continue;
         const float cost =
             opt_.traversal_cost + opt_.intersection_cost *
