@@ -1,0 +1,84 @@
+// The double-precision reference, and the float tracers measured against it.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+
+#include "../host/accuracy.h"
+#include "../host/double_reference.h"
+#include "../host/gltf_loader.h"
+#include "../host/renderer.h"
+#include "../tools/scene_gen.h"
+#include "test_util.h"
+
+namespace rayfold {
+namespace {
+
+TEST(DoubleReference, TreesLoseNothingAgainstBruteForce) {
+  testing::Rng rng(17);
+  size_t hits = 0;
+  for (int s = 0; s < 4; ++s) {
+    const Scene scene = testing::random_scene(rng, 2, 10, 120);
+    const SceneData data = prepare_scene(scene);
+    for (int v = 0; v < 4; ++v) {
+      const Camera cam = make_camera(testing::random_camera(rng, scene.world_bounds()), 40, 30);
+      const auto trees = trace_double_reference(scene, data, cam);
+      const auto brute = trace_double_reference(scene, data, cam, 0, true);
+      for (size_t i = 0; i < trees.size(); ++i) {
+        ASSERT_EQ(trees[i].instance, brute[i].instance) << "scene " << s << " view " << v << " pixel " << i;
+        ASSERT_EQ(trees[i].primitive, brute[i].primitive);
+        ASSERT_EQ(trees[i].distance, brute[i].distance);
+        hits += trees[i].instance != RF_INVALID;
+      }
+    }
+  }
+  EXPECT_GT(hits, 1000u);
+}
+
+TEST(DoubleReference, HandComputedDistance) {
+  Scene scene;
+  Mesh tri;
+  tri.positions = {{-10, -10, -5}, {10, -10, -5}, {0, 10, -5}};
+  tri.indices = {0, 1, 2};
+  scene.meshes.push_back(tri);
+  scene.instances.push_back({0, Xform(1.0), "t"});
+  const SceneData data = prepare_scene(scene);
+  CameraSpec spec;
+  spec.vfov_degrees = 90.0;
+  const Camera cam = make_camera(spec, 3, 3);
+  const auto ref = trace_double_reference(scene, data, cam);
+  EXPECT_EQ(ref[4].distance, 5.0);  // straight ahead
+  // Pixel (2, 1): direction (2 * tan(45) / 3, 0, -1) hits z = -5 at x = 10/3.
+  EXPECT_NEAR(ref[5].distance, 5.0 * std::sqrt(1.0 + 4.0 / 9.0), 1e-12);
+}
+
+// The float tracers against the reference: the figures docs/exactness.md
+// quotes; the bounds only catch regressions.
+TEST(DoubleReference, FloatTracersAgainstReference) {
+  std::vector<std::pair<std::string, CameraSpec>> scenes;
+  const std::string atrium = std::string(RAYFOLD_SOURCE_DIR) + "/scenes/atrium.glb";
+  scenes.push_back({atrium, *load_gltf(atrium).camera});
+  const std::string dir = testing::shared_scenes_dir();
+  if (!dir.empty() && std::filesystem::exists(dir + "/conference.glb")) {
+    CameraSpec c;
+    c.eye = {330, 300, -300};
+    c.look_at = {1000, 200, 0};
+    scenes.push_back({dir + "/conference.glb", c});
+  }
+  for (const auto& [path, spec] : scenes) {
+    const Scene scene = load_gltf(path);
+    const Camera cam = make_camera(spec, 320, 180);
+    Renderer r(scene, RendererOptions{});
+    const auto ref = trace_double_reference(scene, r.scene_data(), cam);
+    const Accuracy a = measure_accuracy(ref, r.render(cam).hits);
+    std::printf("exact float tracer vs double reference, %s: same triangle %.4f%%, hit/miss %.4f%%, relative "
+                "depth error median %.2e, p99 %.2e, max %.2e\n",
+                std::filesystem::path(path).filename().c_str(), 100 * a.same_hit, 100 * a.hit_miss, a.depth_median,
+                a.depth_p99, a.depth_max);
+    EXPECT_GT(a.same_hit, 0.995) << path;
+    EXPECT_LT(a.hit_miss, 0.001) << path;
+    EXPECT_LT(a.depth_median, 1e-5) << path;
+  }
+}
+
+}  // namespace
+}  // namespace rayfold
