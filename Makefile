@@ -26,6 +26,14 @@ demo: build
 test: build
 	@cd $(BUILD_DIR) && ctest --output-on-failure -j 2
 
+# Fold tables, speed against accuracy with Embree, and charts for the bundled
+# scene and every scene in ../shared/scenes, into out/bench/. Long (about
+# 5 minutes a scene); BENCH_ARGS="--views 3 --frames 3" shortens it.
+BENCH_ARGS ?=
+bench: build
+	@tools/install-deps.sh python3-matplotlib
+	tools/bench_all.sh $(BENCH_ARGS)
+
 # The whole suite under AddressSanitizer and UndefinedBehaviorSanitizer.
 # Leaks inside the OpenCL runtime (PoCL, LLVM) are suppressed; ours are not.
 test-asan: deps

@@ -15,9 +15,10 @@ Accuracy measure_accuracy(const std::vector<ReferenceHit>& ref, const std::vecto
   std::vector<double> err;
   for (size_t i = 0; i < ref.size(); ++i) {
     const bool rh = ref[i].instance != RF_INVALID, hh = hits[i].instance != RF_INVALID;
-    same += ref[i].instance == hits[i].instance && ref[i].primitive == hits[i].primitive;
+    const bool same_triangle = ref[i].instance == hits[i].instance && ref[i].primitive == hits[i].primitive;
+    same += same_triangle;
     hit_miss += rh != hh;
-    if (rh && hh) err.push_back(std::fabs(static_cast<double>(hits[i].z) - ref[i].distance) / ref[i].distance);
+    if (rh && same_triangle) err.push_back(std::fabs(static_cast<double>(hits[i].z) - ref[i].distance) / ref[i].distance);
   }
   a.same_hit = static_cast<double>(same) / ref.size();
   a.hit_miss = static_cast<double>(hit_miss) / ref.size();

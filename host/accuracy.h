@@ -11,7 +11,10 @@ namespace rayfold {
 struct Accuracy {
   double same_hit = 0.0;           // share of pixels with the reference's (instance, primitive), misses included
   double hit_miss = 0.0;           // share where one hits and the other misses
-  double depth_median = 0.0;       // relative distance error over pixels where both hit
+  // Relative distance error over pixels that hit the reference's triangle:
+  // the precision of t. Pixels that hit another surface (near silhouettes,
+  // touching objects) are counted in same_hit instead.
+  double depth_median = 0.0;
   double depth_p99 = 0.0;
   double depth_max = 0.0;
   double disagree() const { return 1.0 - same_hit; }

@@ -1,11 +1,16 @@
 #!/usr/bin/env bash
-# Runs `rayfold bench` on the bundled scene and on every scene of
-# ../shared/scenes that exists (skipping, with a note, those that do not),
-# writing out/bench/<scene>.md and .json. Views start from the scenes'
-# suggested starting points (../shared/scenes/README.md).
+# Runs, on the bundled scene and on every scene of ../shared/scenes that
+# exists (skipping, with a note, those that do not):
+#   rayfold bench   -> out/bench/<scene>.md/.json        (fold modes, Tables 1 and 2)
+#   rayfold-peers   -> out/bench/<scene>-peers.md/.json  (speed against accuracy, Embree)
+#   chart_peers.py  -> out/bench/<scene>-peers.png/.svg
+# Views start from the scenes' suggested starting points
+# (../shared/scenes/README.md). Extra arguments go to both tools
+# (e.g. --views 3 --frames 3 for a shorter run).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bin=${RAYFOLD_BIN:-build/rayfold}
+peers=${RAYFOLD_PEERS:-build/rayfold-peers}
 shared=${RAYFOLD_SCENES_DIR:-../shared/scenes}
 out=${OUT_DIR:-out/bench}
 mkdir -p "$out"
@@ -16,6 +21,8 @@ run() {
   if [ ! -f "$file" ]; then echo "bench_all: $file absent; skipped"; return; fi
   echo "== $name"
   "$bin" bench "$file" "$@" "${args[@]}" --json "$out/$name.json" --md "$out/$name.md"
+  "$peers" "$file" "$@" "${args[@]}" --json "$out/$name-peers.json" --md "$out/$name-peers.md"
+  /usr/bin/python3 tools/chart_peers.py "$out/$name-peers.json" "$out/$name-peers"
 }
 
 run atrium scenes/atrium.glb

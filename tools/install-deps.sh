@@ -9,6 +9,7 @@ packages=(
   pocl-opencl-icd ocl-icd-opencl-dev opencl-clhpp-headers
   libglm-dev libtinygltf-dev nlohmann-json3-dev libstb-dev
   libopenexr-dev googletest libgtest-dev
+  libembree-dev
 )
 # Extra packages some targets ask for (for example the benchmark's peers).
 if [ "$#" -gt 0 ]; then packages+=("$@"); fi

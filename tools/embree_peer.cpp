@@ -1,0 +1,207 @@
+#include "embree_peer.h"
+
+#include "../host/errors.h"
+
+#ifdef RAYFOLD_HAVE_EMBREE
+#include <embree3/rtcore.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <thread>
+
+namespace rayfold {
+
+struct EmbreePeer::Impl {
+  const Scene& scene;
+  const SceneData& data;
+  unsigned threads;
+  RTCDevice device = nullptr;
+  RTCScene top = nullptr;
+  std::vector<RTCScene> meshes;
+  std::vector<RTCGeometry> instances;  // per scene instance, null when hidden
+  Camera camera;
+
+  Impl(const Scene& s, const SceneData& d, unsigned t) : scene(s), data(d), threads(t) {
+    const std::string config = "threads=" + std::to_string(threads);
+    device = rtcNewDevice(config.c_str());
+    if (!device) throw RuntimeFailure("Embree: rtcNewDevice failed");
+    for (const Mesh& m : scene.meshes) {
+      RTCScene ms = rtcNewScene(device);
+      RTCGeometry g = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
+      auto* vb = static_cast<float*>(
+          rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), m.positions.size()));
+      auto* ib = static_cast<unsigned*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                                                3 * sizeof(unsigned), m.triangle_count()));
+      for (size_t i = 0; i < m.positions.size(); ++i)
+        for (int k = 0; k < 3; ++k) vb[3 * i + k] = m.positions[i][k];
+      std::copy(m.indices.begin(), m.indices.end(), ib);
+      rtcSetGeometryBuildQuality(g, RTC_BUILD_QUALITY_HIGH);
+      rtcCommitGeometry(g);
+      rtcAttachGeometry(ms, g);
+      rtcReleaseGeometry(g);
+      rtcCommitScene(ms);
+      meshes.push_back(ms);
+    }
+    top = rtcNewScene(device);
+    instances.assign(scene.instances.size(), nullptr);
+    for (size_t i = 0; i < scene.instances.size(); ++i) {
+      if (!data.renderable[i]) continue;
+      RTCGeometry g = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_INSTANCE);
+      rtcSetGeometryInstancedScene(g, meshes[scene.instances[i].mesh]);
+      rtcAttachGeometryByID(top, g, static_cast<unsigned>(i));
+      instances[i] = g;
+    }
+  }
+
+  ~Impl() {
+    for (RTCGeometry g : instances)
+      if (g) rtcReleaseGeometry(g);
+    if (top) rtcReleaseScene(top);
+    for (RTCScene s : meshes) rtcReleaseScene(s);
+    if (device) rtcReleaseDevice(device);
+  }
+
+  void set_camera(const Camera& cam) {
+    camera = cam;
+    for (size_t i = 0; i < instances.size(); ++i) {
+      if (!instances[i]) continue;
+      const Xform m = cam.camera_from_world * scene.instances[i].world_from_object;
+      float xfm[12];
+      for (int c = 0; c < 4; ++c)
+        for (int r = 0; r < 3; ++r) xfm[3 * c + r] = static_cast<float>(m[c][r]);
+      rtcSetGeometryTransform(instances[i], 0, RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR, xfm);
+      rtcCommitGeometry(instances[i]);
+    }
+    rtcCommitScene(top);
+  }
+
+  // rayfold's ray for pixel (x, y), bit for bit (kernels/rf_trace.h).
+  void direction(int x, int y, float d[3]) const {
+    const rf_camera& c = camera.params;
+    d[0] = c.scale_x * static_cast<float>(2 * x + c.kx0);
+    d[1] = c.scale_y * static_cast<float>(c.ky0 - 2 * y);
+    d[2] = -1.0f;
+  }
+
+  void store(rf_pixel_hit& h, float t, unsigned inst, unsigned prim, const float d[3]) const {
+    h = rf_pixel_hit{};
+    if (inst == RTC_INVALID_GEOMETRY_ID) {
+      h.z = INFINITY;
+      h.instance = h.primitive = RF_INVALID;
+      return;
+    }
+    h.z = t * std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    h.instance = inst;
+    h.primitive = prim;
+  }
+
+  template <class Tile>
+  double run(Tile tile, int tiles) {
+    const auto t0 = std::chrono::steady_clock::now();
+    std::atomic<int> next{0};
+    auto worker = [&] {
+      for (int i; (i = next.fetch_add(1)) < tiles;) tile(i);
+    };
+    std::vector<std::thread> pool;
+    for (unsigned t = 1; t < threads; ++t) pool.emplace_back(worker);
+    worker();
+    for (std::thread& t : pool) t.join();
+    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  }
+};
+
+bool EmbreePeer::available() { return true; }
+
+EmbreePeer::EmbreePeer(const Scene& scene, const SceneData& data, unsigned threads)
+    : impl_(std::make_unique<Impl>(scene, data, threads)) {}
+EmbreePeer::~EmbreePeer() = default;
+
+void EmbreePeer::set_camera(const Camera& camera) { impl_->set_camera(camera); }
+
+double EmbreePeer::trace1(std::vector<rf_pixel_hit>& hits) {
+  Impl& m = *impl_;
+  const int w = m.camera.width, h = m.camera.height;
+  hits.resize(static_cast<size_t>(w) * h);
+  return m.run(
+      [&](int y) {
+        RTCIntersectContext ctx;
+        rtcInitIntersectContext(&ctx);
+        for (int x = 0; x < w; ++x) {
+          float d[3];
+          m.direction(x, y, d);
+          RTCRayHit rh{};
+          rh.ray.dir_x = d[0];
+          rh.ray.dir_y = d[1];
+          rh.ray.dir_z = d[2];
+          rh.ray.tnear = 0.0f;
+          rh.ray.tfar = INFINITY;
+          rh.ray.mask = 0xFFFFFFFFu;
+          rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+          rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+          rtcIntersect1(m.top, &ctx, &rh);
+          m.store(hits[static_cast<size_t>(y) * w + x], rh.ray.tfar, rh.hit.instID[0], rh.hit.primID, d);
+        }
+      },
+      h);
+}
+
+double EmbreePeer::trace16(std::vector<rf_pixel_hit>& hits) {
+  Impl& m = *impl_;
+  const int w = m.camera.width, h = m.camera.height;
+  hits.resize(static_cast<size_t>(w) * h);
+  const int tx = (w + 3) / 4, ty = (h + 3) / 4;
+  return m.run(
+      [&](int tile) {
+        const int x0 = 4 * (tile % tx), y0 = 4 * (tile / tx);
+        alignas(64) RTCRayHit16 rh;
+        alignas(64) int valid[16];
+        RTCIntersectContext ctx;
+        rtcInitIntersectContext(&ctx);
+        ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+        float dirs[16][3];
+        for (int i = 0; i < 16; ++i) {
+          const int x = x0 + i % 4, y = y0 + i / 4;
+          valid[i] = (x < w && y < h) ? -1 : 0;
+          m.direction(std::min(x, w - 1), std::min(y, h - 1), dirs[i]);
+          rh.ray.org_x[i] = rh.ray.org_y[i] = rh.ray.org_z[i] = 0.0f;
+          rh.ray.dir_x[i] = dirs[i][0];
+          rh.ray.dir_y[i] = dirs[i][1];
+          rh.ray.dir_z[i] = dirs[i][2];
+          rh.ray.tnear[i] = 0.0f;
+          rh.ray.tfar[i] = INFINITY;
+          rh.ray.time[i] = 0.0f;
+          rh.ray.mask[i] = 0xFFFFFFFFu;
+          rh.ray.flags[i] = 0;
+          rh.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
+          rh.hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
+        }
+        rtcIntersect16(valid, m.top, &ctx, &rh);
+        for (int i = 0; i < 16; ++i)
+          if (valid[i])
+            m.store(hits[static_cast<size_t>(y0 + i / 4) * w + x0 + i % 4], rh.ray.tfar[i], rh.hit.instID[0][i],
+                    rh.hit.primID[i], dirs[i]);
+      },
+      tx * ty);
+}
+
+}  // namespace rayfold
+
+#else  // no Embree
+
+namespace rayfold {
+
+struct EmbreePeer::Impl {};
+bool EmbreePeer::available() { return false; }
+EmbreePeer::EmbreePeer(const Scene&, const SceneData&, unsigned) {
+  throw RuntimeFailure("rayfold was built without Embree (install libembree-dev and rebuild)");
+}
+EmbreePeer::~EmbreePeer() = default;
+void EmbreePeer::set_camera(const Camera&) {}
+double EmbreePeer::trace1(std::vector<rf_pixel_hit>&) { return 0.0; }
+double EmbreePeer::trace16(std::vector<rf_pixel_hit>&) { return 0.0; }
+
+}  // namespace rayfold
+
+#endif

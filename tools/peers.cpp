@@ -1,0 +1,186 @@
+#include "peers.h"
+
+#include <algorithm>
+#include <cstdio>
+#include <memory>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+#include "../host/double_reference.h"
+#include "../host/gltf_loader.h"
+#include "../host/renderer.h"
+#include "bench.h"
+#include "embree_peer.h"
+
+namespace rayfold {
+namespace {
+
+struct Accumulator {
+  explicit Accumulator(PeerRow r) : row(std::move(r)) {}
+  PeerRow row;
+  std::vector<double> medians;
+  int views = 0;
+  void add(double ms, size_t rays, size_t pixels, const Accuracy& a, int total_views) {
+    row.ms += ms / total_views;
+    row.rays += static_cast<double>(rays) / total_views;
+    row.pixels += static_cast<double>(pixels) / total_views;
+    row.accuracy.same_hit += a.same_hit / total_views;
+    row.accuracy.hit_miss += a.hit_miss / total_views;
+    row.accuracy.depth_p99 = std::max(row.accuracy.depth_p99, a.depth_p99);
+    row.accuracy.depth_max = std::max(row.accuracy.depth_max, a.depth_max);
+    medians.push_back(a.depth_median);
+  }
+  PeerRow finish() {
+    row.accuracy.depth_median = median(medians);
+    return row;
+  }
+};
+
+PeerRow make_row(const std::string& variant, const std::string& fold) {
+  PeerRow r;
+  r.variant = variant;
+  r.fold = fold;
+  return r;
+}
+
+std::string fmt(const char* f, double v) {
+  char b[64];
+  std::snprintf(b, sizeof b, f, v);
+  return b;
+}
+
+}  // namespace
+
+PeerReport run_peers(const PeerOptions& opt) {
+  const Scene scene = load_gltf(opt.scene);
+  CameraSpec base = scene.camera ? *scene.camera : frame_bounds(scene.world_bounds());
+  if (opt.eye) {
+    base.eye = *opt.eye;
+    base.look_at = *opt.look_at;
+    base.up = glm::dvec3(0.0, 1.0, 0.0);
+  }
+  const std::vector<CameraSpec> path = camera_path(base, opt.views);
+
+  struct Ours {
+    const char* name;
+    Backend backend;
+    KernelPrecision precision;
+  };
+  const Ours ours[] = {{"OpenCL exact", Backend::opencl, KernelPrecision::exact},
+                       {"OpenCL fast", Backend::opencl, KernelPrecision::fast},
+                       {"CPU reference", Backend::cpu, KernelPrecision::exact}};
+  const FoldMode folds[] = {FoldMode::none, FoldMode::y, FoldMode::x, FoldMode::xy};
+  std::vector<std::unique_ptr<Renderer>> renderers;
+  for (const Ours& o : ours) {
+    RendererOptions ro;
+    ro.backend = o.backend;
+    ro.precision = o.precision;
+    ro.threads = opt.threads;
+    ro.device_hint = opt.device_hint;
+    renderers.push_back(std::make_unique<Renderer>(scene, ro));
+  }
+  const SceneData& data = renderers[0]->scene_data();
+
+  PeerReport rep;
+  rep.scene = opt.scene;
+  rep.device = renderers[0]->device_name();
+  rep.width = opt.width;
+  rep.height = opt.height;
+  rep.views = opt.views;
+  rep.frames = opt.frames;
+  rep.threads = opt.threads;
+  rep.triangles = scene.triangle_count();
+  rep.instances = scene.instances.size();
+
+  std::unique_ptr<EmbreePeer> embree;
+  if (EmbreePeer::available()) embree = std::make_unique<EmbreePeer>(scene, data, opt.threads);
+  else rep.embree_note = "rayfold was built without Embree: its rows are skipped (install libembree-dev and reconfigure).";
+
+  std::vector<Accumulator> acc;
+  for (const Ours& o : ours)
+    for (FoldMode f : folds) acc.emplace_back(make_row(o.name, fold_name(f)));
+  if (embree) {
+    acc.emplace_back(make_row("Embree rtcIntersect1", "-"));
+    acc.emplace_back(make_row("Embree rtcIntersect16", "-"));
+  }
+
+  for (int v = 0; v < opt.views; ++v) {
+    const Camera cam = make_camera(path[v], opt.width, opt.height);
+    const std::vector<ReferenceHit> reference = trace_double_reference(scene, data, cam, opt.threads);
+    size_t a = 0;
+    for (size_t r = 0; r < renderers.size(); ++r)
+      for (FoldMode f : folds) {
+        FrameOptions fo;
+        fo.fold = f;
+        if (opt.warmup > 0) renderers[r]->render(cam, opt.warmup, fo);
+        const RenderResult res = renderers[r]->render(cam, opt.frames, fo);
+        std::vector<double> t;
+        for (const FrameTimes& ft : res.frames) t.push_back(ft.ray_list_ms + ft.trace_ms + ft.readback_ms);
+        acc[a++].add(median(t), res.rays, res.hits.size(), measure_accuracy(reference, res.hits), opt.views);
+      }
+    if (embree) {
+      embree->set_camera(cam);
+      std::vector<rf_pixel_hit> hits;
+      for (int packets = 0; packets < 2; ++packets) {
+        std::vector<double> t;
+        for (int f = 0; f < opt.warmup + opt.frames; ++f) {
+          const double ms = packets ? embree->trace16(hits) : embree->trace1(hits);
+          if (f >= opt.warmup) t.push_back(ms);
+        }
+        acc[a++].add(median(t), hits.size(), hits.size(), measure_accuracy(reference, hits), opt.views);
+      }
+    }
+  }
+  for (Accumulator& x : acc) rep.rows.push_back(x.finish());
+  return rep;
+}
+
+std::string peers_markdown(const PeerReport& r) {
+  std::ostringstream s;
+  s << "Scene `" << r.scene << "`: " << r.instances << " instances, " << r.triangles << " triangles; " << r.width
+    << "x" << r.height << ", " << r.views << " views, median of " << r.frames << " frames; " << r.threads
+    << " threads. rayfold device: " << r.device << ".\n";
+  if (!r.embree_note.empty()) s << r.embree_note << "\n";
+  s << "\nTimes: rayfold per frame is ray list + trace + readback; Embree's is the trace into host memory. "
+       "Accuracy against the double-precision reference: share of pixels whose (instance, primitive) differs, "
+       "hit/miss disagreements (included in the former), relative depth error where both hit the same triangle."
+       "\n\n";
+  s << "| variant | fold | ms/frame | Mrays/s | Mpixels/s | other triangle | hit/miss | depth err median | "
+       "p99 | max |\n|---|---|---|---|---|---|---|---|---|---|\n";
+  for (const PeerRow& row : r.rows)
+    s << "| " << row.variant << " | " << row.fold << " | " << fmt("%.1f", row.ms) << " | "
+      << fmt("%.1f", row.rays / (row.ms * 1e3)) << " | " << fmt("%.1f", row.pixels / (row.ms * 1e3)) << " | "
+      << fmt("%.4f%%", 100 * row.accuracy.disagree()) << " | " << fmt("%.4f%%", 100 * row.accuracy.hit_miss)
+      << " | " << fmt("%.1e", row.accuracy.depth_median) << " | " << fmt("%.1e", row.accuracy.depth_p99) << " | "
+      << fmt("%.1e", row.accuracy.depth_max) << " |\n";
+  return s.str();
+}
+
+std::string peers_json(const PeerReport& r) {
+  nlohmann::json j;
+  j["scene"] = r.scene;
+  j["device"] = r.device;
+  j["embree_note"] = r.embree_note;
+  j["width"] = r.width;
+  j["height"] = r.height;
+  j["views"] = r.views;
+  j["frames"] = r.frames;
+  j["threads"] = r.threads;
+  j["triangles"] = r.triangles;
+  j["instances"] = r.instances;
+  for (const PeerRow& row : r.rows)
+    j["rows"].push_back({{"variant", row.variant},
+                         {"fold", row.fold},
+                         {"ms", row.ms},
+                         {"mrays_per_s", row.rays / (row.ms * 1e3)},
+                         {"mpixels_per_s", row.pixels / (row.ms * 1e3)},
+                         {"disagreeing_share", row.accuracy.disagree()},
+                         {"hit_miss_share", row.accuracy.hit_miss},
+                         {"depth_error_median", row.accuracy.depth_median},
+                         {"depth_error_p99", row.accuracy.depth_p99},
+                         {"depth_error_max", row.accuracy.depth_max}});
+  return j.dump(2) + "\n";
+}
+
+}  // namespace rayfold

@@ -1,0 +1,48 @@
+// `rayfold-peers`: speed against accuracy, side by side in one run. Every
+// variant (rayfold's OpenCL exact and fast builds and its CPU reference, in
+// every fold mode, and Embree's rtcIntersect1 and rtcIntersect16 packets when
+// installed) traces the same views; each image is measured against the
+// double-precision reference (host/double_reference.h).
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <glm/vec3.hpp>
+
+#include "../host/accuracy.h"
+
+namespace rayfold {
+
+struct PeerOptions {
+  std::string scene;
+  int width = 1280, height = 720;
+  int views = 8, frames = 5, warmup = 1;
+  unsigned threads = 2;
+  std::optional<glm::dvec3> eye, look_at;
+  std::string device_hint;
+};
+
+struct PeerRow {
+  std::string variant;  // "OpenCL exact", "OpenCL fast", "CPU reference", "Embree rtcIntersect1", ...
+  std::string fold;     // none, y, x, xy ("-" for Embree)
+  double ms = 0.0;      // per frame, mean over views of per-view medians
+  double rays = 0.0;    // traced per frame
+  double pixels = 0.0;  // answered per frame
+  Accuracy accuracy;    // same_hit, hit_miss: mean over views; depth: median of medians, max of p99s and maxima
+};
+
+struct PeerReport {
+  std::string scene, device, embree_note;
+  int width = 0, height = 0, views = 0, frames = 0;
+  unsigned threads = 0;
+  size_t triangles = 0, instances = 0;
+  std::vector<PeerRow> rows;
+};
+
+PeerReport run_peers(const PeerOptions& options);
+std::string peers_markdown(const PeerReport& report);
+std::string peers_json(const PeerReport& report);
+
+}  // namespace rayfold

@@ -1,0 +1,95 @@
+// rayfold-peers: speed against accuracy for every variant and Embree, in one
+// run (tools/peers.h). `make bench` runs it on every scene and charts it.
+#include <cstdio>
+#include <fstream>
+
+#include "../host/atomic_file.h"
+#include "../host/errors.h"
+#include "cli_args.h"
+#include "peers.h"
+
+#ifndef RAYFOLD_DEFAULT_SCENE
+#define RAYFOLD_DEFAULT_SCENE "scenes/atrium.glb"
+#endif
+
+namespace {
+
+void write_text(const std::string& path, const std::string& text) {
+  rayfold::AtomicFile file(path);
+  {
+    std::ofstream out(file.temp_path());
+    out << text;
+    if (!out) throw rayfold::InputError(path, "cannot write the file");
+  }
+  file.commit();
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  using namespace rayfold;
+  try {
+    PeerOptions opt;
+    opt.scene = RAYFOLD_DEFAULT_SCENE;
+    std::string json, md;
+    bool have_scene = false;
+    cli::Args args(argc, argv, 1);
+    while (!args.done()) {
+      const std::string a = args.next();
+      if (a == "--help" || a == "-h") {
+        std::puts(
+            "usage: rayfold-peers [SCENE] [--size WxH] [--views K] [--frames N] [--warmup N] [--threads N]\n"
+            "                     [--eye X,Y,Z --look-at X,Y,Z] [--device NAME] [--json F] [--md F]\n"
+            "Speed against accuracy: rayfold's OpenCL exact and fast builds and CPU reference in every fold\n"
+            "mode, and Embree's rtcIntersect1 and rtcIntersect16 (when installed), on the same views,\n"
+            "each measured against a double-precision reference.");
+        return 0;
+      } else if (a == "--size") {
+        cli::parse_size(a, args.value(a), &opt.width, &opt.height);
+      } else if (a == "--views") {
+        opt.views = cli::parse_int(a, args.value(a), 1, 1000);
+      } else if (a == "--frames") {
+        opt.frames = cli::parse_int(a, args.value(a), 1, 100000);
+      } else if (a == "--warmup") {
+        opt.warmup = cli::parse_int(a, args.value(a), 0, 1000);
+      } else if (a == "--threads") {
+        opt.threads = static_cast<unsigned>(cli::parse_int(a, args.value(a), 1, 1024));
+      } else if (a == "--eye") {
+        opt.eye = cli::parse_vec3(a, args.value(a));
+      } else if (a == "--look-at") {
+        opt.look_at = cli::parse_vec3(a, args.value(a));
+      } else if (a == "--device") {
+        opt.device_hint = args.value(a);
+      } else if (a == "--json") {
+        json = args.value(a);
+      } else if (a == "--md") {
+        md = args.value(a);
+      } else if (!a.empty() && a[0] == '-') {
+        throw UsageError("unknown option '" + a + "' (see rayfold-peers --help)");
+      } else if (!have_scene) {
+        opt.scene = a;
+        have_scene = true;
+      } else {
+        throw UsageError("more than one scene given");
+      }
+    }
+    if (opt.eye.has_value() != opt.look_at.has_value()) throw UsageError("--eye and --look-at go together");
+    for (const std::string* out : {&json, &md})
+      if (!out->empty()) check_writable(*out);
+    const PeerReport report = run_peers(opt);
+    const std::string text = peers_markdown(report);
+    std::fputs(text.c_str(), stdout);
+    if (!json.empty()) write_text(json, peers_json(report));
+    if (!md.empty()) write_text(md, text);
+    return 0;
+  } catch (const InputError& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    return 2;
+  } catch (const UsageError& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    return 2;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    return 3;
+  }
+}
