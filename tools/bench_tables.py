@@ -4,7 +4,8 @@ docs/results.md: Table 1 (render time T, memory M) and Table 2 (pre-build,
 update), one row per scene, one column group per method, ratios to the
 culled unfolded baseline. Standard library only.
 
-usage: tools/bench_tables.py out/bench/*.json > tables.md
+usage: tools/bench_tables.py out/bench/<scene>.json... > tables.md
+       tools/bench_tables.py --peers out/bench/<scene>-peers.json... > peers.md
 """
 import json
 import os
@@ -51,9 +52,54 @@ def table2(reports):
     return "\n".join(out)
 
 
+def peers_tables(paths):
+    """The gap to Embree per scene, then every variant of every scene."""
+    reports = []
+    for p in paths:
+        with open(p) as f:
+            r = json.load(f)
+        r["name"] = os.path.basename(p).replace("-peers.json", "")
+        reports.append(r)
+    r0 = reports[0]
+    print(f"{r0['width']}x{r0['height']}, {r0['views']} views per scene, median of {r0['frames']} frames, "
+          f"{r0['threads']} threads; rayfold device: {r0['device']}.\n")
+    print("The gap: pixels answered per second (millions), and the share of pixels whose triangle differs from "
+          "the double-precision reference\n")
+    print("| scene | rayfold OpenCL exact, none | rayfold OpenCL exact, xy | rayfold CPU reference, xy | "
+          "Embree rtcIntersect1 | Embree rtcIntersect16 | xy / Embree16 |")
+    print("|---|---|---|---|---|---|---|")
+    for r in reports:
+        rows = {(x["variant"], x["fold"]): x for x in r["rows"]}
+
+        def cell(key):
+            x = rows.get(key)
+            return f"{x['mpixels_per_s']:.1f} ({100 * x['disagreeing_share']:.3f}%)" if x else "-"
+
+        e16 = rows.get(("Embree rtcIntersect16", "-"))
+        xy = rows[("OpenCL exact", "xy")]
+        ratio = f"{xy['mpixels_per_s'] / e16['mpixels_per_s']:.2f}x" if e16 else "-"
+        print(f"| {r['name']} | {cell(('OpenCL exact', 'none'))} | {cell(('OpenCL exact', 'xy'))} | "
+              f"{cell(('CPU reference', 'xy'))} | {cell(('Embree rtcIntersect1', '-'))} | "
+              f"{cell(('Embree rtcIntersect16', '-'))} | {ratio} |")
+    print("\nAccuracy of every variant against the double-precision reference (other triangle; relative "
+          "depth error on same-triangle pixels: median / p99 / max)\n")
+    print("| scene | variant | other triangle | hit/miss | depth error |")
+    print("|---|---|---|---|---|")
+    for r in reports:
+        for x in r["rows"]:
+            if x["fold"] not in ("none", "-"):
+                continue  # fold modes give the same bits as none (exact builds) or near (fast)
+            print(f"| {r['name']} | {x['variant']} | {100 * x['disagreeing_share']:.4f}% | "
+                  f"{100 * x['hit_miss_share']:.4f}% | {x['depth_error_median']:.1e} / "
+                  f"{x['depth_error_p99']:.1e} / {x['depth_error_max']:.1e} |")
+
+
 def main():
     if len(sys.argv) < 2:
-        sys.exit("usage: bench_tables.py REPORT.json...")
+        sys.exit("usage: bench_tables.py REPORT.json...  |  bench_tables.py --peers REPORT-peers.json...")
+    if sys.argv[1] == "--peers":
+        peers_tables(sys.argv[2:])
+        return
     reports = load(sys.argv[1:])
     r0 = reports[0]
     print(f"{r0['width']}x{r0['height']}, {r0['views']} views per scene, median of {r0['frames']} frames "
