@@ -3,6 +3,7 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <fstream>
 #include <unistd.h>
 
 #include "errors.h"
@@ -21,6 +22,16 @@ void AtomicFile::commit() {
   if (std::rename(temp_.c_str(), path_.c_str()) != 0)
     throw InputError(path_, std::string("cannot move the finished file into place: ") + std::strerror(errno));
   committed_ = true;
+}
+
+void write_text_file(const std::string& path, const std::string& text) {
+  AtomicFile file(path);
+  {
+    std::ofstream out(file.temp_path());
+    out << text;
+    if (!out) throw InputError(path, "cannot write the file");
+  }
+  file.commit();
 }
 
 void check_writable(const std::string& path) {

@@ -24,6 +24,9 @@ class AtomicFile {
   bool committed_ = false;
 };
 
+// Writes text to path atomically; InputError on failure.
+void write_text_file(const std::string& path, const std::string& text);
+
 // Throws InputError(path, ...) unless a file can be created at path; run
 // before expensive work so a bad output path fails fast.
 void check_writable(const std::string& path);

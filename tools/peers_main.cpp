@@ -1,7 +1,6 @@
 // rayfold-peers: speed against accuracy for every variant and Embree, in one
 // run (tools/peers.h). `make bench` runs it on every scene and charts it.
 #include <cstdio>
-#include <fstream>
 
 #include "../host/atomic_file.h"
 #include "../host/errors.h"
@@ -11,20 +10,6 @@
 #ifndef RAYFOLD_DEFAULT_SCENE
 #define RAYFOLD_DEFAULT_SCENE "scenes/atrium.glb"
 #endif
-
-namespace {
-
-void write_text(const std::string& path, const std::string& text) {
-  rayfold::AtomicFile file(path);
-  {
-    std::ofstream out(file.temp_path());
-    out << text;
-    if (!out) throw rayfold::InputError(path, "cannot write the file");
-  }
-  file.commit();
-}
-
-}  // namespace
 
 int main(int argc, char** argv) {
   using namespace rayfold;
@@ -79,8 +64,8 @@ int main(int argc, char** argv) {
     const PeerReport report = run_peers(opt);
     const std::string text = peers_markdown(report);
     std::fputs(text.c_str(), stdout);
-    if (!json.empty()) write_text(json, peers_json(report));
-    if (!md.empty()) write_text(md, text);
+    if (!json.empty()) write_text_file(json, peers_json(report));
+    if (!md.empty()) write_text_file(md, text);
     return 0;
   } catch (const InputError& e) {
     std::fprintf(stderr, "error: %s\n", e.what());

@@ -206,15 +206,6 @@ RenderArgs parse_render(cli::Args& args) {
   return r;
 }
 
-void write_text(const std::string& path, const std::string& text) {
-  AtomicFile file(path);
-  {
-    std::ofstream out(file.temp_path());
-    out << text;
-    if (!out) throw InputError(path, "cannot write the file");
-  }
-  file.commit();
-}
 
 void write_stats(const std::string& path, const RenderArgs& args, const Scene& scene, const Renderer& renderer,
                  const RenderResult& result, double load_ms) {
@@ -248,7 +239,7 @@ void write_stats(const std::string& path, const RenderArgs& args, const Scene& s
   }
   j["device_buffer_bytes"] = buffers;
   j["device_bytes_total"] = total;
-  write_text(path, j.dump(2) + "\n");
+  write_text_file(path, j.dump(2) + "\n");
 }
 
 // The folded and unfolded renders of one view side by side.
@@ -410,8 +401,8 @@ int run_bench_command(cli::Args& args) {
   const BenchReport report = run_bench(opt);
   const std::string text = bench_markdown(report);
   std::fputs(text.c_str(), stdout);
-  if (!json.empty()) write_text(json, bench_json(report));
-  if (!md.empty()) write_text(md, text);
+  if (!json.empty()) write_text_file(json, bench_json(report));
+  if (!md.empty()) write_text_file(md, text);
   if (!report.exact()) {
     std::fprintf(stderr, "error: folded output differs from the unfolded output; the figures are not valid\n");
     return 3;
