@@ -63,15 +63,46 @@ std::vector<CameraSpec> camera_path(const CameraSpec& base, int views) {
   return path;
 }
 
-BenchReport run_bench(const BenchOptions& opt) {
-  const Scene scene = load_gltf(opt.scene);
+std::vector<CameraSpec> camera_path(const Scene& scene, const ViewPath& p) {
   CameraSpec base = scene.camera ? *scene.camera : frame_bounds(scene.world_bounds());
-  if (opt.eye) {
-    base.eye = *opt.eye;
-    base.look_at = *opt.look_at;
+  if (p.eye) {
+    base.eye = *p.eye;
+    base.look_at = *p.look_at;
     base.up = glm::dvec3(0.0, 1.0, 0.0);
   }
-  const std::vector<CameraSpec> path = camera_path(base, opt.views);
+  return camera_path(base, p.views);
+}
+
+bool parse_view_path_option(const std::string& a, cli::Args& args, ViewPath& p, bool* have_scene) {
+  if (a == "--size") {
+    cli::parse_size(a, args.value(a), &p.width, &p.height);
+  } else if (a == "--views") {
+    p.views = cli::parse_int(a, args.value(a), 1, 1000);
+  } else if (a == "--frames") {
+    p.frames = cli::parse_int(a, args.value(a), 1, 100000);
+  } else if (a == "--warmup") {
+    p.warmup = cli::parse_int(a, args.value(a), 0, 1000);
+  } else if (a == "--eye") {
+    p.eye = cli::parse_vec3(a, args.value(a));
+  } else if (a == "--look-at") {
+    p.look_at = cli::parse_vec3(a, args.value(a));
+  } else if (!a.empty() && a[0] != '-') {
+    if (*have_scene) throw UsageError("more than one scene given ('" + p.scene + "' and '" + a + "')");
+    p.scene = a;
+    *have_scene = true;
+  } else {
+    return false;
+  }
+  return true;
+}
+
+void check_view_path(const ViewPath& p) {
+  if (p.eye.has_value() != p.look_at.has_value()) throw UsageError("--eye and --look-at go together");
+}
+
+BenchReport run_bench(const BenchOptions& opt) {
+  const Scene scene = load_gltf(opt.scene);
+  const std::vector<CameraSpec> path = camera_path(scene, opt);
   Renderer renderer(scene, opt.renderer);
 
   BenchReport rep;

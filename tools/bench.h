@@ -11,17 +11,23 @@
 #include <glm/vec3.hpp>
 
 #include "../host/renderer.h"
+#include "cli_args.h"
 
 namespace rayfold {
 
-struct BenchOptions {
+// What the benchmarks render: a scene, an image size, and K views on a short
+// path around a base view, each measured over some frames after a warm-up.
+struct ViewPath {
   std::string scene;
   int width = 1280, height = 720;
-  int views = 8;    // cameras on a short path through the scene
-  int frames = 5;   // measured frames per view and mode
-  int warmup = 1;   // frames per view and mode before measuring
+  int views = 8;   // cameras on a short path through the scene
+  int frames = 5;  // measured frames per view and method
+  int warmup = 1;  // frames per view and method before measuring
+  std::optional<glm::dvec3> eye, look_at;  // base view; default the file's camera
+};
+
+struct BenchOptions : ViewPath {
   bool animate = false;
-  std::optional<glm::dvec3> eye, look_at;
   RendererOptions renderer;
 };
 
@@ -49,6 +55,12 @@ struct BenchReport {
   bool exact() const;
 };
 
+// Parses one ViewPath option (--size --views --frames --warmup --eye
+// --look-at) or a positional scene; false when `a` is none of them.
+bool parse_view_path_option(const std::string& a, cli::Args& args, ViewPath& path, bool* have_scene);
+// After parsing: --eye and --look-at go together.
+void check_view_path(const ViewPath& path);
+
 BenchReport run_bench(const BenchOptions& options);
 std::string bench_markdown(const BenchReport& report);
 std::string bench_json(const BenchReport& report);
@@ -57,5 +69,9 @@ std::string bench_json(const BenchReport& report);
 // +-20 degrees about the vertical axis through the look-at point and dollies
 // in and out by 10%.
 std::vector<CameraSpec> camera_path(const CameraSpec& base, int views);
+
+// The path's cameras for a loaded scene: around the given base view, else the
+// file's camera, else a view framing the scene.
+std::vector<CameraSpec> camera_path(const Scene& scene, const ViewPath& path);
 
 }  // namespace rayfold

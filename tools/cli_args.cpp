@@ -2,7 +2,9 @@
 
 #include <cerrno>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
+#include <new>
 
 #include "../host/errors.h"
 
@@ -15,6 +17,24 @@ Args::Args(int argc, char** argv, int first) {
 std::string Args::value(const std::string& option) {
   if (done()) throw UsageError(option + " needs a value");
   return next();
+}
+
+int guarded_main(const std::function<int()>& body) {
+  try {
+    return body();
+  } catch (const InputError& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    return 2;
+  } catch (const UsageError& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    return 2;
+  } catch (const std::bad_alloc&) {
+    std::fprintf(stderr, "error: out of host memory\n");
+    return 3;
+  } catch (const std::exception& e) {  // RuntimeFailure and anything else
+    std::fprintf(stderr, "error: %s\n", e.what());
+    return 3;
+  }
 }
 
 int parse_int(const std::string& option, const std::string& text, int lo, int hi) {

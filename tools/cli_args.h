@@ -2,6 +2,7 @@
 // UsageError that names the option.
 #pragma once
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -22,6 +23,11 @@ class Args {
   std::vector<std::string> args_;
   size_t pos_ = 0;
 };
+
+// Runs a tool's body and turns rayfold's two error tiers into the exit codes
+// every tool shares: 2 for bad input or usage, 3 for runtime failures (no
+// device, out of memory), each with "error: ..." on stderr.
+int guarded_main(const std::function<int()>& body);
 
 int parse_int(const std::string& option, const std::string& text, int lo, int hi);
 double parse_double(const std::string& option, const std::string& text);

@@ -10,7 +10,7 @@
 
 int main(int argc, char** argv) {
   using namespace rayfold;
-  try {
+  return cli::guarded_main([&] {
     GenOptions opt;
     std::string out;
     cli::Args args(argc, argv, 1);
@@ -39,14 +39,5 @@ int main(int argc, char** argv) {
     std::printf("%s: %zu instances, %zu meshes, %zu triangles\n", out.c_str(), scene.instances.size(),
                 scene.meshes.size(), scene.triangle_count());
     return 0;
-  } catch (const InputError& e) {
-    std::fprintf(stderr, "error: %s\n", e.what());
-    return 2;
-  } catch (const UsageError& e) {
-    std::fprintf(stderr, "error: %s\n", e.what());
-    return 2;
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "error: %s\n", e.what());
-    return 3;
-  }
+  });
 }

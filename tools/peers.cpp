@@ -54,13 +54,7 @@ std::string fmt(const char* f, double v) {
 
 PeerReport run_peers(const PeerOptions& opt) {
   const Scene scene = load_gltf(opt.scene);
-  CameraSpec base = scene.camera ? *scene.camera : frame_bounds(scene.world_bounds());
-  if (opt.eye) {
-    base.eye = *opt.eye;
-    base.look_at = *opt.look_at;
-    base.up = glm::dvec3(0.0, 1.0, 0.0);
-  }
-  const std::vector<CameraSpec> path = camera_path(base, opt.views);
+  const std::vector<CameraSpec> path = camera_path(scene, opt);
 
   struct Ours {
     const char* name;

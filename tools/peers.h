@@ -12,15 +12,12 @@
 #include <glm/vec3.hpp>
 
 #include "../host/accuracy.h"
+#include "bench.h"
 
 namespace rayfold {
 
-struct PeerOptions {
-  std::string scene;
-  int width = 1280, height = 720;
-  int views = 8, frames = 5, warmup = 1;
+struct PeerOptions : ViewPath {
   unsigned threads = 2;
-  std::optional<glm::dvec3> eye, look_at;
   std::string device_hint;
 };
 

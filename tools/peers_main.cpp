@@ -13,7 +13,7 @@
 
 int main(int argc, char** argv) {
   using namespace rayfold;
-  try {
+  return cli::guarded_main([&] {
     PeerOptions opt;
     opt.scene = RAYFOLD_DEFAULT_SCENE;
     std::string json, md;
@@ -29,36 +29,20 @@ int main(int argc, char** argv) {
             "mode, and Embree's rtcIntersect1 and rtcIntersect16 (when installed), on the same views,\n"
             "each measured against a double-precision reference.");
         return 0;
-      } else if (a == "--size") {
-        cli::parse_size(a, args.value(a), &opt.width, &opt.height);
-      } else if (a == "--views") {
-        opt.views = cli::parse_int(a, args.value(a), 1, 1000);
-      } else if (a == "--frames") {
-        opt.frames = cli::parse_int(a, args.value(a), 1, 100000);
-      } else if (a == "--warmup") {
-        opt.warmup = cli::parse_int(a, args.value(a), 0, 1000);
+      } else if (parse_view_path_option(a, args, opt, &have_scene)) {
       } else if (a == "--threads") {
         opt.threads = static_cast<unsigned>(cli::parse_int(a, args.value(a), 1, 1024));
-      } else if (a == "--eye") {
-        opt.eye = cli::parse_vec3(a, args.value(a));
-      } else if (a == "--look-at") {
-        opt.look_at = cli::parse_vec3(a, args.value(a));
       } else if (a == "--device") {
         opt.device_hint = args.value(a);
       } else if (a == "--json") {
         json = args.value(a);
       } else if (a == "--md") {
         md = args.value(a);
-      } else if (!a.empty() && a[0] == '-') {
-        throw UsageError("unknown option '" + a + "' (see rayfold-peers --help)");
-      } else if (!have_scene) {
-        opt.scene = a;
-        have_scene = true;
       } else {
-        throw UsageError("more than one scene given");
+        throw UsageError("unknown option '" + a + "' (see rayfold-peers --help)");
       }
     }
-    if (opt.eye.has_value() != opt.look_at.has_value()) throw UsageError("--eye and --look-at go together");
+    check_view_path(opt);
     for (const std::string* out : {&json, &md})
       if (!out->empty()) check_writable(*out);
     const PeerReport report = run_peers(opt);
@@ -67,14 +51,5 @@ int main(int argc, char** argv) {
     if (!json.empty()) write_text_file(json, peers_json(report));
     if (!md.empty()) write_text_file(md, text);
     return 0;
-  } catch (const InputError& e) {
-    std::fprintf(stderr, "error: %s\n", e.what());
-    return 2;
-  } catch (const UsageError& e) {
-    std::fprintf(stderr, "error: %s\n", e.what());
-    return 2;
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "error: %s\n", e.what());
-    return 3;
-  }
+  });
 }

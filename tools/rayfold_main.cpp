@@ -367,18 +367,7 @@ int run_bench_command(cli::Args& args) {
     if (a == "--help" || a == "-h") {
       std::fputs(kBenchUsage, stdout);
       return 0;
-    } else if (a == "--size") {
-      cli::parse_size(a, args.value(a), &opt.width, &opt.height);
-    } else if (a == "--views") {
-      opt.views = cli::parse_int(a, args.value(a), 1, 1000);
-    } else if (a == "--frames") {
-      opt.frames = cli::parse_int(a, args.value(a), 1, 100000);
-    } else if (a == "--warmup") {
-      opt.warmup = cli::parse_int(a, args.value(a), 0, 1000);
-    } else if (a == "--eye") {
-      opt.eye = cli::parse_vec3(a, args.value(a));
-    } else if (a == "--look-at") {
-      opt.look_at = cli::parse_vec3(a, args.value(a));
+    } else if (parse_view_path_option(a, args, opt, &have_scene)) {
     } else if (a == "--animate") {
       opt.animate = true;
     } else if (parse_renderer_option(a, args, opt.renderer)) {
@@ -386,16 +375,11 @@ int run_bench_command(cli::Args& args) {
       json = args.value(a);
     } else if (a == "--md") {
       md = args.value(a);
-    } else if (!a.empty() && a[0] == '-') {
-      throw UsageError("bench: unknown option '" + a + "' (see rayfold bench --help)");
-    } else if (!have_scene) {
-      opt.scene = a;
-      have_scene = true;
     } else {
-      throw UsageError("bench: more than one scene given");
+      throw UsageError("bench: unknown option '" + a + "' (see rayfold bench --help)");
     }
   }
-  if (opt.eye.has_value() != opt.look_at.has_value()) throw UsageError("--eye and --look-at go together");
+  check_view_path(opt);
   for (const std::string* out : {&json, &md})
     if (!out->empty()) check_writable(*out);
   const BenchReport report = run_bench(opt);
@@ -431,23 +415,5 @@ int run(int argc, char** argv) {
 }  // namespace rayfold
 
 int main(int argc, char** argv) {
-  using namespace rayfold;
-  try {
-    return run(argc, argv);
-  } catch (const InputError& e) {
-    std::fprintf(stderr, "error: %s\n", e.what());
-    return 2;
-  } catch (const UsageError& e) {
-    std::fprintf(stderr, "error: %s\n", e.what());
-    return 2;
-  } catch (const RuntimeFailure& e) {
-    std::fprintf(stderr, "error: %s\n", e.what());
-    return 3;
-  } catch (const std::bad_alloc&) {
-    std::fprintf(stderr, "error: out of host memory\n");
-    return 3;
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "error: %s\n", e.what());
-    return 3;
-  }
+  return rayfold::cli::guarded_main([&] { return rayfold::run(argc, argv); });
 }

@@ -16,7 +16,7 @@ thread_local rf_traversal_stats rf_stats;
 
 int main(int argc, char** argv) {
   using namespace rayfold;
-  try {
+  return cli::guarded_main([&] {
     if (argc < 2) throw UsageError("usage: rayfold-stats SCENE [--eye X,Y,Z --look-at X,Y,Z] [--size WxH] [--fold MODE]");
     cli::Args args(argc, argv, 2);
     const Scene scene = load_gltf(argv[1]);
@@ -53,8 +53,5 @@ int main(int argc, char** argv) {
                 argv[1], fold_name(fold), rays.entries.size(), rf_stats.tlas_nodes / n, rf_stats.instances / n, rf_stats.setups / n, rf_stats.blas_nodes / n,
                 rf_stats.triangles / n, data.blas.sah_cost, frame.stats.tlas_sah, frame.stats.kept);
     return 0;
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "error: %s\n", e.what());
-    return 2;
-  }
+  });
 }
