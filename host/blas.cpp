@@ -1,11 +1,10 @@
 #include "blas.h"
 
 #include <algorithm>
-#include <atomic>
 #include <chrono>
-#include <thread>
 
 #include "bvh_flatten.h"
+#include "parallel.h"
 
 namespace rayfold {
 
@@ -13,21 +12,13 @@ BlasSet build_blas_set(const Scene& scene, const BuildOptions& options, unsigned
   const auto start = std::chrono::steady_clock::now();
   const size_t mesh_count = scene.meshes.size();
   std::vector<BuildTree> trees(mesh_count);
-  std::atomic<size_t> next{0};
-  auto worker = [&] {
-    for (size_t m; (m = next.fetch_add(1)) < mesh_count;) {
-      const Mesh& mesh = scene.meshes[m];
-      std::vector<Aabb> boxes(mesh.triangle_count());
-      for (size_t t = 0; t < boxes.size(); ++t)
-        for (int k = 0; k < 3; ++k) boxes[t].grow(mesh.positions[mesh.indices[3 * t + k]]);
-      trees[m] = build_sah(boxes, options);
-    }
-  };
-  if (threads == 0) threads = std::max(1u, std::thread::hardware_concurrency());
-  std::vector<std::thread> pool;
-  for (unsigned i = 1; i < threads; ++i) pool.emplace_back(worker);
-  worker();
-  for (std::thread& t : pool) t.join();
+  parallel_for(mesh_count, threads, 1, [&](size_t m, size_t) {
+    const Mesh& mesh = scene.meshes[m];
+    std::vector<Aabb> boxes(mesh.triangle_count());
+    for (size_t t = 0; t < boxes.size(); ++t)
+      for (int k = 0; k < 3; ++k) boxes[t].grow(mesh.positions[mesh.indices[3 * t + k]]);
+    trees[m] = build_sah(boxes, options);
+  });
 
   BlasSet set;
   set.roots.resize(mesh_count);

@@ -1,11 +1,10 @@
 #include "double_reference.h"
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
-#include <thread>
 
 #include "../kernels/rf_trace.h"
+#include "parallel.h"
 
 namespace rayfold {
 namespace {
@@ -80,8 +79,11 @@ struct Best {
   }
 };
 
-void trace_blas(const std::vector<rf_node>& nodes, const std::vector<rf_tri>& tris, uint32_t root, const Ray& r,
-                uint32_t instance, Best& best, bool all_nodes) {
+// Depth-first walk of one tree (either level): every leaf item whose boxes the
+// ray enters before best.t goes to leaf(item); all_nodes skips the boxes.
+template <class Leaf>
+void walk_tree(const std::vector<rf_node>& nodes, uint32_t root, const Ray& r, const Best& best, bool all_nodes,
+               Leaf leaf) {
   std::vector<uint32_t> stack{root};
   while (!stack.empty()) {
     const rf_node& n = nodes[stack.back()];
@@ -93,16 +95,21 @@ void trace_blas(const std::vector<rf_node>& nodes, const std::vector<rf_tri>& tr
       stack.push_back(n.first + 1);
       continue;
     }
-    for (uint32_t k = 0; k < count; ++k) {
-      const rf_tri& tri = tris[n.first + k];
-      double t;
-      if (triangle(tri, r, &t) && t > 0.0 && best.closer(t, instance, tri.prim)) {
-        best.t = t;
-        best.instance = instance;
-        best.prim = tri.prim;
-      }
-    }
+    for (uint32_t k = 0; k < count; ++k) leaf(n.first + k);
   }
+}
+
+void trace_blas(const std::vector<rf_node>& nodes, const std::vector<rf_tri>& tris, uint32_t root, const Ray& r,
+                uint32_t instance, Best& best, bool all_nodes) {
+  walk_tree(nodes, root, r, best, all_nodes, [&](uint32_t i) {
+    const rf_tri& tri = tris[i];
+    double t;
+    if (triangle(tri, r, &t) && t > 0.0 && best.closer(t, instance, tri.prim)) {
+      best.t = t;
+      best.instance = instance;
+      best.prim = tri.prim;
+    }
+  });
 }
 
 }  // namespace
@@ -123,54 +130,36 @@ std::vector<ReferenceHit> trace_double_reference(const Scene& scene, const Scene
   const int w = camera.width, h = camera.height;
   const double s = std::tan(camera.vfov_degrees * M_PI / 360.0) / h;  // exact, unlike the float scale
   std::vector<ReferenceHit> out(static_cast<size_t>(w) * h);
-  std::atomic<int> next_row{0};
-  auto worker = [&] {
-    for (int y; (y = next_row.fetch_add(1)) < h;)
-      for (int x = 0; x < w; ++x) {
-        const glm::dvec3 d(s * (2 * x + camera.params.kx0), s * (camera.params.ky0 - 2 * y), -1.0);
-        const Ray cam_ray = make_ray(glm::dvec3(0.0), d);
-        Best best;
-        if (brute_force) {
-          for (size_t i = 0; i < scene.instances.size(); ++i) {
-            if (!data.renderable[i]) continue;
-            const Xform& m = object_from_camera[i];
-            const Ray r = make_ray(glm::dvec3(m[3]), glm::dvec3(m * glm::dvec4(d, 0.0)));
-            trace_blas(nodes, data.blas.tris, data.blas.roots[scene.instances[i].mesh], r,
-                       static_cast<uint32_t>(i), best, true);
-          }
-        } else if (frame.tlas_root != RF_INVALID) {
-          std::vector<uint32_t> stack{frame.tlas_root};
-          while (!stack.empty()) {
-            const rf_node& n = nodes[stack.back()];
-            stack.pop_back();
-            if (box_entry(n, cam_ray, best.t) == INFINITY) continue;
-            const uint32_t count = n.meta & RF_NODE_COUNT_MASK;
-            if (count == 0) {
-              stack.push_back(n.first);
-              stack.push_back(n.first + 1);
-              continue;
-            }
-            for (uint32_t k = 0; k < count; ++k) {
-              const rf_instance& inst = frame.instances[n.first + k];
-              const Xform& m = object_from_camera[inst.instance_id];
-              const Ray r = make_ray(glm::dvec3(m[3]), glm::dvec3(m * glm::dvec4(d, 0.0)));
-              trace_blas(nodes, data.blas.tris, inst.blas_root, r, inst.instance_id, best, false);
-            }
-          }
+  parallel_for(static_cast<size_t>(h), threads, 1, [&](size_t row, size_t) {
+    const int y = static_cast<int>(row);
+    for (int x = 0; x < w; ++x) {
+      const glm::dvec3 d(s * (2 * x + camera.params.kx0), s * (camera.params.ky0 - 2 * y), -1.0);
+      const Ray cam_ray = make_ray(glm::dvec3(0.0), d);
+      Best best;
+      if (brute_force) {
+        for (size_t i = 0; i < scene.instances.size(); ++i) {
+          if (!data.renderable[i]) continue;
+          const Xform& m = object_from_camera[i];
+          const Ray r = make_ray(glm::dvec3(m[3]), glm::dvec3(m * glm::dvec4(d, 0.0)));
+          trace_blas(nodes, data.blas.tris, data.blas.roots[scene.instances[i].mesh], r,
+                     static_cast<uint32_t>(i), best, true);
         }
-        ReferenceHit& o = out[static_cast<size_t>(y) * w + x];
-        if (best.instance != RF_INVALID) {
-          o.distance = best.t * glm::length(d);
-          o.instance = best.instance;
-          o.primitive = best.prim;
-        }
+      } else if (frame.tlas_root != RF_INVALID) {
+        walk_tree(nodes, frame.tlas_root, cam_ray, best, false, [&](uint32_t i) {
+          const rf_instance& inst = frame.instances[i];
+          const Xform& m = object_from_camera[inst.instance_id];
+          const Ray r = make_ray(glm::dvec3(m[3]), glm::dvec3(m * glm::dvec4(d, 0.0)));
+          trace_blas(nodes, data.blas.tris, inst.blas_root, r, inst.instance_id, best, false);
+        });
       }
-  };
-  if (threads == 0) threads = std::max(1u, std::thread::hardware_concurrency());
-  std::vector<std::thread> pool;
-  for (unsigned t = 1; t < threads; ++t) pool.emplace_back(worker);
-  worker();
-  for (std::thread& t : pool) t.join();
+      ReferenceHit& o = out[static_cast<size_t>(y) * w + x];
+      if (best.instance != RF_INVALID) {
+        o.distance = best.t * glm::length(d);
+        o.instance = best.instance;
+        o.primitive = best.prim;
+      }
+    }
+  });
   return out;
 }
 

@@ -2,13 +2,13 @@
 
 #include <algorithm>
 #include <chrono>
-#include <thread>
 
 #include <unistd.h>
 
 #include "errors.h"
 
 #include "cpu_tracer.h"
+#include "parallel.h"
 #include "ray_list.h"
 
 namespace rayfold {
@@ -42,7 +42,7 @@ std::string Renderer::device_name() const {
   if (device_)
     return device_->info().name + " (" + device_->info().platform + ", " +
            std::to_string(device_->info().compute_units) + " compute units)";
-  unsigned threads = options_.threads ? options_.threads : std::max(1u, std::thread::hardware_concurrency());
+  const unsigned threads = resolve_threads(options_.threads);
   return "CPU reference (" + std::to_string(threads) + " threads)";
 }
 

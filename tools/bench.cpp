@@ -4,7 +4,6 @@
 #include <cstdio>
 #include <cstring>
 #include <sstream>
-#include <thread>
 
 #include <glm/geometric.hpp>
 #include <glm/gtc/matrix_transform.hpp>
@@ -13,6 +12,7 @@
 #include "../host/errors.h"
 #include "../host/gltf_loader.h"
 #include "../host/hit_compare.h"
+#include "../host/parallel.h"
 
 namespace rayfold {
 namespace {
@@ -114,7 +114,7 @@ BenchReport run_bench(const BenchOptions& opt) {
   rep.frames = opt.frames;
   rep.warmup = opt.warmup;
   rep.animate = opt.animate;
-  rep.threads = opt.renderer.threads ? opt.renderer.threads : std::max(1u, std::thread::hardware_concurrency());
+  rep.threads = resolve_threads(opt.renderer.threads);
   rep.instances = scene.instances.size();
   rep.meshes = scene.meshes.size();
   rep.triangles = scene.triangle_count();

@@ -1,15 +1,14 @@
 #include "embree_peer.h"
 
 #include "../host/errors.h"
+#include "../host/parallel.h"
 
 #ifdef RAYFOLD_HAVE_EMBREE
 #include <embree3/rtcore.h>
 
 #include <algorithm>
-#include <atomic>
 #include <chrono>
 #include <cmath>
-#include <thread>
 
 namespace rayfold {
 
@@ -100,14 +99,7 @@ struct EmbreePeer::Impl {
   template <class Tile>
   double run(Tile tile, int tiles) {
     const auto t0 = std::chrono::steady_clock::now();
-    std::atomic<int> next{0};
-    auto worker = [&] {
-      for (int i; (i = next.fetch_add(1)) < tiles;) tile(i);
-    };
-    std::vector<std::thread> pool;
-    for (unsigned t = 1; t < threads; ++t) pool.emplace_back(worker);
-    worker();
-    for (std::thread& t : pool) t.join();
+    parallel_for(static_cast<size_t>(tiles), threads, 1, [&](size_t i, size_t) { tile(static_cast<int>(i)); });
     return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   }
 };

@@ -1,0 +1,18 @@
+// The host's one way to spread work over cores: items [0, n) are handed out
+// in chunks from an atomic counter, so uneven items (meshes, rows of rays)
+// balance themselves.
+#pragma once
+
+#include <cstddef>
+#include <functional>
+
+namespace rayfold {
+
+// 0 means every core the machine reports (at least 1).
+unsigned resolve_threads(unsigned threads);
+
+// Calls body(begin, end) over [0, n) in chunks of `chunk` items on `threads`
+// threads (the caller's included); returns when all are done.
+void parallel_for(size_t n, unsigned threads, size_t chunk, const std::function<void(size_t, size_t)>& body);
+
+}  // namespace rayfold
