@@ -85,6 +85,8 @@ ClDevice::ClDevice(const std::string& hint_arg) {
   info_.compute_units = device_.getInfo<CL_DEVICE_MAX_COMPUTE_UNITS>();
   info_.global_mem_bytes = device_.getInfo<CL_DEVICE_GLOBAL_MEM_SIZE>();
   info_.max_alloc_bytes = device_.getInfo<CL_DEVICE_MAX_MEM_ALLOC_SIZE>();
+  info_.is_cpu = (device_.getInfo<CL_DEVICE_TYPE>() & CL_DEVICE_TYPE_CPU) != 0;
+  info_.native_float_width = device_.getInfo<CL_DEVICE_NATIVE_VECTOR_WIDTH_FLOAT>();
   info_.correctly_rounded_divide_sqrt =
       (device_.getInfo<CL_DEVICE_SINGLE_FP_CONFIG>() & CL_FP_CORRECTLY_ROUNDED_DIVIDE_SQRT) != 0;
   try {
@@ -95,8 +97,9 @@ ClDevice::ClDevice(const std::string& hint_arg) {
   }
 }
 
-cl::Program ClDevice::build(const std::string& source, KernelPrecision precision) {
+cl::Program ClDevice::build(const std::string& source, KernelPrecision precision, const std::string& defines) {
   std::string options = "-cl-std=CL1.2";
+  if (!defines.empty()) options += " " + defines;
   if (precision == KernelPrecision::exact) {
     // Without correctly rounded division the kernels cannot match the host's
     // bits; devices lacking it still run, and the parity tests say so.

@@ -22,6 +22,8 @@ struct DeviceInfo {
   size_t global_mem_bytes = 0;
   size_t max_alloc_bytes = 0;
   bool correctly_rounded_divide_sqrt = false;
+  bool is_cpu = false;  // CL_DEVICE_TYPE_CPU (PoCL): SIMD must come from inside a work-item
+  unsigned native_float_width = 1;  // CL_DEVICE_NATIVE_VECTOR_WIDTH_FLOAT: 8 with AVX2, 16 with AVX-512
 };
 
 class ClDevice {
@@ -36,8 +38,10 @@ class ClDevice {
   cl::Device& device() { return device_; }
   cl::CommandQueue& queue() { return queue_; }
 
-  // Builds a program; a failed build throws RuntimeFailure with the build log.
-  cl::Program build(const std::string& source, KernelPrecision precision);
+  // Builds a program with the precision's options and `defines` (for
+  // example "-DRF_LANES=8"); a failed build throws RuntimeFailure with the
+  // build log.
+  cl::Program build(const std::string& source, KernelPrecision precision, const std::string& defines = "");
 
  private:
   cl::Device device_;

@@ -1,6 +1,7 @@
 #include "cl_tracer.h"
 
 #include <chrono>
+#include <cstdlib>
 #include <sstream>
 
 #include "errors.h"
@@ -19,9 +20,17 @@ size_t at_least_one(size_t n) { return n ? n : 1; }
 
 }  // namespace
 
+unsigned tile_lanes(const DeviceInfo& info) {
+  if (const char* env = std::getenv("RAYFOLD_TILE_LANES")) return std::atoi(env) == 8 ? 8 : 16;
+  return info.native_float_width >= 16 ? 16 : 8;
+}
+
+const char* kernel_name(KernelKind k) { return k == KernelKind::tile ? "tile" : "single"; }
+
 ClTracer::ClTracer(ClDevice& device, KernelPrecision precision) : device_(device) {
-  program_ = device_.build(trace_program_source(), precision);
-  kernel_ = cl::Kernel(program_, "rf_trace_primary");
+  program_ = device_.build(trace_program_source(), precision, "-DRF_LANES=" + std::to_string(tile_lanes(device.info())));
+  single_ = cl::Kernel(program_, "rf_trace_primary");
+  tile_ = cl::Kernel(program_, "rf_trace_tiles");
 }
 
 void ClTracer::upload_scene(const SceneData& data, size_t max_tlas_nodes, size_t max_instances, size_t max_rays,
@@ -103,47 +112,68 @@ double ClTracer::upload_frame(const Frame& frame) {
 
 double ClTracer::upload_rays(const RayList& rays) {
   RF_CHECK(rays.entries.size() <= max_rays_, "ray list larger than its buffer");
+  RF_CHECK(!rays.tiles.empty() && rays.tiles.back() == rays.entries.size(), "tile table does not cover the rays");
   const auto t0 = Clock::now();
   try {
-    if (!rays.entries.empty()) {
-      device_.queue().enqueueWriteBuffer(rays_, CL_TRUE, 0, rays.entries.size() * sizeof(uint32_t),
-                                         rays.entries.data());
+    // The tile table is small (one entry per 256 rays at most); it grows
+    // when an image needs more tiles than any before.
+    if (rays.tiles.size() > tiles_capacity_) {
+      tiles_ = cl::Buffer(device_.context(), CL_MEM_READ_ONLY, rays.tiles.size() * sizeof(uint32_t));
+      tiles_capacity_ = rays.tiles.size();
     }
+    cl::CommandQueue& q = device_.queue();
+    q.enqueueWriteBuffer(tiles_, CL_FALSE, 0, rays.tiles.size() * sizeof(uint32_t), rays.tiles.data());
+    if (!rays.entries.empty())
+      q.enqueueWriteBuffer(rays_, CL_FALSE, 0, rays.entries.size() * sizeof(uint32_t), rays.entries.data());
+    q.finish();
   } catch (const cl::Error& e) {
     throw RuntimeFailure("cannot upload the ray list: " + cl_error_text(e));
   }
   ray_count_ = static_cast<uint32_t>(rays.entries.size());
+  tile_count_ = static_cast<uint32_t>(rays.tiles.size() - 1);
   return ms_since(t0);
 }
 
-double ClTracer::trace(const rf_camera& cam) {
+double ClTracer::trace(const rf_camera& cam, KernelKind kind) {
   RF_CHECK(static_cast<size_t>(cam.width) * cam.height <= pixel_count_, "image larger than the hit buffer");
   if (ray_count_ == 0) return 0.0;
   const auto t0 = Clock::now();
   try {
+    cl::Kernel& kernel = kind == KernelKind::tile ? tile_ : single_;
     int a = 0;
-    kernel_.setArg(a++, nodes_);
-    kernel_.setArg(a++, tris_);
-    kernel_.setArg(a++, instances_);
-    kernel_.setArg(a++, normal_xforms_);
-    kernel_.setArg(a++, tlas_root_);
-    kernel_.setArg(a++, rays_);
-    kernel_.setArg(a++, ray_count_);
-    kernel_.setArg(a++, cam.scale_x);
-    kernel_.setArg(a++, cam.scale_y);
-    kernel_.setArg(a++, cam.kx0);
-    kernel_.setArg(a++, cam.ky0);
-    kernel_.setArg(a++, cam.width);
-    kernel_.setArg(a++, cam.height);
-    kernel_.setArg(a++, cam.xpair);
-    kernel_.setArg(a++, cam.ypair);
-    kernel_.setArg(a++, hits_);
-    constexpr size_t kGroup = 64;
-    const size_t global = (ray_count_ + kGroup - 1) / kGroup * kGroup;
-    device_.queue().enqueueNDRangeKernel(kernel_, cl::NullRange, cl::NDRange(global), cl::NDRange(kGroup));
+    kernel.setArg(a++, nodes_);
+    kernel.setArg(a++, tris_);
+    kernel.setArg(a++, instances_);
+    kernel.setArg(a++, normal_xforms_);
+    kernel.setArg(a++, tlas_root_);
+    kernel.setArg(a++, rays_);
+    if (kind == KernelKind::tile) {
+      kernel.setArg(a++, tiles_);
+      kernel.setArg(a++, tile_count_);
+    } else {
+      kernel.setArg(a++, ray_count_);
+    }
+    kernel.setArg(a++, cam.scale_x);
+    kernel.setArg(a++, cam.scale_y);
+    kernel.setArg(a++, cam.kx0);
+    kernel.setArg(a++, cam.ky0);
+    kernel.setArg(a++, cam.width);
+    kernel.setArg(a++, cam.height);
+    kernel.setArg(a++, cam.xpair);
+    kernel.setArg(a++, cam.ypair);
+    kernel.setArg(a++, hits_);
+    if (kind == KernelKind::tile) {
+      // One tile per work-group: the SIMD is inside the work-item.
+      device_.queue().enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(tile_count_), cl::NDRange(1));
+    } else {
+      constexpr size_t kGroup = 64;
+      const size_t global = (ray_count_ + kGroup - 1) / kGroup * kGroup;
+      device_.queue().enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(global), cl::NDRange(kGroup));
+    }
     device_.queue().finish();
   } catch (const cl::Error& e) {
-    throw RuntimeFailure("trace kernel failed on '" + device_.info().name + "': " + cl_error_text(e));
+    throw RuntimeFailure(std::string(kernel_name(kind)) + " trace kernel failed on '" + device_.info().name +
+                         "': " + cl_error_text(e));
   }
   return ms_since(t0);
 }

@@ -17,6 +17,17 @@ struct BufferInfo {
   size_t bytes = 0;
 };
 
+// Which kernel traces the ray list (kernels/rayfold.cl).
+enum class KernelKind {
+  tile,    // one work-item per tile of up to 256 rays, SIMD across the rays: CPU devices
+  single,  // one work-item per ray
+};
+const char* kernel_name(KernelKind k);
+
+// Rays per vector in the tile kernel: the device's native float vector
+// width, 8 (AVX2) or 16 (AVX-512).
+unsigned tile_lanes(const DeviceInfo& info);
+
 struct TraceTimes {
   double upload_ms = 0.0;
   double trace_ms = 0.0;
@@ -34,8 +45,9 @@ class ClTracer {
   // Returns the upload time in ms.
   double upload_frame(const Frame& frame);
   double upload_rays(const RayList& rays);
-  // Traces the uploaded rays; ms of kernel time, measured around a finish().
-  double trace(const rf_camera& camera);
+  // Traces the uploaded rays with the given kernel; ms of kernel time,
+  // measured around a finish().
+  double trace(const rf_camera& camera, KernelKind kernel);
   double read_hits(rf_pixel_hit* out, size_t pixel_count);
 
   std::vector<BufferInfo> buffers() const;
@@ -44,8 +56,10 @@ class ClTracer {
  private:
   ClDevice& device_;
   cl::Program program_;
-  cl::Kernel kernel_;
-  cl::Buffer nodes_, tris_, instances_, normal_xforms_, rays_, hits_;
+  cl::Kernel single_, tile_;
+  cl::Buffer nodes_, tris_, instances_, normal_xforms_, rays_, tiles_, hits_;
+  size_t tiles_capacity_ = 0;
+  uint32_t tile_count_ = 0;
   std::vector<BufferInfo> buffer_info_;
   uint32_t blas_node_count_ = 0;
   uint32_t tlas_root_ = RF_INVALID;

@@ -45,27 +45,33 @@ void grow(TracedRegion& r, bool& used, int kx, int ky) {
 RayList make_ray_list(const rf_camera& cam, FoldMode fold) {
   const std::vector<Role> cols = roles(cam.width, cam.kx0, 1, cam.xpair, folds_columns(fold), -1);
   const std::vector<Role> rows = roles(cam.height, cam.ky0, -1, cam.ypair, folds_rows(fold), +1);
-  constexpr int kTile = 8;
+  constexpr int kSub = 8;
+  static_assert(RF_TILE_SIDE % kSub == 0, "tiles are made of whole sub-blocks");
   RayList list;
   list.pixels = static_cast<size_t>(cam.width) * cam.height;
   list.entries.reserve(list.pixels / (fold == FoldMode::none ? 1 : 2) + cam.width + cam.height);
-  for (int ty = 0; ty < cam.height; ty += kTile)
-    for (int tx = 0; tx < cam.width; tx += kTile)
-      for (int y = ty; y < std::min(ty + kTile, cam.height); ++y) {
-        if (rows[y] == Role::skip) continue;
-        for (int x = tx; x < std::min(tx + kTile, cam.width); ++x) {
-          if (cols[x] == Role::skip) continue;
-          const bool mx = cols[x] == Role::fold, my = rows[y] == Role::fold;
-          list.entries.push_back(encode_ray(x, y, mx, my));
-          const int kx = 2 * x + cam.kx0, ky = cam.ky0 - 2 * y;
-          // Group g's instances are mirrored, so a ray answering g meets them
-          // exactly where the partner pixel's ray meets the originals.
-          grow(list.regions[0], list.group_used[0], kx, ky);
-          if (mx) grow(list.regions[1], list.group_used[1], kx, ky);
-          if (my) grow(list.regions[2], list.group_used[2], kx, ky);
-          if (mx && my) grow(list.regions[3], list.group_used[3], kx, ky);
-        }
-      }
+  list.tiles.push_back(0);
+  for (int ty = 0; ty < cam.height; ty += RF_TILE_SIDE)
+    for (int tx = 0; tx < cam.width; tx += RF_TILE_SIDE) {
+      for (int sy = ty; sy < std::min(ty + RF_TILE_SIDE, cam.height); sy += kSub)
+        for (int sx = tx; sx < std::min(tx + RF_TILE_SIDE, cam.width); sx += kSub)
+          for (int y = sy; y < std::min(sy + kSub, cam.height); ++y) {
+            if (rows[y] == Role::skip) continue;
+            for (int x = sx; x < std::min(sx + kSub, cam.width); ++x) {
+              if (cols[x] == Role::skip) continue;
+              const bool mx = cols[x] == Role::fold, my = rows[y] == Role::fold;
+              list.entries.push_back(encode_ray(x, y, mx, my));
+              const int kx = 2 * x + cam.kx0, ky = cam.ky0 - 2 * y;
+              // Group g's instances are mirrored, so a ray answering g meets
+              // them exactly where the partner pixel's ray meets the originals.
+              grow(list.regions[0], list.group_used[0], kx, ky);
+              if (mx) grow(list.regions[1], list.group_used[1], kx, ky);
+              if (my) grow(list.regions[2], list.group_used[2], kx, ky);
+              if (mx && my) grow(list.regions[3], list.group_used[3], kx, ky);
+            }
+          }
+      if (list.entries.size() != list.tiles.back()) list.tiles.push_back(static_cast<uint32_t>(list.entries.size()));
+    }
   return list;
 }
 

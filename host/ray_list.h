@@ -16,6 +16,9 @@ namespace rayfold {
 
 struct RayList {
   std::vector<uint32_t> entries;
+  // The tile table (kernels/rf_types.h): tile t is entries [tiles[t],
+  // tiles[t + 1]), at most RF_TILE_RAYS of them.
+  std::vector<uint32_t> tiles;
   size_t pixels = 0;  // pixels answered: width * height
   // Per transform group, the bounds of the rays that answer it (for
   // culling); groups no ray answers are marked unused.
@@ -28,8 +31,9 @@ inline uint32_t encode_ray(int x, int y, bool mirror_x, bool mirror_y) {
          (mirror_x ? RF_RAY_MIRROR_X : 0u) | (mirror_y ? RF_RAY_MIRROR_Y : 0u);
 }
 
-// The rays to trace for a camera and fold mode, ordered in 8x8 tiles of the
-// traced region so that neighbouring work-items trace coherent rays.
+// The rays to trace for a camera and fold mode, in tiles of RF_TILE_SIDE
+// pixels (8x8 sub-blocks inside) so that a tile, and neighbouring
+// work-items of the single-ray kernel, trace coherent rays.
 RayList make_ray_list(const rf_camera& camera, FoldMode fold);
 
 }  // namespace rayfold

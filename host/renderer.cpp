@@ -33,6 +33,12 @@ Renderer::Renderer(const Scene& scene, const RendererOptions& options)
   if (options_.backend == Backend::opencl) {
     device_ = std::make_unique<ClDevice>(options_.device_hint);
     tracer_ = std::make_unique<ClTracer>(*device_, options_.precision);
+    // PoCL runs one work-item per thread, so only the tile kernel uses the
+    // CPU's vector units; GPUs vectorise across work-items.
+    kernel_ = options_.kernel == KernelChoice::tile     ? KernelKind::tile
+              : options_.kernel == KernelChoice::single ? KernelKind::single
+              : device_->info().is_cpu                  ? KernelKind::tile
+                                                        : KernelKind::single;
   }
 }
 
@@ -45,6 +51,8 @@ std::string Renderer::device_name() const {
   const unsigned threads = resolve_threads(options_.threads);
   return "CPU reference (" + std::to_string(threads) + " threads)";
 }
+
+std::string Renderer::kernel_label() const { return tracer_ ? kernel_name(kernel_) : "cpu reference"; }
 
 std::vector<BufferInfo> Renderer::device_buffers() const {
   return tracer_ ? tracer_->buffers() : std::vector<BufferInfo>{};
@@ -93,7 +101,7 @@ RenderResult Renderer::render(const Camera& camera, int frames, const FrameOptio
     if (tracer_) {
       times.ray_list_ms += tracer_->upload_rays(rays);
       times.upload_ms = tracer_->upload_frame(frame);
-      times.trace_ms = tracer_->trace(camera.params);
+      times.trace_ms = tracer_->trace(camera.params, kernel_);
       times.readback_ms = tracer_->read_hits(result.hits.data(), pixels);
     } else {
       t0 = Clock::now();

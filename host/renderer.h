@@ -16,8 +16,13 @@ namespace rayfold {
 
 enum class Backend { opencl, cpu };
 
+// Which OpenCL kernel traces: the tile kernel on CPU devices (PoCL), the
+// single-ray kernel on others, unless chosen.
+enum class KernelChoice { automatic, tile, single };
+
 struct RendererOptions {
   Backend backend = Backend::opencl;
+  KernelChoice kernel = KernelChoice::automatic;
   KernelPrecision precision = KernelPrecision::exact;
   std::string device_hint;  // see ClDevice
   unsigned threads = 0;     // CPU backend and BLAS builds; 0 = all cores
@@ -55,6 +60,11 @@ class Renderer {
 
   const SceneData& scene_data() const { return data_; }
   std::string device_name() const;
+  // The OpenCL kernel that traces (KernelChoice resolved for the device);
+  // meaningless for the CPU backend.
+  KernelKind kernel() const { return kernel_; }
+  // "tile" or "single" (OpenCL), "cpu reference" (CPU backend).
+  std::string kernel_label() const;
   std::vector<BufferInfo> device_buffers() const;  // empty for the CPU backend
   double blas_build_ms() const { return data_.blas.build_ms; }
 
@@ -67,6 +77,7 @@ class Renderer {
   std::vector<rf_node> nodes_;  // BLAS nodes, then the current frame's TLAS
   std::unique_ptr<ClDevice> device_;
   std::unique_ptr<ClTracer> tracer_;
+  KernelKind kernel_ = KernelKind::single;
   size_t pixel_capacity_ = 0;
 };
 

@@ -1,14 +1,13 @@
-/* rayfold.cl - device entry points. The host prepends rf_common.h,
- * rf_types.h, rf_geometry.h and rf_trace.h (host/kernel_sources.cpp), so this
- * file holds only what is device-specific: one work-item per ray-list entry. */
+/* rayfold.cl - device entry points. The host prepends the shared headers
+ * (rf_common.h, rf_types.h, rf_geometry.h, rf_trace.h) and the device-only
+ * rf_lanes.h and rf_tile.h (host/kernel_sources.h), so this file holds only
+ * the entry points. */
 
-__kernel void rf_trace_primary(__global const rf_node* nodes, __global const rf_tri* tris,
-                               __global const rf_instance* instances, __global const rf_normal_xform* normal_xforms,
-                               uint tlas_root, __global const uint* rays, uint ray_count, float scale_x,
-                               float scale_y, int kx0, int ky0, int width, int height, int xpair, int ypair,
-                               __global rf_pixel_hit* out) {
-  const uint i = get_global_id(0);
-  if (i >= ray_count) return;
+#define RF_CAMERA_ARGS \
+  float scale_x, float scale_y, int kx0, int ky0, int width, int height, int xpair, int ypair
+
+RF_INLINE rf_camera rf_make_camera(float scale_x, float scale_y, int kx0, int ky0, int width, int height, int xpair,
+                                   int ypair) {
   rf_camera cam;
   cam.scale_x = scale_x;
   cam.scale_y = scale_y;
@@ -18,5 +17,30 @@ __kernel void rf_trace_primary(__global const rf_node* nodes, __global const rf_
   cam.height = height;
   cam.xpair = xpair;
   cam.ypair = ypair;
+  return cam;
+}
+
+/* The single-ray kernel: one work-item per ray-list entry. */
+__kernel void rf_trace_primary(__global const rf_node* nodes, __global const rf_tri* tris,
+                               __global const rf_instance* instances, __global const rf_normal_xform* normal_xforms,
+                               uint tlas_root, __global const uint* rays, uint ray_count, RF_CAMERA_ARGS,
+                               __global rf_pixel_hit* out) {
+  const uint i = get_global_id(0);
+  if (i >= ray_count) return;
+  const rf_camera cam = rf_make_camera(scale_x, scale_y, kx0, ky0, width, height, xpair, ypair);
   rf_trace_entry(rays[i], &cam, nodes, tris, instances, normal_xforms, tlas_root, out);
+}
+
+/* The tile kernel (rf_tile.h): one work-item per tile of the ray list; tile t
+ * covers rays[tiles[t] .. tiles[t + 1]). PoCL runs it fastest with one
+ * work-item per work-group: the SIMD is inside the work-item. */
+__kernel void rf_trace_tiles(__global const rf_node* nodes, __global const rf_tri* tris,
+                             __global const rf_instance* instances, __global const rf_normal_xform* normal_xforms,
+                             uint tlas_root, __global const uint* rays, __global const uint* tiles, uint tile_count,
+                             RF_CAMERA_ARGS, __global rf_pixel_hit* out) {
+  const uint t = get_global_id(0);
+  if (t >= tile_count) return;
+  const rf_camera cam = rf_make_camera(scale_x, scale_y, kx0, ky0, width, height, xpair, ypair);
+  const uint begin = tiles[t];
+  rf_trace_tile(rays, begin, tiles[t + 1] - begin, &cam, nodes, tris, instances, normal_xforms, tlas_root, out);
 }

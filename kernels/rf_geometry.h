@@ -95,6 +95,32 @@ RF_INLINE float rf_intersect_box(const RF_GLOBAL rf_node* n, const rf_ray* r, fl
   return tnear <= rf_minf(tfar, tmax) ? tnear : RF_FAR;
 }
 
+/* Whole-packet box test for rays that share one origin (primary rays, and
+ * their object-space images under one instance): c0 = bmin - o and
+ * c1 = bmax - o, lo[a] and hi[a] the smallest and largest reciprocal
+ * direction among the packet's rays on axis a. Returns a lower bound on
+ * every ray's rf_intersect_box entry distance, or RF_FAR when no ray of the
+ * packet can pass rf_intersect_box with a tmax at or below `tmax`.
+ * Why it is exact, not approximate: rounding is monotone, so for c >= 0 and
+ * lo <= r <= hi, fl(c * lo) <= fl(c * r) <= fl(c * hi) (reversed for c < 0);
+ * min, max and the multiplication by a positive constant keep the order. Each
+ * ray's slab ends lie between these products, so its widened tnear is at
+ * least the value returned here and its tfar at most the bound used here: a
+ * rejected box is one that every ray's scalar test rejects too. */
+RF_INLINE float rf_interval_box(const float c0[3], const float c1[3], const float lo[3], const float hi[3],
+                                float tmax) {
+  float near_lo[3], far_hi[3];
+  for (int a = 0; a < 3; ++a) {
+    const float p0 = c0[a] * lo[a], p1 = c0[a] * hi[a], p2 = c1[a] * lo[a], p3 = c1[a] * hi[a];
+    near_lo[a] = rf_minf(rf_minf(p0, p1), rf_minf(p2, p3));
+    far_hi[a] = rf_maxf(rf_maxf(p0, p1), rf_maxf(p2, p3));
+  }
+  const float tnear = rf_maxf(rf_maxf(near_lo[0], near_lo[1]), rf_maxf(near_lo[2], 0.0f)) * RF_BOX_NEAR_SCALE;
+  const float tfar = rf_minf(rf_minf(far_hi[0], far_hi[1]), far_hi[2]) * RF_BOX_FAR_SCALE;
+  /* Written so that a NaN rejects nothing. */
+  return (tnear > tfar || tnear > tmax) ? RF_FAR : tnear;
+}
+
 /* Watertight ray-triangle test (Woop, Benthin, Wald 2013), without the double
  * fallback. Chosen because a ray through a shared edge or vertex can never
  * slip between the two triangles: each edge function is computed as

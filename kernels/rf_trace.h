@@ -199,30 +199,54 @@ RF_INLINE void rf_write_pixel(RF_GLOBAL rf_pixel_hit* px, const rf_hit* h, float
   px->primitive = h->prim;
 }
 
+/* One entry of the compacted ray list, decoded: its pixel, the transform
+ * groups it answers (bit g: group g) and its camera-space direction (the eye
+ * is the origin, dz = -1). Every kernel generates rays through this. */
+typedef struct {
+  rf_i32 x, y;
+  rf_u32 groups;
+  float dx, dy;
+} rf_camera_ray;
+
+RF_INLINE rf_camera_ray rf_decode_entry(rf_u32 entry, const rf_camera* cam) {
+  rf_camera_ray r;
+  r.x = (rf_i32)(entry & RF_RAY_COORD_MASK);
+  r.y = (rf_i32)((entry >> RF_RAY_COORD_BITS) & RF_RAY_COORD_MASK);
+  const rf_u32 mirror_x = (entry & RF_RAY_MIRROR_X) != 0u;
+  const rf_u32 mirror_y = (entry & RF_RAY_MIRROR_Y) != 0u;
+  r.groups = 1u | (mirror_x << 1) | (mirror_y << 2) | ((mirror_x & mirror_y) << 3);
+  r.dx = cam->scale_x * (float)(2 * r.x + cam->kx0);
+  r.dy = cam->scale_y * (float)(cam->ky0 - 2 * r.y);
+  return r;
+}
+
+/* Writes the hit info of every pixel a ray answers: group g's hit goes to
+ * the pixel mirrored as g says. */
+RF_INLINE void rf_write_answers(const rf_camera_ray* ray, const rf_hit* hits, const rf_camera* cam,
+                                const RF_GLOBAL rf_tri* tris, const RF_GLOBAL rf_normal_xform* normal_xforms,
+                                RF_GLOBAL rf_pixel_hit* out) {
+  const float dz = -1.0f;
+  const float len_d = RF_SQRT(ray->dx * ray->dx + ray->dy * ray->dy + dz * dz);
+  for (int g = 0; g < RF_MAX_GROUPS; ++g) {
+    if (((ray->groups >> g) & 1u) == 0u) continue;
+    const rf_i32 px = (g & 1) ? cam->xpair - ray->x : ray->x;
+    const rf_i32 py = (g & 2) ? cam->ypair - ray->y : ray->y;
+    rf_write_pixel(&out[py * cam->width + px], &hits[g], len_d, tris, normal_xforms);
+  }
+}
+
 /* Traces one entry of the compacted ray list and writes the hit info of every
  * pixel it answers (1, 2 or 4). */
 RF_INLINE void rf_trace_entry(rf_u32 entry, const rf_camera* cam, const RF_GLOBAL rf_node* nodes,
                               const RF_GLOBAL rf_tri* tris, const RF_GLOBAL rf_instance* instances,
                               const RF_GLOBAL rf_normal_xform* normal_xforms, rf_u32 tlas_root,
                               RF_GLOBAL rf_pixel_hit* out) {
-  const rf_i32 x = (rf_i32)(entry & RF_RAY_COORD_MASK);
-  const rf_i32 y = (rf_i32)((entry >> RF_RAY_COORD_BITS) & RF_RAY_COORD_MASK);
-  const rf_u32 mirror_x = (entry & RF_RAY_MIRROR_X) != 0u;
-  const rf_u32 mirror_y = (entry & RF_RAY_MIRROR_Y) != 0u;
-  const rf_u32 ray_groups = 1u | (mirror_x << 1) | (mirror_y << 2) | ((mirror_x & mirror_y) << 3);
-  const float dx = cam->scale_x * (float)(2 * x + cam->kx0);
-  const float dy = cam->scale_y * (float)(cam->ky0 - 2 * y);
-  const float dz = -1.0f;
+  const rf_camera_ray ray = rf_decode_entry(entry, cam);
   rf_hit hits[RF_MAX_GROUPS];
   for (int g = 0; g < RF_MAX_GROUPS; ++g) rf_hit_reset(&hits[g]);
-  if (tlas_root != RF_INVALID) rf_trace_tlas(nodes, tris, instances, tlas_root, dx, dy, dz, ray_groups, hits);
-  const float len_d = RF_SQRT(dx * dx + dy * dy + dz * dz);
-  for (int g = 0; g < RF_MAX_GROUPS; ++g) {
-    if (((ray_groups >> g) & 1u) == 0u) continue;
-    const rf_i32 px = (g & 1) ? cam->xpair - x : x;
-    const rf_i32 py = (g & 2) ? cam->ypair - y : y;
-    rf_write_pixel(&out[py * cam->width + px], &hits[g], len_d, tris, normal_xforms);
-  }
+  if (tlas_root != RF_INVALID)
+    rf_trace_tlas(nodes, tris, instances, tlas_root, ray.dx, ray.dy, -1.0f, ray.groups, hits);
+  rf_write_answers(&ray, hits, cam, tris, normal_xforms, out);
 }
 
 #endif /* RF_TRACE_H */

@@ -100,6 +100,15 @@ typedef struct {
 #define RF_RAY_MIRROR_Y (1u << 31)
 #define RF_MAX_IMAGE_SIDE 32767
 
+/* The ray list is ordered in tiles: the traced pixels of each 16x16 block of
+ * the image, 8x8 sub-blocks in turn (coherent neighbours for the single-ray
+ * kernel's work-groups). The tile table, one 4-byte entry per tile plus one,
+ * gives tile t the entries [tiles[t], tiles[t + 1]) of the list: at most
+ * RF_TILE_RAYS, fewer at the image border and the edges of the traced
+ * region; empty tiles are left out. */
+#define RF_TILE_SIDE 16
+#define RF_TILE_RAYS (RF_TILE_SIDE * RF_TILE_SIDE)
+
 /* How pixel (x, y) becomes a camera-space ray, origin at the eye:
  *   d = (scale_x * (2x + kx0), scale_y * (ky0 - 2y), -1)
  * The integer offsets keep mirror partners exact: the column xpair - x gives

@@ -1,0 +1,391 @@
+/* rf_tile.h - the tile kernel's traversal: one work-item traces a tile of up
+ * to RF_TILE_RAYS rays of the compacted ray list, one ray per vector lane
+ * (rf_lanes.h). Device only.
+ *
+ * Why a tile: PoCL runs one work-item per CPU thread at a time, so SIMD must
+ * come from inside the work-item. Primary rays share the eye as origin; a
+ * tile of neighbouring rays visits nearly the same nodes, so the tile visits
+ * a node once for all its rays:
+ *  - a node is skipped for the whole tile when rf_interval_box (exact bounds
+ *    over the tile's reciprocal directions) rejects it, or when no lane's own
+ *    slab test passes it;
+ *  - each lane keeps its own closest hit per transform group and its own
+ *    tmax, so every lane finds the same closest hit as the scalar code: the
+ *    traversal only visits more than one ray needs, never less, and the tie
+ *    rule makes the result independent of the order of visits;
+ *  - a leaf tests its triangles only on the lane groups (vectors) with a ray
+ *    inside its box.
+ * Lanes past the tile's ray count repeat its last ray, so they never widen
+ * the tile's bounds; their results are not written.
+ */
+#ifndef RF_TILE_H
+#define RF_TILE_H
+
+#define RF_LANE_GROUPS (RF_TILE_RAYS / RF_LANES)
+
+/* The tile's camera-space rays, 4 KiB: direction (dz = -1, so the
+ * reciprocal's z is -1 in every lane) and reciprocal x, y per lane, and the
+ * reciprocal ranges over the tile for rf_interval_box. */
+typedef struct {
+  rf_vf dx[RF_LANE_GROUPS], dy[RF_LANE_GROUPS];
+  rf_vf ix[RF_LANE_GROUPS], iy[RF_LANE_GROUPS];
+  float lo[3], hi[3];
+} rf_tile_camera;
+
+/* The tile's rays in one instance's object space, 9 KiB: the shared origin
+ * (the instance's translation column), per lane the reciprocal direction and
+ * the shear and axis permutation of the watertight test, as rf_ray_init
+ * makes them. When every lane has the same permutation (nearly every tile)
+ * it is kept once in kx, ky, kz and the triangle test needs no per-lane
+ * selection. */
+typedef struct {
+  float o[3];
+  float lo[3], hi[3];
+  rf_i32 uniform, kx, ky, kz;
+  rf_u32 key; /* instance_id * RF_MAX_GROUPS + group, RF_INVALID when empty */
+  rf_vf ix[RF_LANE_GROUPS], iy[RF_LANE_GROUPS], iz[RF_LANE_GROUPS];
+  rf_vf sx[RF_LANE_GROUPS], sy[RF_LANE_GROUPS], sz[RF_LANE_GROUPS];
+  rf_vi pkx[RF_LANE_GROUPS], pky[RF_LANE_GROUPS], pkz[RF_LANE_GROUPS];
+} rf_tile_ray;
+
+/* Per lane, the closest hit of one transform group (rf_hit's fields), 6 KiB.
+ * A lane that does not answer the group holds t = -1, which nothing beats
+ * and which never keeps a node alive. tmax is the largest t over the lanes:
+ * the bound for skipping a node for the whole tile. */
+typedef struct {
+  rf_vf t[RF_LANE_GROUPS], u[RF_LANE_GROUPS], v[RF_LANE_GROUPS];
+  rf_vu instance[RF_LANE_GROUPS], prim[RF_LANE_GROUPS], tri[RF_LANE_GROUPS];
+  float tmax;
+} rf_tile_hits;
+
+RF_INLINE void rf_tile_update_tmax(rf_tile_hits* h) {
+  rf_vf m = h->t[0];
+  for (int j = 1; j < RF_LANE_GROUPS; ++j) m = rf_lanes_max(m, h->t[j]);
+  h->tmax = rf_lanes_hmax(m);
+}
+
+/* rf_ray_to_object and rf_ray_init for every lane of the tile. */
+RF_INLINE void rf_tile_to_object(rf_tile_ray* r, const RF_GLOBAL float* m, const rf_tile_camera* cam) {
+  r->o[0] = m[3];
+  r->o[1] = m[7];
+  r->o[2] = m[11];
+  rf_vf lo0 = (rf_vf)(RF_FAR), lo1 = lo0, lo2 = lo0, hi0 = (rf_vf)(-RF_FAR), hi1 = hi0, hi2 = hi0;
+  rf_vi diff = (rf_vi)(0);
+  rf_i32 kx0 = 0, ky0 = 0, kz0 = 0;
+  const rf_vf dz = (rf_vf)(-1.0f);
+  for (int j = 0; j < RF_LANE_GROUPS; ++j) {
+    const rf_vf dx = cam->dx[j], dy = cam->dy[j];
+    const rf_vf ex = m[0] * dx + m[1] * dy + m[2] * dz;
+    const rf_vf ey = m[4] * dx + m[5] * dy + m[6] * dz;
+    const rf_vf ez = m[8] * dx + m[9] * dy + m[10] * dz;
+    const rf_vf ix = rf_lanes_reciprocal(ex), iy = rf_lanes_reciprocal(ey), iz = rf_lanes_reciprocal(ez);
+    const rf_vf ax = fabs(ex), ay = fabs(ey), az = fabs(ez);
+    rf_vi kz = select((rf_vi)(0), (rf_vi)(1), ay > ax);
+    kz = select(kz, (rf_vi)(2), az > select(ax, ay, kz == 1));
+    rf_vi kx = select(kz + 1, (rf_vi)(0), kz + 1 == 3);
+    rf_vi ky = select(kx + 1, (rf_vi)(0), kx + 1 == 3);
+    const rf_vi swap = rf_lanes_pick_v(ex, ey, ez, kz) < (rf_vf)(0.0f);
+    const rf_vi t = kx;
+    kx = select(kx, ky, swap);
+    ky = select(ky, t, swap);
+    const rf_vf sz = rf_lanes_pick_v(ix, iy, iz, kz);
+    r->ix[j] = ix;
+    r->iy[j] = iy;
+    r->iz[j] = iz;
+    r->sz[j] = sz;
+    r->sx[j] = rf_lanes_pick_v(ex, ey, ez, kx) * sz;
+    r->sy[j] = rf_lanes_pick_v(ex, ey, ez, ky) * sz;
+    r->pkx[j] = kx;
+    r->pky[j] = ky;
+    r->pkz[j] = kz;
+    if (j == 0) {
+      kx0 = kx.s0;
+      ky0 = ky.s0;
+      kz0 = kz.s0;
+    }
+    diff |= (kx != kx0) | (ky != ky0) | (kz != kz0);
+    lo0 = fmin(lo0, ix);
+    lo1 = fmin(lo1, iy);
+    lo2 = fmin(lo2, iz);
+    hi0 = fmax(hi0, ix);
+    hi1 = fmax(hi1, iy);
+    hi2 = fmax(hi2, iz);
+  }
+  r->lo[0] = rf_lanes_hmin(lo0);
+  r->lo[1] = rf_lanes_hmin(lo1);
+  r->lo[2] = rf_lanes_hmin(lo2);
+  r->hi[0] = rf_lanes_hmax(hi0);
+  r->hi[1] = rf_lanes_hmax(hi1);
+  r->hi[2] = rf_lanes_hmax(hi2);
+  r->uniform = !rf_lanes_any(diff);
+  r->kx = kx0;
+  r->ky = ky0;
+  r->kz = kz0;
+}
+
+/* Tests one triangle on the lane groups in `lanes` (bit j: group j) and takes
+ * every lane's hit that beats the lane's current one by the tie rule.
+ * Returns nonzero when some lane took it. */
+RF_INLINE int rf_tile_triangle(const RF_GLOBAL rf_tri* tri, rf_u32 ti, const rf_tile_ray* r, rf_u32 instance_id,
+                               rf_u32 lanes, rf_tile_hits* h) {
+  const float a0 = tri->v0[0] - r->o[0], a1 = tri->v0[1] - r->o[1], a2 = tri->v0[2] - r->o[2];
+  const float b0 = tri->v1[0] - r->o[0], b1 = tri->v1[1] - r->o[1], b2 = tri->v1[2] - r->o[2];
+  const float c0 = tri->v2[0] - r->o[0], c1 = tri->v2[1] - r->o[1], c2 = tri->v2[2] - r->o[2];
+  const rf_u32 prim = tri->prim;
+  const rf_vu inst_v = (rf_vu)(instance_id), prim_v = (rf_vu)(prim);
+  /* The uniform permutation, once for all lanes. */
+  const float ua[3] = {a0, a1, a2}, ub[3] = {b0, b1, b2}, uc[3] = {c0, c1, c2};
+  const float uax = ua[r->kx], uay = ua[r->ky], uaz = ua[r->kz];
+  const float ubx = ub[r->kx], uby = ub[r->ky], ubz = ub[r->kz];
+  const float ucx = uc[r->kx], ucy = uc[r->ky], ucz = uc[r->kz];
+  int taken = 0;
+  for (int j = 0; j < RF_LANE_GROUPS; ++j) {
+    if (((lanes >> j) & 1u) == 0u) continue;
+    rf_vf t, ev, ew, det;
+    rf_vi ok;
+    if (r->uniform) {
+      ok = rf_lanes_triangle((rf_vf)(uax), (rf_vf)(uay), (rf_vf)(uaz), (rf_vf)(ubx), (rf_vf)(uby), (rf_vf)(ubz),
+                             (rf_vf)(ucx), (rf_vf)(ucy), (rf_vf)(ucz), r->sx[j], r->sy[j], r->sz[j], &t, &ev, &ew,
+                             &det);
+    } else {
+      const rf_vi kx = r->pkx[j], ky = r->pky[j], kz = r->pkz[j];
+      ok = rf_lanes_triangle(rf_lanes_pick(a0, a1, a2, kx), rf_lanes_pick(a0, a1, a2, ky),
+                             rf_lanes_pick(a0, a1, a2, kz), rf_lanes_pick(b0, b1, b2, kx),
+                             rf_lanes_pick(b0, b1, b2, ky), rf_lanes_pick(b0, b1, b2, kz),
+                             rf_lanes_pick(c0, c1, c2, kx), rf_lanes_pick(c0, c1, c2, ky),
+                             rf_lanes_pick(c0, c1, c2, kz), r->sx[j], r->sy[j], r->sz[j], &t, &ev, &ew, &det);
+    }
+    if (!rf_lanes_any(ok)) continue;
+    /* rf_hit_is_closer lane by lane. */
+    const rf_vf bt = h->t[j];
+    const rf_vu bi = h->instance[j];
+    const rf_vi closer = (t < bt) | ((t == bt) & ((inst_v < bi) | ((inst_v == bi) & (prim_v < h->prim[j]))));
+    const rf_vi take = ok & (t > (rf_vf)(0.0f)) & closer;
+    if (!rf_lanes_any(take)) continue;
+    h->t[j] = select(bt, t, take);
+    h->u[j] = select(h->u[j], ev / det, take);
+    h->v[j] = select(h->v[j], ew / det, take);
+    h->instance[j] = select(bi, inst_v, take);
+    h->prim[j] = select(h->prim[j], prim_v, take);
+    h->tri[j] = select(h->tri[j], (rf_vu)(ti), take);
+    taken = 1;
+  }
+  return taken;
+}
+
+/* Closest hit of every lane's object-space ray in one bottom-level tree. */
+RF_INLINE void rf_tile_trace_blas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_tri* tris, rf_u32 root,
+                                  const rf_tile_ray* r, rf_u32 instance_id, rf_tile_hits* h) {
+  rf_u32 stack_node[RF_STACK_SIZE];
+  float stack_t[RF_STACK_SIZE];
+  int sp = 0;
+  {
+    const RF_GLOBAL rf_node* n = &nodes[root];
+    const float c0[3] = {n->bmin[0] - r->o[0], n->bmin[1] - r->o[1], n->bmin[2] - r->o[2]};
+    const float c1[3] = {n->bmax[0] - r->o[0], n->bmax[1] - r->o[1], n->bmax[2] - r->o[2]};
+    const float tn = rf_interval_box(c0, c1, r->lo, r->hi, h->tmax);
+    if (tn == RF_FAR) return;
+    stack_node[0] = root;
+    stack_t[0] = tn;
+    sp = 1;
+  }
+  while (sp > 0) {
+    --sp;
+    if (stack_t[sp] > h->tmax) continue;
+    const RF_GLOBAL rf_node* n = &nodes[stack_node[sp]];
+    const rf_u32 count = n->meta & RF_NODE_COUNT_MASK;
+    const float c0[3] = {n->bmin[0] - r->o[0], n->bmin[1] - r->o[1], n->bmin[2] - r->o[2]};
+    const float c1[3] = {n->bmax[0] - r->o[0], n->bmax[1] - r->o[1], n->bmax[2] - r->o[2]};
+    if (count != 0) {
+      /* Which lane groups have a ray in the leaf's box. */
+      rf_u32 lanes = 0u;
+      for (int j = 0; j < RF_LANE_GROUPS; ++j) {
+        if (rf_lanes_any(rf_lanes_box(c0, c1, r->ix[j], r->iy[j], r->iz[j], h->t[j]))) lanes |= 1u << j;
+      }
+      if (lanes == 0u) continue;
+      int taken = 0;
+      for (rf_u32 k = 0; k < count; ++k) {
+        const rf_u32 ti = n->first + k;
+        taken |= rf_tile_triangle(&tris[ti], ti, r, instance_id, lanes, h);
+      }
+      if (taken) rf_tile_update_tmax(h);
+      continue;
+    }
+    /* Interior: go on when one lane's ray enters the box. */
+    int any = 0;
+    for (int j = 0; j < RF_LANE_GROUPS && !any; ++j)
+      any = rf_lanes_any(rf_lanes_box(c0, c1, r->ix[j], r->iy[j], r->iz[j], h->t[j]));
+    if (!any) continue;
+    const rf_u32 c = n->first;
+    float tc[2];
+    for (int s = 0; s < 2; ++s) {
+      const RF_GLOBAL rf_node* ch = &nodes[c + s];
+      const float d0[3] = {ch->bmin[0] - r->o[0], ch->bmin[1] - r->o[1], ch->bmin[2] - r->o[2]};
+      const float d1[3] = {ch->bmax[0] - r->o[0], ch->bmax[1] - r->o[1], ch->bmax[2] - r->o[2]};
+      tc[s] = rf_interval_box(d0, d1, r->lo, r->hi, h->tmax);
+    }
+    /* Far child first on the stack, so the near one is visited next. */
+    const int near_s = tc[0] <= tc[1] ? 0 : 1;
+    if (tc[1 - near_s] != RF_FAR) {
+      stack_node[sp] = c + 1 - near_s;
+      stack_t[sp] = tc[1 - near_s];
+      ++sp;
+    }
+    if (tc[near_s] != RF_FAR) {
+      stack_node[sp] = c + near_s;
+      stack_t[sp] = tc[near_s];
+      ++sp;
+    }
+  }
+}
+
+/* The skipping bound of a top-level node for the tile: the largest tmax of
+ * the groups below it (rf_group_bound over the whole tile). */
+RF_INLINE float rf_tile_group_bound(rf_u32 meta, const rf_tile_hits* hits) {
+  const rf_u32 groups = meta >> RF_NODE_GROUP_SHIFT;
+  float bound = -1.0f;
+  for (int g = 0; g < RF_MAX_GROUPS; ++g) {
+    if ((groups >> g) & 1u) bound = rf_maxf(bound, hits[g].tmax);
+  }
+  return bound;
+}
+
+/* rf_group_bound of every lane of lane group j. */
+RF_INLINE rf_vf rf_tile_lane_bound(rf_u32 meta, const rf_tile_hits* hits, int j) {
+  const rf_u32 groups = meta >> RF_NODE_GROUP_SHIFT;
+  rf_vf bound = (rf_vf)(-1.0f);
+  for (int g = 0; g < RF_MAX_GROUPS; ++g) {
+    if ((groups >> g) & 1u) bound = rf_lanes_max(bound, hits[g].t[j]);
+  }
+  return bound;
+}
+
+/* Closest hit per group of every lane through the top-level tree. */
+RF_INLINE void rf_tile_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_tri* tris,
+                                  const RF_GLOBAL rf_instance* instances, rf_u32 tlas_root,
+                                  const rf_tile_camera* cam, rf_tile_ray* ro, rf_tile_hits* hits) {
+  rf_u32 stack_node[RF_STACK_SIZE];
+  float stack_t[RF_STACK_SIZE];
+  int sp = 0;
+  const rf_vf iz = (rf_vf)(-1.0f);
+  {
+    const RF_GLOBAL rf_node* n = &nodes[tlas_root];
+    const float c0[3] = {n->bmin[0] - 0.0f, n->bmin[1] - 0.0f, n->bmin[2] - 0.0f};
+    const float c1[3] = {n->bmax[0] - 0.0f, n->bmax[1] - 0.0f, n->bmax[2] - 0.0f};
+    const float tn = rf_interval_box(c0, c1, cam->lo, cam->hi, rf_tile_group_bound(n->meta, hits));
+    if (tn == RF_FAR) return;
+    stack_node[0] = tlas_root;
+    stack_t[0] = tn;
+    sp = 1;
+  }
+  while (sp > 0) {
+    --sp;
+    const RF_GLOBAL rf_node* n = &nodes[stack_node[sp]];
+    if (stack_t[sp] > rf_tile_group_bound(n->meta, hits)) continue;
+    const rf_u32 count = n->meta & RF_NODE_COUNT_MASK;
+    const float c0[3] = {n->bmin[0] - 0.0f, n->bmin[1] - 0.0f, n->bmin[2] - 0.0f};
+    const float c1[3] = {n->bmax[0] - 0.0f, n->bmax[1] - 0.0f, n->bmax[2] - 0.0f};
+    int any = 0;
+    for (int j = 0; j < RF_LANE_GROUPS && !any; ++j)
+      any = rf_lanes_any(rf_lanes_box(c0, c1, cam->ix[j], cam->iy[j], iz, rf_tile_lane_bound(n->meta, hits, j)));
+    if (!any) continue;
+    if (count != 0) {
+      for (rf_u32 k = 0; k < count; ++k) {
+        const RF_GLOBAL rf_instance* inst = &instances[n->first + k];
+        const rf_u32 g = inst->group;
+        rf_tile_hits* h = &hits[g];
+        if (h->tmax < 0.0f) continue; /* no lane answers this group */
+        const rf_u32 key = inst->instance_id * (rf_u32)RF_MAX_GROUPS + g;
+        if (ro->key != key) {
+          rf_tile_to_object(ro, inst->object_from_camera, cam);
+          ro->key = key;
+        }
+        rf_tile_trace_blas(nodes, tris, inst->blas_root, ro, inst->instance_id, h);
+      }
+      continue;
+    }
+    const rf_u32 c = n->first;
+    float tc[2];
+    for (int s = 0; s < 2; ++s) {
+      const RF_GLOBAL rf_node* ch = &nodes[c + s];
+      const float d0[3] = {ch->bmin[0] - 0.0f, ch->bmin[1] - 0.0f, ch->bmin[2] - 0.0f};
+      const float d1[3] = {ch->bmax[0] - 0.0f, ch->bmax[1] - 0.0f, ch->bmax[2] - 0.0f};
+      tc[s] = rf_interval_box(d0, d1, cam->lo, cam->hi, rf_tile_group_bound(ch->meta, hits));
+    }
+    const int near_s = tc[0] <= tc[1] ? 0 : 1;
+    if (tc[1 - near_s] != RF_FAR) {
+      stack_node[sp] = c + 1 - near_s;
+      stack_t[sp] = tc[1 - near_s];
+      ++sp;
+    }
+    if (tc[near_s] != RF_FAR) {
+      stack_node[sp] = c + near_s;
+      stack_t[sp] = tc[near_s];
+      ++sp;
+    }
+  }
+}
+
+/* Traces tile `tile` of the ray list: rays[begin .. begin + count), count at
+ * most RF_TILE_RAYS, and writes every pixel its rays answer. */
+RF_INLINE void rf_trace_tile(const RF_GLOBAL rf_u32* rays, rf_u32 begin, rf_u32 count, const rf_camera* cam,
+                             const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_tri* tris,
+                             const RF_GLOBAL rf_instance* instances, const RF_GLOBAL rf_normal_xform* normal_xforms,
+                             rf_u32 tlas_root, RF_GLOBAL rf_pixel_hit* out) {
+  rf_tile_camera tc;
+  rf_tile_hits hits[RF_MAX_GROUPS];
+  rf_tile_ray ro;
+  ro.key = RF_INVALID;
+  float* dx = (float*)tc.dx;
+  float* dy = (float*)tc.dy;
+  rf_u32 tile_groups = 0u;
+  for (int l = 0; l < RF_TILE_RAYS; ++l) {
+    const rf_u32 i = (rf_u32)l < count ? (rf_u32)l : count - 1u;
+    const rf_camera_ray ray = rf_decode_entry(rays[begin + i], cam);
+    dx[l] = ray.dx;
+    dy[l] = ray.dy;
+    for (int g = 0; g < RF_MAX_GROUPS; ++g) ((float*)hits[g].t)[l] = ((ray.groups >> g) & 1u) ? RF_FAR : -1.0f;
+    tile_groups |= ray.groups;
+  }
+  rf_vf lo0 = (rf_vf)(RF_FAR), lo1 = lo0, hi0 = (rf_vf)(-RF_FAR), hi1 = hi0;
+  for (int j = 0; j < RF_LANE_GROUPS; ++j) {
+    tc.ix[j] = rf_lanes_reciprocal(tc.dx[j]);
+    tc.iy[j] = rf_lanes_reciprocal(tc.dy[j]);
+    lo0 = fmin(lo0, tc.ix[j]);
+    lo1 = fmin(lo1, tc.iy[j]);
+    hi0 = fmax(hi0, tc.ix[j]);
+    hi1 = fmax(hi1, tc.iy[j]);
+    for (int g = 0; g < RF_MAX_GROUPS; ++g) {
+      hits[g].u[j] = (rf_vf)(0.0f);
+      hits[g].v[j] = (rf_vf)(0.0f);
+      hits[g].instance[j] = (rf_vu)(RF_INVALID);
+      hits[g].prim[j] = (rf_vu)(RF_INVALID);
+      hits[g].tri[j] = (rf_vu)(RF_INVALID);
+    }
+  }
+  tc.lo[0] = rf_lanes_hmin(lo0);
+  tc.lo[1] = rf_lanes_hmin(lo1);
+  tc.lo[2] = -1.0f;
+  tc.hi[0] = rf_lanes_hmax(hi0);
+  tc.hi[1] = rf_lanes_hmax(hi1);
+  tc.hi[2] = -1.0f;
+  for (int g = 0; g < RF_MAX_GROUPS; ++g) hits[g].tmax = ((tile_groups >> g) & 1u) ? RF_FAR : -1.0f;
+
+  if (tlas_root != RF_INVALID) rf_tile_trace_tlas(nodes, tris, instances, tlas_root, &tc, &ro, hits);
+
+  for (rf_u32 l = 0; l < count; ++l) {
+    const rf_camera_ray ray = rf_decode_entry(rays[begin + l], cam);
+    rf_hit h[RF_MAX_GROUPS];
+    for (int g = 0; g < RF_MAX_GROUPS; ++g) {
+      h[g].t = ((const float*)hits[g].t)[l];
+      h[g].u = ((const float*)hits[g].u)[l];
+      h[g].v = ((const float*)hits[g].v)[l];
+      h[g].instance = ((const rf_u32*)hits[g].instance)[l];
+      h[g].prim = ((const rf_u32*)hits[g].prim)[l];
+      h[g].tri = ((const rf_u32*)hits[g].tri)[l];
+    }
+    rf_write_answers(&ray, h, cam, tris, normal_xforms, out);
+  }
+}
+
+#endif /* RF_TILE_H */

@@ -1,0 +1,164 @@
+// The tile kernel equals the single-ray kernel and the CPU reference, bit for
+// bit on every field of every pixel, in every fold mode: the default scene,
+// random cameras over generated scenes and mirrored soups, odd and tiny
+// sizes, shifted windows, animated frames and the real scenes.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <map>
+#include <memory>
+
+#include "../host/gltf_loader.h"
+#include "../host/renderer.h"
+#include "../tools/scene_gen.h"
+#include "test_util.h"
+
+namespace rayfold {
+namespace {
+
+const FoldMode kAllFolds[] = {FoldMode::none, FoldMode::y, FoldMode::x, FoldMode::xy};
+
+// One scene, rendered three ways: the CPU reference, the single-ray kernel
+// and the tile kernel.
+struct ThreeWays {
+  explicit ThreeWays(const Scene& scene) {
+    RendererOptions o;
+    o.backend = Backend::cpu;
+    cpu = std::make_unique<Renderer>(scene, o);
+    o.backend = Backend::opencl;
+    o.kernel = KernelChoice::single;
+    single = std::make_unique<Renderer>(scene, o);
+    o.kernel = KernelChoice::tile;
+    tile = std::make_unique<Renderer>(scene, o);
+  }
+
+  // "" when, for every fold mode, the single-ray and tile kernels equal the
+  // CPU reference's unfolded render; else every difference found.
+  std::string differences(const Camera& cam, int animate_frame = -1) {
+    FrameOptions none;
+    none.animate_frame = animate_frame;
+    const std::vector<rf_pixel_hit> ref = cpu->render(cam, 1, none).hits;
+    std::string out;
+    for (FoldMode f : kAllFolds) {
+      FrameOptions o = none;
+      o.fold = f;
+      for (auto [name, r] : {std::pair<const char*, Renderer*>{"single", single.get()}, {"tile", tile.get()}}) {
+        const std::string d = testing::compare_hits(ref, r->render(cam, 1, o).hits, cam.width);
+        if (!d.empty()) out += std::string(name) + " fold " + fold_name(f) + ": " + d + "\n";
+      }
+    }
+    return out;
+  }
+
+  std::unique_ptr<Renderer> cpu, single, tile;
+};
+
+TEST(TileKernel, ChosenByDefaultOnCpuDevices) {
+  const Scene scene = load_gltf(std::string(RAYFOLD_SOURCE_DIR) + "/scenes/atrium.glb");
+  const Renderer r(scene, RendererOptions{});
+  const bool cpu_device = testing::test_device().info().is_cpu;
+  EXPECT_EQ(r.kernel_label(), cpu_device ? "tile" : "single");
+  RendererOptions o;
+  o.kernel = KernelChoice::single;
+  EXPECT_EQ(Renderer(scene, o).kernel_label(), "single");
+}
+
+TEST(TileKernel, DefaultSceneFullSizeEveryFold) {
+  const Scene scene = load_gltf(std::string(RAYFOLD_SOURCE_DIR) + "/scenes/atrium.glb");
+  ThreeWays r(scene);
+  const Camera cam = make_camera(*scene.camera, 1280, 720);
+  EXPECT_EQ(r.differences(cam), "");
+}
+
+TEST(TileKernel, OddAndTinySizesAndShifts) {
+  const Scene scene = load_gltf(std::string(RAYFOLD_SOURCE_DIR) + "/scenes/atrium.glb");
+  ThreeWays r(scene);
+  for (auto [w, h] : std::vector<std::pair<int, int>>{{1, 1}, {3, 3}, {17, 9}, {16, 16}, {33, 17}, {1279, 719}}) {
+    EXPECT_EQ(r.differences(make_camera(*scene.camera, w, h)), "") << w << "x" << h;
+  }
+  for (auto [sx, sy] : std::vector<std::pair<double, double>>{{0.3, 0.0}, {0.0, -0.45}, {-0.7, 0.2}, {1.2, 1.1}}) {
+    EXPECT_EQ(r.differences(make_camera(*scene.camera, 97, 61, sx, sy)), "") << "shift " << sx << "," << sy;
+  }
+}
+
+TEST(TileKernel, AnimatedFrames) {
+  const Scene scene = load_gltf(std::string(RAYFOLD_SOURCE_DIR) + "/scenes/atrium.glb");
+  ThreeWays r(scene);
+  const Camera cam = make_camera(*scene.camera, 160, 90);
+  for (int frame : {0, 5, 23}) EXPECT_EQ(r.differences(cam, frame), "") << "frame " << frame;
+}
+
+TEST(TileKernel, RandomCamerasOverGeneratedScenes) {
+  testing::Rng rng(2718);
+  int cameras = 0;
+  for (int s = 0; s < 3; ++s) {
+    GenOptions gen;
+    gen.seed = 700 + s;
+    gen.objects = 25 + 60 * s;
+    gen.triangle_budget = 15000;
+    const Scene scene = generate_atrium(gen);
+    ThreeWays r(scene);
+    for (int v = 0; v < 24; ++v, ++cameras) {
+      CameraSpec spec = testing::random_camera(rng, scene.world_bounds());
+      if (v % 5 == 0) {
+        // The eye inside an object: the centre of a random instance's box.
+        const Instance& inst = scene.instances[rng.below(static_cast<int>(scene.instances.size()))];
+        const Aabb b = transform_bounds_conservative(inst.world_from_object, scene.mesh_bounds(inst.mesh));
+        spec.look_at = spec.look_at - spec.eye + glm::dvec3(b.centre());
+        spec.eye = glm::dvec3(b.centre());
+      }
+      const int w = 1 + rng.below(120), h = 1 + rng.below(80);
+      const double sx = v % 3 == 0 ? rng.uniform(-0.8, 0.8) : 0.0, sy = v % 4 == 0 ? rng.uniform(-0.8, 0.8) : 0.0;
+      EXPECT_EQ(r.differences(make_camera(spec, w, h, sx, sy)), "")
+          << "scene " << s << " camera " << v << " " << w << "x" << h;
+    }
+  }
+  EXPECT_GE(cameras, 70);
+}
+
+TEST(TileKernel, RandomMirroredSoups) {
+  // Mirrored and non-uniformly scaled instances, zero-area triangles, wide
+  // and narrow fields of view: lanes of one tile with different axis
+  // permutations in object space.
+  testing::Rng rng(4242);
+  int cameras = 0;
+  for (int s = 0; s < 6; ++s) {
+    const Scene scene = testing::random_scene(rng, 3, 14, 300);
+    ThreeWays r(scene);
+    for (int v = 0; v < 6; ++v, ++cameras) {
+      CameraSpec spec = testing::random_camera(rng, scene.world_bounds());
+      spec.vfov_degrees = v % 3 == 0 ? 150.0 : spec.vfov_degrees;
+      EXPECT_EQ(r.differences(make_camera(spec, 48 + v * 7, 40 - v * 3)), "") << "soup " << s << " view " << v;
+    }
+  }
+  EXPECT_GE(cameras, 30);
+}
+
+TEST(TileKernel, SharedScenes) {
+  const std::string dir = testing::shared_scenes_dir();
+  if (dir.empty()) GTEST_SKIP() << "../shared/scenes not found (set RAYFOLD_SCENES_DIR); real scenes not tested";
+  const std::map<std::string, std::pair<glm::dvec3, glm::dvec3>> views = {
+      {"dabrovic_sponza.glb", {{0, 3, 0}, {10, 3, 0}}},
+      {"conference.glb", {{330, 300, -300}, {1000, 200, 0}}},
+      {"sports_car.glb", {{1.8, 0.9, 2.2}, {0, 0.45, 0}}},
+      {"stanford_dragon.glb", {{0, 0.13, 0.22}, {0, 0.12, 0}}},
+      {"armadillo.glb", {{0, 20, 170}, {0, 20, 0}}},
+      {"lost_empire.glb", {{-10, 20, 40}, {10, 10, 0}}},
+  };
+  int rendered = 0;
+  for (const auto& [file, view] : views) {
+    const std::string path = dir + "/" + file;
+    if (!std::filesystem::exists(path)) continue;
+    const Scene scene = load_gltf(path);
+    CameraSpec spec;
+    spec.eye = view.first;
+    spec.look_at = view.second;
+    ThreeWays r(scene);
+    EXPECT_EQ(r.differences(make_camera(spec, 203, 117)), "") << file;
+    ++rendered;
+  }
+  EXPECT_GT(rendered, 0);
+}
+
+}  // namespace
+}  // namespace rayfold
