@@ -18,9 +18,12 @@ struct EmbreePeer::Impl {
   unsigned threads;
   RTCDevice device = nullptr;
   RTCScene top = nullptr;
+  RTCScene flat = nullptr;  // every instance's triangles in world space, one geometry per instance
   std::vector<RTCScene> meshes;
   std::vector<RTCGeometry> instances;  // per scene instance, null when hidden
   Camera camera;
+  float eye[3] = {0, 0, 0};        // world space, for the flat scene
+  float world_dir[3][3] = {};      // world_from_camera's linear part, row-major
 
   Impl(const Scene& s, const SceneData& d, unsigned t) : scene(s), data(d), threads(t) {
     const std::string config = "threads=" + std::to_string(threads);
@@ -52,12 +55,37 @@ struct EmbreePeer::Impl {
       rtcAttachGeometryByID(top, g, static_cast<unsigned>(i));
       instances[i] = g;
     }
+    // As a user with a static scene builds it: instances flattened into one
+    // single-level world-space tree, built once.
+    flat = rtcNewScene(device);
+    for (size_t i = 0; i < scene.instances.size(); ++i) {
+      if (!data.renderable[i]) continue;
+      const Mesh& m = scene.meshes[scene.instances[i].mesh];
+      const Xform& w = scene.instances[i].world_from_object;
+      RTCGeometry g = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
+      auto* vb = static_cast<float*>(
+          rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), m.positions.size()));
+      auto* ib = static_cast<unsigned*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                                                3 * sizeof(unsigned), m.triangle_count()));
+      for (size_t v = 0; v < m.positions.size(); ++v) {
+        const glm::dvec4 p = w * glm::dvec4(glm::dvec3(m.positions[v]), 1.0);
+        for (int k = 0; k < 3; ++k) vb[3 * v + k] = static_cast<float>(p[k]);
+      }
+      std::copy(m.indices.begin(), m.indices.end(), ib);
+      rtcSetGeometryBuildQuality(g, RTC_BUILD_QUALITY_HIGH);
+      rtcCommitGeometry(g);
+      rtcAttachGeometryByID(flat, g, static_cast<unsigned>(i));
+      rtcReleaseGeometry(g);
+    }
+    rtcSetSceneBuildQuality(flat, RTC_BUILD_QUALITY_HIGH);
+    rtcCommitScene(flat);
   }
 
   ~Impl() {
     for (RTCGeometry g : instances)
       if (g) rtcReleaseGeometry(g);
     if (top) rtcReleaseScene(top);
+    if (flat) rtcReleaseScene(flat);
     for (RTCScene s : meshes) rtcReleaseScene(s);
     if (device) rtcReleaseDevice(device);
   }
@@ -74,6 +102,22 @@ struct EmbreePeer::Impl {
       rtcCommitGeometry(instances[i]);
     }
     rtcCommitScene(top);
+    for (int r = 0; r < 3; ++r) {
+      eye[r] = static_cast<float>(cam.world_from_camera[3][r]);
+      for (int c = 0; c < 3; ++c) world_dir[r][c] = static_cast<float>(cam.world_from_camera[c][r]);
+    }
+  }
+
+  // The ray of pixel (x, y) in the traced scene's space: camera space with
+  // the eye at the origin for the instanced scene, world space for the flat
+  // one (the same direction turned, not renormalised, so t keeps its meaning).
+  void ray(int x, int y, bool flat_scene, float o[3], float d[3], float cam_d[3]) const {
+    direction(x, y, cam_d);
+    for (int r = 0; r < 3; ++r) {
+      o[r] = flat_scene ? eye[r] : 0.0f;
+      d[r] = flat_scene ? world_dir[r][0] * cam_d[0] + world_dir[r][1] * cam_d[1] + world_dir[r][2] * cam_d[2]
+                        : cam_d[r];
+    }
   }
 
   // rayfold's ray for pixel (x, y), bit for bit (kernels/rf_trace.h).
@@ -84,6 +128,8 @@ struct EmbreePeer::Impl {
     d[2] = -1.0f;
   }
 
+  // inst: the instance for the instanced scene, the geometry (= instance)
+  // for the flat one.
   void store(rf_pixel_hit& h, float t, unsigned inst, unsigned prim, const float d[3]) const {
     h = rf_pixel_hit{};
     if (inst == RTC_INVALID_GEOMETRY_ID) {
@@ -112,8 +158,10 @@ EmbreePeer::~EmbreePeer() = default;
 
 void EmbreePeer::set_camera(const Camera& camera) { impl_->set_camera(camera); }
 
-double EmbreePeer::trace1(std::vector<rf_pixel_hit>& hits) {
+double EmbreePeer::trace1(std::vector<rf_pixel_hit>& hits, EmbreeScene which) {
   Impl& m = *impl_;
+  const bool flat = which == EmbreeScene::flat;
+  RTCScene scene = flat ? m.flat : m.top;
   const int w = m.camera.width, h = m.camera.height;
   hits.resize(static_cast<size_t>(w) * h);
   return m.run(
@@ -121,9 +169,12 @@ double EmbreePeer::trace1(std::vector<rf_pixel_hit>& hits) {
         RTCIntersectContext ctx;
         rtcInitIntersectContext(&ctx);
         for (int x = 0; x < w; ++x) {
-          float d[3];
-          m.direction(x, y, d);
+          float o[3], d[3], cam_d[3];
+          m.ray(x, y, flat, o, d, cam_d);
           RTCRayHit rh{};
+          rh.ray.org_x = o[0];
+          rh.ray.org_y = o[1];
+          rh.ray.org_z = o[2];
           rh.ray.dir_x = d[0];
           rh.ray.dir_y = d[1];
           rh.ray.dir_z = d[2];
@@ -132,15 +183,18 @@ double EmbreePeer::trace1(std::vector<rf_pixel_hit>& hits) {
           rh.ray.mask = 0xFFFFFFFFu;
           rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
           rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-          rtcIntersect1(m.top, &ctx, &rh);
-          m.store(hits[static_cast<size_t>(y) * w + x], rh.ray.tfar, rh.hit.instID[0], rh.hit.primID, d);
+          rtcIntersect1(scene, &ctx, &rh);
+          m.store(hits[static_cast<size_t>(y) * w + x], rh.ray.tfar, flat ? rh.hit.geomID : rh.hit.instID[0],
+                  rh.hit.primID, cam_d);
         }
       },
       h);
 }
 
-double EmbreePeer::trace16(std::vector<rf_pixel_hit>& hits) {
+double EmbreePeer::trace16(std::vector<rf_pixel_hit>& hits, EmbreeScene which) {
   Impl& m = *impl_;
+  const bool flat = which == EmbreeScene::flat;
+  RTCScene scene = flat ? m.flat : m.top;
   const int w = m.camera.width, h = m.camera.height;
   hits.resize(static_cast<size_t>(w) * h);
   const int tx = (w + 3) / 4, ty = (h + 3) / 4;
@@ -156,11 +210,14 @@ double EmbreePeer::trace16(std::vector<rf_pixel_hit>& hits) {
         for (int i = 0; i < 16; ++i) {
           const int x = x0 + i % 4, y = y0 + i / 4;
           valid[i] = (x < w && y < h) ? -1 : 0;
-          m.direction(std::min(x, w - 1), std::min(y, h - 1), dirs[i]);
-          rh.ray.org_x[i] = rh.ray.org_y[i] = rh.ray.org_z[i] = 0.0f;
-          rh.ray.dir_x[i] = dirs[i][0];
-          rh.ray.dir_y[i] = dirs[i][1];
-          rh.ray.dir_z[i] = dirs[i][2];
+          float o[3], d[3];
+          m.ray(std::min(x, w - 1), std::min(y, h - 1), flat, o, d, dirs[i]);
+          rh.ray.org_x[i] = o[0];
+          rh.ray.org_y[i] = o[1];
+          rh.ray.org_z[i] = o[2];
+          rh.ray.dir_x[i] = d[0];
+          rh.ray.dir_y[i] = d[1];
+          rh.ray.dir_z[i] = d[2];
           rh.ray.tnear[i] = 0.0f;
           rh.ray.tfar[i] = INFINITY;
           rh.ray.time[i] = 0.0f;
@@ -169,11 +226,11 @@ double EmbreePeer::trace16(std::vector<rf_pixel_hit>& hits) {
           rh.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
           rh.hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
         }
-        rtcIntersect16(valid, m.top, &ctx, &rh);
+        rtcIntersect16(valid, scene, &ctx, &rh);
         for (int i = 0; i < 16; ++i)
           if (valid[i])
-            m.store(hits[static_cast<size_t>(y0 + i / 4) * w + x0 + i % 4], rh.ray.tfar[i], rh.hit.instID[0][i],
-                    rh.hit.primID[i], dirs[i]);
+            m.store(hits[static_cast<size_t>(y0 + i / 4) * w + x0 + i % 4], rh.ray.tfar[i],
+                    flat ? rh.hit.geomID[i] : rh.hit.instID[0][i], rh.hit.primID[i], dirs[i]);
       },
       tx * ty);
 }
@@ -191,8 +248,8 @@ EmbreePeer::EmbreePeer(const Scene&, const SceneData&, unsigned) {
 }
 EmbreePeer::~EmbreePeer() = default;
 void EmbreePeer::set_camera(const Camera&) {}
-double EmbreePeer::trace1(std::vector<rf_pixel_hit>&) { return 0.0; }
-double EmbreePeer::trace16(std::vector<rf_pixel_hit>&) { return 0.0; }
+double EmbreePeer::trace1(std::vector<rf_pixel_hit>&, EmbreeScene) { return 0.0; }
+double EmbreePeer::trace16(std::vector<rf_pixel_hit>&, EmbreeScene) { return 0.0; }
 
 }  // namespace rayfold
 

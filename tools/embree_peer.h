@@ -1,8 +1,12 @@
-// Embree 3 as the peer in the speed/accuracy benchmark: the same scene as
-// instances of per-mesh scenes, traced with the very same camera-space float
-// rays rayfold generates (origin at the eye, instance transforms
-// camera_from_object), with rtcIntersect1 and with coherent rtcIntersect16
-// packets of 4x4 pixels. Built only when Embree is installed.
+// Embree 3 as the peer in the speed/accuracy benchmark, in two scenes:
+//  - instanced: the same two levels as rayfold, instances of per-mesh scenes
+//    with camera_from_object transforms and a top level rebuilt per camera,
+//    traced with the very same camera-space float rays rayfold generates;
+//  - flat: every instance's triangles moved to world space in one scene
+//    built once, as a user with a static scene builds it, traced with the
+//    same rays turned to world space.
+// Both with rtcIntersect1 and with coherent rtcIntersect16 packets of 4x4
+// pixels. Built only when Embree is installed.
 #pragma once
 
 #include <memory>
@@ -14,6 +18,8 @@
 #include "../host/scene.h"
 
 namespace rayfold {
+
+enum class EmbreeScene { instanced, flat };
 
 class EmbreePeer {
  public:
@@ -27,8 +33,8 @@ class EmbreePeer {
   void set_camera(const Camera& camera);
   // Every pixel's hit (distance, instance, primitive; normals and
   // barycentrics are left 0). Returns ms.
-  double trace1(std::vector<rf_pixel_hit>& hits);
-  double trace16(std::vector<rf_pixel_hit>& hits);
+  double trace1(std::vector<rf_pixel_hit>& hits, EmbreeScene scene);
+  double trace16(std::vector<rf_pixel_hit>& hits, EmbreeScene scene);
 
  private:
   struct Impl;

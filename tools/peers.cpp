@@ -9,6 +9,7 @@
 
 #include "../host/double_reference.h"
 #include "../host/gltf_loader.h"
+#include "../host/hit_compare.h"
 #include "../host/renderer.h"
 #include "bench.h"
 #include "embree_peer.h"
@@ -59,16 +60,19 @@ PeerReport run_peers(const PeerOptions& opt) {
   struct Ours {
     const char* name;
     Backend backend;
+    KernelChoice kernel;
     KernelPrecision precision;
   };
-  const Ours ours[] = {{"OpenCL exact", Backend::opencl, KernelPrecision::exact},
-                       {"OpenCL fast", Backend::opencl, KernelPrecision::fast},
-                       {"CPU reference", Backend::cpu, KernelPrecision::exact}};
+  const Ours ours[] = {{"OpenCL tile", Backend::opencl, KernelChoice::tile, KernelPrecision::exact},
+                       {"OpenCL single", Backend::opencl, KernelChoice::single, KernelPrecision::exact},
+                       {"OpenCL tile fast", Backend::opencl, KernelChoice::tile, KernelPrecision::fast},
+                       {"CPU reference", Backend::cpu, KernelChoice::automatic, KernelPrecision::exact}};
   const FoldMode folds[] = {FoldMode::none, FoldMode::y, FoldMode::x, FoldMode::xy};
   std::vector<std::unique_ptr<Renderer>> renderers;
   for (const Ours& o : ours) {
     RendererOptions ro;
     ro.backend = o.backend;
+    ro.kernel = o.kernel;
     ro.precision = o.precision;
     ro.threads = opt.threads;
     ro.device_hint = opt.device_hint;
@@ -94,14 +98,20 @@ PeerReport run_peers(const PeerOptions& opt) {
   std::vector<Accumulator> acc;
   for (const Ours& o : ours)
     for (FoldMode f : folds) acc.emplace_back(make_row(o.name, fold_name(f)));
+  const EmbreeScene embree_scenes[] = {EmbreeScene::instanced, EmbreeScene::flat};
   if (embree) {
-    acc.emplace_back(make_row("Embree rtcIntersect1", "-"));
-    acc.emplace_back(make_row("Embree rtcIntersect16", "-"));
+    acc.emplace_back(make_row("Embree instanced rtcIntersect1", "-"));
+    acc.emplace_back(make_row("Embree instanced rtcIntersect16", "-"));
+    acc.emplace_back(make_row("Embree flat rtcIntersect1", "-"));
+    acc.emplace_back(make_row("Embree flat rtcIntersect16", "-"));
   }
 
   for (int v = 0; v < opt.views; ++v) {
     const Camera cam = make_camera(path[v], opt.width, opt.height);
     const std::vector<ReferenceHit> reference = trace_double_reference(scene, data, cam, opt.threads);
+    // Exact variants are validated against the CPU reference's unfolded
+    // image, bit for bit, before their figures count.
+    const std::vector<rf_pixel_hit> exact = renderers.back()->render(cam, 1, FrameOptions{}).hits;
     size_t a = 0;
     for (size_t r = 0; r < renderers.size(); ++r)
       for (FoldMode f : folds) {
@@ -111,23 +121,58 @@ PeerReport run_peers(const PeerOptions& opt) {
         const RenderResult res = renderers[r]->render(cam, opt.frames, fo);
         std::vector<double> t;
         for (const FrameTimes& ft : res.frames) t.push_back(ft.ray_list_ms + ft.trace_ms + ft.readback_ms);
+        if (ours[r].precision == KernelPrecision::exact) {
+          acc[a].row.exact = true;
+          acc[a].row.mismatched_pixels += count_differing_pixels(exact, res.hits);
+        }
         acc[a++].add(median(t), res.rays, res.hits.size(), measure_accuracy(reference, res.hits), opt.views);
       }
     if (embree) {
       embree->set_camera(cam);
       std::vector<rf_pixel_hit> hits;
-      for (int packets = 0; packets < 2; ++packets) {
-        std::vector<double> t;
-        for (int f = 0; f < opt.warmup + opt.frames; ++f) {
-          const double ms = packets ? embree->trace16(hits) : embree->trace1(hits);
-          if (f >= opt.warmup) t.push_back(ms);
+      for (EmbreeScene es : embree_scenes)
+        for (int packets = 0; packets < 2; ++packets) {
+          std::vector<double> t;
+          for (int f = 0; f < opt.warmup + opt.frames; ++f) {
+            const double ms = packets ? embree->trace16(hits, es) : embree->trace1(hits, es);
+            if (f >= opt.warmup) t.push_back(ms);
+          }
+          acc[a++].add(median(t), hits.size(), hits.size(), measure_accuracy(reference, hits), opt.views);
         }
-        acc[a++].add(median(t), hits.size(), hits.size(), measure_accuracy(reference, hits), opt.views);
-      }
     }
   }
   for (Accumulator& x : acc) rep.rows.push_back(x.finish());
   return rep;
+}
+
+bool PeerReport::valid() const {
+  for (const PeerRow& row : rows)
+    if (row.exact && row.mismatched_pixels != 0) return false;
+  return true;
+}
+
+namespace {
+double mpixels(const PeerRow& r) { return r.pixels / (r.ms * 1e3); }
+bool is_embree(const PeerRow& r) { return r.variant.rfind("Embree", 0) == 0; }
+}  // namespace
+
+PeerRatios peer_ratios(const PeerReport& rep) {
+  PeerRatios q;
+  auto faster = [](const PeerRow* best, const PeerRow& r) { return !best || mpixels(r) > mpixels(*best); };
+  for (const PeerRow& r : rep.rows) {
+    if (r.ms <= 0.0) continue;
+    if (is_embree(r)) {
+      if (faster(q.fastest_embree, r)) q.fastest_embree = &r;
+      if (r.variant.find("instanced") != std::string::npos && faster(q.fastest_embree_instanced, r))
+        q.fastest_embree_instanced = &r;
+    } else if (r.exact && r.variant.rfind("OpenCL", 0) == 0 && faster(q.fastest_rayfold, r)) {
+      q.fastest_rayfold = &r;
+    }
+  }
+  if (q.fastest_rayfold && q.fastest_embree) q.vs_embree = mpixels(*q.fastest_rayfold) / mpixels(*q.fastest_embree);
+  if (q.fastest_rayfold && q.fastest_embree_instanced)
+    q.vs_embree_instanced = mpixels(*q.fastest_rayfold) / mpixels(*q.fastest_embree_instanced);
+  return q;
 }
 
 std::string peers_markdown(const PeerReport& r) {
@@ -137,17 +182,33 @@ std::string peers_markdown(const PeerReport& r) {
     << " threads. rayfold device: " << r.device << ".\n";
   if (!r.embree_note.empty()) s << r.embree_note << "\n";
   s << "\nTimes: rayfold per frame is ray list + trace + readback; Embree's is the trace into host memory. "
+       "Exact rows are checked bit for bit against the CPU reference's unfolded image first. "
        "Accuracy against the double-precision reference: share of pixels whose (instance, primitive) differs, "
        "hit/miss disagreements (included in the former), relative depth error where both hit the same triangle."
        "\n\n";
   s << "| variant | fold | ms/frame | Mrays/s | Mpixels/s | other triangle | hit/miss | depth err median | "
        "p99 | max |\n|---|---|---|---|---|---|---|---|---|---|\n";
-  for (const PeerRow& row : r.rows)
-    s << "| " << row.variant << " | " << row.fold << " | " << fmt("%.1f", row.ms) << " | "
-      << fmt("%.1f", row.rays / (row.ms * 1e3)) << " | " << fmt("%.1f", row.pixels / (row.ms * 1e3)) << " | "
-      << fmt("%.4f%%", 100 * row.accuracy.disagree()) << " | " << fmt("%.4f%%", 100 * row.accuracy.hit_miss)
-      << " | " << fmt("%.1e", row.accuracy.depth_median) << " | " << fmt("%.1e", row.accuracy.depth_p99) << " | "
-      << fmt("%.1e", row.accuracy.depth_max) << " |\n";
+  for (const PeerRow& row : r.rows) {
+    s << "| " << row.variant << " | " << row.fold << " | ";
+    if (row.exact && row.mismatched_pixels != 0) {
+      s << "NOT EXACT: " << row.mismatched_pixels << " pixels differ from the CPU reference | | | | | | | |\n";
+      continue;
+    }
+    s << fmt("%.1f", row.ms) << " | " << fmt("%.1f", row.rays / (row.ms * 1e3)) << " | "
+      << fmt("%.1f", mpixels(row)) << " | " << fmt("%.4f%%", 100 * row.accuracy.disagree()) << " | "
+      << fmt("%.4f%%", 100 * row.accuracy.hit_miss) << " | " << fmt("%.1e", row.accuracy.depth_median) << " | "
+      << fmt("%.1e", row.accuracy.depth_p99) << " | " << fmt("%.1e", row.accuracy.depth_max) << " |\n";
+  }
+  const PeerRatios q = peer_ratios(r);
+  if (r.valid() && q.fastest_rayfold && q.fastest_embree) {
+    s << "\nFastest exact rayfold: " << q.fastest_rayfold->variant << " " << q.fastest_rayfold->fold << ", "
+      << fmt("%.1f", mpixels(*q.fastest_rayfold)) << " Mpixels/s. Against Embree's fastest ("
+      << q.fastest_embree->variant << ", " << fmt("%.1f", mpixels(*q.fastest_embree))
+      << "): **" << fmt("%.2fx", q.vs_embree) << "**; against Embree's fastest instanced ("
+      << q.fastest_embree_instanced->variant << ", " << fmt("%.1f", mpixels(*q.fastest_embree_instanced))
+      << "): **" << fmt("%.2fx", q.vs_embree_instanced) << "**.\n";
+  }
+  if (!r.valid()) s << "\n**An exact variant differs from the CPU reference: no figure above is valid.**\n";
   return s.str();
 }
 
@@ -173,7 +234,13 @@ std::string peers_json(const PeerReport& r) {
                          {"hit_miss_share", row.accuracy.hit_miss},
                          {"depth_error_median", row.accuracy.depth_median},
                          {"depth_error_p99", row.accuracy.depth_p99},
-                         {"depth_error_max", row.accuracy.depth_max}});
+                         {"depth_error_max", row.accuracy.depth_max},
+                         {"exact", row.exact},
+                         {"mismatched_pixels", row.mismatched_pixels}});
+  const PeerRatios q = peer_ratios(r);
+  j["valid"] = r.valid();
+  j["ratio_vs_embree_fastest"] = q.vs_embree;
+  j["ratio_vs_embree_instanced_fastest"] = q.vs_embree_instanced;
   return j.dump(2) + "\n";
 }
 

@@ -28,6 +28,8 @@ struct PeerRow {
   double rays = 0.0;    // traced per frame
   double pixels = 0.0;  // answered per frame
   Accuracy accuracy;    // same_hit, hit_miss: mean over views; depth: median of medians, max of p99s and maxima
+  bool exact = false;            // promised bit for bit equal to the CPU reference
+  size_t mismatched_pixels = 0;  // exact rows: pixels that differ from it, over all views (must be 0)
 };
 
 struct PeerReport {
@@ -36,7 +38,21 @@ struct PeerReport {
   unsigned threads = 0;
   size_t triangles = 0, instances = 0;
   std::vector<PeerRow> rows;
+  // False when an exact row differs from the CPU reference: no figure of
+  // the report is then valid.
+  bool valid() const;
 };
+
+// The headline comparison: rayfold's fastest exact OpenCL row against
+// Embree's fastest row, and against Embree's fastest instanced row, in
+// answered pixels per second (0 when a side is missing).
+struct PeerRatios {
+  const PeerRow* fastest_rayfold = nullptr;
+  const PeerRow* fastest_embree = nullptr;
+  const PeerRow* fastest_embree_instanced = nullptr;
+  double vs_embree = 0.0, vs_embree_instanced = 0.0;
+};
+PeerRatios peer_ratios(const PeerReport& report);
 
 PeerReport run_peers(const PeerOptions& options);
 std::string peers_markdown(const PeerReport& report);
