@@ -1,6 +1,7 @@
 #include "cl_tracer.h"
 
 #include <chrono>
+#include <algorithm>
 #include <cstdlib>
 #include <sstream>
 
@@ -27,8 +28,11 @@ unsigned tile_lanes(const DeviceInfo& info) {
 
 const char* kernel_name(KernelKind k) { return k == KernelKind::tile ? "tile" : "single"; }
 
-ClTracer::ClTracer(ClDevice& device, KernelPrecision precision) : device_(device) {
-  program_ = device_.build(trace_program_source(), precision, "-DRF_LANES=" + std::to_string(tile_lanes(device.info())));
+ClTracer::ClTracer(ClDevice& device, KernelPrecision precision, bool tile_stats)
+    : device_(device), tile_stats_(tile_stats) {
+  std::string defines = "-DRF_LANES=" + std::to_string(tile_lanes(device.info()));
+  if (tile_stats) defines += " -DRF_TILE_STATS";
+  program_ = device_.build(trace_program_source(), precision, defines);
   single_ = cl::Kernel(program_, "rf_trace_primary");
   tile_ = cl::Kernel(program_, "rf_trace_tiles");
 }
@@ -162,6 +166,11 @@ double ClTracer::trace(const rf_camera& cam, KernelKind kind) {
     kernel.setArg(a++, cam.xpair);
     kernel.setArg(a++, cam.ypair);
     kernel.setArg(a++, hits_);
+    if (kind == KernelKind::tile && tile_stats_) {
+      stats_ = cl::Buffer(device_.context(), CL_MEM_WRITE_ONLY,
+                          std::max<size_t>(tile_count_, 1) * RF_TILE_STAT_COUNT * sizeof(uint32_t));
+      kernel.setArg(a++, stats_);
+    }
     if (kind == KernelKind::tile) {
       // One tile per work-group: the SIMD is inside the work-item.
       device_.queue().enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(tile_count_), cl::NDRange(1));
@@ -187,6 +196,13 @@ double ClTracer::read_hits(rf_pixel_hit* out, size_t pixel_count) {
     throw RuntimeFailure("cannot read the hits back: " + cl_error_text(e));
   }
   return ms_since(t0);
+}
+
+std::vector<uint32_t> ClTracer::read_tile_stats() {
+  RF_CHECK(tile_stats_, "tracer built without tile statistics");
+  std::vector<uint32_t> out(static_cast<size_t>(tile_count_) * RF_TILE_STAT_COUNT);
+  if (!out.empty()) device_.queue().enqueueReadBuffer(stats_, CL_TRUE, 0, out.size() * sizeof(uint32_t), out.data());
+  return out;
 }
 
 std::vector<BufferInfo> ClTracer::buffers() const { return buffer_info_; }

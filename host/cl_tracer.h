@@ -36,7 +36,9 @@ struct TraceTimes {
 
 class ClTracer {
  public:
-  ClTracer(ClDevice& device, KernelPrecision precision = KernelPrecision::exact);
+  // tile_stats: build the tile kernel with its traversal counters
+  // (kernels/rf_tile.h), a diagnostic for rayfold-stats; slower.
+  ClTracer(ClDevice& device, KernelPrecision precision = KernelPrecision::exact, bool tile_stats = false);
 
   // Allocates every buffer for this scene and image size, checking the
   // device's memory first (RuntimeFailure when it would not fit).
@@ -50,6 +52,10 @@ class ClTracer {
   double trace(const rf_camera& camera, KernelKind kernel);
   double read_hits(rf_pixel_hit* out, size_t pixel_count);
 
+  // The tile kernel's counters of the last trace, RF_TILE_STAT_COUNT per
+  // tile (a tracer built with tile_stats only).
+  std::vector<uint32_t> read_tile_stats();
+
   std::vector<BufferInfo> buffers() const;
   size_t device_bytes() const;
 
@@ -59,6 +65,8 @@ class ClTracer {
   cl::Kernel single_, tile_;
   cl::Buffer nodes_, tris_, instances_, normal_xforms_, rays_, tiles_, hits_;
   size_t tiles_capacity_ = 0;
+  bool tile_stats_ = false;
+  cl::Buffer stats_;
   uint32_t tile_count_ = 0;
   std::vector<BufferInfo> buffer_info_;
   uint32_t blas_node_count_ = 0;

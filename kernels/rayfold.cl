@@ -37,10 +37,22 @@ __kernel void rf_trace_primary(__global const rf_node* nodes, __global const rf_
 __kernel void rf_trace_tiles(__global const rf_node* nodes, __global const rf_tri* tris,
                              __global const rf_instance* instances, __global const rf_normal_xform* normal_xforms,
                              uint tlas_root, __global const uint* rays, __global const uint* tiles, uint tile_count,
-                             RF_CAMERA_ARGS, __global rf_pixel_hit* out) {
+                             RF_CAMERA_ARGS, __global rf_pixel_hit* out
+#ifdef RF_TILE_STATS
+                             , __global uint* tile_stats
+#endif
+) {
   const uint t = get_global_id(0);
   if (t >= tile_count) return;
   const rf_camera cam = rf_make_camera(scale_x, scale_y, kx0, ky0, width, height, xpair, ypair);
   const uint begin = tiles[t];
-  rf_trace_tile(rays, begin, tiles[t + 1] - begin, &cam, nodes, tris, instances, normal_xforms, tlas_root, out);
+#ifdef RF_TILE_STATS
+  uint stats[RF_TILE_STAT_COUNT];
+  for (int k = 0; k < RF_TILE_STAT_COUNT; ++k) stats[k] = 0u;
+#endif
+  rf_trace_tile(rays, begin, tiles[t + 1] - begin, &cam, nodes, tris, instances, normal_xforms, tlas_root,
+                out RF_TSTAT_ARG);
+#ifdef RF_TILE_STATS
+  for (int k = 0; k < RF_TILE_STAT_COUNT; ++k) tile_stats[t * RF_TILE_STAT_COUNT + k] = stats[k];
+#endif
 }

@@ -23,6 +23,17 @@
 
 #define RF_LANE_GROUPS (RF_TILE_RAYS / RF_LANES)
 
+/* Counters (rf_types.h) only in the diagnostic build. */
+#ifdef RF_TILE_STATS
+#define RF_TSTAT_PARAM , rf_u32* stats
+#define RF_TSTAT_ARG , stats
+#define RF_TSTAT(k, n) (stats[k] += (n))
+#else
+#define RF_TSTAT_PARAM
+#define RF_TSTAT_ARG
+#define RF_TSTAT(k, n) ((void)0)
+#endif
+
 /* The tile's camera-space rays, 4 KiB: direction (dz = -1, so the
  * reciprocal's z is -1 in every lane) and reciprocal x, y per lane, and the
  * reciprocal ranges over the tile for rf_interval_box. */
@@ -42,7 +53,11 @@ typedef struct {
   float o[3];
   float lo[3], hi[3];
   rf_i32 uniform, kx, ky, kz;
-  rf_u32 key; /* instance_id * RF_MAX_GROUPS + group, RF_INVALID when empty */
+  /* The bits of the object_from_camera these rays were made with: equal
+   * bits give equal rays, so instances with the same transform (every node
+   * of many real files) and the subtrees of one instance share a set-up. */
+  rf_u32 key[12];
+  rf_i32 valid;
   rf_vf ix[RF_LANE_GROUPS], iy[RF_LANE_GROUPS], iz[RF_LANE_GROUPS];
   rf_vf sx[RF_LANE_GROUPS], sy[RF_LANE_GROUPS], sz[RF_LANE_GROUPS];
   rf_vi pkx[RF_LANE_GROUPS], pky[RF_LANE_GROUPS], pkz[RF_LANE_GROUPS];
@@ -64,8 +79,17 @@ RF_INLINE void rf_tile_update_tmax(rf_tile_hits* h) {
   h->tmax = rf_lanes_hmax(m);
 }
 
-/* rf_ray_to_object and rf_ray_init for every lane of the tile. */
-RF_INLINE void rf_tile_to_object(rf_tile_ray* r, const RF_GLOBAL float* m, const rf_tile_camera* cam) {
+/* rf_ray_to_object and rf_ray_init for every lane of the tile, unless r
+ * already holds the rays of a transform with the same bits. */
+RF_INLINE void rf_tile_to_object(rf_tile_ray* r, const RF_GLOBAL float* m, const rf_tile_camera* cam RF_TSTAT_PARAM) {
+  if (r->valid) {
+    rf_u32 diff = 0u;
+    for (int i = 0; i < 12; ++i) diff |= as_uint(m[i]) ^ r->key[i];
+    if (diff == 0u) return;
+  }
+  RF_TSTAT(RF_TILE_STAT_SETUPS, 1);
+  r->valid = 1;
+  for (int i = 0; i < 12; ++i) r->key[i] = as_uint(m[i]);
   r->o[0] = m[3];
   r->o[1] = m[7];
   r->o[2] = m[11];
@@ -127,7 +151,7 @@ RF_INLINE void rf_tile_to_object(rf_tile_ray* r, const RF_GLOBAL float* m, const
  * every lane's hit that beats the lane's current one by the tie rule.
  * Returns nonzero when some lane took it. */
 RF_INLINE int rf_tile_triangle(const RF_GLOBAL rf_tri* tri, rf_u32 ti, const rf_tile_ray* r, rf_u32 instance_id,
-                               rf_u32 lanes, rf_tile_hits* h) {
+                               rf_u32 lanes, rf_tile_hits* h RF_TSTAT_PARAM) {
   const float a0 = tri->v0[0] - r->o[0], a1 = tri->v0[1] - r->o[1], a2 = tri->v0[2] - r->o[2];
   const float b0 = tri->v1[0] - r->o[0], b1 = tri->v1[1] - r->o[1], b2 = tri->v1[2] - r->o[2];
   const float c0 = tri->v2[0] - r->o[0], c1 = tri->v2[1] - r->o[1], c2 = tri->v2[2] - r->o[2];
@@ -141,6 +165,7 @@ RF_INLINE int rf_tile_triangle(const RF_GLOBAL rf_tri* tri, rf_u32 ti, const rf_
   int taken = 0;
   for (int j = 0; j < RF_LANE_GROUPS; ++j) {
     if (((lanes >> j) & 1u) == 0u) continue;
+    RF_TSTAT(RF_TILE_STAT_TRI_LANES, 1);
     rf_vf t, ev, ew, det;
     rf_vi ok;
     if (r->uniform) {
@@ -175,7 +200,7 @@ RF_INLINE int rf_tile_triangle(const RF_GLOBAL rf_tri* tri, rf_u32 ti, const rf_
 
 /* Closest hit of every lane's object-space ray in one bottom-level tree. */
 RF_INLINE void rf_tile_trace_blas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_tri* tris, rf_u32 root,
-                                  const rf_tile_ray* r, rf_u32 instance_id, rf_tile_hits* h) {
+                                  const rf_tile_ray* r, rf_u32 instance_id, rf_tile_hits* h RF_TSTAT_PARAM) {
   rf_u32 stack_node[RF_STACK_SIZE];
   float stack_t[RF_STACK_SIZE];
   int sp = 0;
@@ -192,6 +217,7 @@ RF_INLINE void rf_tile_trace_blas(const RF_GLOBAL rf_node* nodes, const RF_GLOBA
   while (sp > 0) {
     --sp;
     if (stack_t[sp] > h->tmax) continue;
+    RF_TSTAT(RF_TILE_STAT_BLAS_NODES, 1);
     const RF_GLOBAL rf_node* n = &nodes[stack_node[sp]];
     const rf_u32 count = n->meta & RF_NODE_COUNT_MASK;
     const float c0[3] = {n->bmin[0] - r->o[0], n->bmin[1] - r->o[1], n->bmin[2] - r->o[2]};
@@ -202,19 +228,23 @@ RF_INLINE void rf_tile_trace_blas(const RF_GLOBAL rf_node* nodes, const RF_GLOBA
       for (int j = 0; j < RF_LANE_GROUPS; ++j) {
         if (rf_lanes_any(rf_lanes_box(c0, c1, r->ix[j], r->iy[j], r->iz[j], h->t[j]))) lanes |= 1u << j;
       }
+      RF_TSTAT(RF_TILE_STAT_BLAS_LANE_BOXES, RF_LANE_GROUPS);
       if (lanes == 0u) continue;
+      RF_TSTAT(RF_TILE_STAT_LEAVES, 1);
       int taken = 0;
       for (rf_u32 k = 0; k < count; ++k) {
         const rf_u32 ti = n->first + k;
-        taken |= rf_tile_triangle(&tris[ti], ti, r, instance_id, lanes, h);
+        taken |= rf_tile_triangle(&tris[ti], ti, r, instance_id, lanes, h RF_TSTAT_ARG);
       }
       if (taken) rf_tile_update_tmax(h);
       continue;
     }
     /* Interior: go on when one lane's ray enters the box. */
     int any = 0;
-    for (int j = 0; j < RF_LANE_GROUPS && !any; ++j)
+    for (int j = 0; j < RF_LANE_GROUPS && !any; ++j) {
+      RF_TSTAT(RF_TILE_STAT_BLAS_LANE_BOXES, 1);
       any = rf_lanes_any(rf_lanes_box(c0, c1, r->ix[j], r->iy[j], r->iz[j], h->t[j]));
+    }
     if (!any) continue;
     const rf_u32 c = n->first;
     float tc[2];
@@ -263,7 +293,7 @@ RF_INLINE rf_vf rf_tile_lane_bound(rf_u32 meta, const rf_tile_hits* hits, int j)
 /* Closest hit per group of every lane through the top-level tree. */
 RF_INLINE void rf_tile_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_tri* tris,
                                   const RF_GLOBAL rf_instance* instances, rf_u32 tlas_root,
-                                  const rf_tile_camera* cam, rf_tile_ray* ro, rf_tile_hits* hits) {
+                                  const rf_tile_camera* cam, rf_tile_ray* ro, rf_tile_hits* hits RF_TSTAT_PARAM) {
   rf_u32 stack_node[RF_STACK_SIZE];
   float stack_t[RF_STACK_SIZE];
   int sp = 0;
@@ -282,12 +312,15 @@ RF_INLINE void rf_tile_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBA
     --sp;
     const RF_GLOBAL rf_node* n = &nodes[stack_node[sp]];
     if (stack_t[sp] > rf_tile_group_bound(n->meta, hits)) continue;
+    RF_TSTAT(RF_TILE_STAT_TLAS_NODES, 1);
     const rf_u32 count = n->meta & RF_NODE_COUNT_MASK;
     const float c0[3] = {n->bmin[0] - 0.0f, n->bmin[1] - 0.0f, n->bmin[2] - 0.0f};
     const float c1[3] = {n->bmax[0] - 0.0f, n->bmax[1] - 0.0f, n->bmax[2] - 0.0f};
     int any = 0;
-    for (int j = 0; j < RF_LANE_GROUPS && !any; ++j)
+    for (int j = 0; j < RF_LANE_GROUPS && !any; ++j) {
+      RF_TSTAT(RF_TILE_STAT_TLAS_LANE_BOXES, 1);
       any = rf_lanes_any(rf_lanes_box(c0, c1, cam->ix[j], cam->iy[j], iz, rf_tile_lane_bound(n->meta, hits, j)));
+    }
     if (!any) continue;
     if (count != 0) {
       for (rf_u32 k = 0; k < count; ++k) {
@@ -295,12 +328,12 @@ RF_INLINE void rf_tile_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBA
         const rf_u32 g = inst->group;
         rf_tile_hits* h = &hits[g];
         if (h->tmax < 0.0f) continue; /* no lane answers this group */
-        const rf_u32 key = inst->instance_id * (rf_u32)RF_MAX_GROUPS + g;
-        if (ro->key != key) {
-          rf_tile_to_object(ro, inst->object_from_camera, cam);
-          ro->key = key;
-        }
-        rf_tile_trace_blas(nodes, tris, inst->blas_root, ro, inst->instance_id, h);
+        RF_TSTAT(RF_TILE_STAT_INSTANCES, 1);
+        /* One cached set-up per group: the mirrored copies of an instance
+         * have transforms of their own and would evict each other. */
+        rf_tile_ray* r = &ro[g];
+        rf_tile_to_object(r, inst->object_from_camera, cam RF_TSTAT_ARG);
+        rf_tile_trace_blas(nodes, tris, inst->blas_root, r, inst->instance_id, h RF_TSTAT_ARG);
       }
       continue;
     }
@@ -331,11 +364,11 @@ RF_INLINE void rf_tile_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBA
 RF_INLINE void rf_trace_tile(const RF_GLOBAL rf_u32* rays, rf_u32 begin, rf_u32 count, const rf_camera* cam,
                              const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_tri* tris,
                              const RF_GLOBAL rf_instance* instances, const RF_GLOBAL rf_normal_xform* normal_xforms,
-                             rf_u32 tlas_root, RF_GLOBAL rf_pixel_hit* out) {
+                             rf_u32 tlas_root, RF_GLOBAL rf_pixel_hit* out RF_TSTAT_PARAM) {
   rf_tile_camera tc;
   rf_tile_hits hits[RF_MAX_GROUPS];
-  rf_tile_ray ro;
-  ro.key = RF_INVALID;
+  rf_tile_ray ro[RF_MAX_GROUPS];
+  for (int g = 0; g < RF_MAX_GROUPS; ++g) ro[g].valid = 0;
   float* dx = (float*)tc.dx;
   float* dy = (float*)tc.dy;
   rf_u32 tile_groups = 0u;
@@ -371,7 +404,7 @@ RF_INLINE void rf_trace_tile(const RF_GLOBAL rf_u32* rays, rf_u32 begin, rf_u32 
   tc.hi[2] = -1.0f;
   for (int g = 0; g < RF_MAX_GROUPS; ++g) hits[g].tmax = ((tile_groups >> g) & 1u) ? RF_FAR : -1.0f;
 
-  if (tlas_root != RF_INVALID) rf_tile_trace_tlas(nodes, tris, instances, tlas_root, &tc, &ro, hits);
+  if (tlas_root != RF_INVALID) rf_tile_trace_tlas(nodes, tris, instances, tlas_root, &tc, ro, hits RF_TSTAT_ARG);
 
   for (rf_u32 l = 0; l < count; ++l) {
     const rf_camera_ray ray = rf_decode_entry(rays[begin + l], cam);

@@ -109,6 +109,19 @@ typedef struct {
 #define RF_TILE_SIDE 16
 #define RF_TILE_RAYS (RF_TILE_SIDE * RF_TILE_SIDE)
 
+/* The tile kernel's traversal counters, a diagnostic (rayfold-stats): built
+ * with RF_TILE_STATS, the kernel writes RF_TILE_STAT_COUNT 4-byte counters
+ * per tile, in this order, to one more buffer. */
+#define RF_TILE_STAT_TLAS_NODES 0     /* top-level nodes popped and not skipped */
+#define RF_TILE_STAT_TLAS_LANE_BOXES 1 /* lane-group slab tests in the top level */
+#define RF_TILE_STAT_INSTANCES 2      /* instance subtrees entered */
+#define RF_TILE_STAT_SETUPS 3         /* object-space set-ups of the tile's rays */
+#define RF_TILE_STAT_BLAS_NODES 4     /* bottom-level nodes popped and not skipped */
+#define RF_TILE_STAT_BLAS_LANE_BOXES 5 /* lane-group slab tests in the bottom level */
+#define RF_TILE_STAT_LEAVES 6         /* leaves with a lane group inside */
+#define RF_TILE_STAT_TRI_LANES 7      /* lane-group triangle tests */
+#define RF_TILE_STAT_COUNT 8
+
 /* How pixel (x, y) becomes a camera-space ray, origin at the eye:
  *   d = (scale_x * (2x + kx0), scale_y * (ky0 - 2y), -1)
  * The integer offsets keep mirror partners exact: the column xpair - x gives

@@ -1,10 +1,14 @@
-// rayfold-stats: per-ray traversal counts (top-level nodes, instances
-// entered, bottom-level nodes, triangle tests) of the CPU reference, to see
-// where a scene's trace time goes. A diagnostic, not a benchmark.
+// rayfold-stats: traversal counts of both kernels, to see where a scene's
+// trace time goes. A diagnostic, not a benchmark.
+//  - single-ray (the CPU reference's traversal): per ray, top-level nodes,
+//    instances entered, set-ups, bottom-level nodes, triangle tests;
+//  - tile (on the OpenCL device, built with its counters): per tile and per
+//    answered pixel, nodes, lane-group box and triangle tests, set-ups.
 #define RF_TRAVERSAL_STATS 1
 #include <cstdio>
 
 #include "../host/camera.h"
+#include "../host/cl_tracer.h"
 #include "../host/errors.h"
 #include "../host/frame.h"
 #include "../host/gltf_loader.h"
@@ -48,10 +52,41 @@ int main(int argc, char** argv) {
       rf_trace_entry(e, &cam.params, nodes.data(), data.blas.tris.data(), frame.instances.data(),
                      data.normal_xforms.data(), frame.tlas_root, out.data());
     const double n = static_cast<double>(rays.entries.size());
-    std::printf("%s (fold %s, %zu rays): per ray %.1f TLAS nodes, %.2f instances (%.2f set-ups), %.1f BLAS nodes, %.1f triangle tests "
-                "(BLAS SAH %.1f, TLAS SAH %.1f, %zu instances kept)\n",
-                argv[1], fold_name(fold), rays.entries.size(), rf_stats.tlas_nodes / n, rf_stats.instances / n, rf_stats.setups / n, rf_stats.blas_nodes / n,
-                rf_stats.triangles / n, data.blas.sah_cost, frame.stats.tlas_sah, frame.stats.kept);
+    const double px = static_cast<double>(rays.pixels);
+    std::printf("%s (fold %s, %zu rays for %zu pixels; BLAS SAH %.1f, TLAS SAH %.1f, %zu instances kept)\n", argv[1],
+                fold_name(fold), rays.entries.size(), rays.pixels, data.blas.sah_cost, frame.stats.tlas_sah,
+                frame.stats.kept);
+    std::printf("  single-ray, per ray:   %.1f TLAS nodes, %.2f instances (%.2f set-ups), %.1f BLAS nodes, %.1f "
+                "triangle tests\n",
+                rf_stats.tlas_nodes / n, rf_stats.instances / n, rf_stats.setups / n, rf_stats.blas_nodes / n,
+                rf_stats.triangles / n);
+    std::printf("  single-ray, per pixel: %.1f TLAS nodes, %.2f set-ups, %.1f BLAS nodes, %.1f triangle tests\n",
+                rf_stats.tlas_nodes / px, rf_stats.setups / px, rf_stats.blas_nodes / px, rf_stats.triangles / px);
+
+    // The tile kernel on the OpenCL device, with its counters.
+    ClDevice device;
+    ClTracer tracer(device, KernelPrecision::exact, true);
+    tracer.upload_scene(data, frame.tlas_nodes.size(), frame.instances.size(), rays.entries.size(), out.size());
+    tracer.upload_frame(frame);
+    tracer.upload_rays(rays);
+    tracer.trace(cam.params, KernelKind::tile);
+    const std::vector<uint32_t> st = tracer.read_tile_stats();
+    double sum[RF_TILE_STAT_COUNT] = {};
+    for (size_t i = 0; i < st.size(); ++i) sum[i % RF_TILE_STAT_COUNT] += st[i];
+    const double tiles = static_cast<double>(rays.tiles.size() - 1);
+    std::printf("  tile (%u lanes), per tile of %.0f rays: %.1f TLAS nodes (%.1f lane-group boxes), %.1f instances "
+                "(%.1f set-ups), %.1f BLAS nodes (%.1f lane-group boxes), %.1f leaves, %.1f lane-group triangle "
+                "tests\n",
+                tile_lanes(device.info()), n / tiles, sum[RF_TILE_STAT_TLAS_NODES] / tiles,
+                sum[RF_TILE_STAT_TLAS_LANE_BOXES] / tiles, sum[RF_TILE_STAT_INSTANCES] / tiles,
+                sum[RF_TILE_STAT_SETUPS] / tiles, sum[RF_TILE_STAT_BLAS_NODES] / tiles,
+                sum[RF_TILE_STAT_BLAS_LANE_BOXES] / tiles, sum[RF_TILE_STAT_LEAVES] / tiles,
+                sum[RF_TILE_STAT_TRI_LANES] / tiles);
+    const double lanes = tile_lanes(device.info());
+    std::printf("  tile, per pixel (lane tests count each lane): %.2f set-up lanes, %.1f BLAS box lanes, %.1f "
+                "triangle lanes\n",
+                sum[RF_TILE_STAT_SETUPS] * RF_TILE_RAYS / px,
+                sum[RF_TILE_STAT_BLAS_LANE_BOXES] * lanes / px, sum[RF_TILE_STAT_TRI_LANES] * lanes / px);
     return 0;
   });
 }
