@@ -198,11 +198,22 @@ RF_INLINE int rf_tile_triangle(const RF_GLOBAL rf_tri* tri, rf_u32 ti, const rf_
   return taken;
 }
 
+/* The lane groups [first, last] of the tile that may still enter a node,
+ * packed in one stack word. A lane whose slab test fails on a box fails on
+ * every box inside it (each slab end is monotone in the box's bounds under
+ * rounding, and a lane's tmax only shrinks), and a child's box lies inside
+ * its parent's (rf_types.h), so the lane groups before the first and after
+ * the last that enter a node never need testing below it. */
+#define RF_RANGE(first, last) ((rf_u32)(first) | ((rf_u32)(last) << 8))
+#define RF_RANGE_FIRST(r) ((int)((r) & 0xFFu))
+#define RF_RANGE_LAST(r) ((int)((r) >> 8))
+
 /* Closest hit of every lane's object-space ray in one bottom-level tree. */
 RF_INLINE void rf_tile_trace_blas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_tri* tris, rf_u32 root,
                                   const rf_tile_ray* r, rf_u32 instance_id, rf_tile_hits* h RF_TSTAT_PARAM) {
   rf_u32 stack_node[RF_STACK_SIZE];
   float stack_t[RF_STACK_SIZE];
+  rf_u32 stack_range[RF_STACK_SIZE];
   int sp = 0;
   {
     const RF_GLOBAL rf_node* n = &nodes[root];
@@ -212,6 +223,7 @@ RF_INLINE void rf_tile_trace_blas(const RF_GLOBAL rf_node* nodes, const RF_GLOBA
     if (tn == RF_FAR) return;
     stack_node[0] = root;
     stack_t[0] = tn;
+    stack_range[0] = RF_RANGE(0, RF_LANE_GROUPS - 1);
     sp = 1;
   }
   while (sp > 0) {
@@ -222,13 +234,14 @@ RF_INLINE void rf_tile_trace_blas(const RF_GLOBAL rf_node* nodes, const RF_GLOBA
     const rf_u32 count = n->meta & RF_NODE_COUNT_MASK;
     const float c0[3] = {n->bmin[0] - r->o[0], n->bmin[1] - r->o[1], n->bmin[2] - r->o[2]};
     const float c1[3] = {n->bmax[0] - r->o[0], n->bmax[1] - r->o[1], n->bmax[2] - r->o[2]};
+    int first = RF_RANGE_FIRST(stack_range[sp]), last = RF_RANGE_LAST(stack_range[sp]);
     if (count != 0) {
       /* Which lane groups have a ray in the leaf's box. */
       rf_u32 lanes = 0u;
-      for (int j = 0; j < RF_LANE_GROUPS; ++j) {
+      for (int j = first; j <= last; ++j) {
         if (rf_lanes_any(rf_lanes_box(c0, c1, r->ix[j], r->iy[j], r->iz[j], h->t[j]))) lanes |= 1u << j;
       }
-      RF_TSTAT(RF_TILE_STAT_BLAS_LANE_BOXES, RF_LANE_GROUPS);
+      RF_TSTAT(RF_TILE_STAT_BLAS_LANE_BOXES, last - first + 1);
       if (lanes == 0u) continue;
       RF_TSTAT(RF_TILE_STAT_LEAVES, 1);
       int taken = 0;
@@ -239,13 +252,19 @@ RF_INLINE void rf_tile_trace_blas(const RF_GLOBAL rf_node* nodes, const RF_GLOBA
       if (taken) rf_tile_update_tmax(h);
       continue;
     }
-    /* Interior: go on when one lane's ray enters the box. */
-    int any = 0;
-    for (int j = 0; j < RF_LANE_GROUPS && !any; ++j) {
+    /* Interior: narrow the range from both ends to the lane groups that
+     * enter the box; go on when one does. */
+    while (first <= last && !rf_lanes_any(rf_lanes_box(c0, c1, r->ix[first], r->iy[first], r->iz[first], h->t[first]))) {
       RF_TSTAT(RF_TILE_STAT_BLAS_LANE_BOXES, 1);
-      any = rf_lanes_any(rf_lanes_box(c0, c1, r->ix[j], r->iy[j], r->iz[j], h->t[j]));
+      ++first;
     }
-    if (!any) continue;
+    if (first > last) continue;
+    while (last > first && !rf_lanes_any(rf_lanes_box(c0, c1, r->ix[last], r->iy[last], r->iz[last], h->t[last]))) {
+      RF_TSTAT(RF_TILE_STAT_BLAS_LANE_BOXES, 1);
+      --last;
+    }
+    RF_TSTAT(RF_TILE_STAT_BLAS_LANE_BOXES, first == last ? 1 : 2);
+    const rf_u32 range = RF_RANGE(first, last);
     const rf_u32 c = n->first;
     float tc[2];
     for (int s = 0; s < 2; ++s) {
@@ -259,11 +278,13 @@ RF_INLINE void rf_tile_trace_blas(const RF_GLOBAL rf_node* nodes, const RF_GLOBA
     if (tc[1 - near_s] != RF_FAR) {
       stack_node[sp] = c + 1 - near_s;
       stack_t[sp] = tc[1 - near_s];
+      stack_range[sp] = range;
       ++sp;
     }
     if (tc[near_s] != RF_FAR) {
       stack_node[sp] = c + near_s;
       stack_t[sp] = tc[near_s];
+      stack_range[sp] = range;
       ++sp;
     }
   }
@@ -359,6 +380,90 @@ RF_INLINE void rf_tile_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBA
   }
 }
 
+/* rf_write_pixel for every lane of the tile that answers group g, lane by
+ * lane: the normal (rf_geometric_normal) and depth in vectors, with the
+ * scalar code's operations per lane, then one pixel store per lane. The
+ * per-pixel normal, with its divisions and square root, costs as much as
+ * the traversal when done one pixel at a time. */
+RF_INLINE void rf_tile_write_group(const RF_GLOBAL rf_u32* rays, rf_u32 begin, rf_u32 count, const rf_camera* cam,
+                                   const rf_tile_camera* tc, const rf_tile_hits* h, int g,
+                                   const RF_GLOBAL rf_tri* tris, const RF_GLOBAL rf_normal_xform* normal_xforms,
+                                   RF_GLOBAL rf_pixel_hit* out) {
+  rf_vf z[RF_LANE_GROUPS], nx[RF_LANE_GROUPS], ny[RF_LANE_GROUPS], nz[RF_LANE_GROUPS];
+  for (int j = 0; j < RF_LANE_GROUPS; ++j) {
+    const rf_vi hit = h->instance[j] != (rf_vu)(RF_INVALID);
+    if (!rf_lanes_any(hit)) {
+      z[j] = (rf_vf)(RF_INF);
+      nx[j] = ny[j] = nz[j] = (rf_vf)(0.0f);
+      continue;
+    }
+    /* Gather each lane's triangle and normal matrix (lane 0's where a lane
+     * missed; its result is replaced below). */
+    float gv[9][RF_LANES], gm[9][RF_LANES];
+    const rf_u32* tri_idx = (const rf_u32*)&h->tri[j];
+    const rf_u32* inst_idx = (const rf_u32*)&h->instance[j];
+    for (int l = 0; l < RF_LANES; ++l) {
+      const int lane_hit = inst_idx[l] != RF_INVALID;
+      const RF_GLOBAL rf_tri* tri = &tris[lane_hit ? tri_idx[l] : 0u];
+      const RF_GLOBAL float* m = normal_xforms[lane_hit ? inst_idx[l] : 0u].m;
+      for (int k = 0; k < 3; ++k) {
+        gv[k][l] = tri->v0[k];
+        gv[3 + k][l] = tri->v1[k];
+        gv[6 + k][l] = tri->v2[k];
+      }
+      for (int k = 0; k < 9; ++k) gm[k][l] = m[k];
+    }
+#define RF_G(a, k) (*(const rf_vf*)a[k])
+    const rf_vf e1x = RF_G(gv, 3) - RF_G(gv, 0), e1y = RF_G(gv, 4) - RF_G(gv, 1), e1z = RF_G(gv, 5) - RF_G(gv, 2);
+    const rf_vf e2x = RF_G(gv, 6) - RF_G(gv, 0), e2y = RF_G(gv, 7) - RF_G(gv, 1), e2z = RF_G(gv, 8) - RF_G(gv, 2);
+    const rf_vf cx = e1y * e2z - e1z * e2y;
+    const rf_vf cy = e1z * e2x - e1x * e2z;
+    const rf_vf cz = e1x * e2y - e1y * e2x;
+    rf_vf wx = RF_G(gm, 0) * cx + RF_G(gm, 1) * cy + RF_G(gm, 2) * cz;
+    rf_vf wy = RF_G(gm, 3) * cx + RF_G(gm, 4) * cy + RF_G(gm, 5) * cz;
+    rf_vf wz = RF_G(gm, 6) * cx + RF_G(gm, 7) * cy + RF_G(gm, 8) * cz;
+#undef RF_G
+    const rf_vf big = rf_lanes_max(rf_lanes_max(fabs(wx), fabs(wy)), fabs(wz));
+    const rf_vi degenerate = ~(big > (rf_vf)(0.0f));
+    wx = wx / big;
+    wy = wy / big;
+    wz = wz / big;
+    const rf_vf len = sqrt(wx * wx + wy * wy + wz * wz);
+    const rf_vi zero = degenerate | ~hit;
+    nx[j] = select(wx / len, (rf_vf)(0.0f), zero);
+    ny[j] = select(wy / len, (rf_vf)(0.0f), zero);
+    nz[j] = select(wz / len, (rf_vf)(0.0f), zero);
+    const rf_vf dz = (rf_vf)(-1.0f);
+    const rf_vf len_d = sqrt(tc->dx[j] * tc->dx[j] + tc->dy[j] * tc->dy[j] + dz * dz);
+    z[j] = select((rf_vf)(RF_INF), h->t[j] * len_d, hit);
+  }
+  const float* zs = (const float*)z;
+  const float* xs = (const float*)nx;
+  const float* ys = (const float*)ny;
+  const float* ws = (const float*)nz;
+  const float* us = (const float*)h->u;
+  const float* vs = (const float*)h->v;
+  const rf_u32* is = (const rf_u32*)h->instance;
+  const rf_u32* ps = (const rf_u32*)h->prim;
+  for (rf_u32 l = 0; l < count; ++l) {
+    const rf_u32 entry = rays[begin + l];
+    const rf_camera_ray ray = rf_decode_entry(entry, cam);
+    if (((ray.groups >> g) & 1u) == 0u) continue;
+    const rf_i32 px = (g & 1) ? cam->xpair - ray.x : ray.x;
+    const rf_i32 py = (g & 2) ? cam->ypair - ray.y : ray.y;
+    RF_GLOBAL rf_pixel_hit* o = &out[py * cam->width + px];
+    const int hit = is[l] != RF_INVALID;
+    o->z = zs[l];
+    o->nx = xs[l];
+    o->ny = ys[l];
+    o->nz = ws[l];
+    o->u = hit ? us[l] : 0.0f;
+    o->v = hit ? vs[l] : 0.0f;
+    o->instance = is[l];
+    o->primitive = hit ? ps[l] : RF_INVALID;
+  }
+}
+
 /* Traces tile `tile` of the ray list: rays[begin .. begin + count), count at
  * most RF_TILE_RAYS, and writes every pixel its rays answer. */
 RF_INLINE void rf_trace_tile(const RF_GLOBAL rf_u32* rays, rf_u32 begin, rf_u32 count, const rf_camera* cam,
@@ -406,18 +511,8 @@ RF_INLINE void rf_trace_tile(const RF_GLOBAL rf_u32* rays, rf_u32 begin, rf_u32 
 
   if (tlas_root != RF_INVALID) rf_tile_trace_tlas(nodes, tris, instances, tlas_root, &tc, ro, hits RF_TSTAT_ARG);
 
-  for (rf_u32 l = 0; l < count; ++l) {
-    const rf_camera_ray ray = rf_decode_entry(rays[begin + l], cam);
-    rf_hit h[RF_MAX_GROUPS];
-    for (int g = 0; g < RF_MAX_GROUPS; ++g) {
-      h[g].t = ((const float*)hits[g].t)[l];
-      h[g].u = ((const float*)hits[g].u)[l];
-      h[g].v = ((const float*)hits[g].v)[l];
-      h[g].instance = ((const rf_u32*)hits[g].instance)[l];
-      h[g].prim = ((const rf_u32*)hits[g].prim)[l];
-      h[g].tri = ((const rf_u32*)hits[g].tri)[l];
-    }
-    rf_write_answers(&ray, h, cam, tris, normal_xforms, out);
+  for (int g = 0; g < RF_MAX_GROUPS; ++g) {
+    if ((tile_groups >> g) & 1u) rf_tile_write_group(rays, begin, count, cam, &tc, &hits[g], g, tris, normal_xforms, out);
   }
 }
 
