@@ -3,6 +3,7 @@
 #include <chrono>
 #include <algorithm>
 #include <cstdlib>
+#include <cstring>
 #include <sstream>
 
 #include "errors.h"
@@ -165,7 +166,7 @@ double ClTracer::trace(const rf_camera& cam, KernelKind kind) {
     kernel.setArg(a++, cam.height);
     kernel.setArg(a++, cam.xpair);
     kernel.setArg(a++, cam.ypair);
-    kernel.setArg(a++, hits_);
+    kernel.setArg(a++, host_out_ ? host_hits_ : hits_);
     if (kind == KernelKind::tile && tile_stats_) {
       stats_ = cl::Buffer(device_.context(), CL_MEM_WRITE_ONLY,
                           std::max<size_t>(tile_count_, 1) * RF_TILE_STAT_COUNT * sizeof(uint32_t));
@@ -187,11 +188,34 @@ double ClTracer::trace(const rf_camera& cam, KernelKind kind) {
   return ms_since(t0);
 }
 
+void ClTracer::bind_output(rf_pixel_hit* out, size_t pixel_count) {
+  RF_CHECK(pixel_count <= pixel_count_, "binding more hits than the buffer holds");
+  host_out_ = nullptr;
+  if (!device_.info().is_cpu || pixel_count == 0) return;
+  try {
+    host_hits_ = cl::Buffer(device_.context(), CL_MEM_WRITE_ONLY | CL_MEM_USE_HOST_PTR,
+                            pixel_count * sizeof(rf_pixel_hit), out);
+    host_out_ = out;
+  } catch (const cl::Error&) {
+    host_out_ = nullptr;  // the device buffer and a copy still work
+  }
+}
+
 double ClTracer::read_hits(rf_pixel_hit* out, size_t pixel_count) {
   RF_CHECK(pixel_count <= pixel_count_, "reading more hits than the buffer holds");
   const auto t0 = Clock::now();
   try {
-    device_.queue().enqueueReadBuffer(hits_, CL_TRUE, 0, pixel_count * sizeof(rf_pixel_hit), out);
+    cl::CommandQueue& q = device_.queue();
+    if (host_out_ == out && pixel_count > 0) {
+      // Mapping a host-pointer buffer hands back that memory; it
+      // synchronises without a copy on CPU devices.
+      void* p = q.enqueueMapBuffer(host_hits_, CL_TRUE, CL_MAP_READ, 0, pixel_count * sizeof(rf_pixel_hit));
+      if (p != out) std::memcpy(out, p, pixel_count * sizeof(rf_pixel_hit));
+      q.enqueueUnmapMemObject(host_hits_, p);
+      q.finish();
+    } else {
+      q.enqueueReadBuffer(hits_, CL_TRUE, 0, pixel_count * sizeof(rf_pixel_hit), out);
+    }
   } catch (const cl::Error& e) {
     throw RuntimeFailure("cannot read the hits back: " + cl_error_text(e));
   }

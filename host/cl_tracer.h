@@ -50,6 +50,10 @@ class ClTracer {
   // Traces the uploaded rays with the given kernel; ms of kernel time,
   // measured around a finish().
   double trace(const rf_camera& camera, KernelKind kernel);
+  // Where the next trace writes its hits. On CPU devices the kernel writes
+  // straight into `out` (a buffer over host memory), and read_hits only
+  // synchronises; elsewhere read_hits copies the device buffer into `out`.
+  void bind_output(rf_pixel_hit* out, size_t pixel_count);
   double read_hits(rf_pixel_hit* out, size_t pixel_count);
 
   // The tile kernel's counters of the last trace, RF_TILE_STAT_COUNT per
@@ -67,6 +71,8 @@ class ClTracer {
   size_t tiles_capacity_ = 0;
   bool tile_stats_ = false;
   cl::Buffer stats_;
+  cl::Buffer host_hits_;  // over bound host memory (CPU devices)
+  rf_pixel_hit* host_out_ = nullptr;
   uint32_t tile_count_ = 0;
   std::vector<BufferInfo> buffer_info_;
   uint32_t blas_node_count_ = 0;

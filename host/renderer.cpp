@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstring>
 
 #include <unistd.h>
 
@@ -62,6 +63,18 @@ void Renderer::ensure_capacity(size_t pixels) {
   if (!tracer_ || pixels <= pixel_capacity_) return;
   tracer_->upload_scene(data_, max_tlas_nodes(data_), max_tlas_items(data_), pixels, pixels);
   pixel_capacity_ = pixels;
+  have_rays_ = false;  // the new buffers hold no rays yet
+}
+
+const RayList& Renderer::ray_list(const rf_camera& params, FoldMode fold, bool* fresh) {
+  *fresh = !have_rays_ || fold != rays_fold_ || std::memcmp(&params, &rays_camera_, sizeof params) != 0;
+  if (*fresh) {
+    rays_ = make_ray_list(params, fold);
+    rays_camera_ = params;
+    rays_fold_ = fold;
+    have_rays_ = true;
+  }
+  return rays_;
 }
 
 // Image-sized host buffers are checked against physical memory first, so a
@@ -89,7 +102,8 @@ RenderResult Renderer::render(const Camera& camera, int frames, const FrameOptio
     FrameOptions options = frame_options;
     if (options.animate_frame >= 0) options.animate_frame += f;
     auto t0 = Clock::now();
-    const RayList rays = make_ray_list(camera.params, options.fold);
+    bool fresh_rays = false;
+    const RayList& rays = ray_list(camera.params, options.fold, &fresh_rays);
     times.ray_list_ms = ms_since(t0);
     result.rays = rays.entries.size();
     const Frame frame = build_frame(scene_, data_, camera, rays, options);
@@ -99,8 +113,9 @@ RenderResult Renderer::render(const Camera& camera, int frames, const FrameOptio
     result.tlas_nodes = frame.tlas_nodes.size();
     result.instances = frame.instances.size();
     if (tracer_) {
-      times.ray_list_ms += tracer_->upload_rays(rays);
+      if (fresh_rays) times.ray_list_ms += tracer_->upload_rays(rays);
       times.upload_ms = tracer_->upload_frame(frame);
+      tracer_->bind_output(result.hits.data(), pixels);
       times.trace_ms = tracer_->trace(camera.params, kernel_);
       times.readback_ms = tracer_->read_hits(result.hits.data(), pixels);
     } else {

@@ -34,7 +34,7 @@ struct FrameTimes {
   double cull_ms = 0.0;
   double tlas_ms = 0.0;
   double upload_ms = 0.0;    // top-level nodes and instances
-  double ray_list_ms = 0.0;  // building (and uploading) the ray list
+  double ray_list_ms = 0.0;  // building (and uploading) the ray list; 0 when the last one still holds
   double trace_ms = 0.0;
   double readback_ms = 0.0;
 };
@@ -70,6 +70,10 @@ class Renderer {
 
  private:
   void ensure_capacity(size_t pixels);
+  // The ray list for these intrinsics and fold: it does not depend on the
+  // camera's pose, so the last one (and its upload) is kept while they stay
+  // the same. Sets *fresh when it was built anew.
+  const RayList& ray_list(const rf_camera& params, FoldMode fold, bool* fresh);
 
   const Scene& scene_;
   RendererOptions options_;
@@ -79,6 +83,10 @@ class Renderer {
   std::unique_ptr<ClTracer> tracer_;
   KernelKind kernel_ = KernelKind::single;
   size_t pixel_capacity_ = 0;
+  RayList rays_;
+  bool have_rays_ = false;
+  rf_camera rays_camera_{};
+  FoldMode rays_fold_ = FoldMode::none;
 };
 
 // Median of a list of values (the upper median for even counts).
