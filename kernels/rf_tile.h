@@ -14,7 +14,17 @@
  *    traversal only visits more than one ray needs, never less, and the tie
  *    rule makes the result independent of the order of visits;
  *  - a leaf tests its triangles only on the lane groups (vectors) with a ray
- *    inside its box.
+ *    inside its box;
+ *  - a lane takes a hit only from a leaf its own slab test enters, below a
+ *    top-level leaf its own test enters. This is what makes a lane equal the
+ *    scalar code, not just close to it: the scalar slab test is not
+ *    conservative on a box face that a ray with a zero direction component
+ *    runs along (the slab there collapses to one side), while the watertight
+ *    triangle test includes edges, so the scalar result is the closest hit
+ *    among the triangles its own box tests reach. A lane that passes a leaf
+ *    passes every ancestor (boxes nest, slab ends are monotone under
+ *    rounding, tmax only shrinks), so the leaf's and the top-level leaf's
+ *    tests decide exactly that set.
  * Lanes past the tile's ray count repeat its last ray, so they never widen
  * the tile's bounds; their results are not written.
  */
@@ -148,10 +158,11 @@ RF_INLINE void rf_tile_to_object(rf_tile_ray* r, const RF_GLOBAL float* m, const
 }
 
 /* Tests one triangle on the lane groups in `lanes` (bit j: group j) and takes
- * every lane's hit that beats the lane's current one by the tie rule.
- * Returns nonzero when some lane took it. */
+ * the hit of every lane in lane_in (the lanes whose own slab tests reach the
+ * leaf) that beats the lane's current one by the tie rule. Returns nonzero
+ * when some lane took it. */
 RF_INLINE int rf_tile_triangle(const RF_GLOBAL rf_tri* tri, rf_u32 ti, const rf_tile_ray* r, rf_u32 instance_id,
-                               rf_u32 lanes, rf_tile_hits* h RF_TSTAT_PARAM) {
+                               rf_u32 lanes, const rf_vi* lane_in, rf_tile_hits* h RF_TSTAT_PARAM) {
   const float a0 = tri->v0[0] - r->o[0], a1 = tri->v0[1] - r->o[1], a2 = tri->v0[2] - r->o[2];
   const float b0 = tri->v1[0] - r->o[0], b1 = tri->v1[1] - r->o[1], b2 = tri->v1[2] - r->o[2];
   const float c0 = tri->v2[0] - r->o[0], c1 = tri->v2[1] - r->o[1], c2 = tri->v2[2] - r->o[2];
@@ -185,7 +196,7 @@ RF_INLINE int rf_tile_triangle(const RF_GLOBAL rf_tri* tri, rf_u32 ti, const rf_
     const rf_vf bt = h->t[j];
     const rf_vu bi = h->instance[j];
     const rf_vi closer = (t < bt) | ((t == bt) & ((inst_v < bi) | ((inst_v == bi) & (prim_v < h->prim[j]))));
-    const rf_vi take = ok & (t > (rf_vf)(0.0f)) & closer;
+    const rf_vi take = ok & (t > (rf_vf)(0.0f)) & closer & lane_in[j];
     if (!rf_lanes_any(take)) continue;
     h->t[j] = select(bt, t, take);
     h->u[j] = select(h->u[j], ev / det, take);
@@ -208,9 +219,12 @@ RF_INLINE int rf_tile_triangle(const RF_GLOBAL rf_tri* tri, rf_u32 ti, const rf_
 #define RF_RANGE_FIRST(r) ((int)((r) & 0xFFu))
 #define RF_RANGE_LAST(r) ((int)((r) >> 8))
 
-/* Closest hit of every lane's object-space ray in one bottom-level tree. */
+/* Closest hit of every lane's object-space ray in one bottom-level tree,
+ * for the lanes in `entered` (those whose ray passed the top-level leaf). */
 RF_INLINE void rf_tile_trace_blas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_tri* tris, rf_u32 root,
-                                  const rf_tile_ray* r, rf_u32 instance_id, rf_tile_hits* h RF_TSTAT_PARAM) {
+                                  const rf_tile_ray* r, rf_u32 instance_id, const rf_vi* entered, rf_tile_hits* h
+                                  RF_TSTAT_PARAM) {
+  rf_vi lane_in[RF_LANE_GROUPS];
   rf_u32 stack_node[RF_STACK_SIZE];
   float stack_t[RF_STACK_SIZE];
   rf_u32 stack_range[RF_STACK_SIZE];
@@ -239,7 +253,8 @@ RF_INLINE void rf_tile_trace_blas(const RF_GLOBAL rf_node* nodes, const RF_GLOBA
       /* Which lane groups have a ray in the leaf's box. */
       rf_u32 lanes = 0u;
       for (int j = first; j <= last; ++j) {
-        if (rf_lanes_any(rf_lanes_box(c0, c1, r->ix[j], r->iy[j], r->iz[j], h->t[j]))) lanes |= 1u << j;
+        lane_in[j] = rf_lanes_box(c0, c1, r->ix[j], r->iy[j], r->iz[j], h->t[j]) & entered[j];
+        if (rf_lanes_any(lane_in[j])) lanes |= 1u << j;
       }
       RF_TSTAT(RF_TILE_STAT_BLAS_LANE_BOXES, last - first + 1);
       if (lanes == 0u) continue;
@@ -247,7 +262,7 @@ RF_INLINE void rf_tile_trace_blas(const RF_GLOBAL rf_node* nodes, const RF_GLOBA
       int taken = 0;
       for (rf_u32 k = 0; k < count; ++k) {
         const rf_u32 ti = n->first + k;
-        taken |= rf_tile_triangle(&tris[ti], ti, r, instance_id, lanes, h RF_TSTAT_ARG);
+        taken |= rf_tile_triangle(&tris[ti], ti, r, instance_id, lanes, lane_in, h RF_TSTAT_ARG);
       }
       if (taken) rf_tile_update_tmax(h);
       continue;
@@ -344,6 +359,11 @@ RF_INLINE void rf_tile_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBA
     }
     if (!any) continue;
     if (count != 0) {
+      /* The lanes whose own test enters this leaf; the others must not take
+       * hits below it (see the top of this file). */
+      rf_vi entered[RF_LANE_GROUPS];
+      for (int j = 0; j < RF_LANE_GROUPS; ++j)
+        entered[j] = rf_lanes_box(c0, c1, cam->ix[j], cam->iy[j], iz, rf_tile_lane_bound(n->meta, hits, j));
       for (rf_u32 k = 0; k < count; ++k) {
         const RF_GLOBAL rf_instance* inst = &instances[n->first + k];
         const rf_u32 g = inst->group;
@@ -354,7 +374,7 @@ RF_INLINE void rf_tile_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBA
          * have transforms of their own and would evict each other. */
         rf_tile_ray* r = &ro[g];
         rf_tile_to_object(r, inst->object_from_camera, cam RF_TSTAT_ARG);
-        rf_tile_trace_blas(nodes, tris, inst->blas_root, r, inst->instance_id, h RF_TSTAT_ARG);
+        rf_tile_trace_blas(nodes, tris, inst->blas_root, r, inst->instance_id, entered, h RF_TSTAT_ARG);
       }
       continue;
     }

@@ -18,7 +18,9 @@ TEST(Peers, EveryVariantIsMeasured) {
   opt.frames = 1;
   opt.warmup = 0;
   const PeerReport r = run_peers(opt);
-  ASSERT_EQ(r.rows.size(), EmbreePeer::available() ? 14u : 12u);
+  // Four rayfold variants in four fold modes, then Embree instanced and flat,
+  // single rays and packets.
+  ASSERT_EQ(r.rows.size(), EmbreePeer::available() ? 20u : 16u);
   if (!EmbreePeer::available()) {
     EXPECT_FALSE(r.embree_note.empty());
   }
@@ -27,10 +29,45 @@ TEST(Peers, EveryVariantIsMeasured) {
     EXPECT_GT(row.accuracy.same_hit, 0.99) << row.variant << " " << row.fold;
     EXPECT_LT(row.accuracy.depth_median, 1e-5) << row.variant << " " << row.fold;
   }
-  // The exact variants give identical bits in every fold mode: identical accuracy.
-  for (size_t i = 1; i < 4; ++i) EXPECT_EQ(r.rows[i].accuracy.same_hit, r.rows[0].accuracy.same_hit);
-  for (size_t i = 9; i < 12; ++i) EXPECT_EQ(r.rows[i].accuracy.same_hit, r.rows[0].accuracy.same_hit);
-  EXPECT_NE(peers_markdown(r).find("| OpenCL exact | xy |"), std::string::npos);
+  // The exact variants (tile, single, CPU reference) give identical bits in
+  // every fold mode, checked pixel by pixel: identical accuracy.
+  EXPECT_TRUE(r.valid());
+  for (const PeerRow& row : r.rows) {
+    if (!row.exact) continue;
+    EXPECT_EQ(row.mismatched_pixels, 0u) << row.variant << " " << row.fold;
+    EXPECT_EQ(row.accuracy.same_hit, r.rows[0].accuracy.same_hit) << row.variant << " " << row.fold;
+  }
+  EXPECT_EQ(r.rows[0].variant, "OpenCL tile");
+  EXPECT_TRUE(r.rows[0].exact);
+  EXPECT_FALSE(r.rows[8].exact) << r.rows[8].variant;  // the fast build promises no bits
+  const std::string md = peers_markdown(r);
+  EXPECT_NE(md.find("| OpenCL tile | xy |"), std::string::npos);
+  EXPECT_NE(md.find("| OpenCL single | xy |"), std::string::npos);
+  if (EmbreePeer::available()) {
+    EXPECT_NE(md.find("| Embree flat rtcIntersect16 |"), std::string::npos);
+    const PeerRatios q = peer_ratios(r);
+    ASSERT_NE(q.fastest_rayfold, nullptr);
+    EXPECT_TRUE(q.fastest_rayfold->exact);
+    EXPECT_GT(q.vs_embree, 0.0);
+    EXPECT_NE(md.find("Fastest exact rayfold"), std::string::npos);
+  }
+}
+
+TEST(Peers, AMismatchInvalidatesTheReport) {
+  PeerReport r;
+  PeerRow exact;
+  exact.variant = "OpenCL tile";
+  exact.fold = "xy";
+  exact.ms = 1.0;
+  exact.pixels = 1000;
+  exact.exact = true;
+  r.rows.push_back(exact);
+  EXPECT_TRUE(r.valid());
+  r.rows[0].mismatched_pixels = 3;
+  EXPECT_FALSE(r.valid());
+  const std::string md = peers_markdown(r);
+  EXPECT_NE(md.find("NOT EXACT: 3 pixels differ"), std::string::npos) << md;
+  EXPECT_EQ(md.find("Fastest exact rayfold"), std::string::npos) << md;
 }
 
 }  // namespace

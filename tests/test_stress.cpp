@@ -50,35 +50,6 @@ size_t count_hits(const std::vector<rf_pixel_hit>& hits) {
   return n;
 }
 
-// The surface of an n x n x n lattice cube [-1, 1]^3 with shared vertices, so
-// every edge is shared by exactly two triangles: a closed mesh.
-Mesh closed_cube(int n) {
-  Mesh m;
-  std::map<std::tuple<int, int, int>, uint32_t> index;
-  auto vertex = [&](int i, int j, int k) {
-    auto [it, fresh] = index.try_emplace({i, j, k}, static_cast<uint32_t>(m.positions.size()));
-    if (fresh) m.positions.emplace_back(-1.0f + 2.0f * i / n, -1.0f + 2.0f * j / n, -1.0f + 2.0f * k / n);
-    return it->second;
-  };
-  for (int axis = 0; axis < 3; ++axis)
-    for (int side = 0; side <= 1; ++side)
-      for (int a = 0; a < n; ++a)
-        for (int b = 0; b < n; ++b) {
-          auto at = [&](int da, int db) {
-            int c[3];
-            c[axis] = side * n;
-            c[(axis + 1) % 3] = a + da;
-            c[(axis + 2) % 3] = b + db;
-            return vertex(c[0], c[1], c[2]);
-          };
-          const uint32_t v00 = at(0, 0), v10 = at(1, 0), v11 = at(1, 1), v01 = at(0, 1);
-          // Alternate the diagonal so edges meet at every angle.
-          if ((a + b) % 2) m.indices.insert(m.indices.end(), {v00, v10, v11, v00, v11, v01});
-          else m.indices.insert(m.indices.end(), {v00, v10, v01, v10, v11, v01});
-        }
-  return m;
-}
-
 TEST(Stress, ClosedMeshesDoNotLeak) {
   // The eye inside a closed mesh: every ray must hit it, including rays
   // through shared edges and vertices and rays exactly on the fold planes
@@ -88,7 +59,7 @@ TEST(Stress, ClosedMeshesDoNotLeak) {
   const std::vector<glm::dvec3> looks = {{0, 0, -1}, {1, 0, 0}, {1, 1, 1}, {1, 0, 1}, {0.3, -0.2, 0.9}};
   for (int inst = 0; inst < 3; ++inst) {
     Scene scene;
-    scene.meshes.push_back(closed_cube(8));
+    scene.meshes.push_back(testing::closed_cube(8));
     Xform m(1.0);
     if (inst == 1) m = glm::scale(m, glm::dvec3(-1.5, 1.0, 2.0));  // a mirror with non-uniform scale
     if (inst == 2) m = glm::scale(glm::rotate(m, 0.7, glm::normalize(glm::dvec3(1, 2, 3))), glm::dvec3(3.0));
@@ -169,7 +140,7 @@ TEST(Stress, ExtremeImageShapesAndFieldsOfView) {
 
 TEST(Stress, NonUniformNegativeAndSingularScales) {
   Scene scene;
-  scene.meshes.push_back(closed_cube(3));
+  scene.meshes.push_back(testing::closed_cube(3));
   const glm::dvec3 scales[] = {{2, -0.5, 3}, {-1, -1, -1}, {0.01, 5, 1}, {1, 0, 1}, {0, 0, 0}};
   for (int i = 0; i < 5; ++i)
     scene.instances.push_back(

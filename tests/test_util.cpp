@@ -3,6 +3,8 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <map>
+#include <tuple>
 #include <sstream>
 
 #include <glm/gtc/matrix_transform.hpp>
@@ -164,6 +166,32 @@ std::string shared_scenes_dir() {
   if (const char* env = std::getenv("RAYFOLD_SCENES_DIR")) return fs::is_directory(env) ? env : "";
   const fs::path p = fs::path(RAYFOLD_SOURCE_DIR) / ".." / "shared" / "scenes";
   return fs::is_directory(p) ? p.lexically_normal().string() : "";
+}
+
+Mesh closed_cube(int n) {
+  Mesh m;
+  std::map<std::tuple<int, int, int>, uint32_t> index;
+  auto vertex = [&](int i, int j, int k) {
+    auto [it, fresh] = index.try_emplace({i, j, k}, static_cast<uint32_t>(m.positions.size()));
+    if (fresh) m.positions.emplace_back(-1.0f + 2.0f * i / n, -1.0f + 2.0f * j / n, -1.0f + 2.0f * k / n);
+    return it->second;
+  };
+  for (int axis = 0; axis < 3; ++axis)
+    for (int side = 0; side <= 1; ++side)
+      for (int a = 0; a < n; ++a)
+        for (int b = 0; b < n; ++b) {
+          auto at = [&](int da, int db) {
+            int c[3];
+            c[axis] = side * n;
+            c[(axis + 1) % 3] = a + da;
+            c[(axis + 2) % 3] = b + db;
+            return vertex(c[0], c[1], c[2]);
+          };
+          const uint32_t v00 = at(0, 0), v10 = at(1, 0), v11 = at(1, 1), v01 = at(0, 1);
+          if ((a + b) % 2) m.indices.insert(m.indices.end(), {v00, v10, v11, v00, v11, v01});
+          else m.indices.insert(m.indices.end(), {v00, v10, v01, v10, v11, v01});
+        }
+  return m;
 }
 
 }  // namespace rayfold::testing

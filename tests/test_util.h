@@ -44,6 +44,11 @@ CameraSpec random_camera(Rng& rng, const Aabb& bounds);
 // random affine transforms: rotations, non-uniform scales and mirrors.
 Scene random_scene(Rng& rng, int meshes, int instances, int triangles_per_mesh);
 
+// The surface of an n x n x n lattice cube [-1, 1]^3 with shared vertices, so
+// every edge is shared by exactly two triangles: a closed mesh. The diagonals
+// alternate so that edges meet at every angle.
+Mesh closed_cube(int n);
+
 // The process-wide OpenCL device (PoCL on CI machines).
 ClDevice& test_device();
 

@@ -204,9 +204,12 @@ std::string peers_markdown(const PeerReport& r) {
     s << "\nFastest exact rayfold: " << q.fastest_rayfold->variant << " " << q.fastest_rayfold->fold << ", "
       << fmt("%.1f", mpixels(*q.fastest_rayfold)) << " Mpixels/s. Against Embree's fastest ("
       << q.fastest_embree->variant << ", " << fmt("%.1f", mpixels(*q.fastest_embree))
-      << "): **" << fmt("%.2fx", q.vs_embree) << "**; against Embree's fastest instanced ("
-      << q.fastest_embree_instanced->variant << ", " << fmt("%.1f", mpixels(*q.fastest_embree_instanced))
-      << "): **" << fmt("%.2fx", q.vs_embree_instanced) << "**.\n";
+      << "): **" << fmt("%.2fx", q.vs_embree) << "**";
+    if (q.fastest_embree_instanced)
+      s << "; against Embree's fastest instanced (" << q.fastest_embree_instanced->variant << ", "
+        << fmt("%.1f", mpixels(*q.fastest_embree_instanced)) << "): **" << fmt("%.2fx", q.vs_embree_instanced)
+        << "**";
+    s << ".\n";
   }
   if (!r.valid()) s << "\n**An exact variant differs from the CPU reference: no figure above is valid.**\n";
   return s.str();
