@@ -45,31 +45,36 @@ void grow(TracedRegion& r, bool& used, int kx, int ky) {
 RayList make_ray_list(const rf_camera& cam, FoldMode fold) {
   const std::vector<Role> cols = roles(cam.width, cam.kx0, 1, cam.xpair, folds_columns(fold), -1);
   const std::vector<Role> rows = roles(cam.height, cam.ky0, -1, cam.ypair, folds_rows(fold), +1);
-  constexpr int kSub = 8;
-  static_assert(RF_TILE_SIDE % kSub == 0, "tiles are made of whole sub-blocks");
+  // 16x16 tiles of 8x8 blocks of 4x4 quads, each quad row by row: 8
+  // consecutive rays form a 4x2 block and 16 a 4x4 block (the tile kernel's
+  // vectors: compact blocks meet fewer triangle edges than rows), 64 an 8x8
+  // block (the single-ray kernel's work-groups).
+  constexpr int kBlock = 8, kQuad = 4;
+  static_assert(RF_TILE_SIDE % kBlock == 0, "tiles are made of whole blocks");
   RayList list;
   list.pixels = static_cast<size_t>(cam.width) * cam.height;
   list.entries.reserve(list.pixels / (fold == FoldMode::none ? 1 : 2) + cam.width + cam.height);
   list.tiles.push_back(0);
+  auto add = [&](int x, int y) {
+    if (rows[y] == Role::skip || cols[x] == Role::skip) return;
+    const bool mx = cols[x] == Role::fold, my = rows[y] == Role::fold;
+    list.entries.push_back(encode_ray(x, y, mx, my));
+    const int kx = 2 * x + cam.kx0, ky = cam.ky0 - 2 * y;
+    // Group g's instances are mirrored, so a ray answering g meets them
+    // exactly where the partner pixel's ray meets the originals.
+    grow(list.regions[0], list.group_used[0], kx, ky);
+    if (mx) grow(list.regions[1], list.group_used[1], kx, ky);
+    if (my) grow(list.regions[2], list.group_used[2], kx, ky);
+    if (mx && my) grow(list.regions[3], list.group_used[3], kx, ky);
+  };
   for (int ty = 0; ty < cam.height; ty += RF_TILE_SIDE)
     for (int tx = 0; tx < cam.width; tx += RF_TILE_SIDE) {
-      for (int sy = ty; sy < std::min(ty + RF_TILE_SIDE, cam.height); sy += kSub)
-        for (int sx = tx; sx < std::min(tx + RF_TILE_SIDE, cam.width); sx += kSub)
-          for (int y = sy; y < std::min(sy + kSub, cam.height); ++y) {
-            if (rows[y] == Role::skip) continue;
-            for (int x = sx; x < std::min(sx + kSub, cam.width); ++x) {
-              if (cols[x] == Role::skip) continue;
-              const bool mx = cols[x] == Role::fold, my = rows[y] == Role::fold;
-              list.entries.push_back(encode_ray(x, y, mx, my));
-              const int kx = 2 * x + cam.kx0, ky = cam.ky0 - 2 * y;
-              // Group g's instances are mirrored, so a ray answering g meets
-              // them exactly where the partner pixel's ray meets the originals.
-              grow(list.regions[0], list.group_used[0], kx, ky);
-              if (mx) grow(list.regions[1], list.group_used[1], kx, ky);
-              if (my) grow(list.regions[2], list.group_used[2], kx, ky);
-              if (mx && my) grow(list.regions[3], list.group_used[3], kx, ky);
-            }
-          }
+      for (int by = ty; by < std::min(ty + RF_TILE_SIDE, cam.height); by += kBlock)
+        for (int bx = tx; bx < std::min(tx + RF_TILE_SIDE, cam.width); bx += kBlock)
+          for (int qy = by; qy < std::min(by + kBlock, cam.height); qy += kQuad)
+            for (int qx = bx; qx < std::min(bx + kBlock, cam.width); qx += kQuad)
+              for (int y = qy; y < std::min(qy + kQuad, cam.height); ++y)
+                for (int x = qx; x < std::min(qx + kQuad, cam.width); ++x) add(x, y);
       if (list.entries.size() != list.tiles.back()) list.tiles.push_back(static_cast<uint32_t>(list.entries.size()));
     }
   return list;

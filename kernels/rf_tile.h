@@ -219,11 +219,40 @@ RF_INLINE int rf_tile_triangle(const RF_GLOBAL rf_tri* tri, rf_u32 ti, const rf_
 #define RF_RANGE_FIRST(r) ((int)((r) & 0xFFu))
 #define RF_RANGE_LAST(r) ((int)((r) >> 8))
 
+/* rf_intersect_box for the lanes of lane group j, against each lane's bound
+ * over the transform groups in `groups` (rf_group_bound); iz null means a
+ * reciprocal z of -1 in every lane (camera space). */
+RF_INLINE rf_vi rf_tile_lane_box(const float c0[3], const float c1[3], const rf_vf* ix, const rf_vf* iy,
+                                 const rf_vf* iz, const rf_tile_hits* hits, rf_u32 groups, int j) {
+  rf_vf bound = (rf_vf)(-1.0f);
+  for (int g = 0; g < RF_MAX_GROUPS; ++g) {
+    if ((groups >> g) & 1u) bound = rf_lanes_max(bound, hits[g].t[j]);
+  }
+  return rf_lanes_box(c0, c1, ix[j], iy[j], iz ? iz[j] : (rf_vf)(-1.0f), bound);
+}
+
+/* Narrows [*first, *last] from both ends to the lane groups that have a lane
+ * entering the box; 0 when none has. */
+RF_INLINE int rf_tile_narrow(const float c0[3], const float c1[3], const rf_vf* ix, const rf_vf* iy, const rf_vf* iz,
+                             const rf_tile_hits* hits, rf_u32 groups, int* first, int* last,
+                             int stat RF_TSTAT_PARAM) {
+  int f = *first, l = *last;
+  while (f <= l && !rf_lanes_any(rf_tile_lane_box(c0, c1, ix, iy, iz, hits, groups, f))) ++f;
+  RF_TSTAT(stat, f - *first + (f <= l));
+  if (f > l) return 0;
+  while (l > f && !rf_lanes_any(rf_tile_lane_box(c0, c1, ix, iy, iz, hits, groups, l))) --l;
+  RF_TSTAT(stat, *last - l + (l > f));
+  *first = f;
+  *last = l;
+  return 1;
+}
+
 /* Closest hit of every lane's object-space ray in one bottom-level tree,
- * for the lanes in `entered` (those whose ray passed the top-level leaf). */
+ * for the lanes in `entered` (those whose ray passed the top-level leaf),
+ * which lie in the lane groups of `range`. */
 RF_INLINE void rf_tile_trace_blas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_tri* tris, rf_u32 root,
-                                  const rf_tile_ray* r, rf_u32 instance_id, const rf_vi* entered, rf_tile_hits* h
-                                  RF_TSTAT_PARAM) {
+                                  const rf_tile_ray* r, rf_u32 instance_id, const rf_vi* entered, rf_u32 range,
+                                  rf_tile_hits* h RF_TSTAT_PARAM) {
   rf_vi lane_in[RF_LANE_GROUPS];
   rf_u32 stack_node[RF_STACK_SIZE];
   float stack_t[RF_STACK_SIZE];
@@ -237,7 +266,7 @@ RF_INLINE void rf_tile_trace_blas(const RF_GLOBAL rf_node* nodes, const RF_GLOBA
     if (tn == RF_FAR) return;
     stack_node[0] = root;
     stack_t[0] = tn;
-    stack_range[0] = RF_RANGE(0, RF_LANE_GROUPS - 1);
+    stack_range[0] = range;
     sp = 1;
   }
   while (sp > 0) {
@@ -253,7 +282,7 @@ RF_INLINE void rf_tile_trace_blas(const RF_GLOBAL rf_node* nodes, const RF_GLOBA
       /* Which lane groups have a ray in the leaf's box. */
       rf_u32 lanes = 0u;
       for (int j = first; j <= last; ++j) {
-        lane_in[j] = rf_lanes_box(c0, c1, r->ix[j], r->iy[j], r->iz[j], h->t[j]) & entered[j];
+        lane_in[j] = rf_tile_lane_box(c0, c1, r->ix, r->iy, r->iz, h, 1u, j) & entered[j];
         if (rf_lanes_any(lane_in[j])) lanes |= 1u << j;
       }
       RF_TSTAT(RF_TILE_STAT_BLAS_LANE_BOXES, last - first + 1);
@@ -267,19 +296,11 @@ RF_INLINE void rf_tile_trace_blas(const RF_GLOBAL rf_node* nodes, const RF_GLOBA
       if (taken) rf_tile_update_tmax(h);
       continue;
     }
-    /* Interior: narrow the range from both ends to the lane groups that
-     * enter the box; go on when one does. */
-    while (first <= last && !rf_lanes_any(rf_lanes_box(c0, c1, r->ix[first], r->iy[first], r->iz[first], h->t[first]))) {
-      RF_TSTAT(RF_TILE_STAT_BLAS_LANE_BOXES, 1);
-      ++first;
-    }
-    if (first > last) continue;
-    while (last > first && !rf_lanes_any(rf_lanes_box(c0, c1, r->ix[last], r->iy[last], r->iz[last], h->t[last]))) {
-      RF_TSTAT(RF_TILE_STAT_BLAS_LANE_BOXES, 1);
-      --last;
-    }
-    RF_TSTAT(RF_TILE_STAT_BLAS_LANE_BOXES, first == last ? 1 : 2);
-    const rf_u32 range = RF_RANGE(first, last);
+    /* Interior: go on when a lane group of the range enters the box, with
+     * the range narrowed to those that do. */
+    if (!rf_tile_narrow(c0, c1, r->ix, r->iy, r->iz, h, 1u, &first, &last, RF_TILE_STAT_BLAS_LANE_BOXES RF_TSTAT_ARG))
+      continue;
+    const rf_u32 child_range = RF_RANGE(first, last);
     const rf_u32 c = n->first;
     float tc[2];
     for (int s = 0; s < 2; ++s) {
@@ -293,13 +314,13 @@ RF_INLINE void rf_tile_trace_blas(const RF_GLOBAL rf_node* nodes, const RF_GLOBA
     if (tc[1 - near_s] != RF_FAR) {
       stack_node[sp] = c + 1 - near_s;
       stack_t[sp] = tc[1 - near_s];
-      stack_range[sp] = range;
+      stack_range[sp] = child_range;
       ++sp;
     }
     if (tc[near_s] != RF_FAR) {
       stack_node[sp] = c + near_s;
       stack_t[sp] = tc[near_s];
-      stack_range[sp] = range;
+      stack_range[sp] = child_range;
       ++sp;
     }
   }
@@ -316,24 +337,14 @@ RF_INLINE float rf_tile_group_bound(rf_u32 meta, const rf_tile_hits* hits) {
   return bound;
 }
 
-/* rf_group_bound of every lane of lane group j. */
-RF_INLINE rf_vf rf_tile_lane_bound(rf_u32 meta, const rf_tile_hits* hits, int j) {
-  const rf_u32 groups = meta >> RF_NODE_GROUP_SHIFT;
-  rf_vf bound = (rf_vf)(-1.0f);
-  for (int g = 0; g < RF_MAX_GROUPS; ++g) {
-    if ((groups >> g) & 1u) bound = rf_lanes_max(bound, hits[g].t[j]);
-  }
-  return bound;
-}
-
 /* Closest hit per group of every lane through the top-level tree. */
 RF_INLINE void rf_tile_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_tri* tris,
                                   const RF_GLOBAL rf_instance* instances, rf_u32 tlas_root,
                                   const rf_tile_camera* cam, rf_tile_ray* ro, rf_tile_hits* hits RF_TSTAT_PARAM) {
   rf_u32 stack_node[RF_STACK_SIZE];
   float stack_t[RF_STACK_SIZE];
+  rf_u32 stack_range[RF_STACK_SIZE];
   int sp = 0;
-  const rf_vf iz = (rf_vf)(-1.0f);
   {
     const RF_GLOBAL rf_node* n = &nodes[tlas_root];
     const float c0[3] = {n->bmin[0] - 0.0f, n->bmin[1] - 0.0f, n->bmin[2] - 0.0f};
@@ -342,6 +353,7 @@ RF_INLINE void rf_tile_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBA
     if (tn == RF_FAR) return;
     stack_node[0] = tlas_root;
     stack_t[0] = tn;
+    stack_range[0] = RF_RANGE(0, RF_LANE_GROUPS - 1);
     sp = 1;
   }
   while (sp > 0) {
@@ -350,20 +362,20 @@ RF_INLINE void rf_tile_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBA
     if (stack_t[sp] > rf_tile_group_bound(n->meta, hits)) continue;
     RF_TSTAT(RF_TILE_STAT_TLAS_NODES, 1);
     const rf_u32 count = n->meta & RF_NODE_COUNT_MASK;
+    const rf_u32 groups = n->meta >> RF_NODE_GROUP_SHIFT;
     const float c0[3] = {n->bmin[0] - 0.0f, n->bmin[1] - 0.0f, n->bmin[2] - 0.0f};
     const float c1[3] = {n->bmax[0] - 0.0f, n->bmax[1] - 0.0f, n->bmax[2] - 0.0f};
-    int any = 0;
-    for (int j = 0; j < RF_LANE_GROUPS && !any; ++j) {
-      RF_TSTAT(RF_TILE_STAT_TLAS_LANE_BOXES, 1);
-      any = rf_lanes_any(rf_lanes_box(c0, c1, cam->ix[j], cam->iy[j], iz, rf_tile_lane_bound(n->meta, hits, j)));
-    }
-    if (!any) continue;
+    int first = RF_RANGE_FIRST(stack_range[sp]), last = RF_RANGE_LAST(stack_range[sp]);
+    if (!rf_tile_narrow(c0, c1, cam->ix, cam->iy, 0, hits, groups, &first, &last,
+                        RF_TILE_STAT_TLAS_LANE_BOXES RF_TSTAT_ARG))
+      continue;
+    const rf_u32 range = RF_RANGE(first, last);
     if (count != 0) {
       /* The lanes whose own test enters this leaf; the others must not take
        * hits below it (see the top of this file). */
       rf_vi entered[RF_LANE_GROUPS];
-      for (int j = 0; j < RF_LANE_GROUPS; ++j)
-        entered[j] = rf_lanes_box(c0, c1, cam->ix[j], cam->iy[j], iz, rf_tile_lane_bound(n->meta, hits, j));
+      for (int j = first; j <= last; ++j) entered[j] = rf_tile_lane_box(c0, c1, cam->ix, cam->iy, 0, hits, groups, j);
+      RF_TSTAT(RF_TILE_STAT_TLAS_LANE_BOXES, last - first + 1);
       for (rf_u32 k = 0; k < count; ++k) {
         const RF_GLOBAL rf_instance* inst = &instances[n->first + k];
         const rf_u32 g = inst->group;
@@ -374,7 +386,7 @@ RF_INLINE void rf_tile_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBA
          * have transforms of their own and would evict each other. */
         rf_tile_ray* r = &ro[g];
         rf_tile_to_object(r, inst->object_from_camera, cam RF_TSTAT_ARG);
-        rf_tile_trace_blas(nodes, tris, inst->blas_root, r, inst->instance_id, entered, h RF_TSTAT_ARG);
+        rf_tile_trace_blas(nodes, tris, inst->blas_root, r, inst->instance_id, entered, range, h RF_TSTAT_ARG);
       }
       continue;
     }
@@ -390,11 +402,13 @@ RF_INLINE void rf_tile_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBA
     if (tc[1 - near_s] != RF_FAR) {
       stack_node[sp] = c + 1 - near_s;
       stack_t[sp] = tc[1 - near_s];
+      stack_range[sp] = range;
       ++sp;
     }
     if (tc[near_s] != RF_FAR) {
       stack_node[sp] = c + near_s;
       stack_t[sp] = tc[near_s];
+      stack_range[sp] = range;
       ++sp;
     }
   }

@@ -101,8 +101,8 @@ typedef struct {
 #define RF_MAX_IMAGE_SIDE 32767
 
 /* The ray list is ordered in tiles: the traced pixels of each 16x16 block of
- * the image, 8x8 sub-blocks in turn (coherent neighbours for the single-ray
- * kernel's work-groups). The tile table, one 4-byte entry per tile plus one,
+ * the image, in 8x8 blocks (the single-ray kernel's work-groups) of 4x4
+ * quads (a tile kernel vector of 8 rays is a 4x2 block, of 16 a 4x4 one). The tile table, one 4-byte entry per tile plus one,
  * gives tile t the entries [tiles[t], tiles[t + 1]) of the list: at most
  * RF_TILE_RAYS, fewer at the image border and the edges of the traced
  * region; empty tiles are left out. */
