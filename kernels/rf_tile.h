@@ -485,16 +485,13 @@ RF_INLINE void rf_tile_write_group(const RF_GLOBAL rf_u32* rays, rf_u32 begin, r
     if (((ray.groups >> g) & 1u) == 0u) continue;
     const rf_i32 px = (g & 1) ? cam->xpair - ray.x : ray.x;
     const rf_i32 py = (g & 2) ? cam->ypair - ray.y : ray.y;
-    RF_GLOBAL rf_pixel_hit* o = &out[py * cam->width + px];
     const int hit = is[l] != RF_INVALID;
-    o->z = zs[l];
-    o->nx = xs[l];
-    o->ny = ys[l];
-    o->nz = ws[l];
-    o->u = hit ? us[l] : 0.0f;
-    o->v = hit ? vs[l] : 0.0f;
-    o->instance = is[l];
-    o->primitive = hit ? ps[l] : RF_INVALID;
+    /* One 32-byte store per pixel (rf_pixel_hit's layout), as integers so
+     * that the ids, NaN patterns as floats, never pass a float register. */
+    const uint8 px_hit = (uint8)(as_uint(zs[l]), as_uint(xs[l]), as_uint(ys[l]), as_uint(ws[l]),
+                                 as_uint(hit ? us[l] : 0.0f), as_uint(hit ? vs[l] : 0.0f), is[l],
+                                 hit ? ps[l] : RF_INVALID);
+    vstore8(px_hit, 0, (RF_GLOBAL rf_u32*)&out[py * cam->width + px]);
   }
 }
 
