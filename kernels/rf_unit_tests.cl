@@ -69,3 +69,88 @@ __kernel void ut_normal(__global const rf_tri* tris, __global const rf_normal_xf
   out[3 * i + 1] = n[1];
   out[3 * i + 2] = n[2];
 }
+
+/* The tile kernel's pieces (rf_tile.h), one tile of RF_TILE_RAYS lanes per
+ * case: dirs holds the case's camera-space dx, dy per lane (dz = -1), xf its
+ * 3x4 object_from_camera. */
+RF_INLINE void ut_tile_rays(__global const float* xf, __global const float* dirs, rf_tile_camera* tc, rf_tile_ray* r) {
+  float* dx = (float*)tc->dx;
+  float* dy = (float*)tc->dy;
+  for (int l = 0; l < RF_TILE_RAYS; ++l) {
+    dx[l] = dirs[2 * l];
+    dy[l] = dirs[2 * l + 1];
+  }
+  r->valid = 0;
+  rf_tile_to_object(r, xf, tc);
+}
+
+/* out per lane: invd[3], sx, sy, sz, kx, ky, kz; then lo[3], hi[3], uniform. */
+__kernel void ut_tile_to_object(__global const float* xf, __global const float* dirs, __global float* out) {
+  const uint i = get_global_id(0);
+  rf_tile_camera tc;
+  rf_tile_ray r;
+  ut_tile_rays(xf + 12 * i, dirs + 2 * RF_TILE_RAYS * i, &tc, &r);
+  __global float* o = out + (9 * RF_TILE_RAYS + 7) * i;
+  for (int l = 0; l < RF_TILE_RAYS; ++l) {
+    o[9 * l + 0] = ((const float*)r.ix)[l];
+    o[9 * l + 1] = ((const float*)r.iy)[l];
+    o[9 * l + 2] = ((const float*)r.iz)[l];
+    o[9 * l + 3] = ((const float*)r.sx)[l];
+    o[9 * l + 4] = ((const float*)r.sy)[l];
+    o[9 * l + 5] = ((const float*)r.sz)[l];
+    o[9 * l + 6] = (float)(r.uniform ? r.kx : ((const int*)r.pkx)[l]);
+    o[9 * l + 7] = (float)(r.uniform ? r.ky : ((const int*)r.pky)[l]);
+    o[9 * l + 8] = (float)(r.uniform ? r.kz : ((const int*)r.pkz)[l]);
+  }
+  for (int k = 0; k < 3; ++k) {
+    o[9 * RF_TILE_RAYS + k] = r.lo[k];
+    o[9 * RF_TILE_RAYS + 3 + k] = r.hi[k];
+  }
+  o[9 * RF_TILE_RAYS + 6] = (float)r.uniform;
+}
+
+/* One box and a tmax per lane; out per lane: 1 when the lane's slab test
+ * passes (rf_lanes_box), else 0. */
+__kernel void ut_tile_box(__global const rf_node* boxes, __global const float* xf, __global const float* dirs,
+                          __global const float* tmax, __global float* out) {
+  const uint i = get_global_id(0);
+  rf_tile_camera tc;
+  rf_tile_ray r;
+  ut_tile_rays(xf + 12 * i, dirs + 2 * RF_TILE_RAYS * i, &tc, &r);
+  __global const rf_node* n = &boxes[i];
+  const float c0[3] = {n->bmin[0] - r.o[0], n->bmin[1] - r.o[1], n->bmin[2] - r.o[2]};
+  const float c1[3] = {n->bmax[0] - r.o[0], n->bmax[1] - r.o[1], n->bmax[2] - r.o[2]};
+  for (int j = 0; j < RF_LANE_GROUPS; ++j) {
+    float tm[RF_LANES];
+    for (int l = 0; l < RF_LANES; ++l) tm[l] = tmax[RF_TILE_RAYS * i + RF_LANES * j + l];
+    const rf_vi m = rf_lanes_box(c0, c1, r.ix[j], r.iy[j], r.iz[j], *(const rf_vf*)tm);
+    for (int l = 0; l < RF_LANES; ++l) out[RF_TILE_RAYS * i + RF_LANES * j + l] = ((const int*)&m)[l] < 0 ? 1.0f : 0.0f;
+  }
+}
+
+/* One triangle per case, taken by every lane that hits it (rf_tile_triangle
+ * from an empty hit record); out per lane: hit, t, u, v. */
+__kernel void ut_tile_triangle(__global const rf_tri* tris, __global const float* xf, __global const float* dirs,
+                               __global float* out) {
+  const uint i = get_global_id(0);
+  rf_tile_camera tc;
+  rf_tile_ray r;
+  ut_tile_rays(xf + 12 * i, dirs + 2 * RF_TILE_RAYS * i, &tc, &r);
+  rf_tile_hits h;
+  rf_vi all[RF_LANE_GROUPS];
+  for (int j = 0; j < RF_LANE_GROUPS; ++j) {
+    h.t[j] = (rf_vf)(RF_FAR);
+    h.u[j] = h.v[j] = (rf_vf)(0.0f);
+    h.instance[j] = h.prim[j] = h.tri[j] = (rf_vu)(RF_INVALID);
+    all[j] = (rf_vi)(-1);
+  }
+  rf_tile_triangle(&tris[i], 0u, &r, 0u, 0xFFFFFFFFu >> (32 - RF_LANE_GROUPS), all, &h);
+  for (int l = 0; l < RF_TILE_RAYS; ++l) {
+    const int hit = ((const rf_u32*)h.tri)[l] != RF_INVALID;
+    __global float* o = out + 4 * (RF_TILE_RAYS * i + l);
+    o[0] = (float)hit;
+    o[1] = hit ? ((const float*)h.t)[l] : 0.0f;
+    o[2] = hit ? ((const float*)h.u)[l] : 0.0f;
+    o[3] = hit ? ((const float*)h.v)[l] : 0.0f;
+  }
+}

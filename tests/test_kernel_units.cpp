@@ -2,10 +2,13 @@
 // give the host compilation's bits exactly, on random and edge-case inputs.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstring>
 
 #include "../host/kernel_sources.h"
 #include "../kernels/rf_trace.h"
+#include "../kernels/rf_types.h"
 #include "test_util.h"
 
 namespace rayfold {
@@ -196,6 +199,153 @@ TEST_F(KernelUnits, GeometricNormal) {
     }
   }
   expect_bits_equal(host, run("ut_normal", {in(tris), in(xf), out(3 * n)}, n, 3 * n), "rf_geometric_normal");
+}
+
+
+// Tiles for the tile kernel's pieces: per case a 3x4 object_from_camera and
+// RF_TILE_RAYS camera-space directions (dx, dy; dz = -1). Even cases are
+// coherent 16x16 blocks of primary rays (one axis permutation in the tile, the
+// uniform path); odd cases scramble the lanes over a wide cone with zero and
+// tied components (per-lane permutations).
+struct TileCases {
+  std::vector<float> xf, dirs;
+  size_t n = 0;
+  TileCases(Rng& rng, size_t cases) : xf(12 * cases), dirs(2 * RF_TILE_RAYS * cases), n(cases) {
+    for (size_t i = 0; i < cases; ++i) {
+      float* m = &xf[12 * i];
+      for (int k = 0; k < 12; ++k) m[k] = rng.uniformf(-2, 2);
+      if (i % 3 == 0) {  // axis-aligned, mirrored, non-uniformly scaled
+        for (int k = 0; k < 12; ++k) m[k] = (k % 5 == 0) ? rng.uniformf(0.5f, 3) * (k == 5 ? -1.0f : 1.0f) : 0.0f;
+        m[3] = rng.uniformf(-5, 5);
+        m[7] = rng.uniformf(-5, 5);
+        m[11] = rng.uniformf(-5, 5);
+      }
+      const float s = rng.uniformf(0.0005f, 0.01f);
+      const int x0 = rng.below(200) - 100, y0 = rng.below(200) - 100;
+      for (int l = 0; l < RF_TILE_RAYS; ++l) {
+        float* d = &dirs[2 * (RF_TILE_RAYS * i + l)];
+        if (i % 2 == 0) {
+          d[0] = s * static_cast<float>(2 * (x0 + l % 16) + 1);
+          d[1] = s * static_cast<float>(2 * (y0 + l / 16) + 1);
+        } else {
+          d[0] = rng.uniformf(-3, 3);
+          d[1] = rng.uniformf(-3, 3);
+          if (l % 7 == 0) d[0] = 0.0f;
+          if (l % 11 == 0) d[1] = -1.0f;  // |dy| = |dz|
+          if (l % 13 == 0) d[0] = d[1];
+        }
+      }
+    }
+  }
+  rf_ray lane_ray(size_t i, int l) const {
+    rf_ray r;
+    const float* d = &dirs[2 * (RF_TILE_RAYS * i + l)];
+    rf_ray_to_object(&r, &xf[12 * i], d[0], d[1], -1.0f);
+    return r;
+  }
+};
+
+TEST_F(KernelUnits, TileObjectRaysEqualScalarSetUp) {
+  Rng rng(6);
+  const TileCases c(rng, 64);
+  const size_t per = 9 * RF_TILE_RAYS + 7;
+  std::vector<float> host(per * c.n);
+  size_t uniform = 0;
+  for (size_t i = 0; i < c.n; ++i) {
+    float* o = &host[per * i];
+    float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    bool same = true;
+    const rf_ray r0 = c.lane_ray(i, 0);
+    for (int l = 0; l < RF_TILE_RAYS; ++l) {
+      const rf_ray r = c.lane_ray(i, l);
+      for (int k = 0; k < 3; ++k) {
+        o[9 * l + k] = r.invd[k];
+        lo[k] = std::min(lo[k], r.invd[k]);
+        hi[k] = std::max(hi[k], r.invd[k]);
+      }
+      o[9 * l + 3] = r.sx;
+      o[9 * l + 4] = r.sy;
+      o[9 * l + 5] = r.sz;
+      o[9 * l + 6] = static_cast<float>(r.kx);
+      o[9 * l + 7] = static_cast<float>(r.ky);
+      o[9 * l + 8] = static_cast<float>(r.kz);
+      same = same && r.kx == r0.kx && r.ky == r0.ky && r.kz == r0.kz;
+    }
+    for (int k = 0; k < 3; ++k) {
+      o[9 * RF_TILE_RAYS + k] = lo[k];
+      o[9 * RF_TILE_RAYS + 3 + k] = hi[k];
+    }
+    o[9 * RF_TILE_RAYS + 6] = same ? 1.0f : 0.0f;
+    uniform += same;
+  }
+  EXPECT_GT(uniform, 0u);  // both paths are exercised
+  EXPECT_LT(uniform, c.n);
+  expect_bits_equal(host, run("ut_tile_to_object", {in(c.xf), in(c.dirs), out(per * c.n)}, c.n, per * c.n),
+                    "rf_tile_to_object");
+}
+
+TEST_F(KernelUnits, TileLaneBoxEqualsScalarBoxTest) {
+  Rng rng(7);
+  const TileCases c(rng, 64);
+  std::vector<rf_node> boxes(c.n);
+  std::vector<float> tmax(RF_TILE_RAYS * c.n), host(RF_TILE_RAYS * c.n);
+  size_t pass = 0;
+  for (size_t i = 0; i < c.n; ++i) {
+    for (int k = 0; k < 3; ++k) {
+      const float a = rng.uniformf(-8, 8), b = rng.uniformf(-8, 8);
+      boxes[i].bmin[k] = std::min(a, b);
+      boxes[i].bmax[k] = (i % 8 == 0 && k == 1) ? std::min(a, b) : std::max(a, b);  // some flat boxes
+    }
+    for (int l = 0; l < RF_TILE_RAYS; ++l) {
+      const size_t q = RF_TILE_RAYS * i + l;
+      tmax[q] = (l % 3 == 0) ? RF_FAR : rng.uniformf(-1, 20);
+      const rf_ray r = c.lane_ray(i, l);
+      host[q] = rf_intersect_box(&boxes[i], &r, tmax[q]) != RF_FAR ? 1.0f : 0.0f;
+      pass += host[q] != 0.0f;
+    }
+  }
+  EXPECT_GT(pass, host.size() / 20);
+  EXPECT_LT(pass, host.size() - host.size() / 20);
+  expect_bits_equal(host,
+                    run("ut_tile_box", {in(boxes), in(c.xf), in(c.dirs), in(tmax), out(host.size())}, c.n,
+                        host.size()),
+                    "rf_lanes_box");
+}
+
+TEST_F(KernelUnits, TileTriangleEqualsScalarTriangleTest) {
+  Rng rng(8);
+  TileCases c(rng, 64);
+  std::vector<rf_tri> tris(c.n);
+  std::vector<float> host(4 * RF_TILE_RAYS * c.n);
+  size_t hits = 0;
+  for (size_t i = 0; i < c.n; ++i) {
+    rf_tri& t = tris[i];
+    // A triangle in front of the tile's rays, large enough to catch some.
+    const rf_ray centre = c.lane_ray(i, RF_TILE_RAYS / 2 + 8);
+    const float dist = rng.uniformf(1, 6);
+    for (int k = 0; k < 3; ++k) {
+      const float p = centre.o[k] + dist * centre.d[k];
+      t.v0[k] = p + rng.uniformf(-3, 3);
+      t.v1[k] = p + rng.uniformf(-3, 3);
+      t.v2[k] = p + rng.uniformf(-3, 3);
+    }
+    if (i % 16 == 5) std::memcpy(t.v2, t.v1, sizeof t.v1);  // zero area
+    t.prim = 0;
+    for (int l = 0; l < RF_TILE_RAYS; ++l) {
+      const rf_ray r = c.lane_ray(i, l);
+      float tt = 0, u = 0, v = 0;
+      const int hit = rf_intersect_triangle(&t, &r, &tt, &u, &v) && tt > 0.0f && tt < RF_FAR;
+      float* o = &host[4 * (RF_TILE_RAYS * i + l)];
+      o[0] = static_cast<float>(hit);
+      o[1] = hit ? tt : 0.0f;
+      o[2] = hit ? u : 0.0f;
+      o[3] = hit ? v : 0.0f;
+      hits += hit;
+    }
+  }
+  EXPECT_GT(hits, host.size() / 4 / 20);
+  expect_bits_equal(host, run("ut_tile_triangle", {in(tris), in(c.xf), in(c.dirs), out(host.size())}, c.n, host.size()),
+                    "rf_tile_triangle");
 }
 
 }  // namespace
