@@ -41,6 +41,34 @@ fs::path work_dir() {
   return d;
 }
 
+TEST(Cli, KernelChoiceIsReportedAndBothKernelsWriteTheSameFile) {
+  const fs::path d = work_dir();
+  std::vector<std::vector<rf_pixel_hit>> images;
+  for (const char* kernel : {"tile", "single"}) {
+    const std::string exr = (d / (std::string(kernel) + ".exr")).string();
+    const std::string json = (d / (std::string(kernel) + ".json")).string();
+    const CliRun r = rayfold(std::string("render --size 65x37 --fold xy --kernel ") + kernel + " -o " + exr +
+                             " --stats " + json);
+    ASSERT_EQ(r.code, 0) << r.err;
+    EXPECT_NE(r.out.find(std::string("kernel       ") + kernel), std::string::npos) << r.out;
+    std::ifstream js(json);
+    const std::string text((std::istreambuf_iterator<char>(js)), {});
+    EXPECT_NE(text.find(std::string("\"kernel\": \"") + kernel + "\""), std::string::npos) << text;
+    int w = 0, h = 0;
+    images.push_back(read_exr(exr, &w, &h));
+  }
+  EXPECT_EQ(testing::compare_hits(images[0], images[1], 65), "");
+  const CliRun bad = rayfold("render --size 8x8 --kernel wide");
+  EXPECT_EQ(bad.code, 2);
+  EXPECT_NE(bad.err.find("--kernel: 'wide' is not tile, single or auto"), std::string::npos) << bad.err;
+  const CliRun both = rayfold("render --size 8x8 --backend cpu --kernel tile");
+  EXPECT_EQ(both.code, 2);
+  EXPECT_NE(both.err.find("--kernel: the CPU backend"), std::string::npos) << both.err;
+  const CliRun cpu = rayfold("render --size 8x8 --backend cpu --stats " + (d / "cpu.json").string());
+  ASSERT_EQ(cpu.code, 0) << cpu.err;
+  EXPECT_NE(cpu.out.find("kernel       cpu reference"), std::string::npos) << cpu.out;
+}
+
 TEST(Cli, RenderWritesEverythingAndPrintsTheTable) {
   const fs::path d = work_dir();
   const std::string exr = (d / "a.exr").string(), png = (d / "a.png").string(), json = (d / "a.json").string();

@@ -108,6 +108,7 @@ BenchReport run_bench(const BenchOptions& opt) {
   BenchReport rep;
   rep.scene = opt.scene;
   rep.device = renderer.device_name();
+  rep.kernel = renderer.kernel_label();
   rep.width = opt.width;
   rep.height = opt.height;
   rep.views = opt.views;
@@ -161,7 +162,7 @@ std::string bench_markdown(const BenchReport& r) {
   s << "Scene `" << r.scene << "`: " << r.instances << " instances, " << r.meshes << " meshes, " << r.triangles
     << " triangles; " << r.width << "x" << r.height << ", " << r.views << " views, median of " << r.frames
     << " frames after " << r.warmup << " warm-up" << (r.animate ? ", animated" : "") << ".\n";
-  s << "Device: " << r.device << " (" << r.threads << " host threads). Folded output "
+  s << "Device: " << r.device << ", " << r.kernel << " kernel (" << r.threads << " host threads). Folded output "
     << (r.exact() ? "equals the unfolded output bit for bit in every view."
                   : "DIFFERS from the unfolded output (see mismatched pixels).")
     << "\n\n";
@@ -192,6 +193,7 @@ std::string bench_json(const BenchReport& r) {
   nlohmann::json j;
   j["scene"] = r.scene;
   j["device"] = r.device;
+  j["kernel"] = r.kernel;
   j["threads"] = r.threads;
   j["width"] = r.width;
   j["height"] = r.height;

@@ -89,7 +89,7 @@ const char* kBenchUsage =
     "  --animate              move a fixed subset of instances every frame\n"
     "  --braid N              re-braiding budget per instance (default 2, 0 = off)\n"
     "  --backend opencl|cpu   (default opencl)   --device NAME   --threads N\n"
-    "  --kernel tile|single|auto   OpenCL kernel (default auto)\n"
+    "  --kernel tile|single|auto   OpenCL kernel (default auto: tile on CPU devices)\n"
     "  --json F.json  --md F.md   also write the report\n"
     "exit code 3 when a folded image differs from the unfolded one\n";
 
@@ -159,6 +159,12 @@ bool parse_renderer_option(const std::string& a, cli::Args& args, RendererOption
   return true;
 }
 
+// After parsing: options that contradict each other.
+void check_renderer_options(const RendererOptions& r) {
+  if (r.backend == Backend::cpu && r.kernel != KernelChoice::automatic)
+    throw UsageError("--kernel: the CPU backend runs the reference tracer, not an OpenCL kernel");
+}
+
 RenderArgs parse_render(cli::Args& args) {
   RenderArgs r;
   bool have_scene = false;
@@ -213,6 +219,7 @@ RenderArgs parse_render(cli::Args& args) {
   }
   if (r.eye.has_value() != r.look_at.has_value()) throw UsageError("--eye and --look-at go together");
   if (r.compare && r.frame.fold == FoldMode::none) r.frame.fold = FoldMode::xy;
+  check_renderer_options(r.renderer);
   return r;
 }
 
@@ -392,6 +399,7 @@ int run_bench_command(cli::Args& args) {
     }
   }
   check_view_path(opt);
+  check_renderer_options(opt.renderer);
   for (const std::string* out : {&json, &md})
     if (!out->empty()) check_writable(*out);
   const BenchReport report = run_bench(opt);
