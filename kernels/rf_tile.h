@@ -431,23 +431,34 @@ RF_INLINE void rf_tile_write_group(const RF_GLOBAL rf_u32* rays, rf_u32 begin, r
       nx[j] = ny[j] = nz[j] = (rf_vf)(0.0f);
       continue;
     }
-    /* Gather each lane's triangle and normal matrix (lane 0's where a lane
-     * missed; its result is replaced below). */
+    /* Each lane's triangle and normal matrix (lane 0's where a lane missed;
+     * its result is replaced below): one load for the whole vector when its
+     * lanes agree, as on large triangles and within one instance, else a
+     * gather. */
     float gv[9][RF_LANES], gm[9][RF_LANES];
     const rf_u32* tri_idx = (const rf_u32*)&h->tri[j];
     const rf_u32* inst_idx = (const rf_u32*)&h->instance[j];
+    const rf_vi all_hit = ~hit;
+    const int one_tri = !rf_lanes_any(all_hit | (h->tri[j] != (rf_vu)(tri_idx[0])));
+    const int one_inst = !rf_lanes_any(all_hit | (h->instance[j] != (rf_vu)(inst_idx[0])));
     for (int l = 0; l < RF_LANES; ++l) {
       const int lane_hit = inst_idx[l] != RF_INVALID;
-      const RF_GLOBAL rf_tri* tri = &tris[lane_hit ? tri_idx[l] : 0u];
-      const RF_GLOBAL float* m = normal_xforms[lane_hit ? inst_idx[l] : 0u].m;
-      for (int k = 0; k < 3; ++k) {
-        gv[k][l] = tri->v0[k];
-        gv[3 + k][l] = tri->v1[k];
-        gv[6 + k][l] = tri->v2[k];
+      if (!one_tri || l == 0) {
+        const RF_GLOBAL rf_tri* tri = &tris[lane_hit ? tri_idx[l] : 0u];
+        for (int k = 0; k < 3; ++k) {
+          gv[k][l] = tri->v0[k];
+          gv[3 + k][l] = tri->v1[k];
+          gv[6 + k][l] = tri->v2[k];
+        }
       }
-      for (int k = 0; k < 9; ++k) gm[k][l] = m[k];
+      if (!one_inst || l == 0) {
+        const RF_GLOBAL float* m = normal_xforms[lane_hit ? inst_idx[l] : 0u].m;
+        for (int k = 0; k < 9; ++k) gm[k][l] = m[k];
+      }
     }
-#define RF_G(a, k) (*(const rf_vf*)a[k])
+#define RF_G(a, k) (one_##a ? (rf_vf)(a[k][0]) : *(const rf_vf*)a[k])
+#define one_gv one_tri
+#define one_gm one_inst
     const rf_vf e1x = RF_G(gv, 3) - RF_G(gv, 0), e1y = RF_G(gv, 4) - RF_G(gv, 1), e1z = RF_G(gv, 5) - RF_G(gv, 2);
     const rf_vf e2x = RF_G(gv, 6) - RF_G(gv, 0), e2y = RF_G(gv, 7) - RF_G(gv, 1), e2z = RF_G(gv, 8) - RF_G(gv, 2);
     const rf_vf cx = e1y * e2z - e1z * e2y;
@@ -457,6 +468,8 @@ RF_INLINE void rf_tile_write_group(const RF_GLOBAL rf_u32* rays, rf_u32 begin, r
     rf_vf wy = RF_G(gm, 3) * cx + RF_G(gm, 4) * cy + RF_G(gm, 5) * cz;
     rf_vf wz = RF_G(gm, 6) * cx + RF_G(gm, 7) * cy + RF_G(gm, 8) * cz;
 #undef RF_G
+#undef one_gv
+#undef one_gm
     const rf_vf big = rf_lanes_max(rf_lanes_max(fabs(wx), fabs(wy)), fabs(wz));
     const rf_vi degenerate = ~(big > (rf_vf)(0.0f));
     wx = wx / big;
