@@ -219,6 +219,23 @@ RF_INLINE int rf_tile_triangle(const RF_GLOBAL rf_tri* tri, rf_u32 ti, const rf_
 #define RF_RANGE_FIRST(r) ((int)((r) & 0xFFu))
 #define RF_RANGE_LAST(r) ((int)((r) >> 8))
 
+/* Pushes the children c and c + 1 that their whole-tile bounds tc did not
+ * reject, the far one first so that the near one is visited next; returns
+ * the new stack size. */
+RF_INLINE int rf_tile_push_children(rf_u32* stack_node, float* stack_t, rf_u32* stack_range, int sp, rf_u32 c,
+                                    const float tc[2], rf_u32 range) {
+  const int near_s = tc[0] <= tc[1] ? 0 : 1;
+  for (int k = 0; k < 2; ++k) {
+    const int s = k == 0 ? 1 - near_s : near_s;
+    if (tc[s] == RF_FAR) continue;
+    stack_node[sp] = c + (rf_u32)s;
+    stack_t[sp] = tc[s];
+    stack_range[sp] = range;
+    ++sp;
+  }
+  return sp;
+}
+
 /* rf_intersect_box for the lanes of lane group j, against each lane's bound
  * over the transform groups in `groups` (rf_group_bound); iz null means a
  * reciprocal z of -1 in every lane (camera space). */
@@ -309,20 +326,7 @@ RF_INLINE void rf_tile_trace_blas(const RF_GLOBAL rf_node* nodes, const RF_GLOBA
       const float d1[3] = {ch->bmax[0] - r->o[0], ch->bmax[1] - r->o[1], ch->bmax[2] - r->o[2]};
       tc[s] = rf_interval_box(d0, d1, r->lo, r->hi, h->tmax);
     }
-    /* Far child first on the stack, so the near one is visited next. */
-    const int near_s = tc[0] <= tc[1] ? 0 : 1;
-    if (tc[1 - near_s] != RF_FAR) {
-      stack_node[sp] = c + 1 - near_s;
-      stack_t[sp] = tc[1 - near_s];
-      stack_range[sp] = child_range;
-      ++sp;
-    }
-    if (tc[near_s] != RF_FAR) {
-      stack_node[sp] = c + near_s;
-      stack_t[sp] = tc[near_s];
-      stack_range[sp] = child_range;
-      ++sp;
-    }
+    sp = rf_tile_push_children(stack_node, stack_t, stack_range, sp, c, tc, child_range);
   }
 }
 
@@ -398,19 +402,7 @@ RF_INLINE void rf_tile_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBA
       const float d1[3] = {ch->bmax[0] - 0.0f, ch->bmax[1] - 0.0f, ch->bmax[2] - 0.0f};
       tc[s] = rf_interval_box(d0, d1, cam->lo, cam->hi, rf_tile_group_bound(ch->meta, hits));
     }
-    const int near_s = tc[0] <= tc[1] ? 0 : 1;
-    if (tc[1 - near_s] != RF_FAR) {
-      stack_node[sp] = c + 1 - near_s;
-      stack_t[sp] = tc[1 - near_s];
-      stack_range[sp] = range;
-      ++sp;
-    }
-    if (tc[near_s] != RF_FAR) {
-      stack_node[sp] = c + near_s;
-      stack_t[sp] = tc[near_s];
-      stack_range[sp] = range;
-      ++sp;
-    }
+    sp = rf_tile_push_children(stack_node, stack_t, stack_range, sp, c, tc, range);
   }
 }
 

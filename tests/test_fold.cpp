@@ -5,7 +5,6 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
-#include <map>
 
 #include "../host/gltf_loader.h"
 #include "../host/ray_list.h"
@@ -141,13 +140,7 @@ TEST(Fold, RandomCamerasOverGeneratedScenes) {
     Renderer cl(scene, backend(Backend::opencl));
     for (int v = 0; v < 26; ++v, ++cameras) {
       CameraSpec spec = testing::random_camera(rng, scene.world_bounds());
-      if (v % 5 == 0) {
-        // The eye inside an object: the centre of a random instance's box.
-        const Instance& inst = scene.instances[rng.below(static_cast<int>(scene.instances.size()))];
-        const Aabb b = transform_bounds_conservative(inst.world_from_object, scene.mesh_bounds(inst.mesh));
-        spec.look_at = spec.look_at - spec.eye + glm::dvec3(b.centre());
-        spec.eye = glm::dvec3(b.centre());
-      }
+      if (v % 5 == 0) testing::move_eye_inside_an_instance(rng, scene, spec);
       const int w = 1 + rng.below(90), h = 1 + rng.below(70);
       const double sx = v % 3 == 0 ? rng.uniform(-0.8, 0.8) : 0.0, sy = v % 4 == 0 ? rng.uniform(-0.8, 0.8) : 0.0;
       const Camera cam = make_camera(spec, w, h, sx, sy);
@@ -215,25 +208,15 @@ TEST(Fold, AnimatedFramesStayLossless) {
 TEST(Fold, SharedScenes) {
   const std::string dir = testing::shared_scenes_dir();
   if (dir.empty()) GTEST_SKIP() << "../shared/scenes not found (set RAYFOLD_SCENES_DIR); real scenes not tested";
-  const std::map<std::string, std::pair<glm::dvec3, glm::dvec3>> views = {
-      {"dabrovic_sponza.glb", {{0, 3, 0}, {10, 3, 0}}},
-      {"conference.glb", {{330, 300, -300}, {1000, 200, 0}}},
-      {"sports_car.glb", {{1.8, 0.9, 2.2}, {0, 0.45, 0}}},
-      {"stanford_dragon.glb", {{0, 0.13, 0.22}, {0, 0.12, 0}}},
-      {"armadillo.glb", {{0, 20, 170}, {0, 20, 0}}},
-      {"lost_empire.glb", {{-10, 20, 40}, {10, 10, 0}}},
-  };
   int rendered = 0;
-  for (const auto& [file, view] : views) {
-    const std::string path = dir + "/" + file;
+  for (const testing::SharedView& v : testing::shared_views()) {
+    const std::string path = dir + "/" + v.file;
     if (!std::filesystem::exists(path)) continue;
     const Scene scene = load_gltf(path);
-    CameraSpec spec;
-    spec.eye = view.first;
-    spec.look_at = view.second;
+    const CameraSpec spec = v.camera();
     const Camera cam = make_camera(spec, 121, 67);
     Renderer cl(scene, backend(Backend::opencl));
-    EXPECT_EQ(fold_differences(cl, cam), "") << file;
+    EXPECT_EQ(fold_differences(cl, cam), "") << v.file;
     ++rendered;
   }
   EXPECT_GT(rendered, 0);

@@ -75,32 +75,15 @@ TEST(Parity, RandomTriangleSoupsWithMirrors) {
 namespace rayfold {
 namespace {
 
-// The suggested views of ../shared/scenes/README.md.
-struct View {
-  const char* file;
-  glm::dvec3 eye, look_at;
-};
-const View kSharedViews[] = {
-    {"dabrovic_sponza.glb", {0, 3, 0}, {10, 3, 0}},
-    {"conference.glb", {330, 300, -300}, {1000, 200, 0}},
-    {"sports_car.glb", {1.8, 0.9, 2.2}, {0, 0.45, 0}},
-    {"stanford_dragon.glb", {0, 0.13, 0.22}, {0, 0.12, 0}},
-    {"armadillo.glb", {0, 20, 170}, {0, 20, 0}},
-    {"lost_empire.glb", {-10, 20, 40}, {10, 10, 0}},
-};
-
 TEST(Parity, SharedScenesSuggestedViews) {
   const std::string dir = testing::shared_scenes_dir();
   if (dir.empty()) GTEST_SKIP() << "../shared/scenes not found (set RAYFOLD_SCENES_DIR); real scenes not tested";
   int rendered = 0;
-  for (const View& v : kSharedViews) {
+  for (const testing::SharedView& v : testing::shared_views()) {
     const std::string path = dir + "/" + v.file;
     if (!std::filesystem::exists(path)) continue;
     const Scene scene = load_gltf(path);
-    CameraSpec spec;
-    spec.eye = v.eye;
-    spec.look_at = v.look_at;
-    const Camera cam = make_camera(spec, 160, 90);
+    const Camera cam = make_camera(v.camera(), 160, 90);
     Renderer cpu(scene, cpu_options());
     Renderer cl(scene, RendererOptions{});
     const RenderResult a = cpu.render(cam);

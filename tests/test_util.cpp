@@ -168,6 +168,32 @@ std::string shared_scenes_dir() {
   return fs::is_directory(p) ? p.lexically_normal().string() : "";
 }
 
+void move_eye_inside_an_instance(Rng& rng, const Scene& scene, CameraSpec& spec) {
+  const Instance& inst = scene.instances[rng.below(static_cast<int>(scene.instances.size()))];
+  const Aabb b = transform_bounds_conservative(inst.world_from_object, scene.mesh_bounds(inst.mesh));
+  spec.look_at = spec.look_at - spec.eye + glm::dvec3(b.centre());
+  spec.eye = glm::dvec3(b.centre());
+}
+
+const std::vector<SharedView>& shared_views() {
+  static const std::vector<SharedView> views = {
+      {"dabrovic_sponza.glb", {0, 3, 0}, {10, 3, 0}},
+      {"conference.glb", {330, 300, -300}, {1000, 200, 0}},
+      {"sports_car.glb", {1.8, 0.9, 2.2}, {0, 0.45, 0}},
+      {"stanford_dragon.glb", {0, 0.13, 0.22}, {0, 0.12, 0}},
+      {"armadillo.glb", {0, 20, 170}, {0, 20, 0}},
+      {"lost_empire.glb", {-10, 20, 40}, {10, 10, 0}},
+  };
+  return views;
+}
+
+CameraSpec SharedView::camera() const {
+  CameraSpec spec;
+  spec.eye = eye;
+  spec.look_at = look_at;
+  return spec;
+}
+
 Mesh closed_cube(int n) {
   Mesh m;
   std::map<std::tuple<int, int, int>, uint32_t> index;

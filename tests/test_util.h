@@ -40,6 +40,10 @@ std::string compare_hits(const std::vector<rf_pixel_hit>& expected, const std::v
 // sometimes along an axis, sometimes from inside an object's box.
 CameraSpec random_camera(Rng& rng, const Aabb& bounds);
 
+// Moves the camera, keeping its direction, to the centre of a random
+// instance's box: the eye inside an object.
+void move_eye_inside_an_instance(Rng& rng, const Scene& scene, CameraSpec& spec);
+
 // A scene of random triangle soups (including zero-area triangles) placed by
 // random affine transforms: rotations, non-uniform scales and mirrors.
 Scene random_scene(Rng& rng, int meshes, int instances, int triangles_per_mesh);
@@ -55,5 +59,14 @@ ClDevice& test_device();
 // ../shared/scenes beside the repository, or $RAYFOLD_SCENES_DIR; "" when
 // absent.
 std::string shared_scenes_dir();
+
+// The suggested views of ../shared/scenes/README.md: a file name and a camera
+// looking from `eye` at `look_at` with +y up.
+struct SharedView {
+  const char* file;
+  glm::dvec3 eye, look_at;
+  CameraSpec camera() const;
+};
+const std::vector<SharedView>& shared_views();
 
 }  // namespace rayfold::testing
