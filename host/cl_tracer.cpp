@@ -76,7 +76,9 @@ void ClTracer::upload_scene(const SceneData& data, size_t max_tlas_nodes, size_t
     tris_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, buffer_info_[1].bytes);
     instances_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, buffer_info_[2].bytes);
     normal_xforms_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, buffer_info_[3].bytes);
-    rays_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, buffer_info_[4].bytes);
+    for (RaySlot& r : slots_) r = RaySlot{};
+    slots_[0].rays = cl::Buffer(ctx, CL_MEM_READ_ONLY, buffer_info_[4].bytes);
+    slots_[0].rays_capacity = at_least_one(max_rays);
     hits_ = cl::Buffer(ctx, CL_MEM_WRITE_ONLY, buffer_info_[5].bytes);
     if (!blas.nodes.empty())
       q.enqueueWriteBuffer(nodes_, CL_FALSE, 0, blas.nodes.size() * sizeof(rf_node), blas.nodes.data());
@@ -115,33 +117,47 @@ double ClTracer::upload_frame(const Frame& frame) {
   return ms_since(t0);
 }
 
-double ClTracer::upload_rays(const RayList& rays) {
+double ClTracer::upload_rays(const RayList& rays, int slot) {
   RF_CHECK(rays.entries.size() <= max_rays_, "ray list larger than its buffer");
   RF_CHECK(!rays.tiles.empty() && rays.tiles.back() == rays.entries.size(), "tile table does not cover the rays");
+  RF_CHECK(slot >= 0 && slot < kRaySlots, "ray list slot out of range");
   const auto t0 = Clock::now();
+  RaySlot& r = slots_[slot];
   try {
+    cl::Context& ctx = device_.context();
+    if (rays.entries.size() > r.rays_capacity) {
+      r.rays = cl::Buffer(ctx, CL_MEM_READ_ONLY, rays.entries.size() * sizeof(uint32_t));
+      r.rays_capacity = rays.entries.size();
+    }
     // The tile table is small (one entry per 256 rays at most); it grows
     // when an image needs more tiles than any before.
-    if (rays.tiles.size() > tiles_capacity_) {
-      tiles_ = cl::Buffer(device_.context(), CL_MEM_READ_ONLY, rays.tiles.size() * sizeof(uint32_t));
-      tiles_capacity_ = rays.tiles.size();
+    if (rays.tiles.size() > r.tiles_capacity) {
+      r.tiles = cl::Buffer(ctx, CL_MEM_READ_ONLY, rays.tiles.size() * sizeof(uint32_t));
+      r.tiles_capacity = rays.tiles.size();
     }
     cl::CommandQueue& q = device_.queue();
-    q.enqueueWriteBuffer(tiles_, CL_FALSE, 0, rays.tiles.size() * sizeof(uint32_t), rays.tiles.data());
+    q.enqueueWriteBuffer(r.tiles, CL_FALSE, 0, rays.tiles.size() * sizeof(uint32_t), rays.tiles.data());
     if (!rays.entries.empty())
-      q.enqueueWriteBuffer(rays_, CL_FALSE, 0, rays.entries.size() * sizeof(uint32_t), rays.entries.data());
+      q.enqueueWriteBuffer(r.rays, CL_FALSE, 0, rays.entries.size() * sizeof(uint32_t), rays.entries.data());
     q.finish();
   } catch (const cl::Error& e) {
     throw RuntimeFailure("cannot upload the ray list: " + cl_error_text(e));
   }
-  ray_count_ = static_cast<uint32_t>(rays.entries.size());
-  tile_count_ = static_cast<uint32_t>(rays.tiles.size() - 1);
+  r.ray_count = static_cast<uint32_t>(rays.entries.size());
+  r.tile_count = static_cast<uint32_t>(rays.tiles.size() - 1);
+  slot_ = slot;
   return ms_since(t0);
+}
+
+void ClTracer::use_rays(int slot) {
+  RF_CHECK(slot >= 0 && slot < kRaySlots, "ray list slot out of range");
+  slot_ = slot;
 }
 
 double ClTracer::trace(const rf_camera& cam, KernelKind kind) {
   RF_CHECK(static_cast<size_t>(cam.width) * cam.height <= pixel_count_, "image larger than the hit buffer");
-  if (ray_count_ == 0) return 0.0;
+  const RaySlot& r = slots_[slot_];
+  if (r.ray_count == 0) return 0.0;
   const auto t0 = Clock::now();
   try {
     cl::Kernel& kernel = kind == KernelKind::tile ? tile_ : single_;
@@ -151,12 +167,12 @@ double ClTracer::trace(const rf_camera& cam, KernelKind kind) {
     kernel.setArg(a++, instances_);
     kernel.setArg(a++, normal_xforms_);
     kernel.setArg(a++, tlas_root_);
-    kernel.setArg(a++, rays_);
+    kernel.setArg(a++, r.rays);
     if (kind == KernelKind::tile) {
-      kernel.setArg(a++, tiles_);
-      kernel.setArg(a++, tile_count_);
+      kernel.setArg(a++, r.tiles);
+      kernel.setArg(a++, r.tile_count);
     } else {
-      kernel.setArg(a++, ray_count_);
+      kernel.setArg(a++, r.ray_count);
     }
     kernel.setArg(a++, cam.scale_x);
     kernel.setArg(a++, cam.scale_y);
@@ -169,15 +185,15 @@ double ClTracer::trace(const rf_camera& cam, KernelKind kind) {
     kernel.setArg(a++, host_out_ ? host_hits_ : hits_);
     if (kind == KernelKind::tile && tile_stats_) {
       stats_ = cl::Buffer(device_.context(), CL_MEM_WRITE_ONLY,
-                          std::max<size_t>(tile_count_, 1) * RF_TILE_STAT_COUNT * sizeof(uint32_t));
+                          std::max<size_t>(r.tile_count, 1) * RF_TILE_STAT_COUNT * sizeof(uint32_t));
       kernel.setArg(a++, stats_);
     }
     if (kind == KernelKind::tile) {
       // One tile per work-group: the SIMD is inside the work-item.
-      device_.queue().enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(tile_count_), cl::NDRange(1));
+      device_.queue().enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(r.tile_count), cl::NDRange(1));
     } else {
       constexpr size_t kGroup = 64;
-      const size_t global = (ray_count_ + kGroup - 1) / kGroup * kGroup;
+      const size_t global = (r.ray_count + kGroup - 1) / kGroup * kGroup;
       device_.queue().enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(global), cl::NDRange(kGroup));
     }
     device_.queue().finish();
@@ -224,7 +240,7 @@ double ClTracer::read_hits(rf_pixel_hit* out, size_t pixel_count) {
 
 std::vector<uint32_t> ClTracer::read_tile_stats() {
   RF_CHECK(tile_stats_, "tracer built without tile statistics");
-  std::vector<uint32_t> out(static_cast<size_t>(tile_count_) * RF_TILE_STAT_COUNT);
+  std::vector<uint32_t> out(static_cast<size_t>(slots_[slot_].tile_count) * RF_TILE_STAT_COUNT);
   if (!out.empty()) device_.queue().enqueueReadBuffer(stats_, CL_TRUE, 0, out.size() * sizeof(uint32_t), out.data());
   return out;
 }

@@ -46,7 +46,13 @@ class ClTracer {
                     size_t pixel_count);
   // Returns the upload time in ms.
   double upload_frame(const Frame& frame);
-  double upload_rays(const RayList& rays);
+  // Uploads a ray list into one of kRaySlots slots and makes it the one
+  // traced; a renderer keeps one slot per fold mode, so that alternating
+  // modes (a comparison, a benchmark) does not upload again.
+  static constexpr int kRaySlots = 4;
+  double upload_rays(const RayList& rays, int slot = 0);
+  // Traces the list already in `slot` from now on.
+  void use_rays(int slot);
   // Traces the uploaded rays with the given kernel; ms of kernel time,
   // measured around a finish().
   double trace(const rf_camera& camera, KernelKind kernel);
@@ -67,17 +73,24 @@ class ClTracer {
   ClDevice& device_;
   cl::Program program_;
   cl::Kernel single_, tile_;
-  cl::Buffer nodes_, tris_, instances_, normal_xforms_, rays_, tiles_, hits_;
-  size_t tiles_capacity_ = 0;
+  cl::Buffer nodes_, tris_, instances_, normal_xforms_, hits_;
+  // One uploaded ray list and its tile table. Slot 0's rays buffer is made
+  // with the scene (its size is checked against the device's memory); the
+  // others grow on first use.
+  struct RaySlot {
+    cl::Buffer rays, tiles;
+    size_t rays_capacity = 0, tiles_capacity = 0;
+    uint32_t ray_count = 0, tile_count = 0;
+  };
+  RaySlot slots_[kRaySlots];
+  int slot_ = 0;
   bool tile_stats_ = false;
   cl::Buffer stats_;
   cl::Buffer host_hits_;  // over bound host memory (CPU devices)
   rf_pixel_hit* host_out_ = nullptr;
-  uint32_t tile_count_ = 0;
   std::vector<BufferInfo> buffer_info_;
   uint32_t blas_node_count_ = 0;
   uint32_t tlas_root_ = RF_INVALID;
-  uint32_t ray_count_ = 0;
   size_t max_tlas_nodes_ = 0, max_instances_ = 0, max_rays_ = 0, pixel_count_ = 0;
 };
 

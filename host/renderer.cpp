@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdio>
 #include <cstring>
 
 #include <unistd.h>
@@ -31,15 +32,26 @@ double median(std::vector<double> values) {
 Renderer::Renderer(const Scene& scene, const RendererOptions& options)
     : scene_(scene), options_(options), data_(prepare_scene(scene, options.threads, options.braid)) {
   nodes_ = data_.blas.nodes;
+  kernel_reason_ = "the CPU backend";
   if (options_.backend == Backend::opencl) {
     device_ = std::make_unique<ClDevice>(options_.device_hint);
     tracer_ = std::make_unique<ClTracer>(*device_, options_.precision);
     // PoCL runs one work-item per thread, so only the tile kernel uses the
-    // CPU's vector units; GPUs vectorise across work-items.
-    kernel_ = options_.kernel == KernelChoice::tile     ? KernelKind::tile
-              : options_.kernel == KernelChoice::single ? KernelKind::single
-              : device_->info().is_cpu                  ? KernelKind::tile
-                                                        : KernelKind::single;
+    // CPU's vector units; on other devices the faster one is measured.
+    const bool cpu = device_->info().is_cpu;
+    switch (options_.kernel) {
+      case KernelChoice::tile: kernel_ = KernelKind::tile; kernel_reason_ = "chosen"; break;
+      case KernelChoice::single: kernel_ = KernelKind::single; kernel_reason_ = "chosen"; break;
+      case KernelChoice::automatic:
+        kernel_ = KernelKind::tile;
+        kernel_reason_ = "CPU device";
+        measure_kernel_ = !cpu;
+        break;
+      case KernelChoice::measure:
+        kernel_ = KernelKind::tile;
+        measure_kernel_ = true;
+        break;
+    }
   }
 }
 
@@ -63,18 +75,20 @@ void Renderer::ensure_capacity(size_t pixels) {
   if (!tracer_ || pixels <= pixel_capacity_) return;
   tracer_->upload_scene(data_, max_tlas_nodes(data_), max_tlas_items(data_), pixels, pixels);
   pixel_capacity_ = pixels;
-  have_rays_ = false;  // the new buffers hold no rays yet
+  for (CachedRays& r : rays_) r.uploaded = false;  // the new buffers hold no rays yet
 }
 
 const RayList& Renderer::ray_list(const rf_camera& params, FoldMode fold, bool* fresh) {
-  *fresh = !have_rays_ || fold != rays_fold_ || std::memcmp(&params, &rays_camera_, sizeof params) != 0;
+  static_assert(static_cast<int>(FoldMode::xy) < 4 && ClTracer::kRaySlots >= 4, "one slot per fold mode");
+  CachedRays& r = rays_[static_cast<int>(fold)];
+  *fresh = !r.built || std::memcmp(&params, &r.camera, sizeof params) != 0;
   if (*fresh) {
-    rays_ = make_ray_list(params, fold);
-    rays_camera_ = params;
-    rays_fold_ = fold;
-    have_rays_ = true;
+    r.list = make_ray_list(params, fold);
+    r.camera = params;
+    r.built = true;
+    r.uploaded = false;
   }
-  return rays_;
+  return r.list;
 }
 
 // Image-sized host buffers are checked against physical memory first, so a
@@ -91,11 +105,17 @@ void check_host_memory(size_t pixels) {
 }
 
 RenderResult Renderer::render(const Camera& camera, int frames, const FrameOptions& frame_options) {
+  RenderResult result;
+  render_into(result, camera, frames, frame_options);
+  return result;
+}
+
+void Renderer::render_into(RenderResult& result, const Camera& camera, int frames, const FrameOptions& frame_options) {
   const size_t pixels = static_cast<size_t>(camera.width) * camera.height;
   check_host_memory(pixels);
   ensure_capacity(pixels);
-  RenderResult result;
-  result.hits.resize(pixels);
+  if (result.hits.size() != pixels) result.hits.assign(pixels, rf_pixel_hit{});
+  result.frames.clear();
   frames = std::max(frames, 1);
   for (int f = 0; f < frames; ++f) {
     FrameTimes times;
@@ -104,6 +124,7 @@ RenderResult Renderer::render(const Camera& camera, int frames, const FrameOptio
     auto t0 = Clock::now();
     bool fresh_rays = false;
     const RayList& rays = ray_list(camera.params, options.fold, &fresh_rays);
+    (void)fresh_rays;
     times.ray_list_ms = ms_since(t0);
     result.rays = rays.entries.size();
     const Frame frame = build_frame(scene_, data_, camera, rays, options);
@@ -113,10 +134,29 @@ RenderResult Renderer::render(const Camera& camera, int frames, const FrameOptio
     result.tlas_nodes = frame.tlas_nodes.size();
     result.instances = frame.instances.size();
     if (tracer_) {
-      if (fresh_rays) times.ray_list_ms += tracer_->upload_rays(rays);
+      CachedRays& cached = rays_[static_cast<int>(options.fold)];
+      if (!cached.uploaded) {
+        times.ray_list_ms += tracer_->upload_rays(rays, static_cast<int>(options.fold));
+        cached.uploaded = true;
+      } else {
+        tracer_->use_rays(static_cast<int>(options.fold));
+      }
       times.upload_ms = tracer_->upload_frame(frame);
       tracer_->bind_output(result.hits.data(), pixels);
-      times.trace_ms = tracer_->trace(camera.params, kernel_);
+      if (measure_kernel_) {
+        // Both kernels write the same bits; the faster one stays.
+        const double single_ms = tracer_->trace(camera.params, KernelKind::single);
+        const double tile_ms = tracer_->trace(camera.params, KernelKind::tile);
+        kernel_ = tile_ms <= single_ms ? KernelKind::tile : KernelKind::single;
+        char why[96];
+        std::snprintf(why, sizeof why, "measured on the first frame: tile %.2f ms, single %.2f ms", tile_ms,
+                      single_ms);
+        kernel_reason_ = why;
+        measure_kernel_ = false;
+        times.trace_ms = std::min(tile_ms, single_ms);
+      } else {
+        times.trace_ms = tracer_->trace(camera.params, kernel_);
+      }
       times.readback_ms = tracer_->read_hits(result.hits.data(), pixels);
     } else {
       t0 = Clock::now();
@@ -151,7 +191,6 @@ RenderResult Renderer::render(const Camera& camera, int frames, const FrameOptio
   result.median.ray_list_ms = pick(&FrameTimes::ray_list_ms);
   result.median.trace_ms = pick(&FrameTimes::trace_ms);
   result.median.readback_ms = pick(&FrameTimes::readback_ms);
-  return result;
 }
 
 }  // namespace rayfold

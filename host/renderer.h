@@ -3,6 +3,7 @@
 // on the OpenCL device or on the CPU reference.
 #pragma once
 
+#include <array>
 #include <memory>
 #include <string>
 #include <vector>
@@ -16,9 +17,13 @@ namespace rayfold {
 
 enum class Backend { opencl, cpu };
 
-// Which OpenCL kernel traces: the tile kernel on CPU devices (PoCL), the
-// single-ray kernel on others, unless chosen.
-enum class KernelChoice { automatic, tile, single };
+// Which OpenCL kernel traces. Both give the same bits; only speed differs.
+enum class KernelChoice {
+  automatic,  // tile on CPU devices (PoCL: 10x the single-ray kernel), measure on others
+  tile,
+  single,
+  measure,  // trace the first frame with both, keep the faster
+};
 
 struct RendererOptions {
   Backend backend = Backend::opencl;
@@ -57,22 +62,28 @@ class Renderer {
   ~Renderer();
 
   RenderResult render(const Camera& camera, int frames = 1, const FrameOptions& frame_options = {});
+  // The same into `result`, reusing its hit buffer when it already has the
+  // image's size (every pixel is overwritten): no allocation per frame.
+  void render_into(RenderResult& result, const Camera& camera, int frames = 1, const FrameOptions& frame_options = {});
 
   const SceneData& scene_data() const { return data_; }
   std::string device_name() const;
-  // The OpenCL kernel that traces (KernelChoice resolved for the device);
+  // The OpenCL kernel that traces (KernelChoice resolved for the device;
+  // before the first frame of a measured choice, the tile kernel);
   // meaningless for the CPU backend.
   KernelKind kernel() const { return kernel_; }
   // "tile" or "single" (OpenCL), "cpu reference" (CPU backend).
   std::string kernel_label() const;
+  // Why that kernel: "chosen", "CPU device", or the measured times.
+  const std::string& kernel_reason() const { return kernel_reason_; }
   std::vector<BufferInfo> device_buffers() const;  // empty for the CPU backend
   double blas_build_ms() const { return data_.blas.build_ms; }
 
  private:
   void ensure_capacity(size_t pixels);
   // The ray list for these intrinsics and fold: it does not depend on the
-  // camera's pose, so the last one (and its upload) is kept while they stay
-  // the same. Sets *fresh when it was built anew.
+  // camera's pose, so one per fold mode (and its upload) is kept while the
+  // intrinsics stay the same. Sets *fresh when it was built anew.
   const RayList& ray_list(const rf_camera& params, FoldMode fold, bool* fresh);
 
   const Scene& scene_;
@@ -82,11 +93,15 @@ class Renderer {
   std::unique_ptr<ClDevice> device_;
   std::unique_ptr<ClTracer> tracer_;
   KernelKind kernel_ = KernelKind::single;
+  bool measure_kernel_ = false;  // time both kernels on the next traced frame
+  std::string kernel_reason_;
   size_t pixel_capacity_ = 0;
-  RayList rays_;
-  bool have_rays_ = false;
-  rf_camera rays_camera_{};
-  FoldMode rays_fold_ = FoldMode::none;
+  struct CachedRays {
+    RayList list;
+    rf_camera camera{};
+    bool built = false, uploaded = false;
+  };
+  std::array<CachedRays, 4> rays_;  // by fold mode
 };
 
 // Median of a list of values (the upper median for even counts).

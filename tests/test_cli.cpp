@@ -60,7 +60,7 @@ TEST(Cli, KernelChoiceIsReportedAndBothKernelsWriteTheSameFile) {
   EXPECT_EQ(testing::compare_hits(images[0], images[1], 65), "");
   const CliRun bad = rayfold("render --size 8x8 --kernel wide");
   EXPECT_EQ(bad.code, 2);
-  EXPECT_NE(bad.err.find("--kernel: 'wide' is not tile, single or auto"), std::string::npos) << bad.err;
+  EXPECT_NE(bad.err.find("--kernel: 'wide' is not tile, single, measure or auto"), std::string::npos) << bad.err;
   const CliRun both = rayfold("render --size 8x8 --backend cpu --kernel tile");
   EXPECT_EQ(both.code, 2);
   EXPECT_NE(both.err.find("--kernel: the CPU backend"), std::string::npos) << both.err;

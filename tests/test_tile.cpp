@@ -8,6 +8,8 @@
 #include <filesystem>
 #include <memory>
 
+#include <glm/gtc/matrix_transform.hpp>
+
 #include "../host/gltf_loader.h"
 #include "../kernels/rf_trace.h"
 #include "../host/renderer.h"
@@ -116,6 +118,27 @@ TEST(TileKernel, ChosenByDefaultOnCpuDevices) {
   EXPECT_EQ(Renderer(scene, o).kernel_label(), "single");
 }
 
+TEST(TileKernel, MeasuredChoiceKeepsTheFasterKernelAndTheSameBits) {
+  // What auto does on GPUs: the first frame is traced by both kernels, the
+  // faster one stays. On PoCL that is the tile kernel by a wide margin.
+  const Scene scene = load_gltf(std::string(RAYFOLD_SOURCE_DIR) + "/scenes/atrium.glb");
+  RendererOptions o;
+  o.kernel = KernelChoice::measure;
+  Renderer measured(scene, o);
+  RendererOptions cpu;
+  cpu.backend = Backend::cpu;
+  Renderer reference(scene, cpu);
+  const Camera cam = make_camera(*scene.camera, 320, 180);
+  FrameOptions xy;
+  xy.fold = FoldMode::xy;
+  EXPECT_EQ(testing::compare_hits(reference.render(cam).hits, measured.render(cam, 2, xy).hits, cam.width), "");
+  EXPECT_NE(measured.kernel_reason().find("measured on the first frame: tile"), std::string::npos)
+      << measured.kernel_reason();
+  if (testing::test_device().info().is_cpu) {
+    EXPECT_EQ(measured.kernel_label(), "tile") << measured.kernel_reason();
+  }
+}
+
 TEST(TileKernel, DefaultSceneFullSizeEveryFold) {
   const Scene scene = load_gltf(std::string(RAYFOLD_SOURCE_DIR) + "/scenes/atrium.glb");
   ThreeWays r(scene);
@@ -142,6 +165,9 @@ TEST(TileKernel, AnimatedFrames) {
 }
 
 TEST(TileKernel, RandomCamerasOverGeneratedScenes) {
+  // 102 cameras: roll, axis-aligned views, the eye inside objects, shifted
+  // windows, sizes from 1x1; over generated atriums with non-uniformly
+  // scaled and mirrored instances.
   testing::Rng rng(2718);
   int cameras = 0;
   for (int s = 0; s < 3; ++s) {
@@ -149,7 +175,10 @@ TEST(TileKernel, RandomCamerasOverGeneratedScenes) {
     gen.seed = 700 + s;
     gen.objects = 25 + 60 * s;
     gen.triangle_budget = 15000;
-    const Scene scene = generate_atrium(gen);
+    Scene scene = generate_atrium(gen);
+    // Mirrored instances too (every fifth, in object space: winding flips).
+    for (size_t i = 0; i < scene.instances.size(); i += 5)
+      scene.instances[i].world_from_object = scene.instances[i].world_from_object * glm::scale(Xform(1.0), glm::dvec3(-1, 1, 1));
     ThreeWays r(scene);
     for (int v = 0; v < 34; ++v, ++cameras) {
       CameraSpec spec = testing::random_camera(rng, scene.world_bounds());

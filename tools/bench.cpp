@@ -108,7 +108,6 @@ BenchReport run_bench(const BenchOptions& opt) {
   BenchReport rep;
   rep.scene = opt.scene;
   rep.device = renderer.device_name();
-  rep.kernel = renderer.kernel_label();
   rep.width = opt.width;
   rep.height = opt.height;
   rep.views = opt.views;
@@ -125,33 +124,43 @@ BenchReport run_bench(const BenchOptions& opt) {
   const size_t pixels = static_cast<size_t>(opt.width) * opt.height;
   for (int v = 0; v < opt.views; ++v) {
     const Camera cam = make_camera(path[v], opt.width, opt.height);
-    std::vector<rf_pixel_hit> reference;
-    // Methods take turns within a view so that drift on a noisy machine
-    // affects them alike.
-    for (size_t mi = 0; mi < rep.rows.size(); ++mi) {
-      BenchRow& row = rep.rows[mi];
+    auto options = [&](const BenchRow& row, int frame) {
       FrameOptions fo;
       fo.fold = row.fold;
       fo.cull = row.cull;
-      fo.animate_frame = opt.animate ? 0 : -1;
-      if (opt.warmup > 0) renderer.render(cam, opt.warmup, fo);
-      const RenderResult r = renderer.render(cam, opt.frames, fo);
-      if (mi == 0) reference = r.hits;
-      row.mismatched_pixels += count_differing_pixels(reference, r.hits);
-      std::vector<double> t, tr, up;
-      for (const FrameTimes& f : r.frames) {
-        t.push_back(f.ray_list_ms + f.trace_ms + f.readback_ms);
-        tr.push_back(f.trace_ms);
-        up.push_back(f.cull_ms + f.tlas_ms + f.upload_ms);
+      fo.animate_frame = opt.animate ? frame : -1;
+      return fo;
+    };
+    for (BenchRow& row : rep.rows)
+      if (opt.warmup > 0) renderer.render(cam, opt.warmup, options(row, 0));
+    // Methods take turns frame by frame, so that the drift of a noisy
+    // machine affects them alike (the renderer keeps every mode's ray list).
+    std::vector<std::vector<double>> t(rep.rows.size()), tr(rep.rows.size()), up(rep.rows.size());
+    std::vector<RenderResult> results(rep.rows.size());  // hit buffers reused frame to frame
+    for (int f = 0; f < opt.frames; ++f) {
+      for (size_t mi = 0; mi < rep.rows.size(); ++mi) {
+        BenchRow& row = rep.rows[mi];
+        RenderResult& r = results[mi];
+        renderer.render_into(r, cam, 1, options(row, f));
+        const FrameTimes& ft = r.frames[0];
+        t[mi].push_back(ft.ray_list_ms + ft.trace_ms + ft.readback_ms);
+        tr[mi].push_back(ft.trace_ms);
+        up[mi].push_back(ft.cull_ms + ft.tlas_ms + ft.upload_ms);
+        if (f == 0) {
+          row.rays += static_cast<double>(r.rays) / opt.views;
+          row.instances += static_cast<double>(r.instances) / opt.views;
+          row.memory_bytes = std::max(row.memory_bytes, frame_bytes(renderer.scene_data(), r, pixels));
+        }
+        if (mi > 0) row.mismatched_pixels += count_differing_pixels(results[0].hits, r.hits);
       }
-      row.render_ms += median(t) / opt.views;
-      row.trace_ms += median(tr) / opt.views;
-      row.update_ms += median(up) / opt.views;
-      row.rays += static_cast<double>(r.rays) / opt.views;
-      row.instances += static_cast<double>(r.instances) / opt.views;
-      row.memory_bytes = std::max(row.memory_bytes, frame_bytes(renderer.scene_data(), r, pixels));
+    }
+    for (size_t mi = 0; mi < rep.rows.size(); ++mi) {
+      rep.rows[mi].render_ms += median(t[mi]) / opt.views;
+      rep.rows[mi].trace_ms += median(tr[mi]) / opt.views;
+      rep.rows[mi].update_ms += median(up[mi]) / opt.views;
     }
   }
+  rep.kernel = renderer.kernel_label();  // after the frames: a measured choice is made on the first
   return rep;
 }
 

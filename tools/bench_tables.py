@@ -6,9 +6,11 @@ culled unfolded baseline. Standard library only.
 
 usage: tools/bench_tables.py out/bench/<scene>.json... > tables.md
        tools/bench_tables.py --peers out/bench/<scene>-peers.json... > peers.md
+       tools/bench_tables.py --stats out/bench/<scene>-stats.txt... > counters.md
 """
 import json
 import os
+import re
 import sys
 
 METHODS = ["none (no culling)", "none", "y", "x", "xy"]
@@ -136,11 +138,37 @@ def peers_tables(paths):
                   f"{x['depth_error_p99']:.1e} / {x['depth_error_max']:.1e} |")
 
 
+def stats_table(paths):
+    """Traversal work per answered pixel from rayfold-stats, both kernels."""
+    print("Work per answered pixel at 1280x720, base view (`rayfold-stats`). Single-ray kernel (the CPU "
+          "reference's traversal): nodes visited and tests. Tile kernel: lane tests, each lane of a vector "
+          "counted, so idle lanes count too.\n")
+    print("| scene | fold | single: TLAS nodes | set-ups | BLAS nodes | triangles | tile: TLAS box lanes | "
+          "set-up lanes | BLAS box lanes | triangle lanes |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    for p in paths:
+        name = os.path.basename(p).replace("-stats.txt", "")
+        with open(p) as f:
+            text = f.read()
+        for block in text.split("(fold ")[1:]:
+            fold = block.split(",")[0]
+            single = re.search(r"single-ray, per pixel: ([\d.]+) TLAS nodes, ([\d.]+) set-ups, ([\d.]+) BLAS nodes, "
+                               r"([\d.]+) triangle tests", block)
+            tile = re.search(r"tile, per pixel .*?: ([\d.]+) TLAS box lanes, ([\d.]+) set-up lanes, ([\d.]+) BLAS "
+                             r"box lanes, ([\d.]+) triangle lanes", block)
+            if not single or not tile:
+                continue
+            print(f"| {name} | {fold} | " + " | ".join(single.groups()) + " | " + " | ".join(tile.groups()) + " |")
+
+
 def main():
     if len(sys.argv) < 2:
         sys.exit("usage: bench_tables.py REPORT.json...  |  bench_tables.py --peers REPORT-peers.json...")
     if sys.argv[1] == "--peers":
         peers_tables(sys.argv[2:])
+        return
+    if sys.argv[1] == "--stats":
+        stats_table(sys.argv[2:])
         return
     reports = load(sys.argv[1:])
     r0 = reports[0]

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <iterator>
 #include <memory>
 #include <sstream>
 
@@ -112,33 +113,46 @@ PeerReport run_peers(const PeerOptions& opt) {
     // Exact variants are validated against the CPU reference's unfolded
     // image, bit for bit, before their figures count.
     const std::vector<rf_pixel_hit> exact = renderers.back()->render(cam, 1, FrameOptions{}).hits;
+    if (embree) embree->set_camera(cam);
+    // Every variant once to warm up, then all take turns frame by frame, so
+    // that the drift of a noisy machine affects them alike.
+    const size_t rayfold_rows = renderers.size() * std::size(folds);
+    std::vector<std::vector<double>> ms(acc.size());
+    std::vector<RenderResult> last(rayfold_rows);
+    std::vector<std::vector<rf_pixel_hit>> embree_hits(acc.size() - rayfold_rows);
+    for (int f = -opt.warmup; f < opt.frames; ++f) {
+      size_t a = 0;
+      for (size_t r = 0; r < renderers.size(); ++r)
+        for (FoldMode fold : folds) {
+          FrameOptions fo;
+          fo.fold = fold;
+          RenderResult& res = last[a];  // its hit buffer is reused frame to frame
+          renderers[r]->render_into(res, cam, 1, fo);
+          if (f >= 0) ms[a].push_back(res.frames[0].ray_list_ms + res.frames[0].trace_ms + res.frames[0].readback_ms);
+          ++a;
+        }
+      if (embree)
+        for (EmbreeScene es : embree_scenes)
+          for (int packets = 0; packets < 2; ++packets) {
+            std::vector<rf_pixel_hit>& hits = embree_hits[a - rayfold_rows];
+            const double t = packets ? embree->trace16(hits, es) : embree->trace1(hits, es);
+            if (f >= 0) ms[a].push_back(t);
+            ++a;
+          }
+    }
     size_t a = 0;
     for (size_t r = 0; r < renderers.size(); ++r)
-      for (FoldMode f : folds) {
-        FrameOptions fo;
-        fo.fold = f;
-        if (opt.warmup > 0) renderers[r]->render(cam, opt.warmup, fo);
-        const RenderResult res = renderers[r]->render(cam, opt.frames, fo);
-        std::vector<double> t;
-        for (const FrameTimes& ft : res.frames) t.push_back(ft.ray_list_ms + ft.trace_ms + ft.readback_ms);
+      for (size_t k = 0; k < std::size(folds); ++k, ++a) {
+        const RenderResult& res = last[a];
         if (ours[r].precision == KernelPrecision::exact) {
           acc[a].row.exact = true;
           acc[a].row.mismatched_pixels += count_differing_pixels(exact, res.hits);
         }
-        acc[a++].add(median(t), res.rays, res.hits.size(), measure_accuracy(reference, res.hits), opt.views);
+        acc[a].add(median(ms[a]), res.rays, res.hits.size(), measure_accuracy(reference, res.hits), opt.views);
       }
-    if (embree) {
-      embree->set_camera(cam);
-      std::vector<rf_pixel_hit> hits;
-      for (EmbreeScene es : embree_scenes)
-        for (int packets = 0; packets < 2; ++packets) {
-          std::vector<double> t;
-          for (int f = 0; f < opt.warmup + opt.frames; ++f) {
-            const double ms = packets ? embree->trace16(hits, es) : embree->trace1(hits, es);
-            if (f >= opt.warmup) t.push_back(ms);
-          }
-          acc[a++].add(median(t), hits.size(), hits.size(), measure_accuracy(reference, hits), opt.views);
-        }
+    for (; a < acc.size(); ++a) {
+      const std::vector<rf_pixel_hit>& hits = embree_hits[a - rayfold_rows];
+      acc[a].add(median(ms[a]), hits.size(), hits.size(), measure_accuracy(reference, hits), opt.views);
     }
   }
   for (Accumulator& x : acc) rep.rows.push_back(x.finish());

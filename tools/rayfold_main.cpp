@@ -51,9 +51,10 @@ const char* kRenderUsage =
     "  --vfov DEG             vertical field of view (default: the file's, else 60)\n"
     "  --backend opencl|cpu   OpenCL device (default) or the CPU reference tracer\n"
     "  --device NAME          OpenCL device whose name contains NAME\n"
-    "  --kernel tile|single|auto  OpenCL kernel: tiles of 256 rays in vector lanes, or\n"
-    "                         one ray per work-item (auto: tile on CPU devices,\n"
-    "                         single on GPUs; both give the same bits)\n"
+    "  --kernel tile|single|measure|auto  OpenCL kernel: tiles of 256 rays in vector\n"
+    "                         lanes, or one ray per work-item; measure: trace the\n"
+    "                         first frame with both and keep the faster (auto: tile\n"
+    "                         on CPU devices, measure elsewhere); same bits either way\n"
     "  --fast                 fast-math kernels (not bit-exact with the CPU reference)\n"
     "  --fold none|y|x|xy     trace a half (y: left, x: top) or a quarter (xy) of the\n"
     "                         rays, each answering its mirror pixels (default none)\n"
@@ -89,7 +90,7 @@ const char* kBenchUsage =
     "  --animate              move a fixed subset of instances every frame\n"
     "  --braid N              re-braiding budget per instance (default 2, 0 = off)\n"
     "  --backend opencl|cpu   (default opencl)   --device NAME   --threads N\n"
-    "  --kernel tile|single|auto   OpenCL kernel (default auto: tile on CPU devices)\n"
+    "  --kernel tile|single|measure|auto   OpenCL kernel (default auto: tile on CPU devices)\n"
     "  --json F.json  --md F.md   also write the report\n"
     "exit code 3 when a folded image differs from the unfolded one\n";
 
@@ -144,7 +145,8 @@ bool parse_renderer_option(const std::string& a, cli::Args& args, RendererOption
     if (k == "tile") r.kernel = KernelChoice::tile;
     else if (k == "single") r.kernel = KernelChoice::single;
     else if (k == "auto") r.kernel = KernelChoice::automatic;
-    else throw UsageError("--kernel: '" + k + "' is not tile, single or auto");
+    else if (k == "measure") r.kernel = KernelChoice::measure;
+    else throw UsageError("--kernel: '" + k + "' is not tile, single, measure or auto");
   } else if (a == "--device") {
     r.device_hint = args.value(a);
   } else if (a == "--fast") {
@@ -233,6 +235,7 @@ void write_stats(const std::string& path, const RenderArgs& args, const Scene& s
   j["backend"] = args.renderer.backend == Backend::opencl ? "opencl" : "cpu";
   j["device"] = renderer.device_name();
   j["kernel"] = renderer.kernel_label();
+  j["kernel_reason"] = renderer.kernel_reason();
   j["frames"] = result.frames.size();
   j["instances"] = scene.instances.size();
   j["meshes"] = scene.meshes.size();
@@ -322,7 +325,7 @@ int run_render(cli::Args& args) {
     std::printf("rayfold render  %s  %dx%d  fold %s\n", r.scene.c_str(), r.width, r.height,
                 fold_name(r.frame.fold));
     std::printf("  %-12s %s\n", "device", renderer.device_name().c_str());
-    std::printf("  %-12s %s\n", "kernel", renderer.kernel_label().c_str());
+    std::printf("  %-12s %s (%s)\n", "kernel", renderer.kernel_label().c_str(), renderer.kernel_reason().c_str());
     std::printf("  %-12s %s instances, %s meshes, %s triangles (%s stored)\n", "scene",
                 with_commas(scene.instances.size()).c_str(), with_commas(scene.meshes.size()).c_str(),
                 with_commas(scene.triangle_count()).c_str(), with_commas(scene.unique_triangle_count()).c_str());

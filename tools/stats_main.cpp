@@ -83,9 +83,9 @@ int main(int argc, char** argv) {
                 sum[RF_TILE_STAT_BLAS_LANE_BOXES] / tiles, sum[RF_TILE_STAT_LEAVES] / tiles,
                 sum[RF_TILE_STAT_TRI_LANES] / tiles);
     const double lanes = tile_lanes(device.info());
-    std::printf("  tile, per pixel (lane tests count each lane): %.2f set-up lanes, %.1f BLAS box lanes, %.1f "
-                "triangle lanes\n",
-                sum[RF_TILE_STAT_SETUPS] * RF_TILE_RAYS / px,
+    std::printf("  tile, per pixel (lane tests count each lane): %.1f TLAS box lanes, %.2f set-up lanes, %.1f BLAS "
+                "box lanes, %.1f triangle lanes\n",
+                sum[RF_TILE_STAT_TLAS_LANE_BOXES] * lanes / px, sum[RF_TILE_STAT_SETUPS] * RF_TILE_RAYS / px,
                 sum[RF_TILE_STAT_BLAS_LANE_BOXES] * lanes / px, sum[RF_TILE_STAT_TRI_LANES] * lanes / px);
     return 0;
   });
