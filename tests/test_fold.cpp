@@ -131,11 +131,7 @@ TEST(Fold, RandomCamerasOverGeneratedScenes) {
   testing::Rng rng(31337);
   int cameras = 0;
   for (int s = 0; s < 4; ++s) {
-    GenOptions gen;
-    gen.seed = 500 + s;
-    gen.objects = 20 + 70 * s;
-    gen.triangle_budget = 15000;
-    const Scene scene = generate_atrium(gen);
+    const Scene scene = testing::generated_atrium(500 + s, 20 + 70 * s, 15000);
     Renderer cpu(scene, backend(Backend::cpu));
     Renderer cl(scene, backend(Backend::opencl));
     for (int v = 0; v < 26; ++v, ++cameras) {
@@ -206,19 +202,12 @@ TEST(Fold, AnimatedFramesStayLossless) {
 }
 
 TEST(Fold, SharedScenes) {
-  const std::string dir = testing::shared_scenes_dir();
-  if (dir.empty()) GTEST_SKIP() << "../shared/scenes not found (set RAYFOLD_SCENES_DIR); real scenes not tested";
-  int rendered = 0;
-  for (const testing::SharedView& v : testing::shared_views()) {
-    const std::string path = dir + "/" + v.file;
-    if (!std::filesystem::exists(path)) continue;
-    const Scene scene = load_gltf(path);
-    const CameraSpec spec = v.camera();
-    const Camera cam = make_camera(spec, 121, 67);
+  if (testing::shared_scenes_dir().empty())
+    GTEST_SKIP() << "../shared/scenes not found (set RAYFOLD_SCENES_DIR); real scenes not tested";
+  const int rendered = testing::for_each_shared_scene([](const testing::SharedView& v, const Scene& scene) {
     Renderer cl(scene, backend(Backend::opencl));
-    EXPECT_EQ(fold_differences(cl, cam), "") << v.file;
-    ++rendered;
-  }
+    EXPECT_EQ(fold_differences(cl, make_camera(v.camera(), 121, 67)), "") << v.file;
+  });
   EXPECT_GT(rendered, 0);
 }
 

@@ -38,11 +38,7 @@ TEST(Parity, RandomCamerasOverGeneratedScenes) {
   testing::Rng rng(99);
   int cameras = 0;
   for (int s = 0; s < 3; ++s) {
-    GenOptions gen;
-    gen.seed = 1000 + s;
-    gen.objects = 30 + 60 * s;
-    gen.triangle_budget = 20000;
-    const Scene scene = generate_atrium(gen);
+    const Scene scene = testing::generated_atrium(1000 + s, 30 + 60 * s, 20000);
     Renderer cpu(scene, cpu_options());
     Renderer cl(scene, RendererOptions{});
     for (int v = 0; v < 20; ++v, ++cameras) {
@@ -76,13 +72,9 @@ namespace rayfold {
 namespace {
 
 TEST(Parity, SharedScenesSuggestedViews) {
-  const std::string dir = testing::shared_scenes_dir();
-  if (dir.empty()) GTEST_SKIP() << "../shared/scenes not found (set RAYFOLD_SCENES_DIR); real scenes not tested";
-  int rendered = 0;
-  for (const testing::SharedView& v : testing::shared_views()) {
-    const std::string path = dir + "/" + v.file;
-    if (!std::filesystem::exists(path)) continue;
-    const Scene scene = load_gltf(path);
+  if (testing::shared_scenes_dir().empty())
+    GTEST_SKIP() << "../shared/scenes not found (set RAYFOLD_SCENES_DIR); real scenes not tested";
+  const int rendered = testing::for_each_shared_scene([](const testing::SharedView& v, const Scene& scene) {
     const Camera cam = make_camera(v.camera(), 160, 90);
     Renderer cpu(scene, cpu_options());
     Renderer cl(scene, RendererOptions{});
@@ -91,8 +83,7 @@ TEST(Parity, SharedScenesSuggestedViews) {
     size_t hits = 0;
     for (const rf_pixel_hit& h : a.hits) hits += h.instance != RF_INVALID;
     EXPECT_GT(hits, a.hits.size() / 10) << v.file << ": the suggested view should see the scene";
-    ++rendered;
-  }
+  });
   EXPECT_GT(rendered, 0);
 }
 

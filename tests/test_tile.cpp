@@ -171,11 +171,7 @@ TEST(TileKernel, RandomCamerasOverGeneratedScenes) {
   testing::Rng rng(2718);
   int cameras = 0;
   for (int s = 0; s < 3; ++s) {
-    GenOptions gen;
-    gen.seed = 700 + s;
-    gen.objects = 25 + 60 * s;
-    gen.triangle_budget = 15000;
-    Scene scene = generate_atrium(gen);
+    Scene scene = testing::generated_atrium(700 + s, 25 + 60 * s, 15000);
     // Mirrored instances too (every fifth, in object space: winding flips).
     for (size_t i = 0; i < scene.instances.size(); i += 5)
       scene.instances[i].world_from_object = scene.instances[i].world_from_object * glm::scale(Xform(1.0), glm::dvec3(-1, 1, 1));
@@ -232,17 +228,12 @@ TEST(TileKernel, LanesTakeOnlyHitsTheirOwnBoxTestsReach) {
 }
 
 TEST(TileKernel, SharedScenes) {
-  const std::string dir = testing::shared_scenes_dir();
-  if (dir.empty()) GTEST_SKIP() << "../shared/scenes not found (set RAYFOLD_SCENES_DIR); real scenes not tested";
-  int rendered = 0;
-  for (const testing::SharedView& v : testing::shared_views()) {
-    const std::string path = dir + "/" + v.file;
-    if (!std::filesystem::exists(path)) continue;
-    const Scene scene = load_gltf(path);
+  if (testing::shared_scenes_dir().empty())
+    GTEST_SKIP() << "../shared/scenes not found (set RAYFOLD_SCENES_DIR); real scenes not tested";
+  const int rendered = testing::for_each_shared_scene([](const testing::SharedView& v, const Scene& scene) {
     ThreeWays r(scene);
     EXPECT_EQ(r.differences(make_camera(v.camera(), 203, 117)), "") << v.file;
-    ++rendered;
-  }
+  });
   EXPECT_GT(rendered, 0);
 }
 

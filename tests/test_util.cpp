@@ -9,7 +9,9 @@
 
 #include <glm/gtc/matrix_transform.hpp>
 
+#include "../host/gltf_loader.h"
 #include "../kernels/rf_trace.h"
+#include "../tools/scene_gen.h"
 
 namespace rayfold::testing {
 
@@ -168,6 +170,14 @@ std::string shared_scenes_dir() {
   return fs::is_directory(p) ? p.lexically_normal().string() : "";
 }
 
+Scene generated_atrium(uint64_t seed, int objects, size_t triangle_budget) {
+  GenOptions gen;
+  gen.seed = seed;
+  gen.objects = objects;
+  gen.triangle_budget = triangle_budget;
+  return generate_atrium(gen);
+}
+
 void move_eye_inside_an_instance(Rng& rng, const Scene& scene, CameraSpec& spec) {
   const Instance& inst = scene.instances[rng.below(static_cast<int>(scene.instances.size()))];
   const Aabb b = transform_bounds_conservative(inst.world_from_object, scene.mesh_bounds(inst.mesh));
@@ -185,6 +195,19 @@ const std::vector<SharedView>& shared_views() {
       {"lost_empire.glb", {-10, 20, 40}, {10, 10, 0}},
   };
   return views;
+}
+
+int for_each_shared_scene(const std::function<void(const SharedView&, const Scene&)>& fn) {
+  const std::string dir = shared_scenes_dir();
+  int n = 0;
+  if (dir.empty()) return 0;
+  for (const SharedView& v : shared_views()) {
+    const std::string path = dir + "/" + v.file;
+    if (!std::filesystem::exists(path)) continue;
+    fn(v, load_gltf(path));
+    ++n;
+  }
+  return n;
 }
 
 CameraSpec SharedView::camera() const {

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -40,6 +41,10 @@ std::string compare_hits(const std::vector<rf_pixel_hit>& expected, const std::v
 // sometimes along an axis, sometimes from inside an object's box.
 CameraSpec random_camera(Rng& rng, const Aabb& bounds);
 
+// The scene generator's atrium (tools/scene_gen.h) with this seed, object
+// count and triangle budget.
+Scene generated_atrium(uint64_t seed, int objects, size_t triangle_budget);
+
 // Moves the camera, keeping its direction, to the centre of a random
 // instance's box: the eye inside an object.
 void move_eye_inside_an_instance(Rng& rng, const Scene& scene, CameraSpec& spec);
@@ -68,5 +73,8 @@ struct SharedView {
   CameraSpec camera() const;
 };
 const std::vector<SharedView>& shared_views();
+// Calls fn for every suggested view whose scene is present, with the loaded
+// scene; returns how many were.
+int for_each_shared_scene(const std::function<void(const SharedView&, const Scene&)>& fn);
 
 }  // namespace rayfold::testing
