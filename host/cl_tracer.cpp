@@ -206,12 +206,15 @@ double ClTracer::trace(const rf_camera& cam, KernelKind kind) {
 
 void ClTracer::bind_output(rf_pixel_hit* out, size_t pixel_count) {
   RF_CHECK(pixel_count <= pixel_count_, "binding more hits than the buffer holds");
+  if (host_out_ == out && host_count_ == pixel_count) return;  // the same memory as last frame
   host_out_ = nullptr;
+  host_count_ = 0;
   if (!device_.info().is_cpu || pixel_count == 0) return;
   try {
     host_hits_ = cl::Buffer(device_.context(), CL_MEM_WRITE_ONLY | CL_MEM_USE_HOST_PTR,
                             pixel_count * sizeof(rf_pixel_hit), out);
     host_out_ = out;
+    host_count_ = pixel_count;
   } catch (const cl::Error&) {
     host_out_ = nullptr;  // the device buffer and a copy still work
   }

@@ -88,6 +88,7 @@ class ClTracer {
   cl::Buffer stats_;
   cl::Buffer host_hits_;  // over bound host memory (CPU devices)
   rf_pixel_hit* host_out_ = nullptr;
+  size_t host_count_ = 0;
   std::vector<BufferInfo> buffer_info_;
   uint32_t blas_node_count_ = 0;
   uint32_t tlas_root_ = RF_INVALID;

@@ -43,13 +43,10 @@ Renderer::Renderer(const Scene& scene, const RendererOptions& options)
       case KernelChoice::tile: kernel_ = KernelKind::tile; kernel_reason_ = "chosen"; break;
       case KernelChoice::single: kernel_ = KernelKind::single; kernel_reason_ = "chosen"; break;
       case KernelChoice::automatic:
-        kernel_ = KernelKind::tile;
-        kernel_reason_ = "CPU device";
-        measure_kernel_ = !cpu;
-        break;
       case KernelChoice::measure:
         kernel_ = KernelKind::tile;
-        measure_kernel_ = true;
+        measure_kernel_ = options_.kernel == KernelChoice::measure || !cpu;
+        kernel_reason_ = measure_kernel_ ? "to be measured" : "CPU device";
         break;
     }
   }
@@ -78,11 +75,10 @@ void Renderer::ensure_capacity(size_t pixels) {
   for (CachedRays& r : rays_) r.uploaded = false;  // the new buffers hold no rays yet
 }
 
-const RayList& Renderer::ray_list(const rf_camera& params, FoldMode fold, bool* fresh) {
+const RayList& Renderer::ray_list(const rf_camera& params, FoldMode fold) {
   static_assert(static_cast<int>(FoldMode::xy) < 4 && ClTracer::kRaySlots >= 4, "one slot per fold mode");
   CachedRays& r = rays_[static_cast<int>(fold)];
-  *fresh = !r.built || std::memcmp(&params, &r.camera, sizeof params) != 0;
-  if (*fresh) {
+  if (!r.built || std::memcmp(&params, &r.camera, sizeof params) != 0) {
     r.list = make_ray_list(params, fold);
     r.camera = params;
     r.built = true;
@@ -122,9 +118,7 @@ void Renderer::render_into(RenderResult& result, const Camera& camera, int frame
     FrameOptions options = frame_options;
     if (options.animate_frame >= 0) options.animate_frame += f;
     auto t0 = Clock::now();
-    bool fresh_rays = false;
-    const RayList& rays = ray_list(camera.params, options.fold, &fresh_rays);
-    (void)fresh_rays;
+    const RayList& rays = ray_list(camera.params, options.fold);
     times.ray_list_ms = ms_since(t0);
     result.rays = rays.entries.size();
     const Frame frame = build_frame(scene_, data_, camera, rays, options);

@@ -74,7 +74,8 @@ class Renderer {
   KernelKind kernel() const { return kernel_; }
   // "tile" or "single" (OpenCL), "cpu reference" (CPU backend).
   std::string kernel_label() const;
-  // Why that kernel: "chosen", "CPU device", or the measured times.
+  // Why that kernel: "chosen", "CPU device", "measured on the first frame"
+  // with the times, or, before that frame, "to be measured".
   const std::string& kernel_reason() const { return kernel_reason_; }
   std::vector<BufferInfo> device_buffers() const;  // empty for the CPU backend
   double blas_build_ms() const { return data_.blas.build_ms; }
@@ -83,8 +84,8 @@ class Renderer {
   void ensure_capacity(size_t pixels);
   // The ray list for these intrinsics and fold: it does not depend on the
   // camera's pose, so one per fold mode (and its upload) is kept while the
-  // intrinsics stay the same. Sets *fresh when it was built anew.
-  const RayList& ray_list(const rf_camera& params, FoldMode fold, bool* fresh);
+  // intrinsics stay the same.
+  const RayList& ray_list(const rf_camera& params, FoldMode fold);
 
   const Scene& scene_;
   RendererOptions options_;

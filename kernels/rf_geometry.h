@@ -28,9 +28,11 @@ typedef struct {
 } rf_ray;
 
 /* A zero direction component would give 0 * inf = NaN in the slab test; a
- * tiny stand-in of the same sign keeps the test finite and conservative. */
+ * tiny stand-in of the same sign keeps the test finite. Every kernel's
+ * reciprocal uses this one constant. */
+#define RF_RECIPROCAL_TINY 1e-30f
 RF_INLINE float rf_safe_reciprocal(float d) {
-  const float tiny = 1e-30f;
+  const float tiny = RF_RECIPROCAL_TINY;
   return 1.0f / (RF_FABS(d) < tiny ? RF_COPYSIGN(tiny, d) : d);
 }
 

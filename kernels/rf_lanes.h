@@ -72,16 +72,16 @@ RF_INLINE float rf_lanes_hmax(rf_vf v) {
 
 /* rf_safe_reciprocal lane by lane. */
 RF_INLINE rf_vf rf_lanes_reciprocal(rf_vf d) {
-  const float tiny = 1e-30f;
+  const float tiny = RF_RECIPROCAL_TINY;
   return 1.0f / select(d, copysign((rf_vf)(tiny), d), fabs(d) < (rf_vf)(tiny));
 }
 
 /* One component of a lane's permuted vector: v[k] for the lane's k. */
-RF_INLINE rf_vf rf_lanes_pick(float v0, float v1, float v2, rf_vi k) {
-  return select(select((rf_vf)(v0), (rf_vf)(v1), k == 1), (rf_vf)(v2), k == 2);
-}
 RF_INLINE rf_vf rf_lanes_pick_v(rf_vf v0, rf_vf v1, rf_vf v2, rf_vi k) {
   return select(select(v0, v1, k == 1), v2, k == 2);
+}
+RF_INLINE rf_vf rf_lanes_pick(float v0, float v1, float v2, rf_vi k) {
+  return rf_lanes_pick_v((rf_vf)(v0), (rf_vf)(v1), (rf_vf)(v2), k);
 }
 
 /* rf_intersect_box for rays sharing one origin: c0 = bmin - o and c1 = bmax - o

@@ -125,6 +125,7 @@ TEST(TileKernel, MeasuredChoiceKeepsTheFasterKernelAndTheSameBits) {
   RendererOptions o;
   o.kernel = KernelChoice::measure;
   Renderer measured(scene, o);
+  EXPECT_EQ(measured.kernel_reason(), "to be measured");
   RendererOptions cpu;
   cpu.backend = Backend::cpu;
   Renderer reference(scene, cpu);
