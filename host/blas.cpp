@@ -2,27 +2,49 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 
 #include "bvh_flatten.h"
 #include "parallel.h"
 
 namespace rayfold {
 
+int scale_exponent(const Aabb& box) {
+  if (box.empty()) return 0;
+  const float big = std::max({std::fabs(box.lo.x), std::fabs(box.lo.y), std::fabs(box.lo.z), std::fabs(box.hi.x),
+                              std::fabs(box.hi.y), std::fabs(box.hi.z)});
+  return big > 0.0f && std::isfinite(big) ? std::ilogb(big) : 0;
+}
+
+Xform object_from_tree(const BlasSet& blas, uint32_t mesh) { return uniform_scale(blas.tree_exponents[mesh]); }
+
 BlasSet build_blas_set(const Scene& scene, const BuildOptions& options, unsigned threads) {
   const auto start = std::chrono::steady_clock::now();
   const size_t mesh_count = scene.meshes.size();
-  std::vector<BuildTree> trees(mesh_count);
-  parallel_for(mesh_count, threads, 1, [&](size_t m, size_t) {
-    const Mesh& mesh = scene.meshes[m];
-    std::vector<Aabb> boxes(mesh.triangle_count());
-    for (size_t t = 0; t < boxes.size(); ++t)
-      for (int k = 0; k < 3; ++k) boxes[t].grow(mesh.positions[mesh.indices[3 * t + k]]);
-    trees[m] = build_sah(boxes, options);
-  });
-
   BlasSet set;
   set.roots.resize(mesh_count);
   set.bounds.resize(mesh_count);
+  set.tree_exponents.resize(mesh_count);
+  // Tree-space positions, built from the mesh's vertices by an exact scaling
+  // (ldexp stays exact while the result is a normal float).
+  std::vector<std::vector<glm::vec3>> positions(mesh_count);
+  std::vector<BuildTree> trees(mesh_count);
+  parallel_for(mesh_count, threads, 1, [&](size_t m, size_t) {
+    const Mesh& mesh = scene.meshes[m];
+    Aabb object_bounds;
+    for (uint32_t idx : mesh.indices) object_bounds.grow(mesh.positions[idx]);
+    const int e = scale_exponent(object_bounds);
+    set.bounds[m] = object_bounds;
+    set.tree_exponents[m] = e;
+    positions[m].resize(mesh.positions.size());
+    for (size_t i = 0; i < mesh.positions.size(); ++i)
+      for (int k = 0; k < 3; ++k) positions[m][i][k] = std::ldexp(mesh.positions[i][k], -e);
+    std::vector<Aabb> boxes(mesh.triangle_count());
+    for (size_t t = 0; t < boxes.size(); ++t)
+      for (int k = 0; k < 3; ++k) boxes[t].grow(positions[m][mesh.indices[3 * t + k]]);
+    trees[m] = build_sah(boxes, options);
+  });
+
   double weighted_sah = 0.0;
   size_t weight = 0;
   for (size_t m = 0; m < mesh_count; ++m) {
@@ -31,8 +53,8 @@ BlasSet build_blas_set(const Scene& scene, const BuildOptions& options, unsigned
     const uint32_t tri_base = static_cast<uint32_t>(set.tris.size());
     for (uint32_t t : tree.order) {
       rf_tri tri{};
-      const glm::vec3* v[3] = {&mesh.positions[mesh.indices[3 * t]], &mesh.positions[mesh.indices[3 * t + 1]],
-                               &mesh.positions[mesh.indices[3 * t + 2]]};
+      const std::vector<glm::vec3>& p = positions[m];
+      const glm::vec3* v[3] = {&p[mesh.indices[3 * t]], &p[mesh.indices[3 * t + 1]], &p[mesh.indices[3 * t + 2]]};
       for (int k = 0; k < 3; ++k) {
         tri.v0[k] = (*v[0])[k];
         tri.v1[k] = (*v[1])[k];
@@ -42,7 +64,6 @@ BlasSet build_blas_set(const Scene& scene, const BuildOptions& options, unsigned
       set.tris.push_back(tri);
     }
     set.roots[m] = flatten_bvh(tree, tri_base, nullptr, 0, set.nodes);
-    if (!tree.nodes.empty()) set.bounds[m] = tree.nodes[0].bounds;
     set.max_depth = std::max(set.max_depth, tree.depth);
     weighted_sah += tree.sah_cost * tree.order.size();
     weight += tree.order.size();

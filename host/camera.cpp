@@ -49,6 +49,7 @@ Camera make_camera(const CameraSpec& spec, int width, int height, double shift_x
   // The partner of column x has coordinate -(2x + kx0), i.e. column -kx0 - x.
   cam.params.xpair = -cam.params.kx0;
   cam.params.ypair = cam.params.ky0;
+  cam.params.depth_scale = 1.0f;  // a frame sets its trace space's (frame.h)
   return cam;
 }
 

@@ -182,6 +182,7 @@ double ClTracer::trace(const rf_camera& cam, KernelKind kind) {
     kernel.setArg(a++, cam.height);
     kernel.setArg(a++, cam.xpair);
     kernel.setArg(a++, cam.ypair);
+    kernel.setArg(a++, cam.depth_scale);
     kernel.setArg(a++, host_out_ ? host_hits_ : hits_);
     if (kind == KernelKind::tile && tile_stats_) {
       stats_ = cl::Buffer(device_.context(), CL_MEM_WRITE_ONLY,

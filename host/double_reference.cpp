@@ -118,14 +118,15 @@ std::vector<ReferenceHit> trace_double_reference(const Scene& scene, const Scene
                                                  unsigned threads, bool brute_force) {
   // The frame's culled top-level items (padded float boxes, conservative for
   // double rays too) say which bottom-level subtrees a ray can meet; each is
-  // entered with its instance's double object_from_camera.
+  // entered with its instance's double tree_from_trace. Rays and t live in
+  // the frame's trace space, as in the float tracers.
   const RayList rays = make_ray_list(camera.params, FoldMode::none);
   const Frame frame = build_frame(scene, data, camera, rays, FrameOptions{});
   std::vector<rf_node> nodes = data.blas.nodes;
   nodes.insert(nodes.end(), frame.tlas_nodes.begin(), frame.tlas_nodes.end());
-  std::vector<Xform> object_from_camera(scene.instances.size());
+  std::vector<Xform> tree_from_trace(scene.instances.size());
   for (size_t i = 0; i < scene.instances.size(); ++i)
-    object_from_camera[i] = data.object_from_world[i] * camera.world_from_camera;
+    tree_from_trace[i] = data.tree_from_world[i] * camera.world_from_camera * frame.camera_from_trace;
 
   const int w = camera.width, h = camera.height;
   const double s = std::tan(camera.vfov_degrees * M_PI / 360.0) / h;  // exact, unlike the float scale
@@ -139,7 +140,7 @@ std::vector<ReferenceHit> trace_double_reference(const Scene& scene, const Scene
       if (brute_force) {
         for (size_t i = 0; i < scene.instances.size(); ++i) {
           if (!data.renderable[i]) continue;
-          const Xform& m = object_from_camera[i];
+          const Xform& m = tree_from_trace[i];
           const Ray r = make_ray(glm::dvec3(m[3]), glm::dvec3(m * glm::dvec4(d, 0.0)));
           trace_blas(nodes, data.blas.tris, data.blas.roots[scene.instances[i].mesh], r,
                      static_cast<uint32_t>(i), best, true);
@@ -147,14 +148,14 @@ std::vector<ReferenceHit> trace_double_reference(const Scene& scene, const Scene
       } else if (frame.tlas_root != RF_INVALID) {
         walk_tree(nodes, frame.tlas_root, cam_ray, best, false, [&](uint32_t i) {
           const rf_instance& inst = frame.instances[i];
-          const Xform& m = object_from_camera[inst.instance_id];
+          const Xform& m = tree_from_trace[inst.instance_id];
           const Ray r = make_ray(glm::dvec3(m[3]), glm::dvec3(m * glm::dvec4(d, 0.0)));
           trace_blas(nodes, data.blas.tris, inst.blas_root, r, inst.instance_id, best, false);
         });
       }
       ReferenceHit& o = out[static_cast<size_t>(y) * w + x];
       if (best.instance != RF_INVALID) {
-        o.distance = best.t * glm::length(d);
+        o.distance = best.t * glm::length(d) * std::ldexp(1.0, frame.trace_exponent);
         o.instance = best.instance;
         o.primitive = best.prim;
       }

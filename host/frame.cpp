@@ -30,7 +30,7 @@ Aabb mirror_box(const Aabb& b, int group) {
   return m;
 }
 
-// object_from_camera of a mirrored copy: the original times the mirror,
+// tree_from_trace of a mirrored copy: the original times the mirror,
 // i.e. the x (or y) column negated. A traced ray then reaches object space
 // bit-identical to the partner pixel's ray through the original.
 void mirror_columns(float rows[12], int group) {
@@ -59,7 +59,8 @@ void choose_braid_cuts(const Scene& scene, SceneData& data, const BraidOptions& 
     Aabb b;
     b.grow(glm::vec3(data.blas.nodes[node].bmin[0], data.blas.nodes[node].bmin[1], data.blas.nodes[node].bmin[2]));
     b.grow(glm::vec3(data.blas.nodes[node].bmax[0], data.blas.nodes[node].bmax[1], data.blas.nodes[node].bmax[2]));
-    return static_cast<double>(transform_bounds_conservative(scene.instances[i].world_from_object, b).half_area());
+    const Xform world_from_tree = scene.instances[i].world_from_object * object_from_tree(data.blas, scene.instances[i].mesh);
+    return static_cast<double>(transform_bounds_conservative(world_from_tree, b).half_area());
   };
   size_t items = 0;
   for (uint32_t i = 0; i < n; ++i) {
@@ -69,7 +70,7 @@ void choose_braid_cuts(const Scene& scene, SceneData& data, const BraidOptions& 
   }
   if (opt.enabled) {
     const size_t budget = std::max(opt.min_items, opt.items_per_instance * items);
-    const double min_area = opt.min_area_fraction * scene.world_bounds().half_area();
+    const double min_area = opt.min_area_fraction * data.world_bounds.half_area();
     while (!open.empty() && items < budget && open.top().area >= min_area) {
       const Item top = open.top();
       const rf_node& node = data.blas.nodes[top.node];
@@ -99,16 +100,19 @@ SceneData prepare_scene(const Scene& scene, unsigned threads, const BraidOptions
   SceneData data;
   data.blas = build_blas_set(scene, BuildOptions{}, threads);
   const size_t n = scene.instances.size();
-  data.object_from_world.resize(n);
+  data.tree_from_world.resize(n);
   data.renderable.resize(n);
   data.normal_xforms.resize(n);
   for (size_t i = 0; i < n; ++i) {
     const Instance& inst = scene.instances[i];
+    const Xform world_from_tree = inst.world_from_object * object_from_tree(data.blas, inst.mesh);
     // glTF allows a zero scale: such an instance is simply not there.
-    const bool invertible = affine_inverse(inst.world_from_object, &data.object_from_world[i]);
+    const bool invertible = affine_inverse(world_from_tree, &data.tree_from_world[i]);
     data.renderable[i] = invertible && data.blas.roots[inst.mesh] != RF_INVALID;
-    if (invertible) normal_matrix_rows3x3(inst.world_from_object, data.normal_xforms[i].m);
+    if (invertible) normal_matrix_rows3x3(world_from_tree, data.normal_xforms[i].m);
     if (!invertible) data.hidden_instances++;
+    if (data.renderable[i])
+      data.world_bounds.grow(transform_bounds_conservative(inst.world_from_object, data.blas.bounds[inst.mesh]));
   }
   choose_braid_cuts(scene, data, braid);
   return data;
@@ -117,10 +121,36 @@ SceneData prepare_scene(const Scene& scene, unsigned threads, const BraidOptions
 size_t max_tlas_items(const SceneData& data) { return RF_MAX_GROUPS * data.braid_nodes.size(); }
 size_t max_tlas_nodes(const SceneData& data) { return 2 * max_tlas_items(data) + 2; }
 
+rf_camera frame_camera(const Camera& camera, const Frame& frame) {
+  rf_camera params = camera.params;
+  params.depth_scale = frame.depth_scale;
+  return params;
+}
+
+namespace {
+
+// The eye's largest distance (per axis) to the scene's bounds, as a power of
+// two. Powers of two move exactly with the scene: a scene and eye scaled by
+// 2^k give trace_exponent + k.
+int choose_trace_exponent(const Aabb& world_bounds, const glm::dvec3& eye) {
+  if (world_bounds.empty()) return 0;
+  double far = 0.0;
+  for (int k = 0; k < 3; ++k)
+    far = std::max({far, std::fabs(double(world_bounds.lo[k]) - eye[k]), std::fabs(double(world_bounds.hi[k]) - eye[k])});
+  return far > 0.0 && std::isfinite(far) ? std::ilogb(far) : 0;
+}
+
+}  // namespace
+
 Frame build_frame(const Scene& scene, const SceneData& data, const Camera& camera, const RayList& rays,
                   const FrameOptions& options) {
   Frame frame;
   frame.node_base = static_cast<uint32_t>(data.blas.nodes.size());
+  frame.trace_exponent = choose_trace_exponent(data.world_bounds, glm::dvec3(camera.world_from_camera[3]));
+  frame.camera_from_trace = uniform_scale(frame.trace_exponent);
+  frame.depth_scale = static_cast<float>(std::ldexp(1.0, frame.trace_exponent));
+  const Xform world_from_trace = camera.world_from_camera * frame.camera_from_trace;
+  const Xform trace_from_world = uniform_scale(-frame.trace_exponent) * camera.camera_from_world;
 
   auto t0 = std::chrono::steady_clock::now();
   std::vector<Frustum> frusta;
@@ -133,17 +163,18 @@ Frame build_frame(const Scene& scene, const SceneData& data, const Camera& camer
     if (!data.renderable[i]) continue;
     frame.stats.candidates++;
     const Instance& inst = scene.instances[i];
-    Xform world_from_object = inst.world_from_object;
-    Xform object_from_world = data.object_from_world[i];
+    Xform world_from_tree = inst.world_from_object * object_from_tree(data.blas, inst.mesh);
+    Xform tree_from_world = data.tree_from_world[i];
     if (animate && is_animated(i)) {
-      world_from_object = animated_world_from_object(inst, data.blas.bounds[inst.mesh], i, options.animate_frame);
-      const bool ok = affine_inverse(world_from_object, &object_from_world);
+      world_from_tree = animated_world_from_object(inst, data.blas.bounds[inst.mesh], i, options.animate_frame) *
+                        object_from_tree(data.blas, inst.mesh);
+      const bool ok = affine_inverse(world_from_tree, &tree_from_world);
       RF_CHECK(ok, "animation made a transform singular");
-      normal_matrix_rows3x3(world_from_object, frame.normal_xforms[i].m);
+      normal_matrix_rows3x3(world_from_tree, frame.normal_xforms[i].m);
     }
-    const Xform camera_from_object = camera.camera_from_world * world_from_object;
+    const Xform trace_from_tree = trace_from_world * world_from_tree;
     rf_instance base{};
-    to_rows3x4(object_from_world * camera.world_from_camera, base.object_from_camera);
+    to_rows3x4(tree_from_world * world_from_trace, base.tree_from_trace);
     // The object-space ray starts at the float-rounded eye (the translation
     // column), up to half an ulp of its coordinates beside the exact one;
     // mapped back to camera space that shift must fit inside the item's box,
@@ -152,25 +183,25 @@ Frame build_frame(const Scene& scene, const SceneData& data, const Camera& camer
     // origin, docs/exactness.md).
     double origin = 0.0, stretch = 0.0;
     for (int r = 0; r < 3; ++r) {
-      origin = std::max(origin, static_cast<double>(std::fabs(base.object_from_camera[4 * r + 3])));
-      stretch = std::max(stretch, std::fabs(camera_from_object[0][r]) + std::fabs(camera_from_object[1][r]) +
-                                      std::fabs(camera_from_object[2][r]));
+      origin = std::max(origin, static_cast<double>(std::fabs(base.tree_from_trace[4 * r + 3])));
+      stretch = std::max(stretch, std::fabs(trace_from_tree[0][r]) + std::fabs(trace_from_tree[1][r]) +
+                                      std::fabs(trace_from_tree[2][r]));
     }
     const double origin_pad = origin * stretch * 0x1p-22;
     base.instance_id = static_cast<uint32_t>(i);
     for (uint32_t c = data.braid_offsets[i]; c < data.braid_offsets[i + 1]; ++c) {
       const rf_node& node = data.blas.nodes[data.braid_nodes[c]];
-      Aabb object_box;
-      object_box.grow(glm::vec3(node.bmin[0], node.bmin[1], node.bmin[2]));
-      object_box.grow(glm::vec3(node.bmax[0], node.bmax[1], node.bmax[2]));
-      const Aabb box = transform_bounds_conservative(camera_from_object, object_box, origin_pad);
+      Aabb tree_box;
+      tree_box.grow(glm::vec3(node.bmin[0], node.bmin[1], node.bmin[2]));
+      tree_box.grow(glm::vec3(node.bmax[0], node.bmax[1], node.bmax[2]));
+      const Aabb box = transform_bounds_conservative(trace_from_tree, tree_box, origin_pad);
       base.blas_root = data.braid_nodes[c];
       for (int g = 0; g < RF_MAX_GROUPS; ++g) {
         if (!rays.group_used[g]) continue;
         const Aabb mirrored = mirror_box(box, g);
         if (options.cull && !frusta[g].may_see(mirrored)) continue;
         rf_instance out = base;
-        mirror_columns(out.object_from_camera, g);
+        mirror_columns(out.tree_from_trace, g);
         out.group = static_cast<uint32_t>(g);
         candidates.push_back(out);
         boxes.push_back(mirrored);

@@ -35,9 +35,10 @@ struct SceneData {
   // instance i (just its root when re-braiding is off).
   std::vector<uint32_t> braid_offsets;
   std::vector<uint32_t> braid_nodes;
-  std::vector<Xform> object_from_world;         // per scene instance
+  std::vector<Xform> tree_from_world;           // per scene instance, into its mesh's tree space
   std::vector<bool> renderable;                 // false: singular transform or empty mesh
-  std::vector<rf_normal_xform> normal_xforms;   // per scene instance
+  std::vector<rf_normal_xform> normal_xforms;   // per scene instance, tree-space normals to world
+  Aabb world_bounds;                            // of the renderable instances at rest
   size_t hidden_instances = 0;
 };
 
@@ -59,6 +60,12 @@ struct FrameStats {
 };
 
 struct Frame {
+  // Trace space is camera space in units of 2^trace_exponent: the power of
+  // two that brings the eye's largest distance to the scene's bounds into
+  // [1, 2), so that a scene scaled by 2^k traces the same floats.
+  int trace_exponent = 0;
+  Xform camera_from_trace{1.0};
+  float depth_scale = 1.0f;            // 2^trace_exponent, rf_camera::depth_scale
   uint32_t node_base = 0;              // first TLAS node index in the full node array
   uint32_t tlas_root = RF_INVALID;     // RF_INVALID: nothing to trace
   std::vector<rf_node> tlas_nodes;     // to be placed at node_base
@@ -79,5 +86,8 @@ Frame build_frame(const Scene& scene, const SceneData& data, const Camera& camer
 // frame of this scene can need; device buffers are sized by them once.
 size_t max_tlas_items(const SceneData& data);
 size_t max_tlas_nodes(const SceneData& data);
+
+// The camera's ray parameters as a frame traces them: with its depth scale.
+rf_camera frame_camera(const Camera& camera, const Frame& frame);
 
 }  // namespace rayfold

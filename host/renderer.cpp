@@ -139,8 +139,8 @@ void Renderer::render_into(RenderResult& result, const Camera& camera, int frame
       tracer_->bind_output(result.hits.data(), pixels);
       if (measure_kernel_) {
         // Both kernels write the same bits; the faster one stays.
-        const double single_ms = tracer_->trace(camera.params, KernelKind::single);
-        const double tile_ms = tracer_->trace(camera.params, KernelKind::tile);
+        const double single_ms = tracer_->trace(frame_camera(camera, frame), KernelKind::single);
+        const double tile_ms = tracer_->trace(frame_camera(camera, frame), KernelKind::tile);
         kernel_ = tile_ms <= single_ms ? KernelKind::tile : KernelKind::single;
         char why[96];
         std::snprintf(why, sizeof why, "measured on the first frame: tile %.2f ms, single %.2f ms", tile_ms,
@@ -149,7 +149,7 @@ void Renderer::render_into(RenderResult& result, const Camera& camera, int frame
         measure_kernel_ = false;
         times.trace_ms = std::min(tile_ms, single_ms);
       } else {
-        times.trace_ms = tracer_->trace(camera.params, kernel_);
+        times.trace_ms = tracer_->trace(frame_camera(camera, frame), kernel_);
       }
       times.readback_ms = tracer_->read_hits(result.hits.data(), pixels);
     } else {
@@ -169,7 +169,7 @@ void Renderer::render_into(RenderResult& result, const Camera& camera, int frame
       in.normal_xform_count = normals.size();
       in.tlas_root = frame.tlas_root;
       t0 = Clock::now();
-      trace_cpu(in, rays, camera.params, result.hits.data(), options_.threads);
+      trace_cpu(in, rays, frame_camera(camera, frame), result.hits.data(), options_.threads);
       times.trace_ms = ms_since(t0);
     }
     result.frames.push_back(times);

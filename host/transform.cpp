@@ -30,6 +30,12 @@ void normal_matrix_rows3x3(const Xform& m, float out[9]) {
     for (int c = 0; c < 3; ++c) out[3 * r + c] = static_cast<float>(n[c][r]);
 }
 
+Xform uniform_scale(int exponent) {
+  const double s = std::ldexp(1.0, exponent);
+  return Xform(glm::dvec4(s, 0.0, 0.0, 0.0), glm::dvec4(0.0, s, 0.0, 0.0), glm::dvec4(0.0, 0.0, s, 0.0),
+               glm::dvec4(0.0, 0.0, 0.0, 1.0));
+}
+
 glm::dvec3 transform_point(const Xform& m, const glm::dvec3& p) { return glm::dvec3(m * glm::dvec4(p, 1.0)); }
 
 Aabb transform_bounds_conservative(const Xform& m, const Aabb& b, double extra_pad) {

@@ -19,12 +19,15 @@ double linear_determinant(const Xform& m);
 // Inverse of an affine transform; false when it is singular or not finite.
 bool affine_inverse(const Xform& m, Xform* inverse);
 
-// Row-major 3x4 float layout of rf_instance::object_from_camera.
+// Row-major 3x4 float layout of rf_instance::tree_from_trace.
 void to_rows3x4(const Xform& m, float out[12]);
 
 // Row-major 3x3 float matrix that takes object-space normals to the
 // destination space: the inverse transpose of the linear part of m.
 void normal_matrix_rows3x3(const Xform& m, float out[9]);
+
+// The uniform scale by 2^exponent (exact in double).
+Xform uniform_scale(int exponent);
 
 glm::dvec3 transform_point(const Xform& m, const glm::dvec3& p);
 

@@ -27,10 +27,13 @@ typedef struct {
   rf_i32 kx, ky, kz;
 } rf_ray;
 
-/* A zero direction component would give 0 * inf = NaN in the slab test; a
- * tiny stand-in of the same sign keeps the test finite. Every kernel's
+/* A zero direction component would give 0 * inf = NaN in the slab test, and
+ * a subnormal one an infinite reciprocal with the same result; the smallest
+ * normal float of the same sign stands in for them and keeps the test finite.
+ * It is the float format's limit, not a length: no normal component is
+ * touched, so the test does not depend on the scene's scale. Every kernel's
  * reciprocal uses this one constant. */
-#define RF_RECIPROCAL_TINY 1e-30f
+#define RF_RECIPROCAL_TINY 1.17549435e-38f /* FLT_MIN, 2^-126 */
 RF_INLINE float rf_safe_reciprocal(float d) {
   const float tiny = RF_RECIPROCAL_TINY;
   return 1.0f / (RF_FABS(d) < tiny ? RF_COPYSIGN(tiny, d) : d);

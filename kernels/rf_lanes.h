@@ -84,20 +84,31 @@ RF_INLINE rf_vf rf_lanes_pick(float v0, float v1, float v2, rf_vi k) {
   return rf_lanes_pick_v((rf_vf)(v0), (rf_vf)(v1), (rf_vf)(v2), k);
 }
 
-/* rf_intersect_box for rays sharing one origin: c0 = bmin - o and c1 = bmax - o
- * are the same for every lane, so only the products are per lane. Returns
- * the mask of lanes that pass. */
-RF_INLINE rf_vi rf_lanes_box(const float c0[3], const float c1[3], rf_vf ix, rf_vf iy, rf_vf iz, rf_vf tmax) {
+/* rf_intersect_box's slab ends for rays sharing one origin: c0 = bmin - o
+ * and c1 = bmax - o are the same for every lane, so only the products are
+ * per lane. Returns the widened entry, *tfar the widened exit. */
+RF_INLINE rf_vf rf_lanes_slab(const float c0[3], const float c1[3], rf_vf ix, rf_vf iy, rf_vf iz, rf_vf* tfar) {
   const rf_vf tx0 = c0[0] * ix, tx1 = c1[0] * ix;
   const rf_vf ty0 = c0[1] * iy, ty1 = c1[1] * iy;
   const rf_vf tz0 = c0[2] * iz, tz1 = c1[2] * iz;
-  const rf_vf tnear = rf_lanes_max(rf_lanes_max(rf_lanes_min(tx0, tx1), rf_lanes_min(ty0, ty1)),
-                                   rf_lanes_max(rf_lanes_min(tz0, tz1), (rf_vf)(0.0f))) *
-                      RF_BOX_NEAR_SCALE;
-  const rf_vf tfar =
-      rf_lanes_min(rf_lanes_min(rf_lanes_max(tx0, tx1), rf_lanes_max(ty0, ty1)), rf_lanes_max(tz0, tz1)) *
-      RF_BOX_FAR_SCALE;
+  *tfar = rf_lanes_min(rf_lanes_min(rf_lanes_max(tx0, tx1), rf_lanes_max(ty0, ty1)), rf_lanes_max(tz0, tz1)) *
+          RF_BOX_FAR_SCALE;
+  return rf_lanes_max(rf_lanes_max(rf_lanes_min(tx0, tx1), rf_lanes_min(ty0, ty1)),
+                      rf_lanes_max(rf_lanes_min(tz0, tz1), (rf_vf)(0.0f))) *
+         RF_BOX_NEAR_SCALE;
+}
+/* rf_intersect_box lane by lane: the mask of lanes that pass. */
+RF_INLINE rf_vi rf_lanes_box(const float c0[3], const float c1[3], rf_vf ix, rf_vf iy, rf_vf iz, rf_vf tmax) {
+  rf_vf tfar;
+  const rf_vf tnear = rf_lanes_slab(c0, c1, ix, iy, iz, &tfar);
   return tnear <= rf_lanes_min(tfar, tmax);
+}
+/* The same test returning what rf_intersect_box returns: each lane's
+ * entry distance, or RF_FAR where the lane does not pass. */
+RF_INLINE rf_vf rf_lanes_box_entry(const float c0[3], const float c1[3], rf_vf ix, rf_vf iy, rf_vf iz, rf_vf tmax) {
+  rf_vf tfar;
+  const rf_vf tnear = rf_lanes_slab(c0, c1, ix, iy, iz, &tfar);
+  return select((rf_vf)(RF_FAR), tnear, tnear <= rf_lanes_min(tfar, tmax));
 }
 
 /* rf_intersect_triangle lane by lane. a, b, c are the vertices minus the

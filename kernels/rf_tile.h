@@ -63,7 +63,7 @@ typedef struct {
   float o[3];
   float lo[3], hi[3];
   rf_i32 uniform, kx, ky, kz;
-  /* The bits of the object_from_camera these rays were made with: equal
+  /* The bits of the tree_from_trace these rays were made with: equal
    * bits give equal rays, so instances with the same transform (every node
    * of many real files) and the subtrees of one instance share a set-up. */
   rf_u32 key[12];
@@ -159,10 +159,12 @@ RF_INLINE void rf_tile_to_object(rf_tile_ray* r, const RF_GLOBAL float* m, const
 
 /* Tests one triangle on the lane groups in `lanes` (bit j: group j) and takes
  * the hit of every lane in lane_in (the lanes whose own slab tests reach the
- * leaf) that beats the lane's current one by the tie rule. Returns nonzero
- * when some lane took it. */
+ * leaf) that beats the lane's current one by the tie rule, at a distance no
+ * nearer than the lane's entry into the leaf, leaf_t (rf_hit_distance).
+ * Returns nonzero when some lane took it. */
 RF_INLINE int rf_tile_triangle(const RF_GLOBAL rf_tri* tri, rf_u32 ti, const rf_tile_ray* r, rf_u32 instance_id,
-                               rf_u32 lanes, const rf_vi* lane_in, rf_tile_hits* h RF_TSTAT_PARAM) {
+                               rf_u32 lanes, const rf_vi* lane_in, const rf_vf* leaf_t,
+                               rf_tile_hits* h RF_TSTAT_PARAM) {
   const float a0 = tri->v0[0] - r->o[0], a1 = tri->v0[1] - r->o[1], a2 = tri->v0[2] - r->o[2];
   const float b0 = tri->v1[0] - r->o[0], b1 = tri->v1[1] - r->o[1], b2 = tri->v1[2] - r->o[2];
   const float c0 = tri->v2[0] - r->o[0], c1 = tri->v2[1] - r->o[1], c2 = tri->v2[2] - r->o[2];
@@ -192,11 +194,13 @@ RF_INLINE int rf_tile_triangle(const RF_GLOBAL rf_tri* tri, rf_u32 ti, const rf_
                              rf_lanes_pick(c0, c1, c2, kz), r->sx[j], r->sy[j], r->sz[j], &t, &ev, &ew, &det);
     }
     if (!rf_lanes_any(ok)) continue;
+    const rf_vi positive = t > (rf_vf)(0.0f);
     /* rf_hit_is_closer lane by lane. */
+    t = select(t, leaf_t[j], t < leaf_t[j]); /* rf_hit_distance */
     const rf_vf bt = h->t[j];
     const rf_vu bi = h->instance[j];
     const rf_vi closer = (t < bt) | ((t == bt) & ((inst_v < bi) | ((inst_v == bi) & (prim_v < h->prim[j]))));
-    const rf_vi take = ok & (t > (rf_vf)(0.0f)) & closer & lane_in[j];
+    const rf_vi take = ok & positive & closer & lane_in[j];
     if (!rf_lanes_any(take)) continue;
     h->t[j] = select(bt, t, take);
     h->u[j] = select(h->u[j], ev / det, take);
@@ -248,6 +252,13 @@ RF_INLINE rf_vi rf_tile_lane_box(const float c0[3], const float c1[3], const rf_
   return rf_lanes_box(c0, c1, ix[j], iy[j], iz ? iz[j] : (rf_vf)(-1.0f), bound);
 }
 
+/* The same test returning each lane's entry distance, RF_FAR where it fails
+ * (rf_lanes_box_entry), in tree space (iz given). */
+RF_INLINE rf_vf rf_tile_lane_entry(const float c0[3], const float c1[3], const rf_tile_ray* r, const rf_tile_hits* h,
+                                   int j) {
+  return rf_lanes_box_entry(c0, c1, r->ix[j], r->iy[j], r->iz[j], h->t[j]);
+}
+
 /* Narrows [*first, *last] from both ends to the lane groups that have a lane
  * entering the box; 0 when none has. */
 RF_INLINE int rf_tile_narrow(const float c0[3], const float c1[3], const rf_vf* ix, const rf_vf* iy, const rf_vf* iz,
@@ -271,6 +282,7 @@ RF_INLINE void rf_tile_trace_blas(const RF_GLOBAL rf_node* nodes, const RF_GLOBA
                                   const rf_tile_ray* r, rf_u32 instance_id, const rf_vi* entered, rf_u32 range,
                                   rf_tile_hits* h RF_TSTAT_PARAM) {
   rf_vi lane_in[RF_LANE_GROUPS];
+  rf_vf leaf_t[RF_LANE_GROUPS];
   rf_u32 stack_node[RF_STACK_SIZE];
   float stack_t[RF_STACK_SIZE];
   rf_u32 stack_range[RF_STACK_SIZE];
@@ -299,7 +311,8 @@ RF_INLINE void rf_tile_trace_blas(const RF_GLOBAL rf_node* nodes, const RF_GLOBA
       /* Which lane groups have a ray in the leaf's box. */
       rf_u32 lanes = 0u;
       for (int j = first; j <= last; ++j) {
-        lane_in[j] = rf_tile_lane_box(c0, c1, r->ix, r->iy, r->iz, h, 1u, j) & entered[j];
+        leaf_t[j] = rf_tile_lane_entry(c0, c1, r, h, j);
+        lane_in[j] = (leaf_t[j] != (rf_vf)(RF_FAR)) & entered[j];
         if (rf_lanes_any(lane_in[j])) lanes |= 1u << j;
       }
       RF_TSTAT(RF_TILE_STAT_BLAS_LANE_BOXES, last - first + 1);
@@ -308,7 +321,7 @@ RF_INLINE void rf_tile_trace_blas(const RF_GLOBAL rf_node* nodes, const RF_GLOBA
       int taken = 0;
       for (rf_u32 k = 0; k < count; ++k) {
         const rf_u32 ti = n->first + k;
-        taken |= rf_tile_triangle(&tris[ti], ti, r, instance_id, lanes, lane_in, h RF_TSTAT_ARG);
+        taken |= rf_tile_triangle(&tris[ti], ti, r, instance_id, lanes, lane_in, leaf_t, h RF_TSTAT_ARG);
       }
       if (taken) rf_tile_update_tmax(h);
       continue;
@@ -389,7 +402,7 @@ RF_INLINE void rf_tile_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBA
         /* One cached set-up per group: the mirrored copies of an instance
          * have transforms of their own and would evict each other. */
         rf_tile_ray* r = &ro[g];
-        rf_tile_to_object(r, inst->object_from_camera, cam RF_TSTAT_ARG);
+        rf_tile_to_object(r, inst->tree_from_trace, cam RF_TSTAT_ARG);
         rf_tile_trace_blas(nodes, tris, inst->blas_root, r, inst->instance_id, entered, range, h RF_TSTAT_ARG);
       }
       continue;
@@ -474,7 +487,7 @@ RF_INLINE void rf_tile_write_group(const RF_GLOBAL rf_u32* rays, rf_u32 begin, r
     nz[j] = select(wz / len, (rf_vf)(0.0f), zero);
     const rf_vf dz = (rf_vf)(-1.0f);
     const rf_vf len_d = sqrt(tc->dx[j] * tc->dx[j] + tc->dy[j] * tc->dy[j] + dz * dz);
-    z[j] = select((rf_vf)(RF_INF), h->t[j] * len_d, hit);
+    z[j] = select((rf_vf)(RF_INF), (h->t[j] * len_d) * cam->depth_scale, hit);
   }
   const float* zs = (const float*)z;
   const float* xs = (const float*)nx;

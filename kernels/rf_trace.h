@@ -40,13 +40,25 @@ RF_INLINE int rf_hit_is_closer(float t, rf_u32 instance, rf_u32 prim, const rf_h
   return prim < best->prim;
 }
 
+/* The distance a hit competes with and is reported at: the triangle test's
+ * t, raised to the entry distance of the leaf it was found in. Traversal
+ * skips a node whose entry lies beyond the current hit, so the closest hit
+ * is found in every traversal order (folded or not, scalar or in lanes) only
+ * if no hit lies nearer than the boxes around it. The box entries are
+ * accurate, but the watertight t of a ray grazing a large triangle is not
+ * (its error grows with 1 / sin of the angle), nor is t at the edge of the
+ * float range; there the raise keeps the order irrelevant. Elsewhere t is at
+ * or beyond the widened entry and unchanged [Stress.*, Scale.*]. */
+RF_INLINE float rf_hit_distance(float t, float leaf_entry) { return t < leaf_entry ? leaf_entry : t; }
+
 /* Closest hit of one object-space ray in one bottom-level tree. */
 RF_INLINE void rf_trace_blas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_tri* tris, rf_u32 root,
                              const rf_ray* r, rf_u32 instance_id, rf_hit* best) {
   rf_u32 stack_node[RF_STACK_SIZE];
   float stack_t[RF_STACK_SIZE];
   int sp = 0;
-  if (rf_intersect_box(&nodes[root], r, best->t) == RF_FAR) return;
+  float node_t = rf_intersect_box(&nodes[root], r, best->t);
+  if (node_t == RF_FAR) return;
   rf_u32 ni = root;
   for (;;) {
     const RF_GLOBAL rf_node* n = &nodes[ni];
@@ -57,8 +69,9 @@ RF_INLINE void rf_trace_blas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_
         const rf_u32 ti = n->first + k;
         RF_STAT(triangles);
         float t, u, v;
-        if (rf_intersect_triangle(&tris[ti], r, &t, &u, &v) && t > 0.0f &&
-            rf_hit_is_closer(t, instance_id, tris[ti].prim, best)) {
+        if (!rf_intersect_triangle(&tris[ti], r, &t, &u, &v) || !(t > 0.0f)) continue;
+        t = rf_hit_distance(t, node_t);
+        if (rf_hit_is_closer(t, instance_id, tris[ti].prim, best)) {
           best->t = t;
           best->u = u;
           best->v = v;
@@ -80,6 +93,7 @@ RF_INLINE void rf_trace_blas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_
           ++sp;
         }
         ni = near_node;
+        node_t = left_first ? t0 : t1;
         continue;
       }
     }
@@ -89,6 +103,7 @@ RF_INLINE void rf_trace_blas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_
       --sp;
       if (stack_t[sp] <= best->t) {
         ni = stack_node[sp];
+        node_t = stack_t[sp];
         break;
       }
     }
@@ -141,7 +156,7 @@ RF_INLINE void rf_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_
         const rf_u32 slot = key & (rf_u32)(RF_RAY_CACHE - 1);
         if (ro_key[slot] != key) {
           RF_STAT(setups);
-          rf_ray_to_object(&ro_cache[slot], inst->object_from_camera, dx, dy, dz);
+          rf_ray_to_object(&ro_cache[slot], inst->tree_from_trace, dx, dy, dz);
           ro_key[slot] = key;
         }
         rf_trace_blas(nodes, tris, inst->blas_root, &ro_cache[slot], inst->instance_id, &hits[g]);
@@ -172,10 +187,11 @@ RF_INLINE void rf_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_
   }
 }
 
-/* Writes one pixel's hit info. len_d is the length of the camera-space ray
- * direction, which turns t into distance along the normalised ray. */
-RF_INLINE void rf_write_pixel(RF_GLOBAL rf_pixel_hit* px, const rf_hit* h, float len_d, const RF_GLOBAL rf_tri* tris,
-                              const RF_GLOBAL rf_normal_xform* normal_xforms) {
+/* Writes one pixel's hit info. len_d is the length of the trace-space ray
+ * direction, which turns t into distance along the normalised ray, and
+ * depth_scale the power of two that takes trace units to world units. */
+RF_INLINE void rf_write_pixel(RF_GLOBAL rf_pixel_hit* px, const rf_hit* h, float len_d, float depth_scale,
+                              const RF_GLOBAL rf_tri* tris, const RF_GLOBAL rf_normal_xform* normal_xforms) {
   if (h->instance == RF_INVALID) {
     px->z = RF_INF;
     px->nx = 0.0f;
@@ -189,7 +205,7 @@ RF_INLINE void rf_write_pixel(RF_GLOBAL rf_pixel_hit* px, const rf_hit* h, float
   }
   float n[3];
   rf_geometric_normal(&tris[h->tri], &normal_xforms[h->instance], n);
-  px->z = h->t * len_d;
+  px->z = (h->t * len_d) * depth_scale;
   px->nx = n[0];
   px->ny = n[1];
   px->nz = n[2];
@@ -231,7 +247,7 @@ RF_INLINE void rf_write_answers(const rf_camera_ray* ray, const rf_hit* hits, co
     if (((ray->groups >> g) & 1u) == 0u) continue;
     const rf_i32 px = (g & 1) ? cam->xpair - ray->x : ray->x;
     const rf_i32 py = (g & 2) ? cam->ypair - ray->y : ray->y;
-    rf_write_pixel(&out[py * cam->width + px], &hits[g], len_d, tris, normal_xforms);
+    rf_write_pixel(&out[py * cam->width + px], &hits[g], len_d, cam->depth_scale, tris, normal_xforms);
   }
 }
 

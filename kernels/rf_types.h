@@ -1,5 +1,16 @@
 /* rf_types.h - the compact traversal layout shared by host and device.
  *
+ * Two spaces are normalised by powers of two, so that every float a kernel
+ * computes is the same for a scene and camera scaled together by any power
+ * of two (only the depth written out scales), and so that the watertight
+ * test's quadratic and cubic terms stay far from the float range:
+ *  - tree space: a mesh's object space in units of 2^e, e chosen per mesh so
+ *    that its largest coordinate lies in [1, 2) (host/blas.h);
+ *  - trace space: camera space (eye at the origin, looking down -z) in units
+ *    of 2^c, c chosen per frame from the eye's distance to the scene
+ *    (host/frame.h). A trace-space t times |d| times depth_scale (2^c) is the
+ *    depth in world units.
+ *
  * These structs are what the kernels read; the host's build-time trees
  * (host/bvh_build.h) are separate and are flattened into this layout.
  * Every field is 4 bytes and every struct a multiple of 4 bytes, so OpenCL C
@@ -17,7 +28,7 @@
  * The two children of an interior node sit next to each other (first,
  * first+1) at an even index, so both boxes come in one 64-byte line and the
  * traversal tests them together.
- *   bytes  0..11  bmin   box minimum (object space for BLAS nodes, camera
+ *   bytes  0..11  bmin   box minimum (tree space for BLAS nodes, trace
  *                        space for TLAS nodes)
  *   bytes 12..15  first  interior: index of the left child;
  *                        leaf: first triangle (BLAS) or first instance (TLAS)
@@ -37,7 +48,7 @@ typedef struct {
 #define RF_MAX_GROUPS 4
 
 /* One triangle in BVH leaf order, 40 bytes.
- *   bytes  0..35  v0, v1, v2   object-space vertices, in the file's winding
+ *   bytes  0..35  v0, v1, v2   tree-space vertices, in the file's winding
  *   bytes 36..39  prim         triangle index within its mesh, as in the file
  *                              (after strips and fans are made triangles) */
 typedef struct {
@@ -48,25 +59,25 @@ typedef struct {
 } rf_tri;
 
 /* One traced instance (a scene instance, or a mirrored copy of one), 64 bytes.
- *   bytes  0..47  object_from_camera  row-major 3x4 affine: row r is
+ *   bytes  0..47  tree_from_trace  row-major 3x4 affine: row r is
  *                 (m[4r], m[4r+1], m[4r+2]) with translation m[4r+3].
  *                 Rays stay unnormalised under it, so a hit's t is the same
- *                 parameter in camera and object space.
+ *                 parameter in trace and tree space.
  *   bytes 48..51  blas_root    node index of the mesh's bottom-level root
  *   bytes 52..55  instance_id  index of the scene instance; mirrored copies
  *                              keep the id of the instance they mirror
  *   bytes 56..59  group        transform group 0..3 (0 = not mirrored)
  *   bytes 60..63  pad */
 typedef struct {
-  float object_from_camera[12];
+  float tree_from_trace[12];
   rf_u32 blas_root;
   rf_u32 instance_id;
   rf_u32 group;
   rf_u32 pad;
 } rf_instance;
 
-/* Per scene instance, 36 bytes: the row-major 3x3 that takes an object-space
- * normal to world space (the inverse transpose of world_from_object), so the
+/* Per scene instance, 36 bytes: the row-major 3x3 that takes a tree-space
+ * normal to world space (the inverse transpose of world_from_tree), so the
  * normal keeps the file's front side also under mirroring node transforms. */
 typedef struct {
   float m[9];
@@ -122,8 +133,9 @@ typedef struct {
 #define RF_TILE_STAT_TRI_LANES 7      /* lane-group triangle tests */
 #define RF_TILE_STAT_COUNT 8
 
-/* How pixel (x, y) becomes a camera-space ray, origin at the eye:
+/* How pixel (x, y) becomes a trace-space ray, origin at the eye:
  *   d = (scale_x * (2x + kx0), scale_y * (ky0 - 2y), -1)
+ * and a hit at parameter t a depth: (t * |d|) * depth_scale.
  * The integer offsets keep mirror partners exact: the column xpair - x gives
  * exactly the negated float. A centred W x H image has kx0 = 1 - W,
  * ky0 = H - 1, xpair = W - 1, ypair = H - 1. */
@@ -132,6 +144,7 @@ typedef struct {
   rf_i32 kx0, ky0;
   rf_i32 width, height;
   rf_i32 xpair, ypair;
+  float depth_scale; /* 2^c of the frame's trace space; 1 until a frame sets it */
 } rf_camera;
 
 #endif /* RF_TYPES_H */

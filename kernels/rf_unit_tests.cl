@@ -48,7 +48,7 @@ __kernel void ut_ray_triangle(__global const rf_tri* tris, __global const float*
   out[4 * i + 3] = hit ? v : 0.0f;
 }
 
-/* One 3x4 object_from_camera and one camera-space direction per case;
+/* One 3x4 tree_from_trace and one camera-space direction per case;
  * out: the object-space ray's origin and direction. */
 __kernel void ut_transform(__global const float* xf, __global const float* dir, __global float* out) {
   const uint i = get_global_id(0);
@@ -72,7 +72,7 @@ __kernel void ut_normal(__global const rf_tri* tris, __global const rf_normal_xf
 
 /* The tile kernel's pieces (rf_tile.h), one tile of RF_TILE_RAYS lanes per
  * case: dirs holds the case's camera-space dx, dy per lane (dz = -1), xf its
- * 3x4 object_from_camera. */
+ * 3x4 tree_from_trace. */
 RF_INLINE void ut_tile_rays(__global const float* xf, __global const float* dirs, rf_tile_camera* tc, rf_tile_ray* r) {
   float* dx = (float*)tc->dx;
   float* dy = (float*)tc->dy;
@@ -109,8 +109,9 @@ __kernel void ut_tile_to_object(__global const float* xf, __global const float* 
   o[9 * RF_TILE_RAYS + 6] = (float)r.uniform;
 }
 
-/* One box and a tmax per lane; out per lane: 1 when the lane's slab test
- * passes (rf_lanes_box), else 0. */
+/* One box and a tmax per lane; out per lane: the entry distance
+ * (rf_lanes_box_entry), RF_FAR where the lane's slab test fails, which
+ * rf_lanes_box must say too (else NaN, a certain mismatch). */
 __kernel void ut_tile_box(__global const rf_node* boxes, __global const float* xf, __global const float* dirs,
                           __global const float* tmax, __global float* out) {
   const uint i = get_global_id(0);
@@ -124,7 +125,12 @@ __kernel void ut_tile_box(__global const rf_node* boxes, __global const float* x
     float tm[RF_LANES];
     for (int l = 0; l < RF_LANES; ++l) tm[l] = tmax[RF_TILE_RAYS * i + RF_LANES * j + l];
     const rf_vi m = rf_lanes_box(c0, c1, r.ix[j], r.iy[j], r.iz[j], *(const rf_vf*)tm);
-    for (int l = 0; l < RF_LANES; ++l) out[RF_TILE_RAYS * i + RF_LANES * j + l] = ((const int*)&m)[l] < 0 ? 1.0f : 0.0f;
+    const rf_vf e = rf_lanes_box_entry(c0, c1, r.ix[j], r.iy[j], r.iz[j], *(const rf_vf*)tm);
+    for (int l = 0; l < RF_LANES; ++l) {
+      const float entry = ((const float*)&e)[l];
+      const int agree = (((const int*)&m)[l] < 0) == (entry != RF_FAR);
+      out[RF_TILE_RAYS * i + RF_LANES * j + l] = agree ? entry : NAN;
+    }
   }
 }
 
@@ -138,13 +144,15 @@ __kernel void ut_tile_triangle(__global const rf_tri* tris, __global const float
   ut_tile_rays(xf + 12 * i, dirs + 2 * RF_TILE_RAYS * i, &tc, &r);
   rf_tile_hits h;
   rf_vi all[RF_LANE_GROUPS];
+  rf_vf leaf_t[RF_LANE_GROUPS];
   for (int j = 0; j < RF_LANE_GROUPS; ++j) {
+    leaf_t[j] = (rf_vf)(0.0f);
     h.t[j] = (rf_vf)(RF_FAR);
     h.u[j] = h.v[j] = (rf_vf)(0.0f);
     h.instance[j] = h.prim[j] = h.tri[j] = (rf_vu)(RF_INVALID);
     all[j] = (rf_vi)(-1);
   }
-  rf_tile_triangle(&tris[i], 0u, &r, 0u, 0xFFFFFFFFu >> (32 - RF_LANE_GROUPS), all, &h);
+  rf_tile_triangle(&tris[i], 0u, &r, 0u, 0xFFFFFFFFu >> (32 - RF_LANE_GROUPS), all, leaf_t, &h);
   for (int l = 0; l < RF_TILE_RAYS; ++l) {
     const int hit = ((const rf_u32*)h.tri)[l] != RF_INVALID;
     __global float* o = out + 4 * (RF_TILE_RAYS * i + l);

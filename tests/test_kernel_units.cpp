@@ -202,7 +202,7 @@ TEST_F(KernelUnits, GeometricNormal) {
 }
 
 
-// Tiles for the tile kernel's pieces: per case a 3x4 object_from_camera and
+// Tiles for the tile kernel's pieces: per case a 3x4 tree_from_trace and
 // RF_TILE_RAYS camera-space directions (dx, dy; dz = -1). Even cases are
 // coherent 16x16 blocks of primary rays (one axis permutation in the tile, the
 // uniform path); odd cases scramble the lanes over a wide cone with zero and
@@ -300,8 +300,8 @@ TEST_F(KernelUnits, TileLaneBoxEqualsScalarBoxTest) {
       const size_t q = RF_TILE_RAYS * i + l;
       tmax[q] = (l % 3 == 0) ? RF_FAR : rng.uniformf(-1, 20);
       const rf_ray r = c.lane_ray(i, l);
-      host[q] = rf_intersect_box(&boxes[i], &r, tmax[q]) != RF_FAR ? 1.0f : 0.0f;
-      pass += host[q] != 0.0f;
+      host[q] = rf_intersect_box(&boxes[i], &r, tmax[q]);
+      pass += host[q] != RF_FAR;
     }
   }
   EXPECT_GT(pass, host.size() / 20);
@@ -309,7 +309,7 @@ TEST_F(KernelUnits, TileLaneBoxEqualsScalarBoxTest) {
   expect_bits_equal(host,
                     run("ut_tile_box", {in(boxes), in(c.xf), in(c.dirs), in(tmax), out(host.size())}, c.n,
                         host.size()),
-                    "rf_lanes_box");
+                    "rf_lanes_box and rf_lanes_box_entry");
 }
 
 TEST_F(KernelUnits, TileTriangleEqualsScalarTriangleTest) {

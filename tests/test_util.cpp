@@ -26,12 +26,17 @@ double Rng::uniform(double lo, double hi) { return lo + (hi - lo) * (next() >> 1
 
 std::vector<rf_pixel_hit> brute_force(const Scene& scene, const SceneData& data, const Camera& camera) {
   const rf_camera& cam = camera.params;
-  // Per instance: its object_from_camera floats, exactly as a frame stores them.
+  // Per instance: object_from_camera in floats, with the mesh's own
+  // coordinates rather than the trees' power-of-two-scaled ones (the same
+  // geometry written another way: scaling by powers of two is exact, so the
+  // bits must agree with every tracer's).
   std::vector<rf_instance> insts;
   for (size_t i = 0; i < scene.instances.size(); ++i) {
     if (!data.renderable[i]) continue;
     rf_instance inst{};
-    to_rows3x4(data.object_from_world[i] * camera.world_from_camera, inst.object_from_camera);
+    Xform object_from_world;
+    if (!affine_inverse(scene.instances[i].world_from_object, &object_from_world)) continue;
+    to_rows3x4(object_from_world * camera.world_from_camera, inst.tree_from_trace);
     inst.instance_id = static_cast<uint32_t>(i);
     insts.push_back(inst);
   }
@@ -60,7 +65,7 @@ std::vector<rf_pixel_hit> brute_force(const Scene& scene, const SceneData& data,
       const rf_tri* best_tri = nullptr;
       for (const rf_instance& inst : insts) {
         rf_ray r;
-        rf_ray_to_object(&r, inst.object_from_camera, dx, dy, dz);
+        rf_ray_to_object(&r, inst.tree_from_trace, dx, dy, dz);
         for (const rf_tri& tri : mesh_tris[scene.instances[inst.instance_id].mesh]) {
           float t, u, v;
           if (rf_intersect_triangle(&tri, &r, &t, &u, &v) && t > 0.0f &&
@@ -77,7 +82,7 @@ std::vector<rf_pixel_hit> brute_force(const Scene& scene, const SceneData& data,
       const float len_d = RF_SQRT(dx * dx + dy * dy + dz * dz);
       // rf_write_pixel finds the triangle through an index; hand it this one.
       best.tri = 0;
-      rf_write_pixel(&out[static_cast<size_t>(y) * cam.width + x], &best, len_d, best_tri ? best_tri : nullptr,
+      rf_write_pixel(&out[static_cast<size_t>(y) * cam.width + x], &best, len_d, 1.0f, best_tri ? best_tri : nullptr,
                      data.normal_xforms.data());
     }
   return out;

@@ -45,11 +45,12 @@ int main(int argc, char** argv) {
     FrameOptions options;
     options.fold = fold;
     const Frame frame = build_frame(scene, data, cam, rays, options);
+    const rf_camera traced = frame_camera(cam, frame);
     std::vector<rf_node> nodes = data.blas.nodes;
     nodes.insert(nodes.end(), frame.tlas_nodes.begin(), frame.tlas_nodes.end());
     std::vector<rf_pixel_hit> out(static_cast<size_t>(w) * h);
     for (uint32_t e : rays.entries)
-      rf_trace_entry(e, &cam.params, nodes.data(), data.blas.tris.data(), frame.instances.data(),
+      rf_trace_entry(e, &traced, nodes.data(), data.blas.tris.data(), frame.instances.data(),
                      data.normal_xforms.data(), frame.tlas_root, out.data());
     const double n = static_cast<double>(rays.entries.size());
     const double px = static_cast<double>(rays.pixels);
@@ -69,7 +70,7 @@ int main(int argc, char** argv) {
     tracer.upload_scene(data, frame.tlas_nodes.size(), frame.instances.size(), rays.entries.size(), out.size());
     tracer.upload_frame(frame);
     tracer.upload_rays(rays);
-    tracer.trace(cam.params, KernelKind::tile);
+    tracer.trace(traced, KernelKind::tile);
     const std::vector<uint32_t> st = tracer.read_tile_stats();
     double sum[RF_TILE_STAT_COUNT] = {};
     for (size_t i = 0; i < st.size(); ++i) sum[i % RF_TILE_STAT_COUNT] += st[i];
