@@ -59,7 +59,10 @@ CameraSpec frame_bounds(const Aabb& b, double vfov_degrees) {
   if (b.empty()) return spec;
   const glm::dvec3 lo(b.lo), hi(b.hi);
   const glm::dvec3 centre = (lo + hi) * 0.5;
-  const double radius = std::max(glm::length(hi - lo) * 0.5, 1e-6);
+  // A scene of one point (nothing visible) still gets a valid camera, at a
+  // distance that scales with the scene's position, as everything else does.
+  double radius = glm::length(hi - lo) * 0.5;
+  if (!(radius > 0.0)) radius = glm::length(centre) > 0.0 ? glm::length(centre) : 1.0;
   const double dist = radius / std::sin(vfov_degrees * M_PI / 360.0);
   const glm::dvec3 dir = glm::normalize(glm::dvec3(0.35, 0.3, 1.0));
   spec.eye = centre + dir * dist;

@@ -40,6 +40,14 @@ void mirror_columns(float rows[12], int group) {
   }
 }
 
+// In double: world-space areas of float boxes overflow a float from about
+// 1e19 on, and the braid must choose the same cut at every scale.
+double half_area(const Aabb& b) {
+  if (b.empty()) return 0.0;
+  const glm::dvec3 e = glm::dvec3(b.hi) - glm::dvec3(b.lo);
+  return e.x * e.y + e.y * e.z + e.z * e.x;
+}
+
 // Opens the largest (in world space) BLAS nodes of all instances until the
 // budget is spent; the open frontier is each instance's cut.
 void choose_braid_cuts(const Scene& scene, SceneData& data, const BraidOptions& opt) {
@@ -60,7 +68,7 @@ void choose_braid_cuts(const Scene& scene, SceneData& data, const BraidOptions& 
     b.grow(glm::vec3(data.blas.nodes[node].bmin[0], data.blas.nodes[node].bmin[1], data.blas.nodes[node].bmin[2]));
     b.grow(glm::vec3(data.blas.nodes[node].bmax[0], data.blas.nodes[node].bmax[1], data.blas.nodes[node].bmax[2]));
     const Xform world_from_tree = scene.instances[i].world_from_object * object_from_tree(data.blas, scene.instances[i].mesh);
-    return static_cast<double>(transform_bounds_conservative(world_from_tree, b).half_area());
+    return half_area(transform_bounds_conservative(world_from_tree, b));
   };
   size_t items = 0;
   for (uint32_t i = 0; i < n; ++i) {
@@ -70,7 +78,7 @@ void choose_braid_cuts(const Scene& scene, SceneData& data, const BraidOptions& 
   }
   if (opt.enabled) {
     const size_t budget = std::max(opt.min_items, opt.items_per_instance * items);
-    const double min_area = opt.min_area_fraction * data.world_bounds.half_area();
+    const double min_area = opt.min_area_fraction * half_area(data.world_bounds);
     while (!open.empty() && items < budget && open.top().area >= min_area) {
       const Item top = open.top();
       const rf_node& node = data.blas.nodes[top.node];

@@ -1,5 +1,6 @@
 #include "transform.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include <glm/gtc/matrix_inverse.hpp>
@@ -26,8 +27,16 @@ void to_rows3x4(const Xform& m, float out[12]) {
 
 void normal_matrix_rows3x3(const Xform& m, float out[9]) {
   const glm::dmat3 n = glm::inverseTranspose(glm::dmat3(m));
+  // Normals are normalised after the product, so any positive scale gives
+  // the same direction; a power of two that brings the largest entry to
+  // [1, 2) keeps the product inside the float range and makes the matrix
+  // the same for a transform scaled by any power of two.
+  double big = 0.0;
+  for (int c = 0; c < 3; ++c)
+    for (int r = 0; r < 3; ++r) big = std::max(big, std::fabs(n[c][r]));
+  const int e = big > 0.0 && std::isfinite(big) ? std::ilogb(big) : 0;
   for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) out[3 * r + c] = static_cast<float>(n[c][r]);
+    for (int c = 0; c < 3; ++c) out[3 * r + c] = static_cast<float>(std::ldexp(n[c][r], -e));
 }
 
 Xform uniform_scale(int exponent) {

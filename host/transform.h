@@ -23,7 +23,9 @@ bool affine_inverse(const Xform& m, Xform* inverse);
 void to_rows3x4(const Xform& m, float out[12]);
 
 // Row-major 3x3 float matrix that takes object-space normals to the
-// destination space: the inverse transpose of the linear part of m.
+// destination space: the inverse transpose of the linear part of m, scaled by
+// the power of two that brings its largest entry into [1, 2) (a normal's
+// direction is all that counts).
 void normal_matrix_rows3x3(const Xform& m, float out[9]);
 
 // The uniform scale by 2^exponent (exact in double).

@@ -1,31 +1,128 @@
 // libFuzzer target: arbitrary bytes as a glTF file (.gltf or .glb), through
-// the loader, the bottom- and top-level builds and a tiny trace on the CPU
-// reference, folded and unfolded. Bad input must end in InputError (or
-// UsageError for an unusable camera), never a crash or a sanitizer report;
-// a folded image that differs from the unfolded one aborts: that is a bug too.
+// the loader, the bottom- and top-level builds and tiny traces. Bad input must
+// end in InputError (or UsageError for an unusable camera), never a crash or
+// a sanitizer report. Every accepted input must also keep rayfold's
+// invariants, and a broken one aborts with what differed:
+//  - folded (xy) = unfolded, on the CPU reference;
+//  - the OpenCL single-ray and tile kernels = the CPU reference, folded too;
+//  - the scene and camera scaled by a power of two 2^k (k from the input's
+//    hash, in -100..100, kept inside the float range) give the same ids,
+//    barycentrics and normals, and depths times 2^k.
 #include <unistd.h>
 
+#include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <memory>
 #include <string>
+#include <vector>
 
+#include "../../host/cl_tracer.h"
 #include "../../host/errors.h"
 #include "../../host/gltf_loader.h"
+#include "../../host/ray_list.h"
 #include "../../host/renderer.h"
 
 namespace {
+
+using namespace rayfold;
 
 const std::string& scratch_path() {
   static const std::string path = "/tmp/rayfold_fuzz_" + std::to_string(::getpid()) + ".gltf";
   return path;
 }
 
+[[noreturn]] void fail(const char* what, size_t pixel, const rf_pixel_hit& a, const rf_pixel_hit& b) {
+  std::fprintf(stderr,
+               "fuzz: %s at pixel %zu: z %a / %a, n (%a %a %a) / (%a %a %a), uv (%a %a) / (%a %a), "
+               "instance %u / %u, primitive %u / %u\n",
+               what, pixel, a.z, b.z, a.nx, a.ny, a.nz, b.nx, b.ny, b.nz, a.u, a.v, b.u, b.v, a.instance, b.instance,
+               a.primitive, b.primitive);
+  std::abort();
+}
+
+void expect_same(const char* what, const std::vector<rf_pixel_hit>& a, const std::vector<rf_pixel_hit>& b) {
+  for (size_t i = 0; i < a.size(); ++i)
+    if (std::memcmp(&a[i], &b[i], sizeof(rf_pixel_hit)) != 0) fail(what, i, a[i], b[i]);
+}
+
+// One OpenCL device and tracer for the whole run: building the kernels per
+// input would cost more than the input.
+ClTracer& tracer() {
+  static ClDevice device;
+  static ClTracer t(device);
+  return t;
+}
+
+// Renders like Renderer does for OpenCL, with both kernels.
+void check_opencl(const Scene& scene, const SceneData& data, const Camera& camera,
+                  const std::vector<rf_pixel_hit>& reference) {
+  const size_t pixels = static_cast<size_t>(camera.width) * camera.height;
+  tracer().upload_scene(data, max_tlas_nodes(data), max_tlas_items(data), pixels, pixels);
+  for (FoldMode fold : {FoldMode::none, FoldMode::xy}) {
+    const RayList rays = make_ray_list(camera.params, fold);
+    FrameOptions options;
+    options.fold = fold;
+    const Frame frame = build_frame(scene, data, camera, rays, options);
+    tracer().upload_frame(frame);
+    tracer().upload_rays(rays);
+    for (KernelKind kernel : {KernelKind::single, KernelKind::tile}) {
+      std::vector<rf_pixel_hit> hits(pixels);
+      tracer().bind_output(hits.data(), pixels);
+      tracer().trace(frame_camera(camera, frame), kernel);
+      tracer().read_hits(hits.data(), pixels);
+      const std::string what = std::string("OpenCL ") + kernel_name(kernel) + (fold == FoldMode::xy ? " folded" : "") +
+                               " differs from the CPU reference";
+      expect_same(what.c_str(), reference, hits);
+    }
+  }
+}
+
+// The largest magnitude among the scene's world bounds and the eye; 0 when
+// empty.
+double world_magnitude(const Scene& scene, const CameraSpec& spec) {
+  double m = std::max({std::fabs(spec.eye.x), std::fabs(spec.eye.y), std::fabs(spec.eye.z),
+                       std::fabs(spec.look_at.x), std::fabs(spec.look_at.y), std::fabs(spec.look_at.z)});
+  const Aabb b = scene.world_bounds();
+  if (!b.empty())
+    for (int k = 0; k < 3; ++k) m = std::max({m, std::fabs(double(b.lo[k])), std::fabs(double(b.hi[k]))});
+  return m;
+}
+
+void check_scaled(const Scene& scene, const CameraSpec& spec, const std::vector<rf_pixel_hit>& reference, int k) {
+  Scene scaled = scene;
+  for (Instance& inst : scaled.instances) inst.world_from_object = uniform_scale(k) * inst.world_from_object;
+  CameraSpec s = spec;
+  s.eye = std::ldexp(1.0, k) * spec.eye;
+  s.look_at = std::ldexp(1.0, k) * spec.look_at;
+  RendererOptions options;
+  options.backend = Backend::cpu;
+  options.threads = 1;
+  Renderer renderer(scaled, options);
+  const Camera camera = make_camera(s, 9, 7);
+  const std::vector<rf_pixel_hit> hits = renderer.render(camera, 1, FrameOptions{FoldMode::none}).hits;
+  for (size_t i = 0; i < hits.size(); ++i) {
+    rf_pixel_hit expected = reference[i];
+    expected.z = std::ldexp(expected.z, k);
+    if (std::memcmp(&expected, &hits[i], sizeof(rf_pixel_hit)) != 0) {
+      char what[64];
+      std::snprintf(what, sizeof what, "scaled by 2^%d, differs from unscaled (depth scaled)", k);
+      fail(what, i, expected, hits[i]);
+    }
+  }
+}
+
+uint64_t hash(const uint8_t* data, size_t size) {
+  uint64_t h = 1469598103934665603ull;
+  for (size_t i = 0; i < size; ++i) h = (h ^ data[i]) * 1099511628211ull;
+  return h;
+}
+
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
-  using namespace rayfold;
   {
     std::FILE* f = std::fopen(scratch_path().c_str(), "wb");
     if (!f) return 0;
@@ -43,9 +140,15 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     const Camera camera = make_camera(spec, 9, 7);
     const RenderResult none = renderer.render(camera, 1, FrameOptions{FoldMode::none});
     const RenderResult xy = renderer.render(camera, 1, FrameOptions{FoldMode::xy});
-    if (std::memcmp(none.hits.data(), xy.hits.data(), none.hits.size() * sizeof(rf_pixel_hit)) != 0) {
-      std::fprintf(stderr, "fuzz: folded render differs from unfolded\n");
-      std::abort();
+    expect_same("folded render differs from unfolded", none.hits, xy.hits);
+    check_opencl(scene, renderer.scene_data(), camera, none.hits);
+    // A power of two that keeps every world coordinate a normal float with
+    // room to spare (the supported range, docs/exactness.md).
+    const double magnitude = world_magnitude(scene, spec);
+    if (magnitude > 0.0 && std::isfinite(magnitude)) {
+      const int top = std::ilogb(magnitude);
+      const int lo = std::max(-100, -100 - top), hi = std::min(100, 100 - top);
+      if (lo <= hi) check_scaled(scene, spec, none.hits, lo + static_cast<int>(hash(data, size) % (hi - lo + 1)));
     }
   } catch (const InputError&) {
   } catch (const UsageError&) {
