@@ -23,6 +23,9 @@ Camera make_camera(const CameraSpec& spec, int width, int height, double shift_x
   const glm::dvec3 forward = spec.look_at - spec.eye;
   const double flen = glm::length(forward);
   if (!(flen > 0.0) || !std::isfinite(flen)) throw UsageError("eye and look-at must be distinct finite points");
+  for (int k = 0; k < 3; ++k)
+    if (!(std::fabs(spec.eye[k]) <= kMaxWorldCoordinate && std::fabs(spec.look_at[k]) <= kMaxWorldCoordinate))
+      throw UsageError("eye and look-at must lie within world coordinates of +-8.5e37 (2^126)");
   const glm::dvec3 w = -forward / flen;  // camera +z points backwards
   const glm::dvec3 side = glm::cross(spec.up, w);
   const double slen = glm::length(side);

@@ -105,6 +105,7 @@ void choose_braid_cuts(const Scene& scene, SceneData& data, const BraidOptions& 
 }  // namespace
 
 SceneData prepare_scene(const Scene& scene, unsigned threads, const BraidOptions& braid) {
+  check_world_range(scene, "");
   SceneData data;
   data.blas = build_blas_set(scene, BuildOptions{}, threads);
   const size_t n = scene.instances.size();
@@ -122,6 +123,13 @@ SceneData prepare_scene(const Scene& scene, unsigned threads, const BraidOptions
     if (data.renderable[i])
       data.world_bounds.grow(transform_bounds_conservative(inst.world_from_object, data.blas.bounds[inst.mesh]));
   }
+  for (size_t i = 0; i < n; ++i) {
+    if (!data.renderable[i]) continue;
+    double big = 0.0;
+    for (int c = 0; c < 3; ++c)
+      for (int r = 0; r < 3; ++r) big = std::max(big, std::fabs(data.tree_from_world[i][c][r]));
+    if (big > 0.0 && std::isfinite(big)) data.max_tree_scale = std::max(data.max_tree_scale, std::ilogb(big));
+  }
   choose_braid_cuts(scene, data, braid);
   return data;
 }
@@ -137,15 +145,36 @@ rf_camera frame_camera(const Camera& camera, const Frame& frame) {
 
 namespace {
 
+// Limits of trace space, as powers of two: the largest tree_from_trace
+// entry aimed for, how far below the scene's extent the trace unit may go to
+// reach it (trace-space boxes up to 2^60 keep the builder's float areas
+// finite), and the largest entry traced at all (a ray direction of up to
+// 2^7, a 179-degree view, stays finite).
+constexpr int kTreeFromTraceTarget = 100;
+constexpr int kTraceBelowExtent = 60;
+constexpr int kTreeFromTraceLimit = 118;
+
 // The eye's largest distance (per axis) to the scene's bounds, as a power of
-// two. Powers of two move exactly with the scene: a scene and eye scaled by
-// 2^k give trace_exponent + k.
-int choose_trace_exponent(const Aabb& world_bounds, const glm::dvec3& eye) {
-  if (world_bounds.empty()) return 0;
+// two, lowered for the smallest instance (Frame::trace_exponent). Powers of
+// two move exactly with the scene: a scene and eye scaled by 2^k give
+// trace_exponent + k.
+int choose_trace_exponent(const SceneData& data, const glm::dvec3& eye) {
+  const Aabb& b = data.world_bounds;
+  if (b.empty()) return 0;
   double far = 0.0;
   for (int k = 0; k < 3; ++k)
-    far = std::max({far, std::fabs(double(world_bounds.lo[k]) - eye[k]), std::fabs(double(world_bounds.hi[k]) - eye[k])});
-  return far > 0.0 && std::isfinite(far) ? std::ilogb(far) : 0;
+    far = std::max({far, std::fabs(double(b.lo[k]) - eye[k]), std::fabs(double(b.hi[k]) - eye[k])});
+  const int extent = far > 0.0 && std::isfinite(far) ? std::ilogb(far) : 0;
+  if (data.max_tree_scale == INT32_MIN || data.max_tree_scale + extent <= kTreeFromTraceTarget) return extent;
+  return std::max(extent - kTraceBelowExtent, kTreeFromTraceTarget - data.max_tree_scale);
+}
+
+// Whether an instance's float tree_from_trace can be traced: finite, with
+// ray directions that cannot overflow.
+bool traceable(const float m[12]) {
+  for (int i = 0; i < 12; ++i)
+    if (!std::isfinite(m[i]) || (i % 4 != 3 && std::fabs(m[i]) > std::ldexp(1.0f, kTreeFromTraceLimit))) return false;
+  return true;
 }
 
 }  // namespace
@@ -154,7 +183,7 @@ Frame build_frame(const Scene& scene, const SceneData& data, const Camera& camer
                   const FrameOptions& options) {
   Frame frame;
   frame.node_base = static_cast<uint32_t>(data.blas.nodes.size());
-  frame.trace_exponent = choose_trace_exponent(data.world_bounds, glm::dvec3(camera.world_from_camera[3]));
+  frame.trace_exponent = choose_trace_exponent(data, glm::dvec3(camera.world_from_camera[3]));
   frame.camera_from_trace = uniform_scale(frame.trace_exponent);
   frame.depth_scale = static_cast<float>(std::ldexp(1.0, frame.trace_exponent));
   const Xform world_from_trace = camera.world_from_camera * frame.camera_from_trace;
@@ -183,6 +212,10 @@ Frame build_frame(const Scene& scene, const SceneData& data, const Camera& camer
     const Xform trace_from_tree = trace_from_world * world_from_tree;
     rf_instance base{};
     to_rows3x4(tree_from_world * world_from_trace, base.tree_from_trace);
+    if (!traceable(base.tree_from_trace)) {
+      frame.stats.out_of_range++;
+      continue;
+    }
     // The object-space ray starts at the float-rounded eye (the translation
     // column), up to half an ulp of its coordinates beside the exact one;
     // mapped back to camera space that shift must fit inside the item's box,

@@ -39,6 +39,10 @@ struct SceneData {
   std::vector<bool> renderable;                 // false: singular transform or empty mesh
   std::vector<rf_normal_xform> normal_xforms;   // per scene instance, tree-space normals to world
   Aabb world_bounds;                            // of the renderable instances at rest
+  // The largest ilogb of a tree_from_world linear entry over the renderable
+  // instances: how many tree units the smallest instance packs into a world
+  // unit, as a power of two (frame.h's trace exponent keeps it in range).
+  int max_tree_scale = INT32_MIN;
   size_t hidden_instances = 0;
 };
 
@@ -57,12 +61,18 @@ struct FrameStats {
   double tlas_ms = 0.0;
   double tlas_sah = 0.0;
   int tlas_depth = 0;
+  // Instances not traced because, at this view, their size relative to the
+  // distances in view is beyond the float range (a scene mixing sizes more
+  // than about 2^160 apart): their transform into trace space would overflow.
+  size_t out_of_range = 0;
 };
 
 struct Frame {
   // Trace space is camera space in units of 2^trace_exponent: the power of
   // two that brings the eye's largest distance to the scene's bounds into
-  // [1, 2), so that a scene scaled by 2^k traces the same floats.
+  // [1, 2), lowered (by up to 2^60) where the smallest instance would
+  // otherwise be more than 2^100 of its tree units per trace unit. Both move
+  // exactly with the scene, so a scene scaled by 2^k traces the same floats.
   int trace_exponent = 0;
   Xform camera_from_trace{1.0};
   float depth_scale = 1.0f;            // 2^trace_exponent, rf_camera::depth_scale

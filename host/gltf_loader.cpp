@@ -422,7 +422,9 @@ class Loader {
 }  // namespace
 
 Scene load_gltf(const std::string& path, std::vector<std::string>* warnings) {
-  return Loader(path, warnings).run();
+  Scene scene = Loader(path, warnings).run();
+  check_world_range(scene, path);
+  return scene;
 }
 
 }  // namespace rayfold

@@ -36,6 +36,11 @@ struct CameraSpec {
   double vfov_degrees = 60.0;
 };
 
+// The largest world-space coordinate rayfold accepts (2^126, about 8.5e37):
+// every distance between two such points, and so every depth, is a finite
+// float, and the trace space of any view stays inside the float range.
+constexpr double kMaxWorldCoordinate = 0x1p126;
+
 struct Scene {
   std::vector<Mesh> meshes;
   std::vector<Instance> instances;
@@ -46,5 +51,9 @@ struct Scene {
   Aabb mesh_bounds(uint32_t mesh) const;
   Aabb world_bounds() const;
 };
+
+// Throws InputError(file, ...) naming the first instance whose geometry
+// reaches beyond kMaxWorldCoordinate (or is not finite) in world space.
+void check_world_range(const Scene& scene, const std::string& file);
 
 }  // namespace rayfold

@@ -19,42 +19,7 @@
 namespace rayfold {
 namespace {
 
-const FoldMode kAllFolds[] = {FoldMode::none, FoldMode::y, FoldMode::x, FoldMode::xy};
-
-// One scene, rendered three ways: the CPU reference, the single-ray kernel
-// and the tile kernel.
-struct ThreeWays {
-  explicit ThreeWays(const Scene& scene) {
-    RendererOptions o;
-    o.backend = Backend::cpu;
-    cpu = std::make_unique<Renderer>(scene, o);
-    o.backend = Backend::opencl;
-    o.kernel = KernelChoice::single;
-    single = std::make_unique<Renderer>(scene, o);
-    o.kernel = KernelChoice::tile;
-    tile = std::make_unique<Renderer>(scene, o);
-  }
-
-  // "" when, for every fold mode, the single-ray and tile kernels equal the
-  // CPU reference's unfolded render; else every difference found.
-  std::string differences(const Camera& cam, int animate_frame = -1) {
-    FrameOptions none;
-    none.animate_frame = animate_frame;
-    const std::vector<rf_pixel_hit> ref = cpu->render(cam, 1, none).hits;
-    std::string out;
-    for (FoldMode f : kAllFolds) {
-      FrameOptions o = none;
-      o.fold = f;
-      for (auto [name, r] : {std::pair<const char*, Renderer*>{"single", single.get()}, {"tile", tile.get()}}) {
-        const std::string d = testing::compare_hits(ref, r->render(cam, 1, o).hits, cam.width);
-        if (!d.empty()) out += std::string(name) + " fold " + fold_name(f) + ": " + d + "\n";
-      }
-    }
-    return out;
-  }
-
-  std::unique_ptr<Renderer> cpu, single, tile;
-};
+using testing::ThreeWays;
 
 TEST(TileKernel, IntervalBoundRejectsOnlyWhatEveryLaneRejects) {
   // rf_interval_box over a packet sharing one origin: when it rejects a box,

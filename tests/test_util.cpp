@@ -163,6 +163,38 @@ Scene random_scene(Rng& rng, int meshes, int instances, int triangles_per_mesh) 
   return s;
 }
 
+ThreeWays::ThreeWays(const Scene& scene) {
+  RendererOptions o;
+  o.backend = Backend::cpu;
+  cpu = std::make_unique<Renderer>(scene, o);
+  o.backend = Backend::opencl;
+  o.kernel = KernelChoice::single;
+  single = std::make_unique<Renderer>(scene, o);
+  o.kernel = KernelChoice::tile;
+  tile = std::make_unique<Renderer>(scene, o);
+}
+
+std::vector<rf_pixel_hit> ThreeWays::reference(const Camera& cam, int animate_frame) {
+  FrameOptions none;
+  none.animate_frame = animate_frame;
+  return cpu->render(cam, 1, none).hits;
+}
+
+std::string ThreeWays::differences(const Camera& cam, int animate_frame) {
+  const std::vector<rf_pixel_hit> ref = reference(cam, animate_frame);
+  std::string out;
+  for (FoldMode f : kAllFolds) {
+    FrameOptions o;
+    o.animate_frame = animate_frame;
+    o.fold = f;
+    for (auto [name, r] : {std::pair<const char*, Renderer*>{"single", single.get()}, {"tile", tile.get()}}) {
+      const std::string d = compare_hits(ref, r->render(cam, 1, o).hits, cam.width);
+      if (!d.empty()) out += std::string(name) + " fold " + fold_name(f) + ": " + d + "\n";
+    }
+  }
+  return out;
+}
+
 ClDevice& test_device() {
   static ClDevice device;
   return device;

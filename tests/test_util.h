@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -11,6 +12,7 @@
 #include "../host/cl_device.h"
 #include "../host/device_layout.h"
 #include "../host/frame.h"
+#include "../host/renderer.h"
 #include "../host/scene.h"
 
 namespace rayfold::testing {
@@ -57,6 +59,21 @@ Scene random_scene(Rng& rng, int meshes, int instances, int triangles_per_mesh);
 // every edge is shared by exactly two triangles: a closed mesh. The diagonals
 // alternate so that edges meet at every angle.
 Mesh closed_cube(int n);
+
+inline constexpr FoldMode kAllFolds[] = {FoldMode::none, FoldMode::y, FoldMode::x, FoldMode::xy};
+
+// One scene, rendered three ways: the CPU reference, the single-ray kernel
+// and the tile kernel.
+struct ThreeWays {
+  explicit ThreeWays(const Scene& scene);
+  // The CPU reference's unfolded render.
+  std::vector<rf_pixel_hit> reference(const Camera& cam, int animate_frame = -1);
+  // "" when, for every fold mode, the single-ray and tile kernels equal the
+  // CPU reference's unfolded render; else every difference found.
+  std::string differences(const Camera& cam, int animate_frame = -1);
+
+  std::unique_ptr<Renderer> cpu, single, tile;
+};
 
 // The process-wide OpenCL device (PoCL on CI machines).
 ClDevice& test_device();
