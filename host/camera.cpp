@@ -56,6 +56,8 @@ Camera make_camera(const CameraSpec& spec, int width, int height, double shift_x
   return cam;
 }
 
+double pixel_angle(const Camera& camera) { return 2.0 * static_cast<double>(camera.params.scale_x); }
+
 CameraSpec frame_bounds(const Aabb& b, double vfov_degrees) {
   CameraSpec spec;
   spec.vfov_degrees = vfov_degrees;

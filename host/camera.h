@@ -23,6 +23,16 @@ struct Camera {
 // pixels so that mirror partners keep exactly negated rays.
 Camera make_camera(const CameraSpec& spec, int width, int height, double shift_x = 0.0, double shift_y = 0.0);
 
+// The angle between neighbouring pixels' rays at the image centre, radians.
+double pixel_angle(const Camera& camera);
+
+// Below this pixel angle (2^-20 radians: a 0.04-degree field of view over
+// 720 rows) float positions, resolved to about 2^-24 of their distance
+// from the eye in every tracer, stop resolving pixels: geometry seen through
+// such a view is misplaced by a sixteenth of a pixel or more, and from 2^-24
+// on lost altogether (docs/exactness.md, measured by rayfold-limits).
+constexpr double kFinestPixelAngle = 0x1p-20;
+
 // A view of the whole scene from its +z side, slightly above, as a default.
 CameraSpec frame_bounds(const Aabb& world_bounds, double vfov_degrees = 60.0);
 

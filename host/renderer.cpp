@@ -174,6 +174,19 @@ void Renderer::render_into(RenderResult& result, const Camera& camera, int frame
     }
     result.frames.push_back(times);
   }
+  result.warnings.clear();
+  if (result.frame_stats.out_of_range != 0)
+    result.warnings.push_back(std::to_string(result.frame_stats.out_of_range) +
+                              " instances not rendered: at this view their size and the scene's extent are more "
+                              "than the float range apart");
+  if (pixel_angle(camera) < kFinestPixelAngle) {
+    char what[200];
+    std::snprintf(what, sizeof what,
+                  "pixels %.2g radians apart are finer than float positions resolve (about 2^-24 of the distance): "
+                  "hits may be misplaced or lost",
+                  pixel_angle(camera));
+    result.warnings.push_back(what);
+  }
   auto pick = [&](double FrameTimes::*field) {
     std::vector<double> v;
     for (const FrameTimes& t : result.frames) v.push_back(t.*field);

@@ -52,6 +52,10 @@ struct RenderResult {
   size_t rays = 0;         // rays traced per frame
   size_t tlas_nodes = 0;   // of the last frame
   size_t instances = 0;    // traced instances (mirrored copies included) of the last frame
+  // What this render may have lost, in words: instances beyond the float
+  // range at this view, pixels finer than float positions resolve. Empty
+  // when the render is within rayfold's exact range (docs/exactness.md).
+  std::vector<std::string> warnings;
 };
 
 class Renderer {

@@ -258,6 +258,24 @@ TEST(Scale, BeyondTheFloatRangeIsRefusedOrReported) {
   const RenderResult r = Renderer(mixed, cpu).render(make_camera(spec, 16, 16));
   EXPECT_EQ(r.frame_stats.out_of_range, 1u) << "2^260 apart: the small one cannot share a trace space";
   for (const rf_pixel_hit& h : r.hits) EXPECT_EQ(h.instance, 0u);
+  ASSERT_EQ(r.warnings.size(), 1u);
+  EXPECT_NE(r.warnings[0].find("1 instances not rendered"), std::string::npos) << r.warnings[0];
+}
+
+TEST(Scale, ViewsFinerThanFloatPositionsAreReported) {
+  // Seen from 1e8 times its size through a view that keeps it in frame, an
+  // object is lost by every float tracer (rayfold-limits); the render says so.
+  const Scene scene = soup(51);
+  RendererOptions cpu;
+  cpu.backend = Backend::cpu;
+  Renderer renderer(scene, cpu);
+  for (double d : {10.0, 1e3, 1e5, 1e8}) {
+    const double vfov = 2.0 * std::asin(1.0 / d) * 180.0 / M_PI;
+    const Camera cam = make_camera(frame_bounds(scene.world_bounds(), vfov), 64, 48);
+    const RenderResult r = renderer.render(cam);
+    EXPECT_EQ(r.warnings.size(), pixel_angle(cam) < kFinestPixelAngle ? 1u : 0u) << "distance " << d;
+    EXPECT_EQ(pixel_angle(cam) < kFinestPixelAngle, d > 1e4) << "distance " << d;
+  }
 }
 
 TEST(Scale, FuzzRegressionsRenderLosslessly) {

@@ -244,6 +244,7 @@ void write_stats(const std::string& path, const RenderArgs& args, const Scene& s
   j["fold"] = fold_name(args.frame.fold);
   j["instances_after_culling"] = result.frame_stats.kept;
   j["instances_out_of_range"] = result.frame_stats.out_of_range;
+  j["warnings"] = result.warnings;
   j["times_ms"] = {{"load", load_ms},
                    {"blas_build", renderer.blas_build_ms()},
                    {"cull", result.median.cull_ms},
@@ -315,11 +316,7 @@ int run_render(cli::Args& args) {
     unfolded = renderer.render(camera, r.frames, none);
   }
   const RenderResult result = renderer.render(camera, r.frames, r.frame);
-  if (result.frame_stats.out_of_range != 0)
-    std::fprintf(stderr,
-                 "warning: %zu instances not rendered: at this view their size and the scene's extent are more than "
-                 "the float range apart (docs/exactness.md, 'Limits of the input')\n",
-                 result.frame_stats.out_of_range);
+  for (const std::string& w : result.warnings) std::fprintf(stderr, "warning: %s (docs/exactness.md)\n", w.c_str());
 
   if (!r.exr.empty()) write_exr(r.exr, result.hits, r.width, r.height);
   if (!r.png.empty()) write_png(r.png, result.hits, r.width, r.height);
