@@ -29,6 +29,7 @@ BlasSet build_blas_set(const Scene& scene, const BuildOptions& options, unsigned
   // (ldexp stays exact while the result is a normal float).
   std::vector<std::vector<glm::vec3>> positions(mesh_count);
   std::vector<BuildTree> trees(mesh_count);
+  std::vector<size_t> unresolvable(mesh_count, 0);
   parallel_for(mesh_count, threads, 1, [&](size_t m, size_t) {
     const Mesh& mesh = scene.meshes[m];
     Aabb object_bounds;
@@ -42,8 +43,14 @@ BlasSet build_blas_set(const Scene& scene, const BuildOptions& options, unsigned
     std::vector<Aabb> boxes(mesh.triangle_count());
     for (size_t t = 0; t < boxes.size(); ++t)
       for (int k = 0; k < 3; ++k) boxes[t].grow(positions[m][mesh.indices[3 * t + k]]);
+    for (const Aabb& b : boxes) {
+      const glm::vec3 e = b.extent();
+      const float size = std::max({e.x, e.y, e.z});
+      if (size > 0.0f && size < 0x1p-60f) unresolvable[m]++;
+    }
     trees[m] = build_sah(boxes, options);
   });
+  for (size_t n : unresolvable) set.unresolvable_triangles += n;
 
   double weighted_sah = 0.0;
   size_t weight = 0;

@@ -22,6 +22,10 @@ struct BlasSet {
   std::vector<uint32_t> roots;  // per mesh; RF_INVALID for a mesh with no triangle
   std::vector<Aabb> bounds;     // per mesh, object space
   std::vector<int> tree_exponents;  // per mesh: tree space = object space * 2^-e
+  // Triangles of nonzero extent under 2^-60 of their mesh's largest
+  // coordinate: the watertight test's edge functions, products of two such
+  // extents, fall below the normal floats and cannot resolve them.
+  size_t unresolvable_triangles = 0;
   double build_ms = 0.0;
   double sah_cost = 0.0;        // per mesh SAH cost, weighted by triangle count
   int max_depth = 0;

@@ -179,6 +179,10 @@ void Renderer::render_into(RenderResult& result, const Camera& camera, int frame
     result.warnings.push_back(std::to_string(result.frame_stats.out_of_range) +
                               " instances not rendered: at this view their size and the scene's extent are more "
                               "than the float range apart");
+  if (data_.blas.unresolvable_triangles != 0)
+    result.warnings.push_back(std::to_string(data_.blas.unresolvable_triangles) +
+                              " triangles are smaller than 2^-60 of their mesh's extent, below what the triangle test "
+                              "resolves: they may be missed");
   if (pixel_angle(camera) < kFinestPixelAngle) {
     char what[200];
     std::snprintf(what, sizeof what,

@@ -262,6 +262,32 @@ TEST(Scale, BeyondTheFloatRangeIsRefusedOrReported) {
   EXPECT_NE(r.warnings[0].find("1 instances not rendered"), std::string::npos) << r.warnings[0];
 }
 
+TEST(Scale, TrianglesTooSmallForTheirMeshAreReported) {
+  // One mesh from 0 to 1e27 with a unit triangle near its origin: in tree
+  // space the small one is 2^-90 of the mesh, below what the watertight
+  // test's products resolve. The render stays lossless across kernels and
+  // folds, and says what it may miss.
+  Scene s;
+  Mesh m;
+  m.name = "mixed";
+  m.positions = {{0, 0, -5}, {1e27f, 0, -5}, {0, 1e27f, -5}, {-1, -1, -3}, {1, -1, -3}, {0, 1, -3}};
+  m.indices = {0, 1, 2, 3, 4, 5};
+  s.meshes.push_back(m);
+  s.instances.push_back({0, Xform(1.0), "mixed"});
+  CameraSpec spec;
+  const Camera cam = make_camera(spec, 24, 16);
+  testing::ThreeWays r(s);
+  EXPECT_EQ(r.differences(cam), "");
+  const RenderResult result = r.cpu->render(cam);
+  ASSERT_EQ(result.warnings.size(), 1u);
+  EXPECT_NE(result.warnings[0].find("1 triangles are smaller than 2^-60"), std::string::npos) << result.warnings[0];
+  s.meshes[0].positions[1].x = 1e12f;  // 2^-40 apart: resolved, no warning
+  s.meshes[0].positions[2].y = 1e12f;
+  RendererOptions cpu;
+  cpu.backend = Backend::cpu;
+  EXPECT_TRUE(Renderer(s, cpu).render(cam).warnings.empty());
+}
+
 TEST(Scale, ViewsFinerThanFloatPositionsAreReported) {
   // Seen from 1e8 times its size through a view that keeps it in frame, an
   // object is lost by every float tracer (rayfold-limits); the render says so.
