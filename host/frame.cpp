@@ -67,8 +67,8 @@ void choose_braid_cuts(const Scene& scene, SceneData& data, const BraidOptions& 
     Aabb b;
     b.grow(glm::vec3(data.blas.nodes[node].bmin[0], data.blas.nodes[node].bmin[1], data.blas.nodes[node].bmin[2]));
     b.grow(glm::vec3(data.blas.nodes[node].bmax[0], data.blas.nodes[node].bmax[1], data.blas.nodes[node].bmax[2]));
-    const Xform world_from_tree = scene.instances[i].world_from_object * object_from_tree(data.blas, scene.instances[i].mesh);
-    return half_area(transform_bounds_conservative(world_from_tree, b));
+    const Instance& inst = scene.instances[i];
+    return half_area(transform_bounds_conservative(inst.world_from_object * object_from_tree(data.blas, inst.mesh), b));
   };
   size_t items = 0;
   for (uint32_t i = 0; i < n; ++i) {
@@ -120,11 +120,8 @@ SceneData prepare_scene(const Scene& scene, unsigned threads, const BraidOptions
     data.renderable[i] = invertible && data.blas.roots[inst.mesh] != RF_INVALID;
     if (invertible) normal_matrix_rows3x3(world_from_tree, data.normal_xforms[i].m);
     if (!invertible) data.hidden_instances++;
-    if (data.renderable[i])
-      data.world_bounds.grow(transform_bounds_conservative(inst.world_from_object, data.blas.bounds[inst.mesh]));
-  }
-  for (size_t i = 0; i < n; ++i) {
     if (!data.renderable[i]) continue;
+    data.world_bounds.grow(transform_bounds_conservative(inst.world_from_object, data.blas.bounds[inst.mesh]));
     double big = 0.0;
     for (int c = 0; c < 3; ++c)
       for (int r = 0; r < 3; ++r) big = std::max(big, std::fabs(data.tree_from_world[i][c][r]));

@@ -218,7 +218,8 @@ int run(int width, int height, const std::string& md) {
     Mesh room;
     room.name = "room";
     for (int c = 0; c < 8; ++c) room.positions.push_back(glm::vec3(c & 1 ? 1 : -1, c & 2 ? 1 : -1, c & 4 ? 1 : -1));
-    room.indices = {0, 2, 3, 0, 3, 1, 4, 5, 7, 4, 7, 6, 0, 1, 5, 0, 5, 4, 2, 6, 7, 2, 7, 3, 0, 4, 6, 0, 6, 2, 1, 3, 7, 1, 7, 5};
+    room.indices = {0, 2, 3, 0, 3, 1, 4, 5, 7, 4, 7, 6, 0, 1, 5, 0, 5, 4,
+                    2, 6, 7, 2, 7, 3, 0, 4, 6, 0, 6, 2, 1, 3, 7, 1, 7, 5};
     mixed.meshes.push_back(room);
     Xform big(1.0);
     big[0][0] = big[1][1] = big[2][2] = std::ldexp(1.0, 100);
