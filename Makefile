@@ -44,14 +44,17 @@ test-asan: deps
 	    UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 ctest --output-on-failure -j 2
 
 # Fuzzes loading, building and tracing for FUZZ_SECONDS (default 60) from the
-# seed corpus in tests/fuzz/corpus; findings land in build-fuzz/.
+# seed corpus in tests/fuzz/corpus, checking rayfold's invariants on every
+# accepted input (tests/fuzz/fuzz_scene.cpp); findings land in build-fuzz/.
+# Leaks inside the OpenCL runtime are suppressed as in test-asan.
 fuzz:
 	@tools/install-deps.sh clang libclang-rt-14-dev
 	@CC=clang CXX=clang++ cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=RelWithDebInfo -DRAYFOLD_FUZZ=ON \
 	    -DBUILD_TESTING=OFF >/dev/null
 	@cmake --build build-fuzz --target fuzz_scene -j $(JOBS)
 	@mkdir -p build-fuzz/corpus build-fuzz/findings
-	build-fuzz/fuzz_scene build-fuzz/corpus tests/fuzz/corpus -max_total_time=$(FUZZ_SECONDS) \
+	LSAN_OPTIONS=suppressions=$(CURDIR)/tests/lsan.supp:print_suppressions=0 \
+	    build-fuzz/fuzz_scene build-fuzz/corpus tests/fuzz/corpus -max_total_time=$(FUZZ_SECONDS) \
 	    -max_len=65536 -rss_limit_mb=4096 -timeout=30 -artifact_prefix=build-fuzz/findings/ -print_final_stats=1
 
 clean:
