@@ -1,8 +1,8 @@
 // The compact traversal layout (kernels/rf_types.h) as the host sees it.
 #pragma once
 
-#include "../kernels/rf_common.h"
-#include "../kernels/rf_types.h"
+#include "rf_common.h"
+#include "rf_types.h"
 
 static_assert(sizeof(rf_node) == 32, "rf_node is 32 bytes on host and device");
 static_assert(sizeof(rf_tri) == 40, "rf_tri is 40 bytes on host and device");

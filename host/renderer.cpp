@@ -1,27 +1,19 @@
 #include "renderer.h"
 
 #include <algorithm>
-#include <chrono>
 #include <cstdio>
 #include <cstring>
 
 #include <unistd.h>
 
-#include "errors.h"
+#include "util/errors.h"
+#include "util/timer.h"
 
-#include "cpu_tracer.h"
-#include "parallel.h"
-#include "ray_list.h"
+#include "fold/ray_list.h"
+#include "reference/cpu_tracer.h"
+#include "util/parallel.h"
 
 namespace rayfold {
-namespace {
-
-using Clock = std::chrono::steady_clock;
-double ms_since(Clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-}
-
-}  // namespace
 
 double median(std::vector<double> values) {
   if (values.empty()) return 0.0;
@@ -40,8 +32,14 @@ Renderer::Renderer(const Scene& scene, const RendererOptions& options)
     // CPU's vector units; on other devices the faster one is measured.
     const bool cpu = device_->info().is_cpu;
     switch (options_.kernel) {
-      case KernelChoice::tile: kernel_ = KernelKind::tile; kernel_reason_ = "chosen"; break;
-      case KernelChoice::single: kernel_ = KernelKind::single; kernel_reason_ = "chosen"; break;
+      case KernelChoice::tile:
+        kernel_ = KernelKind::tile;
+        kernel_reason_ = "chosen";
+        break;
+      case KernelChoice::single:
+        kernel_ = KernelKind::single;
+        kernel_reason_ = "chosen";
+        break;
       case KernelChoice::automatic:
       case KernelChoice::measure:
         kernel_ = KernelKind::tile;
@@ -143,8 +141,7 @@ void Renderer::render_into(RenderResult& result, const Camera& camera, int frame
         const double tile_ms = tracer_->trace(frame_camera(camera, frame), KernelKind::tile);
         kernel_ = tile_ms <= single_ms ? KernelKind::tile : KernelKind::single;
         char why[96];
-        std::snprintf(why, sizeof why, "measured on the first frame: tile %.2f ms, single %.2f ms", tile_ms,
-                      single_ms);
+        std::snprintf(why, sizeof why, "measured on the first frame: tile %.2f ms, single %.2f ms", tile_ms, single_ms);
         kernel_reason_ = why;
         measure_kernel_ = false;
         times.trace_ms = std::min(tile_ms, single_ms);
@@ -164,7 +161,8 @@ void Renderer::render_into(RenderResult& result, const Camera& camera, int frame
       in.tri_count = data_.blas.tris.size();
       in.instances = frame.instances.data();
       in.instance_count = frame.instances.size();
-      const std::vector<rf_normal_xform>& normals = frame.normal_xforms.empty() ? data_.normal_xforms : frame.normal_xforms;
+      const std::vector<rf_normal_xform>& normals =
+          frame.normal_xforms.empty() ? data_.normal_xforms : frame.normal_xforms;
       in.normal_xforms = normals.data();
       in.normal_xform_count = normals.size();
       in.tlas_root = frame.tlas_root;

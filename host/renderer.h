@@ -8,10 +8,10 @@
 #include <string>
 #include <vector>
 
-#include "camera.h"
-#include "cl_tracer.h"
-#include "frame.h"
-#include "scene.h"
+#include "fold/frame.h"
+#include "opencl/cl_tracer.h"
+#include "scene/camera.h"
+#include "scene/scene.h"
 
 namespace rayfold {
 

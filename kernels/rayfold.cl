@@ -1,6 +1,6 @@
 /* rayfold.cl - device entry points. The host prepends the shared headers
  * (rf_common.h, rf_types.h, rf_geometry.h, rf_trace.h) and the device-only
- * rf_lanes.h and rf_tile.h (host/kernel_sources.h), so this file holds only
+ * rf_lanes.h and rf_tile.h (host/opencl/kernel_sources.h), so this file holds only
  * the entry points. */
 
 #define RF_CAMERA_ARGS \
@@ -40,7 +40,8 @@ __kernel void rf_trace_tiles(__global const rf_node* nodes, __global const rf_tr
                              uint tlas_root, __global const uint* rays, __global const uint* tiles, uint tile_count,
                              RF_CAMERA_ARGS, __global rf_pixel_hit* out
 #ifdef RF_TILE_STATS
-                             , __global uint* tile_stats
+                             ,
+                             __global uint* tile_stats
 #endif
 ) {
   const uint t = get_global_id(0);

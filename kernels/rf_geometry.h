@@ -94,8 +94,8 @@ RF_INLINE float rf_intersect_box(const RF_GLOBAL rf_node* n, const rf_ray* r, fl
   const float ty1 = (n->bmax[1] - r->o[1]) * r->invd[1];
   const float tz0 = (n->bmin[2] - r->o[2]) * r->invd[2];
   const float tz1 = (n->bmax[2] - r->o[2]) * r->invd[2];
-  const float tnear = rf_maxf(rf_maxf(rf_minf(tx0, tx1), rf_minf(ty0, ty1)), rf_maxf(rf_minf(tz0, tz1), 0.0f)) *
-                      RF_BOX_NEAR_SCALE;
+  const float tnear =
+      rf_maxf(rf_maxf(rf_minf(tx0, tx1), rf_minf(ty0, ty1)), rf_maxf(rf_minf(tz0, tz1), 0.0f)) * RF_BOX_NEAR_SCALE;
   const float tfar = rf_minf(rf_minf(rf_maxf(tx0, tx1), rf_maxf(ty0, ty1)), rf_maxf(tz0, tz1)) * RF_BOX_FAR_SCALE;
   return tnear <= rf_minf(tfar, tmax) ? tnear : RF_FAR;
 }

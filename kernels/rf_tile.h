@@ -182,16 +182,16 @@ RF_INLINE int rf_tile_triangle(const RF_GLOBAL rf_tri* tri, rf_u32 ti, const rf_
     rf_vf t, ev, ew, det;
     rf_vi ok;
     if (r->uniform) {
-      ok = rf_lanes_triangle((rf_vf)(uax), (rf_vf)(uay), (rf_vf)(uaz), (rf_vf)(ubx), (rf_vf)(uby), (rf_vf)(ubz),
-                             (rf_vf)(ucx), (rf_vf)(ucy), (rf_vf)(ucz), r->sx[j], r->sy[j], r->sz[j], &t, &ev, &ew,
-                             &det);
+      ok =
+          rf_lanes_triangle((rf_vf)(uax), (rf_vf)(uay), (rf_vf)(uaz), (rf_vf)(ubx), (rf_vf)(uby), (rf_vf)(ubz),
+                            (rf_vf)(ucx), (rf_vf)(ucy), (rf_vf)(ucz), r->sx[j], r->sy[j], r->sz[j], &t, &ev, &ew, &det);
     } else {
       const rf_vi kx = r->pkx[j], ky = r->pky[j], kz = r->pkz[j];
-      ok = rf_lanes_triangle(rf_lanes_pick(a0, a1, a2, kx), rf_lanes_pick(a0, a1, a2, ky),
-                             rf_lanes_pick(a0, a1, a2, kz), rf_lanes_pick(b0, b1, b2, kx),
-                             rf_lanes_pick(b0, b1, b2, ky), rf_lanes_pick(b0, b1, b2, kz),
-                             rf_lanes_pick(c0, c1, c2, kx), rf_lanes_pick(c0, c1, c2, ky),
-                             rf_lanes_pick(c0, c1, c2, kz), r->sx[j], r->sy[j], r->sz[j], &t, &ev, &ew, &det);
+      ok =
+          rf_lanes_triangle(rf_lanes_pick(a0, a1, a2, kx), rf_lanes_pick(a0, a1, a2, ky), rf_lanes_pick(a0, a1, a2, kz),
+                            rf_lanes_pick(b0, b1, b2, kx), rf_lanes_pick(b0, b1, b2, ky), rf_lanes_pick(b0, b1, b2, kz),
+                            rf_lanes_pick(c0, c1, c2, kx), rf_lanes_pick(c0, c1, c2, ky), rf_lanes_pick(c0, c1, c2, kz),
+                            r->sx[j], r->sy[j], r->sz[j], &t, &ev, &ew, &det);
     }
     if (!rf_lanes_any(ok)) continue;
     const rf_vi positive = t > (rf_vf)(0.0f);
@@ -220,7 +220,7 @@ RF_INLINE int rf_tile_triangle(const RF_GLOBAL rf_tri* tri, rf_u32 ti, const rf_
  * its parent's (rf_types.h), so the lane groups before the first and after
  * the last that enter a node never need testing below it. */
 #define RF_RANGE(first, last) ((rf_u32)(first) | ((rf_u32)(last) << 8))
-#define RF_RANGE_FIRST(r) ((int)((r) & 0xFFu))
+#define RF_RANGE_FIRST(r) ((int)((r)&0xFFu))
 #define RF_RANGE_LAST(r) ((int)((r) >> 8))
 
 /* Pushes the children c and c + 1 that their whole-tile bounds tc did not
@@ -262,8 +262,7 @@ RF_INLINE rf_vf rf_tile_lane_entry(const float c0[3], const float c1[3], const r
 /* Narrows [*first, *last] from both ends to the lane groups that have a lane
  * entering the box; 0 when none has. */
 RF_INLINE int rf_tile_narrow(const float c0[3], const float c1[3], const rf_vf* ix, const rf_vf* iy, const rf_vf* iz,
-                             const rf_tile_hits* hits, rf_u32 groups, int* first, int* last,
-                             int stat RF_TSTAT_PARAM) {
+                             const rf_tile_hits* hits, rf_u32 groups, int* first, int* last, int stat RF_TSTAT_PARAM) {
   int f = *first, l = *last;
   while (f <= l && !rf_lanes_any(rf_tile_lane_box(c0, c1, ix, iy, iz, hits, groups, f))) ++f;
   RF_TSTAT(stat, f - *first + (f <= l));
@@ -356,8 +355,8 @@ RF_INLINE float rf_tile_group_bound(rf_u32 meta, const rf_tile_hits* hits) {
 
 /* Closest hit per group of every lane through the top-level tree. */
 RF_INLINE void rf_tile_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_tri* tris,
-                                  const RF_GLOBAL rf_instance* instances, rf_u32 tlas_root,
-                                  const rf_tile_camera* cam, rf_tile_ray* ro, rf_tile_hits* hits RF_TSTAT_PARAM) {
+                                  const RF_GLOBAL rf_instance* instances, rf_u32 tlas_root, const rf_tile_camera* cam,
+                                  rf_tile_ray* ro, rf_tile_hits* hits RF_TSTAT_PARAM) {
   rf_u32 stack_node[RF_STACK_SIZE];
   float stack_t[RF_STACK_SIZE];
   rf_u32 stack_range[RF_STACK_SIZE];
@@ -425,9 +424,8 @@ RF_INLINE void rf_tile_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBA
  * per-pixel normal, with its divisions and square root, costs as much as
  * the traversal when done one pixel at a time. */
 RF_INLINE void rf_tile_write_group(const RF_GLOBAL rf_u32* rays, rf_u32 begin, rf_u32 count, const rf_camera* cam,
-                                   const rf_tile_camera* tc, const rf_tile_hits* h, int g,
-                                   const RF_GLOBAL rf_tri* tris, const RF_GLOBAL rf_normal_xform* normal_xforms,
-                                   RF_GLOBAL rf_pixel_hit* out) {
+                                   const rf_tile_camera* tc, const rf_tile_hits* h, int g, const RF_GLOBAL rf_tri* tris,
+                                   const RF_GLOBAL rf_normal_xform* normal_xforms, RF_GLOBAL rf_pixel_hit* out) {
   rf_vf z[RF_LANE_GROUPS], nx[RF_LANE_GROUPS], ny[RF_LANE_GROUPS], nz[RF_LANE_GROUPS];
   for (int j = 0; j < RF_LANE_GROUPS; ++j) {
     const rf_vi hit = h->instance[j] != (rf_vu)(RF_INVALID);
@@ -506,9 +504,9 @@ RF_INLINE void rf_tile_write_group(const RF_GLOBAL rf_u32* rays, rf_u32 begin, r
     const int hit = is[l] != RF_INVALID;
     /* One 32-byte store per pixel (rf_pixel_hit's layout), as integers so
      * that the ids, NaN patterns as floats, never pass a float register. */
-    const uint8 px_hit = (uint8)(as_uint(zs[l]), as_uint(xs[l]), as_uint(ys[l]), as_uint(ws[l]),
-                                 as_uint(hit ? us[l] : 0.0f), as_uint(hit ? vs[l] : 0.0f), is[l],
-                                 hit ? ps[l] : RF_INVALID);
+    const uint8 px_hit =
+        (uint8)(as_uint(zs[l]), as_uint(xs[l]), as_uint(ys[l]), as_uint(ws[l]), as_uint(hit ? us[l] : 0.0f),
+                as_uint(hit ? vs[l] : 0.0f), is[l], hit ? ps[l] : RF_INVALID);
     vstore8(px_hit, 0, (RF_GLOBAL rf_u32*)&out[py * cam->width + px]);
   }
 }
@@ -561,7 +559,8 @@ RF_INLINE void rf_trace_tile(const RF_GLOBAL rf_u32* rays, rf_u32 begin, rf_u32 
   if (tlas_root != RF_INVALID) rf_tile_trace_tlas(nodes, tris, instances, tlas_root, &tc, ro, hits RF_TSTAT_ARG);
 
   for (int g = 0; g < RF_MAX_GROUPS; ++g) {
-    if ((tile_groups >> g) & 1u) rf_tile_write_group(rays, begin, count, cam, &tc, &hits[g], g, tris, normal_xforms, out);
+    if ((tile_groups >> g) & 1u)
+      rf_tile_write_group(rays, begin, count, cam, &tc, &hits[g], g, tris, normal_xforms, out);
   }
 }
 

@@ -10,8 +10,6 @@
 #include "rf_types.h"
 #endif
 
-/* Deepest traversal stack; the builders cap tree depth below it. */
-#define RF_STACK_SIZE 64
 /* Object-space rays kept per camera ray (a power of two). */
 #define RF_RAY_CACHE 8
 
@@ -52,8 +50,8 @@ RF_INLINE int rf_hit_is_closer(float t, rf_u32 instance, rf_u32 prim, const rf_h
 RF_INLINE float rf_hit_distance(float t, float leaf_entry) { return t < leaf_entry ? leaf_entry : t; }
 
 /* Closest hit of one object-space ray in one bottom-level tree. */
-RF_INLINE void rf_trace_blas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_tri* tris, rf_u32 root,
-                             const rf_ray* r, rf_u32 instance_id, rf_hit* best) {
+RF_INLINE void rf_trace_blas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_tri* tris, rf_u32 root, const rf_ray* r,
+                             rf_u32 instance_id, rf_hit* best) {
   rf_u32 stack_node[RF_STACK_SIZE];
   float stack_t[RF_STACK_SIZE];
   int sp = 0;

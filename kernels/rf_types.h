@@ -5,16 +5,16 @@
  * of two (only the depth written out scales), and so that the watertight
  * test's quadratic and cubic terms stay far from the float range:
  *  - tree space: a mesh's object space in units of 2^e, e chosen per mesh so
- *    that its largest coordinate lies in [1, 2) (host/blas.h);
+ *    that its largest coordinate lies in [1, 2) (host/bvh/blas.h);
  *  - trace space: camera space (eye at the origin, looking down -z) in units
  *    of 2^c, c chosen per frame from the eye's distance to the scene
- *    (host/frame.h). A trace-space t times |d| times depth_scale (2^c) is the
+ *    (host/fold/frame.h). A trace-space t times |d| times depth_scale (2^c) is the
  *    depth in world units.
  *
  * These structs are what the kernels read; the host's build-time trees
- * (host/bvh_build.h) are separate and are flattened into this layout.
+ * (host/bvh/bvh_build.h) are separate and are flattened into this layout.
  * Every field is 4 bytes and every struct a multiple of 4 bytes, so OpenCL C
- * and C++ agree on the layout without packing pragmas; host/device_layout.cpp
+ * and C++ agree on the layout without packing pragmas; host/device_layout.h
  * checks the sizes with static_assert.
  */
 #ifndef RF_TYPES_H
@@ -42,6 +42,10 @@ typedef struct {
   float bmax[3];
   rf_u32 meta;
 } rf_node;
+
+/* Deepest traversal stack of every kernel; the builders cap tree depth
+ * below it (host/bvh/bvh_flatten.cpp checks). */
+#define RF_STACK_SIZE 64
 
 #define RF_NODE_COUNT_MASK 0x00FFFFFFu
 #define RF_NODE_GROUP_SHIFT 24u
@@ -113,24 +117,23 @@ typedef struct {
 
 /* The ray list is ordered in tiles: the traced pixels of each 16x16 block of
  * the image, in 8x8 blocks (the single-ray kernel's work-groups) of 4x4
- * quads (a tile kernel vector of 8 rays is a 4x2 block, of 16 a 4x4 one). The tile table, one 4-byte entry per tile plus one,
- * gives tile t the entries [tiles[t], tiles[t + 1]) of the list: at most
- * RF_TILE_RAYS, fewer at the image border and the edges of the traced
- * region; empty tiles are left out. */
+ * quads (a tile kernel vector of 8 rays is a 4x2 block, of 16 a 4x4 one). The tile table, one 4-byte entry per tile
+ * plus one, gives tile t the entries [tiles[t], tiles[t + 1]) of the list: at most RF_TILE_RAYS, fewer at the image
+ * border and the edges of the traced region; empty tiles are left out. */
 #define RF_TILE_SIDE 16
 #define RF_TILE_RAYS (RF_TILE_SIDE * RF_TILE_SIDE)
 
 /* The tile kernel's traversal counters, a diagnostic (rayfold-stats): built
  * with RF_TILE_STATS, the kernel writes RF_TILE_STAT_COUNT 4-byte counters
  * per tile, in this order, to one more buffer. */
-#define RF_TILE_STAT_TLAS_NODES 0     /* top-level nodes popped and not skipped */
+#define RF_TILE_STAT_TLAS_NODES 0      /* top-level nodes popped and not skipped */
 #define RF_TILE_STAT_TLAS_LANE_BOXES 1 /* lane-group slab tests in the top level */
-#define RF_TILE_STAT_INSTANCES 2      /* instance subtrees entered */
-#define RF_TILE_STAT_SETUPS 3         /* object-space set-ups of the tile's rays */
-#define RF_TILE_STAT_BLAS_NODES 4     /* bottom-level nodes popped and not skipped */
+#define RF_TILE_STAT_INSTANCES 2       /* instance subtrees entered */
+#define RF_TILE_STAT_SETUPS 3          /* object-space set-ups of the tile's rays */
+#define RF_TILE_STAT_BLAS_NODES 4      /* bottom-level nodes popped and not skipped */
 #define RF_TILE_STAT_BLAS_LANE_BOXES 5 /* lane-group slab tests in the bottom level */
-#define RF_TILE_STAT_LEAVES 6         /* leaves with a lane group inside */
-#define RF_TILE_STAT_TRI_LANES 7      /* lane-group triangle tests */
+#define RF_TILE_STAT_LEAVES 6          /* leaves with a lane group inside */
+#define RF_TILE_STAT_TRI_LANES 7       /* lane-group triangle tests */
 #define RF_TILE_STAT_COUNT 8
 
 /* How pixel (x, y) becomes a trace-space ray, origin at the eye:

@@ -4,11 +4,11 @@
 
 #include <fstream>
 
-#include <glm/common.hpp>
 #include <gtest/gtest.h>
+#include <glm/common.hpp>
 
-#include "../host/errors.h"
-#include "../host/gltf_loader.h"
+#include "scene/gltf_loader.h"
+#include "util/errors.h"
 
 namespace rayfold::testing {
 

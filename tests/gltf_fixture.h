@@ -15,8 +15,10 @@ std::filesystem::path temp_dir();
 
 struct GltfFile {
   std::vector<unsigned char> bin;
-  nlohmann::json j = {{"asset", {{"version", "2.0"}}}, {"bufferViews", nlohmann::json::array()},
-                      {"accessors", nlohmann::json::array()}, {"meshes", nlohmann::json::array()},
+  nlohmann::json j = {{"asset", {{"version", "2.0"}}},
+                      {"bufferViews", nlohmann::json::array()},
+                      {"accessors", nlohmann::json::array()},
+                      {"meshes", nlohmann::json::array()},
                       {"nodes", nlohmann::json::array()}};
 
   // Appends bytes as a new buffer view (4-byte aligned); returns its index.

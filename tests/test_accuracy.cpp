@@ -3,11 +3,11 @@
 
 #include <filesystem>
 
-#include "../host/accuracy.h"
-#include "../host/double_reference.h"
-#include "../host/gltf_loader.h"
-#include "../host/renderer.h"
 #include "../tools/scene_gen.h"
+#include "reference/accuracy.h"
+#include "reference/double_reference.h"
+#include "renderer.h"
+#include "scene/gltf_loader.h"
 #include "test_util.h"
 
 namespace rayfold {
@@ -70,10 +70,11 @@ TEST(DoubleReference, FloatTracersAgainstReference) {
     Renderer r(scene, RendererOptions{});
     const auto ref = trace_double_reference(scene, r.scene_data(), cam);
     const Accuracy a = measure_accuracy(ref, r.render(cam).hits);
-    std::printf("exact float tracer vs double reference, %s: same triangle %.4f%%, hit/miss %.4f%%, relative "
-                "depth error median %.2e, p99 %.2e, max %.2e\n",
-                std::filesystem::path(path).filename().c_str(), 100 * a.same_hit, 100 * a.hit_miss, a.depth_median,
-                a.depth_p99, a.depth_max);
+    std::printf(
+        "exact float tracer vs double reference, %s: same triangle %.4f%%, hit/miss %.4f%%, relative "
+        "depth error median %.2e, p99 %.2e, max %.2e\n",
+        std::filesystem::path(path).filename().c_str(), 100 * a.same_hit, 100 * a.hit_miss, a.depth_median, a.depth_p99,
+        a.depth_max);
     EXPECT_GT(a.same_hit, 0.995) << path;
     EXPECT_LT(a.hit_miss, 0.001) << path;
     EXPECT_LT(a.depth_median, 1e-5) << path;

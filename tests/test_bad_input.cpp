@@ -6,13 +6,13 @@
 #include <cstring>
 #include <fstream>
 
-#include "../host/errors.h"
-#include "../host/gltf_loader.h"
-#include "../host/renderer.h"
 #include "../tools/gltf_writer.h"
 #include "../tools/scene_gen.h"
 #include "gltf_fixture.h"
+#include "renderer.h"
+#include "scene/gltf_loader.h"
 #include "test_util.h"
+#include "util/errors.h"
 
 namespace rayfold {
 namespace {
@@ -114,10 +114,10 @@ TEST(BadInput, Accessors) {
       {"index_stride", "byteStride", [](GltfFile& f) { f.j["bufferViews"][1]["byteStride"] = 4; }},
       {"odd_stride", "byteStride", [](GltfFile& f) { f.j["bufferViews"][0]["byteStride"] = 14; }},
       {"huge_stride", "", [](GltfFile& f) { f.j["bufferViews"][0]["byteStride"] = 256; }},
-      {"sparse", "", [](GltfFile& f) {
-         f.j["accessors"][0]["sparse"] = {{"count", 1},
-                                          {"indices", {{"bufferView", 1}, {"componentType", 5123}}},
-                                          {"values", {{"bufferView", 0}}}};
+      {"sparse", "",
+       [](GltfFile& f) {
+         f.j["accessors"][0]["sparse"] = {
+             {"count", 1}, {"indices", {{"bufferView", 1}, {"componentType", 5123}}}, {"values", {{"bufferView", 0}}}};
        }},
       {"position_ref", "", [](GltfFile& f) { f.j["meshes"][0]["primitives"][0]["attributes"]["POSITION"] = 7; }},
       {"index_ref", "", [](GltfFile& f) { f.j["meshes"][0]["primitives"][0]["indices"] = 7; }},
@@ -156,33 +156,55 @@ TEST(BadInput, Nodes) {
     std::function<void(GltfFile&)> edit;
   };
   const std::vector<Case> cases = {
-      {"self_cycle", "cycle", [](GltfFile& f) { f.j["nodes"][0]["children"] = {0}; f.j["scenes"] = {{{"nodes", {0}}}}; }},
-      {"long_cycle", "cycle", [](GltfFile& f) {
+      {"self_cycle", "cycle",
+       [](GltfFile& f) {
+         f.j["nodes"][0]["children"] = {0};
+         f.j["scenes"] = {{{"nodes", {0}}}};
+       }},
+      {"long_cycle", "cycle",
+       [](GltfFile& f) {
          f.j["nodes"][0]["children"] = {1};
          f.j["nodes"][1] = {{"children", {2}}};
          f.j["nodes"][2] = {{"children", {0}}};
          f.j["scenes"] = {{{"nodes", {0}}}};
        }},
-      {"two_parents", "more than one parent", [](GltfFile& f) {
+      {"two_parents", "more than one parent",
+       [](GltfFile& f) {
          f.j["nodes"][1] = {{"children", {0}}};
          f.j["nodes"][2] = {{"children", {0}}};
          f.j["scenes"] = {{{"nodes", {1, 2}}}};
        }},
       {"child_ref", "", [](GltfFile& f) { f.j["nodes"][0]["children"] = {42}; }},
-      {"scene_node_ref", "", [](GltfFile& f) { f.j["scenes"] = {{{"nodes", {42}}}}; }},
-      {"default_scene", "", [](GltfFile& f) { f.j["scenes"] = {{{"nodes", {0}}}}; f.j["scene"] = 3; }},
+      {"scene_node_ref", "",
+       [](GltfFile& f) {
+         f.j["scenes"] = {{{"nodes", {42}}}};
+       }},
+      {"default_scene", "",
+       [](GltfFile& f) {
+         f.j["scenes"] = {{{"nodes", {0}}}};
+         f.j["scene"] = 3;
+       }},
       {"mesh_ref", "mesh 5", [](GltfFile& f) { f.j["nodes"][0]["mesh"] = 5; }},
       {"camera_ref", "", [](GltfFile& f) { f.j["nodes"][0]["camera"] = 3; }},
-      {"matrix_and_trs", "both a matrix", [](GltfFile& f) {
+      {"matrix_and_trs", "both a matrix",
+       [](GltfFile& f) {
          f.j["nodes"][0]["matrix"] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
          f.j["nodes"][0]["translation"] = {1, 2, 3};
        }},
-      {"matrix_size", "", [](GltfFile& f) { f.j["nodes"][0]["matrix"] = {1, 0, 0}; }},
-      {"projective", "not affine", [](GltfFile& f) {
-         f.j["nodes"][0]["matrix"] = {1, 0, 0, 0.5, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+      {"matrix_size", "",
+       [](GltfFile& f) {
+         f.j["nodes"][0]["matrix"] = {1, 0, 0};
        }},
-      {"zero_quaternion", "", [](GltfFile& f) { f.j["nodes"][0]["rotation"] = {0, 0, 0, 0}; }},
-      {"scale_size", "", [](GltfFile& f) { f.j["nodes"][0]["scale"] = {1, 2}; }},
+      {"projective", "not affine",
+       [](GltfFile& f) { f.j["nodes"][0]["matrix"] = {1, 0, 0, 0.5, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1}; }},
+      {"zero_quaternion", "",
+       [](GltfFile& f) {
+         f.j["nodes"][0]["rotation"] = {0, 0, 0, 0};
+       }},
+      {"scale_size", "",
+       [](GltfFile& f) {
+         f.j["nodes"][0]["scale"] = {1, 2};
+       }},
   };
   for (const Case& c : cases) {
     SCOPED_TRACE(c.name);

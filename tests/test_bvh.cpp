@@ -7,11 +7,11 @@
 
 #include <glm/gtc/matrix_transform.hpp>
 
-#include "../host/bvh_build.h"
-#include "../host/cpu_tracer.h"
-#include "../host/ray_list.h"
-#include "../host/renderer.h"
-#include "../kernels/rf_trace.h"
+#include "bvh/bvh_build.h"
+#include "fold/ray_list.h"
+#include "reference/cpu_tracer.h"
+#include "renderer.h"
+#include "rf_trace.h"
 #include "test_util.h"
 
 namespace rayfold {

@@ -8,8 +8,8 @@
 #include <filesystem>
 #include <fstream>
 
-#include "../host/image_output.h"
 #include "test_util.h"
+#include "util/image_output.h"
 
 namespace rayfold {
 namespace {
@@ -47,8 +47,8 @@ TEST(Cli, KernelChoiceIsReportedAndBothKernelsWriteTheSameFile) {
   for (const char* kernel : {"tile", "single"}) {
     const std::string exr = (d / (std::string(kernel) + ".exr")).string();
     const std::string json = (d / (std::string(kernel) + ".json")).string();
-    const CliRun r = rayfold(std::string("render --size 65x37 --fold xy --kernel ") + kernel + " -o " + exr +
-                             " --stats " + json);
+    const CliRun r =
+        rayfold(std::string("render --size 65x37 --fold xy --kernel ") + kernel + " -o " + exr + " --stats " + json);
     ASSERT_EQ(r.code, 0) << r.err;
     EXPECT_NE(r.out.find(std::string("kernel       ") + kernel), std::string::npos) << r.out;
     std::ifstream js(json);
@@ -135,10 +135,10 @@ TEST(Cli, BenchPrintsBothTablesAndWritesReports) {
 }
 
 TEST(Cli, UsageErrorsExitTwoWithAMessage) {
-  for (const char* args : {"render --size 0x10", "render --size -5x10", "render --size 10", "render --bogus",
-                           "render --eye 0,0,0", "render --eye 0,0,0 --look-at 0,1,0 --up 0,2,0",
-                           "render --vfov 180", "render --frames 0", "frobnicate", "info", "render --fold z",
-                           "render --shift 1", "render --shift 1e9,0", "bench --views 0", "bench --bogus"}) {
+  for (const char* args :
+       {"render --size 0x10", "render --size -5x10", "render --size 10", "render --bogus", "render --eye 0,0,0",
+        "render --eye 0,0,0 --look-at 0,1,0 --up 0,2,0", "render --vfov 180", "render --frames 0", "frobnicate", "info",
+        "render --fold z", "render --shift 1", "render --shift 1e9,0", "bench --views 0", "bench --bogus"}) {
     const CliRun r = rayfold(args);
     EXPECT_EQ(r.code, 2) << args << "\n" << r.err;
     EXPECT_EQ(r.err.rfind("error: ", 0), 0u) << args << ": " << r.err;

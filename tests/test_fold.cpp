@@ -6,10 +6,10 @@
 
 #include <filesystem>
 
-#include "../host/gltf_loader.h"
-#include "../host/ray_list.h"
-#include "../host/renderer.h"
 #include "../tools/scene_gen.h"
+#include "fold/ray_list.h"
+#include "renderer.h"
+#include "scene/gltf_loader.h"
 #include "test_util.h"
 
 namespace rayfold {
@@ -154,8 +154,8 @@ TEST(Fold, RandomMirroredSoupsAgainstBruteForce) {
     const Scene scene = testing::random_scene(rng, 2, 12, 150);
     Renderer r(scene, backend(Backend::cpu));
     for (int v = 0; v < 6; ++v) {
-      const Camera cam = make_camera(testing::random_camera(rng, scene.world_bounds()), 33 + v, 24 + v,
-                                     v % 2 ? 0.3 : 0.0, 0.0);
+      const Camera cam =
+          make_camera(testing::random_camera(rng, scene.world_bounds()), 33 + v, 24 + v, v % 2 ? 0.3 : 0.0, 0.0);
       const std::vector<rf_pixel_hit> expected = testing::brute_force(scene, r.scene_data(), cam);
       for (FoldMode f : kFolds)
         EXPECT_EQ(testing::compare_hits(expected, r.render(cam, 1, with_fold(f)).hits, cam.width), "")

@@ -6,9 +6,9 @@
 #include <cmath>
 #include <cstring>
 
-#include "../host/kernel_sources.h"
-#include "../kernels/rf_trace.h"
-#include "../kernels/rf_types.h"
+#include "opencl/kernel_sources.h"
+#include "rf_trace.h"
+#include "rf_types.h"
 #include "test_util.h"
 
 namespace rayfold {
@@ -28,8 +28,8 @@ class KernelUnits : public ::testing::Test {
 
   template <class T>
   cl::Buffer in(const std::vector<T>& v) {
-    return cl::Buffer(testing::test_device().context(), CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,
-                      v.size() * sizeof(T), const_cast<T*>(v.data()));
+    return cl::Buffer(testing::test_device().context(), CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, v.size() * sizeof(T),
+                      const_cast<T*>(v.data()));
   }
   cl::Buffer out(size_t floats) {
     return cl::Buffer(testing::test_device().context(), CL_MEM_WRITE_ONLY, floats * sizeof(float));
@@ -52,10 +52,16 @@ class KernelUnits : public ::testing::Test {
       for (int k = 0; k < 6; ++k) r[6 * i + k] = rng.uniformf(-2, 2);
       switch (i % 8) {
         case 0: r[6 * i + 3] = 0.0f; break;
-        case 1: r[6 * i + 4] = -0.0f; r[6 * i + 5] = 0.0f; break;
+        case 1:
+          r[6 * i + 4] = -0.0f;
+          r[6 * i + 5] = 0.0f;
+          break;
         case 2: r[6 * i + 3] = 1e-35f; break;
         case 3: r[6 * i + 5] = 1e20f; break;
-        case 4: r[6 * i + 3] = r[6 * i + 4]; r[6 * i + 5] = r[6 * i + 4]; break;  // |dx|=|dy|=|dz| tie
+        case 4:
+          r[6 * i + 3] = r[6 * i + 4];
+          r[6 * i + 5] = r[6 * i + 4];
+          break;  // |dx|=|dy|=|dz| tie
         default: break;
       }
     }
@@ -139,7 +145,7 @@ TEST_F(KernelUnits, RayTriangle) {
       t.v2[k] = rng.uniformf(-1, 1);
     }
     if (i % 10 == 0) std::memcpy(t.v2, t.v1, sizeof t.v1);  // zero area
-    if (i % 10 == 1) {                                       // aim at a vertex exactly
+    if (i % 10 == 1) {                                      // aim at a vertex exactly
       for (int k = 0; k < 3; ++k) r[6 * i + 3 + k] = t.v0[k] - r[6 * i + k];
     }
     if (i % 10 == 2) {  // aim through the middle of edge v0-v1
@@ -200,7 +206,6 @@ TEST_F(KernelUnits, GeometricNormal) {
   }
   expect_bits_equal(host, run("ut_normal", {in(tris), in(xf), out(3 * n)}, n, 3 * n), "rf_geometric_normal");
 }
-
 
 // Tiles for the tile kernel's pieces: per case a 3x4 tree_from_trace and
 // RF_TILE_RAYS camera-space directions (dx, dy; dz = -1). Even cases are
@@ -307,8 +312,7 @@ TEST_F(KernelUnits, TileLaneBoxEqualsScalarBoxTest) {
   EXPECT_GT(pass, host.size() / 20);
   EXPECT_LT(pass, host.size() - host.size() / 20);
   expect_bits_equal(host,
-                    run("ut_tile_box", {in(boxes), in(c.xf), in(c.dirs), in(tmax), out(host.size())}, c.n,
-                        host.size()),
+                    run("ut_tile_box", {in(boxes), in(c.xf), in(c.dirs), in(tmax), out(host.size())}, c.n, host.size()),
                     "rf_lanes_box and rf_lanes_box_entry");
 }
 

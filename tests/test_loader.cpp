@@ -11,21 +11,21 @@
 #include <glm/gtc/matrix_transform.hpp>
 #include <nlohmann/json.hpp>
 
-#include "../host/errors.h"
-#include "../host/gltf_loader.h"
-#include "../host/renderer.h"
 #include "../tools/gltf_writer.h"
 #include "../tools/scene_gen.h"
 #include "gltf_fixture.h"
+#include "renderer.h"
+#include "scene/gltf_loader.h"
 #include "test_util.h"
+#include "util/errors.h"
 
 namespace rayfold {
 namespace {
 
 namespace fs = std::filesystem;
 using nlohmann::json;
-using testing::GltfFile;
 using testing::expect_error;
+using testing::GltfFile;
 using testing::mesh;
 using testing::node_with_mesh;
 using testing::prim;
@@ -194,7 +194,7 @@ TEST(Loader, SharedScenes) {
   const std::string dir = testing::shared_scenes_dir();
   if (dir.empty()) GTEST_SKIP() << "../shared/scenes not found (set RAYFOLD_SCENES_DIR); real scenes not tested";
   const std::map<std::string, std::pair<size_t, size_t>> expected = {
-      {"conference.glb", {331179, 41}},     {"lost_empire.glb", {224998, 45}}, {"sports_car.glb", {300603, 1075}},
+      {"conference.glb", {331179, 41}},     {"lost_empire.glb", {224998, 45}},    {"sports_car.glb", {300603, 1075}},
       {"dabrovic_sponza.glb", {66447, 33}}, {"stanford_dragon.glb", {871414, 1}}, {"armadillo.glb", {345944, 1}},
   };
   int found = 0;

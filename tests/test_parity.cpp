@@ -5,9 +5,9 @@
 
 #include <filesystem>
 
-#include "../host/gltf_loader.h"
-#include "../host/renderer.h"
 #include "../tools/scene_gen.h"
+#include "renderer.h"
+#include "scene/gltf_loader.h"
 #include "test_util.h"
 
 namespace rayfold {

@@ -12,11 +12,11 @@
 
 #include <glm/gtc/matrix_transform.hpp>
 
-#include "../host/errors.h"
-#include "../host/gltf_loader.h"
-#include "../host/ray_list.h"
-#include "../host/renderer.h"
+#include "fold/ray_list.h"
+#include "renderer.h"
+#include "scene/gltf_loader.h"
 #include "test_util.h"
+#include "util/errors.h"
 
 namespace rayfold {
 namespace {
@@ -213,7 +213,7 @@ TEST(Scale, MixedScalesInOneScene) {
   // them. Both are seen, losslessly in every kernel and fold mode.
   Scene s;
   s.meshes.push_back(testing::closed_cube(2));
-  s.instances.push_back({0, uniform_scale(100), "background"});                    // [-2^100, 2^100]^3
+  s.instances.push_back({0, uniform_scale(100), "background"});                                // [-2^100, 2^100]^3
   Xform tiny = glm::translate(Xform(1.0), glm::dvec3(0.0, 0.0, -3e-20)) * uniform_scale(-67);  // 1.4e-20
   s.instances.push_back({0, tiny, "tiny"});
   CameraSpec spec;
@@ -247,7 +247,7 @@ TEST(Scale, BeyondTheFloatRangeIsRefusedOrReported) {
   }
   CameraSpec far;
   far.eye = {0x1p127, 0.0, 0.0};
-  EXPECT_THROW(make_camera(far, 8, 8), UsageError);
+  EXPECT_THROW(make_camera(far, 8, 8), InputError);
 
   Scene mixed;
   mixed.meshes.push_back(testing::closed_cube(1));

@@ -6,9 +6,9 @@
 #include <filesystem>
 #include <fstream>
 
-#include "../host/gltf_loader.h"
 #include "../tools/gltf_writer.h"
 #include "../tools/scene_gen.h"
+#include "scene/gltf_loader.h"
 
 namespace rayfold {
 namespace {

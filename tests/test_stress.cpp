@@ -12,8 +12,8 @@
 
 #include <glm/gtc/matrix_transform.hpp>
 
-#include "../host/gltf_loader.h"
-#include "../host/renderer.h"
+#include "renderer.h"
+#include "scene/gltf_loader.h"
 #include "test_util.h"
 
 namespace rayfold {
@@ -127,7 +127,8 @@ TEST(Stress, ZeroAreaTrianglesNeverHit) {
 TEST(Stress, ExtremeImageShapesAndFieldsOfView) {
   const Scene scene = load_gltf(std::string(RAYFOLD_SOURCE_DIR) + "/scenes/atrium.glb");
   for (auto [w, h] : std::vector<std::pair<int, int>>{{1, 4096}, {4096, 1}, {4097, 3}}) {
-    const auto hits = render_everywhere(scene, make_camera(*scene.camera, w, h), std::to_string(w) + "x" + std::to_string(h));
+    const auto hits =
+        render_everywhere(scene, make_camera(*scene.camera, w, h), std::to_string(w) + "x" + std::to_string(h));
     EXPECT_GT(count_hits(hits), hits.size() / 2);
   }
   for (double fov : {0.001, 0.5, 179.0, 179.999}) {
@@ -202,8 +203,7 @@ TEST(Exactness, FarFromTheOriginAndTiny) {
     }
     const auto baked_hits = render_everywhere(baked, make_camera(spec, 160, 90), "offset vertices");
     const double baked_share = same_hit_share(ref, baked_hits);
-    std::printf("offset %.0e in vertex positions: %.4f%% of pixels hit the same triangle\n", offset,
-                100 * baked_share);
+    std::printf("offset %.0e in vertex positions: %.4f%% of pixels hit the same triangle\n", offset, 100 * baked_share);
     if (offset <= 1e5) {
       EXPECT_GT(baked_share, 0.95);
     }
@@ -288,11 +288,12 @@ TEST(Exactness, FastBuildAgainstExact) {
       for (size_t i = 0; i < folded.size(); ++i)
         fold_diff += std::memcmp(&folded[i], &fast_none[i], sizeof(rf_pixel_hit)) != 0;
     }
-    std::printf("fast build, %s: %.3f%% of pixels differ in some bit; same triangle %.4f%%; hit/miss "
-                "disagreements %.4f%%; relative depth error median %.2e, max %.2e; fast folded vs fast "
-                "unfolded: %zu differing pixels over 3 modes\n",
-                std::filesystem::path(path).filename().c_str(), 100.0 * a.differing / exact.size(),
-                100 * a.same_hit, 100 * a.hit_miss, a.median_rel_depth, a.max_rel_depth, fold_diff);
+    std::printf(
+        "fast build, %s: %.3f%% of pixels differ in some bit; same triangle %.4f%%; hit/miss "
+        "disagreements %.4f%%; relative depth error median %.2e, max %.2e; fast folded vs fast "
+        "unfolded: %zu differing pixels over 3 modes\n",
+        std::filesystem::path(path).filename().c_str(), 100.0 * a.differing / exact.size(), 100 * a.same_hit,
+        100 * a.hit_miss, a.median_rel_depth, a.max_rel_depth, fold_diff);
     EXPECT_GT(a.same_hit, 0.98) << path;
     EXPECT_LT(a.hit_miss, 0.01) << path;
   }

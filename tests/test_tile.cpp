@@ -10,10 +10,10 @@
 
 #include <glm/gtc/matrix_transform.hpp>
 
-#include "../host/gltf_loader.h"
-#include "../kernels/rf_trace.h"
-#include "../host/renderer.h"
 #include "../tools/scene_gen.h"
+#include "renderer.h"
+#include "rf_trace.h"
+#include "scene/gltf_loader.h"
 #include "test_util.h"
 
 namespace rayfold {
@@ -140,7 +140,8 @@ TEST(TileKernel, RandomCamerasOverGeneratedScenes) {
     Scene scene = testing::generated_atrium(700 + s, 25 + 60 * s, 15000);
     // Mirrored instances too (every fifth, in object space: winding flips).
     for (size_t i = 0; i < scene.instances.size(); i += 5)
-      scene.instances[i].world_from_object = scene.instances[i].world_from_object * glm::scale(Xform(1.0), glm::dvec3(-1, 1, 1));
+      scene.instances[i].world_from_object =
+          scene.instances[i].world_from_object * glm::scale(Xform(1.0), glm::dvec3(-1, 1, 1));
     ThreeWays r(scene);
     for (int v = 0; v < 34; ++v, ++cameras) {
       CameraSpec spec = testing::random_camera(rng, scene.world_bounds());

@@ -4,7 +4,7 @@
 
 #include <glm/gtc/matrix_transform.hpp>
 
-#include "../host/transform.h"
+#include "scene/transform.h"
 #include "test_util.h"
 
 namespace rayfold {

@@ -4,14 +4,14 @@
 #include <cstring>
 #include <filesystem>
 #include <map>
-#include <tuple>
 #include <sstream>
+#include <tuple>
 
 #include <glm/gtc/matrix_transform.hpp>
 
-#include "../host/gltf_loader.h"
-#include "../kernels/rf_trace.h"
 #include "../tools/scene_gen.h"
+#include "rf_trace.h"
+#include "scene/gltf_loader.h"
 
 namespace rayfold::testing {
 
@@ -98,10 +98,10 @@ std::string compare_hits(const std::vector<rf_pixel_hit>& expected, const std::v
     if (bad++ == 0) {
       const rf_pixel_hit &e = expected[i], &a = actual[i];
       first.precision(9);
-      first << "pixel (" << i % width << ", " << i / width << "): expected z=" << e.z << " n=(" << e.nx << ","
-            << e.ny << "," << e.nz << ") uv=(" << e.u << "," << e.v << ") inst=" << e.instance
-            << " prim=" << e.primitive << "; got z=" << a.z << " n=(" << a.nx << "," << a.ny << "," << a.nz
-            << ") uv=(" << a.u << "," << a.v << ") inst=" << a.instance << " prim=" << a.primitive;
+      first << "pixel (" << i % width << ", " << i / width << "): expected z=" << e.z << " n=(" << e.nx << "," << e.ny
+            << "," << e.nz << ") uv=(" << e.u << "," << e.v << ") inst=" << e.instance << " prim=" << e.primitive
+            << "; got z=" << a.z << " n=(" << a.nx << "," << a.ny << "," << a.nz << ") uv=(" << a.u << "," << a.v
+            << ") inst=" << a.instance << " prim=" << a.primitive;
     }
   }
   if (bad == 0) return "";
@@ -224,12 +224,9 @@ void move_eye_inside_an_instance(Rng& rng, const Scene& scene, CameraSpec& spec)
 
 const std::vector<SharedView>& shared_views() {
   static const std::vector<SharedView> views = {
-      {"dabrovic_sponza.glb", {0, 3, 0}, {10, 3, 0}},
-      {"conference.glb", {330, 300, -300}, {1000, 200, 0}},
-      {"sports_car.glb", {1.8, 0.9, 2.2}, {0, 0.45, 0}},
-      {"stanford_dragon.glb", {0, 0.13, 0.22}, {0, 0.12, 0}},
-      {"armadillo.glb", {0, 20, 170}, {0, 20, 0}},
-      {"lost_empire.glb", {-10, 20, 40}, {10, 10, 0}},
+      {"dabrovic_sponza.glb", {0, 3, 0}, {10, 3, 0}},    {"conference.glb", {330, 300, -300}, {1000, 200, 0}},
+      {"sports_car.glb", {1.8, 0.9, 2.2}, {0, 0.45, 0}}, {"stanford_dragon.glb", {0, 0.13, 0.22}, {0, 0.12, 0}},
+      {"armadillo.glb", {0, 20, 170}, {0, 20, 0}},       {"lost_empire.glb", {-10, 20, 40}, {10, 10, 0}},
   };
   return views;
 }
@@ -274,8 +271,10 @@ Mesh closed_cube(int n) {
             return vertex(c[0], c[1], c[2]);
           };
           const uint32_t v00 = at(0, 0), v10 = at(1, 0), v11 = at(1, 1), v01 = at(0, 1);
-          if ((a + b) % 2) m.indices.insert(m.indices.end(), {v00, v10, v11, v00, v11, v01});
-          else m.indices.insert(m.indices.end(), {v00, v10, v01, v10, v11, v01});
+          if ((a + b) % 2)
+            m.indices.insert(m.indices.end(), {v00, v10, v11, v00, v11, v01});
+          else
+            m.indices.insert(m.indices.end(), {v00, v10, v01, v10, v11, v01});
         }
   return m;
 }

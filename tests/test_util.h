@@ -8,12 +8,12 @@
 #include <string>
 #include <vector>
 
-#include "../host/camera.h"
-#include "../host/cl_device.h"
-#include "../host/device_layout.h"
-#include "../host/frame.h"
-#include "../host/renderer.h"
-#include "../host/scene.h"
+#include "device_layout.h"
+#include "fold/frame.h"
+#include "opencl/cl_device.h"
+#include "renderer.h"
+#include "scene/camera.h"
+#include "scene/scene.h"
 
 namespace rayfold::testing {
 
@@ -36,8 +36,7 @@ std::vector<rf_pixel_hit> brute_force(const Scene& scene, const SceneData& data,
 
 // "" when equal bit for bit, else a description of the first difference and
 // the number of differing pixels.
-std::string compare_hits(const std::vector<rf_pixel_hit>& expected, const std::vector<rf_pixel_hit>& actual,
-                         int width);
+std::string compare_hits(const std::vector<rf_pixel_hit>& expected, const std::vector<rf_pixel_hit>& actual, int width);
 
 // A camera somewhere in or around the bounds, looking anywhere, with roll;
 // sometimes along an axis, sometimes from inside an object's box.

@@ -9,10 +9,10 @@
 #include <glm/gtc/matrix_transform.hpp>
 #include <nlohmann/json.hpp>
 
-#include "../host/errors.h"
-#include "../host/gltf_loader.h"
-#include "../host/hit_compare.h"
-#include "../host/parallel.h"
+#include "reference/hit_compare.h"
+#include "scene/gltf_loader.h"
+#include "util/errors.h"
+#include "util/parallel.h"
 
 namespace rayfold {
 namespace {
@@ -23,17 +23,20 @@ struct Method {
   bool cull;
 };
 const Method kMethods[] = {
-    {"none (no culling)", FoldMode::none, false}, {"none", FoldMode::none, true}, {"y", FoldMode::y, true},
-    {"x", FoldMode::x, true},                     {"xy", FoldMode::xy, true},
+    {"none (no culling)", FoldMode::none, false},
+    {"none", FoldMode::none, true},
+    {"y", FoldMode::y, true},
+    {"x", FoldMode::x, true},
+    {"xy", FoldMode::xy, true},
 };
 
 // Bytes a frame uses on the device: the scene (BLAS nodes, triangles, normal
 // matrices), the frame (TLAS nodes, instances), the ray list and the hits.
 double frame_bytes(const SceneData& data, const RenderResult& r, size_t pixels) {
   return static_cast<double>(data.blas.nodes.size() * sizeof(rf_node) + data.blas.tris.size() * sizeof(rf_tri) +
-                             data.normal_xforms.size() * sizeof(rf_normal_xform) +
-                             r.tlas_nodes * sizeof(rf_node) + r.instances * sizeof(rf_instance) +
-                             r.rays * sizeof(uint32_t) + pixels * sizeof(rf_pixel_hit));
+                             data.normal_xforms.size() * sizeof(rf_normal_xform) + r.tlas_nodes * sizeof(rf_node) +
+                             r.instances * sizeof(rf_instance) + r.rays * sizeof(uint32_t) +
+                             pixels * sizeof(rf_pixel_hit));
 }
 
 std::string fmt(const char* f, double v) {

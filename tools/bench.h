@@ -10,8 +10,8 @@
 
 #include <glm/vec3.hpp>
 
-#include "../host/renderer.h"
 #include "cli_args.h"
+#include "renderer.h"
 
 namespace rayfold {
 
@@ -20,9 +20,9 @@ namespace rayfold {
 struct ViewPath {
   std::string scene;
   int width = 1280, height = 720;
-  int views = 8;   // cameras on a short path through the scene
-  int frames = 5;  // measured frames per view and method
-  int warmup = 1;  // frames per view and method before measuring
+  int views = 8;                           // cameras on a short path through the scene
+  int frames = 5;                          // measured frames per view and method
+  int warmup = 1;                          // frames per view and method before measuring
   std::optional<glm::dvec3> eye, look_at;  // base view; default the file's camera
 };
 
@@ -37,10 +37,10 @@ struct BenchRow {
   bool cull = true;
   double render_ms = 0.0;  // T: ray list + trace + readback, mean over views of per-view medians
   double trace_ms = 0.0;
-  double update_ms = 0.0;  // culling + TLAS build + upload
-  double memory_bytes = 0.0;  // M: the largest over views of the bytes the frame uses on the device
-  double rays = 0.0;          // traced per frame, mean over views
-  double instances = 0.0;     // in the TLAS, mean over views
+  double update_ms = 0.0;        // culling + TLAS build + upload
+  double memory_bytes = 0.0;     // M: the largest over views of the bytes the frame uses on the device
+  double rays = 0.0;             // traced per frame, mean over views
+  double instances = 0.0;        // in the TLAS, mean over views
   size_t mismatched_pixels = 0;  // against the unfolded image, over all views
 };
 

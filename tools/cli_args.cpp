@@ -6,7 +6,7 @@
 #include <cstdlib>
 #include <new>
 
-#include "../host/errors.h"
+#include "util/errors.h"
 
 namespace rayfold::cli {
 
@@ -41,10 +41,10 @@ int parse_int(const std::string& option, const std::string& text, int lo, int hi
   char* end = nullptr;
   errno = 0;
   const long v = std::strtol(text.c_str(), &end, 10);
-  if (text.empty() || *end != '\0' || errno == ERANGE)
-    throw UsageError(option + ": '" + text + "' is not an integer");
+  if (text.empty() || *end != '\0' || errno == ERANGE) throw UsageError(option + ": '" + text + "' is not an integer");
   if (v < lo || v > hi)
-    throw UsageError(option + ": " + text + " is out of range (" + std::to_string(lo) + ".." + std::to_string(hi) + ")");
+    throw UsageError(option + ": " + text + " is out of range (" + std::to_string(lo) + ".." + std::to_string(hi) +
+                     ")");
   return static_cast<int>(v);
 }
 
@@ -61,12 +61,19 @@ glm::dvec3 parse_vec3(const std::string& option, const std::string& text) {
   size_t start = 0;
   for (int k = 0; k < 3; ++k) {
     const size_t comma = text.find(',', start);
-    if ((k < 2) != (comma != std::string::npos))
-      throw UsageError(option + ": '" + text + "' is not X,Y,Z");
+    if ((k < 2) != (comma != std::string::npos)) throw UsageError(option + ": '" + text + "' is not X,Y,Z");
     v[k] = parse_double(option, text.substr(start, k < 2 ? comma - start : std::string::npos));
     start = comma + 1;
   }
   return v;
+}
+
+FoldMode parse_fold(const std::string& option, const std::string& text) {
+  if (text == "none") return FoldMode::none;
+  if (text == "y") return FoldMode::y;
+  if (text == "x") return FoldMode::x;
+  if (text == "xy" || text == "yx") return FoldMode::xy;
+  throw UsageError(option + ": '" + text + "' is not none, y, x or xy");
 }
 
 void parse_size(const std::string& option, const std::string& text, int* width, int* height) {

@@ -8,6 +8,8 @@
 
 #include <glm/vec3.hpp>
 
+#include "fold/fold.h"
+
 namespace rayfold::cli {
 
 class Args {
@@ -33,5 +35,7 @@ int parse_int(const std::string& option, const std::string& text, int lo, int hi
 double parse_double(const std::string& option, const std::string& text);
 glm::dvec3 parse_vec3(const std::string& option, const std::string& text);
 void parse_size(const std::string& option, const std::string& text, int* width, int* height);
+// none, y, x or xy (yx too).
+FoldMode parse_fold(const std::string& option, const std::string& text);
 
 }  // namespace rayfold::cli

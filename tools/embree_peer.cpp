@@ -1,7 +1,8 @@
 #include "embree_peer.h"
 
-#include "../host/errors.h"
-#include "../host/parallel.h"
+#include "util/errors.h"
+#include "util/parallel.h"
+#include "util/timer.h"
 
 #ifdef RAYFOLD_HAVE_EMBREE
 #include <embree3/rtcore.h>
@@ -22,8 +23,8 @@ struct EmbreePeer::Impl {
   std::vector<RTCScene> meshes;
   std::vector<RTCGeometry> instances;  // per scene instance, null when hidden
   Camera camera;
-  float eye[3] = {0, 0, 0};        // world space, for the flat scene
-  float world_dir[3][3] = {};      // world_from_camera's linear part, row-major
+  float eye[3] = {0, 0, 0};    // world space, for the flat scene
+  float world_dir[3][3] = {};  // world_from_camera's linear part, row-major
 
   Impl(const Scene& s, const SceneData& d, unsigned t) : scene(s), data(d), threads(t) {
     const std::string config = "threads=" + std::to_string(threads);
@@ -32,8 +33,8 @@ struct EmbreePeer::Impl {
     for (const Mesh& m : scene.meshes) {
       RTCScene ms = rtcNewScene(device);
       RTCGeometry g = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
-      auto* vb = static_cast<float*>(
-          rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), m.positions.size()));
+      auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
+                                                             3 * sizeof(float), m.positions.size()));
       auto* ib = static_cast<unsigned*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
                                                                 3 * sizeof(unsigned), m.triangle_count()));
       for (size_t i = 0; i < m.positions.size(); ++i)
@@ -63,8 +64,8 @@ struct EmbreePeer::Impl {
       const Mesh& m = scene.meshes[scene.instances[i].mesh];
       const Xform& w = scene.instances[i].world_from_object;
       RTCGeometry g = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
-      auto* vb = static_cast<float*>(
-          rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), m.positions.size()));
+      auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
+                                                             3 * sizeof(float), m.positions.size()));
       auto* ib = static_cast<unsigned*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
                                                                 3 * sizeof(unsigned), m.triangle_count()));
       for (size_t v = 0; v < m.positions.size(); ++v) {
@@ -115,8 +116,8 @@ struct EmbreePeer::Impl {
     direction(x, y, cam_d);
     for (int r = 0; r < 3; ++r) {
       o[r] = flat_scene ? eye[r] : 0.0f;
-      d[r] = flat_scene ? world_dir[r][0] * cam_d[0] + world_dir[r][1] * cam_d[1] + world_dir[r][2] * cam_d[2]
-                        : cam_d[r];
+      d[r] =
+          flat_scene ? world_dir[r][0] * cam_d[0] + world_dir[r][1] * cam_d[1] + world_dir[r][2] * cam_d[2] : cam_d[r];
     }
   }
 
@@ -144,9 +145,9 @@ struct EmbreePeer::Impl {
 
   template <class Tile>
   double run(Tile tile, int tiles) {
-    const auto t0 = std::chrono::steady_clock::now();
+    const auto t0 = Clock::now();
     parallel_for(static_cast<size_t>(tiles), threads, 1, [&](size_t i, size_t) { tile(static_cast<int>(i)); });
-    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    return ms_since(t0);
   }
 };
 

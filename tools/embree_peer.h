@@ -13,9 +13,9 @@
 #include <string>
 #include <vector>
 
-#include "../host/camera.h"
-#include "../host/frame.h"
-#include "../host/scene.h"
+#include "fold/frame.h"
+#include "scene/camera.h"
+#include "scene/scene.h"
 
 namespace rayfold {
 

@@ -3,10 +3,10 @@
 #include <cstdio>
 #include <string>
 
-#include "../host/errors.h"
 #include "cli_args.h"
 #include "gltf_writer.h"
 #include "scene_gen.h"
+#include "util/errors.h"
 
 int main(int argc, char** argv) {
   using namespace rayfold;

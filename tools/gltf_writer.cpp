@@ -2,12 +2,12 @@
 
 #include <cstring>
 
+#include <tiny_gltf.h>
 #include <glm/geometric.hpp>
 #include <glm/gtc/quaternion.hpp>
-#include <tiny_gltf.h>
 
-#include "../host/atomic_file.h"
-#include "../host/errors.h"
+#include "util/atomic_file.h"
+#include "util/errors.h"
 
 namespace rayfold {
 namespace {
@@ -58,7 +58,8 @@ void write_glb(const Scene& scene, const std::string& path) {
       idx.bufferView = add_view(model, small.data(), small.size() * 2, TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER);
       idx.componentType = TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT;
     } else {
-      idx.bufferView = add_view(model, mesh.indices.data(), mesh.indices.size() * 4, TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER);
+      idx.bufferView =
+          add_view(model, mesh.indices.data(), mesh.indices.size() * 4, TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER);
       idx.componentType = TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT;
     }
     model.accessors.push_back(idx);

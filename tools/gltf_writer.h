@@ -5,7 +5,7 @@
 
 #include <string>
 
-#include "../host/scene.h"
+#include "scene/scene.h"
 
 namespace rayfold {
 

@@ -15,13 +15,13 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
-#include "../host/atomic_file.h"
-#include "../host/double_reference.h"
-#include "../host/errors.h"
-#include "../host/renderer.h"
 #include "cli_args.h"
 #include "embree_peer.h"
+#include "reference/double_reference.h"
+#include "renderer.h"
 #include "scene_gen.h"
+#include "util/atomic_file.h"
+#include "util/errors.h"
 
 namespace rayfold {
 namespace {
@@ -145,8 +145,9 @@ int run(int width, int height, const std::string& md) {
                 height, EmbreePeer::available() ? "3 (rtcIntersect1)" : "(not built)");
   out += line;
   out += "## Scaled by 2^k (scene and camera): hits kept, and rayfold bit for bit\n\n";
-  out += "| k | rayfold hits | rayfold bits (depth x 2^k) | Embree flat hits | Embree flat same triangle | "
-         "Embree instanced hits |\n|---|---|---|---|---|---|\n";
+  out +=
+      "| k | rayfold hits | rayfold bits (depth x 2^k) | Embree flat hits | Embree flat same triangle | "
+      "Embree instanced hits |\n|---|---|---|---|---|---|\n";
   bool valid = true;
   for (int k : {-140, -120, -100, -80, -60, -40, -20, 20, 40, 60, 80, 100, 120}) {
     std::string rf_bits;
@@ -168,8 +169,9 @@ int run(int width, int height, const std::string& md) {
   }
 
   out += "\n## Scaled by 10^e: hits kept and the same triangle as unscaled\n\n";
-  out += "| e | rayfold hits | rayfold same triangle | Embree flat hits | Embree flat same triangle |\n"
-         "|---|---|---|---|---|\n";
+  out +=
+      "| e | rayfold hits | rayfold same triangle | Embree flat hits | Embree flat same triangle |\n"
+      "|---|---|---|---|---|\n";
   for (int e : {-36, -30, -24, -18, -12, -6, 6, 12, 13, 14, 18, 24, 30, 36}) {
     const double f = std::pow(10.0, e);
     Render r;
@@ -187,8 +189,9 @@ int run(int width, int height, const std::string& md) {
   }
 
   out += "\n## Seen from D times its size, the view narrowed to keep it in frame: against the double reference\n\n";
-  out += "| D | rayfold same triangle | rayfold hit/miss disagreements | Embree flat same triangle | "
-         "Embree flat hit/miss disagreements |\n|---|---|---|---|---|\n";
+  out +=
+      "| D | rayfold same triangle | rayfold hit/miss disagreements | Embree flat same triangle | "
+      "Embree flat hit/miss disagreements |\n|---|---|---|---|---|\n";
   for (double d : {1e1, 1e3, 1e5, 1e6, 1e7, 1e8, 1e10, 1e12, 1e15}) {
     const double vfov = 2.0 * std::asin(1.0 / d) * 180.0 / M_PI;
     const Camera cam = make_camera(frame_bounds(atrium.world_bounds(), vfov), width, height);
@@ -264,8 +267,9 @@ int main(int argc, char** argv) {
     while (!args.done()) {
       const std::string a = args.next();
       if (a == "--help" || a == "-h") {
-        std::puts("usage: rayfold-limits [--size WxH] [--md F]\n"
-                  "Where exactness ends: scales, distances and mixed sizes, rayfold beside Embree.");
+        std::puts(
+            "usage: rayfold-limits [--size WxH] [--md F]\n"
+            "Where exactness ends: scales, distances and mixed sizes, rayfold beside Embree.");
         return 0;
       } else if (a == "--size") {
         cli::parse_size(a, args.value(a), &width, &height);

@@ -8,12 +8,12 @@
 
 #include <nlohmann/json.hpp>
 
-#include "../host/double_reference.h"
-#include "../host/gltf_loader.h"
-#include "../host/hit_compare.h"
-#include "../host/renderer.h"
 #include "bench.h"
 #include "embree_peer.h"
+#include "reference/double_reference.h"
+#include "reference/hit_compare.h"
+#include "renderer.h"
+#include "scene/gltf_loader.h"
 
 namespace rayfold {
 namespace {
@@ -93,8 +93,10 @@ PeerReport run_peers(const PeerOptions& opt) {
   rep.instances = scene.instances.size();
 
   std::unique_ptr<EmbreePeer> embree;
-  if (EmbreePeer::available()) embree = std::make_unique<EmbreePeer>(scene, data, opt.threads);
-  else rep.embree_note = "rayfold was built without Embree: its rows are skipped (install libembree-dev and reconfigure).";
+  if (EmbreePeer::available())
+    embree = std::make_unique<EmbreePeer>(scene, data, opt.threads);
+  else
+    rep.embree_note = "rayfold was built without Embree: its rows are skipped (install libembree-dev and reconfigure).";
 
   std::vector<Accumulator> acc;
   for (const Ours& o : ours)
@@ -191,8 +193,8 @@ PeerRatios peer_ratios(const PeerReport& rep) {
 
 std::string peers_markdown(const PeerReport& r) {
   std::ostringstream s;
-  s << "Scene `" << r.scene << "`: " << r.instances << " instances, " << r.triangles << " triangles; " << r.width
-    << "x" << r.height << ", " << r.views << " views, median of " << r.frames << " frames; " << r.threads
+  s << "Scene `" << r.scene << "`: " << r.instances << " instances, " << r.triangles << " triangles; " << r.width << "x"
+    << r.height << ", " << r.views << " views, median of " << r.frames << " frames; " << r.threads
     << " threads. rayfold device: " << r.device << ".\n";
   if (!r.embree_note.empty()) s << r.embree_note << "\n";
   s << "\nTimes: rayfold per frame is ray list + trace + readback; Embree's is the trace into host memory. "
@@ -208,21 +210,20 @@ std::string peers_markdown(const PeerReport& r) {
       s << "NOT EXACT: " << row.mismatched_pixels << " pixels differ from the CPU reference | | | | | | | |\n";
       continue;
     }
-    s << fmt("%.1f", row.ms) << " | " << fmt("%.1f", row.rays / (row.ms * 1e3)) << " | "
-      << fmt("%.1f", mpixels(row)) << " | " << fmt("%.4f%%", 100 * row.accuracy.disagree()) << " | "
-      << fmt("%.4f%%", 100 * row.accuracy.hit_miss) << " | " << fmt("%.1e", row.accuracy.depth_median) << " | "
-      << fmt("%.1e", row.accuracy.depth_p99) << " | " << fmt("%.1e", row.accuracy.depth_max) << " |\n";
+    s << fmt("%.1f", row.ms) << " | " << fmt("%.1f", row.rays / (row.ms * 1e3)) << " | " << fmt("%.1f", mpixels(row))
+      << " | " << fmt("%.4f%%", 100 * row.accuracy.disagree()) << " | " << fmt("%.4f%%", 100 * row.accuracy.hit_miss)
+      << " | " << fmt("%.1e", row.accuracy.depth_median) << " | " << fmt("%.1e", row.accuracy.depth_p99) << " | "
+      << fmt("%.1e", row.accuracy.depth_max) << " |\n";
   }
   const PeerRatios q = peer_ratios(r);
   if (r.valid() && q.fastest_rayfold && q.fastest_embree) {
     s << "\nFastest exact rayfold: " << q.fastest_rayfold->variant << " " << q.fastest_rayfold->fold << ", "
       << fmt("%.1f", mpixels(*q.fastest_rayfold)) << " Mpixels/s. Against Embree's fastest ("
-      << q.fastest_embree->variant << ", " << fmt("%.1f", mpixels(*q.fastest_embree))
-      << "): **" << fmt("%.2fx", q.vs_embree) << "**";
+      << q.fastest_embree->variant << ", " << fmt("%.1f", mpixels(*q.fastest_embree)) << "): **"
+      << fmt("%.2fx", q.vs_embree) << "**";
     if (q.fastest_embree_instanced)
       s << "; against Embree's fastest instanced (" << q.fastest_embree_instanced->variant << ", "
-        << fmt("%.1f", mpixels(*q.fastest_embree_instanced)) << "): **" << fmt("%.2fx", q.vs_embree_instanced)
-        << "**";
+        << fmt("%.1f", mpixels(*q.fastest_embree_instanced)) << "): **" << fmt("%.2fx", q.vs_embree_instanced) << "**";
     s << ".\n";
   }
   if (!r.valid()) s << "\n**An exact variant differs from the CPU reference: no figure above is valid.**\n";

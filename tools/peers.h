@@ -2,7 +2,7 @@
 // variant (rayfold's OpenCL exact and fast builds and its CPU reference, in
 // every fold mode, and Embree's rtcIntersect1 and rtcIntersect16 packets when
 // installed) traces the same views; each image is measured against the
-// double-precision reference (host/double_reference.h).
+// double-precision reference (host/reference/double_reference.h).
 #pragma once
 
 #include <optional>
@@ -11,8 +11,8 @@
 
 #include <glm/vec3.hpp>
 
-#include "../host/accuracy.h"
 #include "bench.h"
+#include "reference/accuracy.h"
 
 namespace rayfold {
 
@@ -28,7 +28,7 @@ struct PeerRow {
   double rays = 0.0;    // traced per frame
   double pixels = 0.0;  // answered per frame
   Accuracy accuracy;    // same_hit, hit_miss: mean over views; depth: median of medians, max of p99s and maxima
-  bool exact = false;            // promised bit for bit equal to the CPU reference
+  bool exact = false;   // promised bit for bit equal to the CPU reference
   size_t mismatched_pixels = 0;  // exact rows: pixels that differ from it, over all views (must be 0)
 };
 

@@ -2,10 +2,10 @@
 // run (tools/peers.h). `make bench` runs it on every scene and charts it.
 #include <cstdio>
 
-#include "../host/atomic_file.h"
-#include "../host/errors.h"
 #include "cli_args.h"
 #include "peers.h"
+#include "util/atomic_file.h"
+#include "util/errors.h"
 
 #ifndef RAYFOLD_DEFAULT_SCENE
 #define RAYFOLD_DEFAULT_SCENE "scenes/atrium.glb"

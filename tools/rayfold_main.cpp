@@ -1,6 +1,5 @@
 // rayfold: the command-line tool. `rayfold render` traces primary rays and
 // writes the hit info; `rayfold info` describes a scene.
-#include <chrono>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
@@ -11,14 +10,15 @@
 
 #include <nlohmann/json.hpp>
 
-#include "../host/atomic_file.h"
-#include "../host/errors.h"
-#include "../host/gltf_loader.h"
-#include "../host/hit_compare.h"
-#include "../host/image_output.h"
-#include "../host/renderer.h"
 #include "bench.h"
 #include "cli_args.h"
+#include "reference/hit_compare.h"
+#include "renderer.h"
+#include "scene/gltf_loader.h"
+#include "util/atomic_file.h"
+#include "util/errors.h"
+#include "util/image_output.h"
+#include "util/timer.h"
 
 #ifndef RAYFOLD_DEFAULT_SCENE
 #define RAYFOLD_DEFAULT_SCENE "scenes/atrium.glb"
@@ -26,8 +26,6 @@
 
 namespace rayfold {
 namespace {
-
-using Clock = std::chrono::steady_clock;
 
 const char* kUsage =
     "usage: rayfold <command> [options]\n"
@@ -137,16 +135,24 @@ BraidOptions parse_braid(const std::string& option, const std::string& text) {
 bool parse_renderer_option(const std::string& a, cli::Args& args, RendererOptions& r) {
   if (a == "--backend") {
     const std::string b = args.value(a);
-    if (b == "opencl") r.backend = Backend::opencl;
-    else if (b == "cpu") r.backend = Backend::cpu;
-    else throw UsageError("--backend: '" + b + "' is not opencl or cpu");
+    if (b == "opencl")
+      r.backend = Backend::opencl;
+    else if (b == "cpu")
+      r.backend = Backend::cpu;
+    else
+      throw UsageError("--backend: '" + b + "' is not opencl or cpu");
   } else if (a == "--kernel") {
     const std::string k = args.value(a);
-    if (k == "tile") r.kernel = KernelChoice::tile;
-    else if (k == "single") r.kernel = KernelChoice::single;
-    else if (k == "auto") r.kernel = KernelChoice::automatic;
-    else if (k == "measure") r.kernel = KernelChoice::measure;
-    else throw UsageError("--kernel: '" + k + "' is not tile, single, measure or auto");
+    if (k == "tile")
+      r.kernel = KernelChoice::tile;
+    else if (k == "single")
+      r.kernel = KernelChoice::single;
+    else if (k == "auto")
+      r.kernel = KernelChoice::automatic;
+    else if (k == "measure")
+      r.kernel = KernelChoice::measure;
+    else
+      throw UsageError("--kernel: '" + k + "' is not tile, single, measure or auto");
   } else if (a == "--device") {
     r.device_hint = args.value(a);
   } else if (a == "--fast") {
@@ -187,7 +193,7 @@ RenderArgs parse_render(cli::Args& args) {
       r.vfov = cli::parse_double(a, args.value(a));
     } else if (parse_renderer_option(a, args, r.renderer)) {
     } else if (a == "--fold") {
-      r.frame.fold = parse_fold(args.value(a));
+      r.frame.fold = cli::parse_fold(a, args.value(a));
     } else if (a == "--shift") {
       const std::string v = args.value(a);
       const size_t comma = v.find(',');
@@ -224,7 +230,6 @@ RenderArgs parse_render(cli::Args& args) {
   check_renderer_options(r.renderer);
   return r;
 }
-
 
 void write_stats(const std::string& path, const RenderArgs& args, const Scene& scene, const Renderer& renderer,
                  const RenderResult& result, double load_ms) {
@@ -296,7 +301,7 @@ int run_render(cli::Args& args) {
 
   auto t0 = Clock::now();
   const Scene scene = load_scene(r.scene, r.quiet);
-  const double load_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+  const double load_ms = ms_since(t0);
 
   CameraSpec spec = scene.camera ? *scene.camera : frame_bounds(scene.world_bounds());
   if (r.eye) {
@@ -325,8 +330,7 @@ int run_render(cli::Args& args) {
   if (!r.quiet) {
     const FrameTimes& m = result.median;
     const double mrays = result.rays / (m.trace_ms * 1e3);
-    std::printf("rayfold render  %s  %dx%d  fold %s\n", r.scene.c_str(), r.width, r.height,
-                fold_name(r.frame.fold));
+    std::printf("rayfold render  %s  %dx%d  fold %s\n", r.scene.c_str(), r.width, r.height, fold_name(r.frame.fold));
     std::printf("  %-12s %s\n", "device", renderer.device_name().c_str());
     std::printf("  %-12s %s (%s)\n", "kernel", renderer.kernel_label().c_str(), renderer.kernel_reason().c_str());
     std::printf("  %-12s %s instances, %s meshes, %s triangles (%s stored)\n", "scene",
@@ -334,8 +338,8 @@ int run_render(cli::Args& args) {
                 with_commas(scene.triangle_count()).c_str(), with_commas(scene.unique_triangle_count()).c_str());
     std::printf("  %-12s %9.2f ms   (SAH cost %.1f, depth %d)\n", "BLAS build", renderer.blas_build_ms(),
                 renderer.scene_data().blas.sah_cost, renderer.scene_data().blas.max_depth);
-    std::printf("  %-12s %9.2f ms   (%zu instances traced, from %zu in the scene; SAH cost %.1f)\n",
-                "TLAS build", m.cull_ms + m.tlas_ms, result.frame_stats.kept, result.frame_stats.candidates,
+    std::printf("  %-12s %9.2f ms   (%zu instances traced, from %zu in the scene; SAH cost %.1f)\n", "TLAS build",
+                m.cull_ms + m.tlas_ms, result.frame_stats.kept, result.frame_stats.candidates,
                 result.frame_stats.tlas_sah);
     std::printf("  %-12s %9.2f ms   (median of %zu frames)\n", "trace", m.trace_ms, result.frames.size());
     std::printf("  %-12s %9.2f   (%zu rays for %zu pixels: %.2f Mpixels/s)\n", "Mrays/s", mrays, result.rays,
@@ -372,7 +376,8 @@ int run_info(cli::Args& args) {
   std::printf("  instances   %s\n", with_commas(scene.instances.size()).c_str());
   std::printf("  triangles   %s rendered, %s stored\n", with_commas(scene.triangle_count()).c_str(),
               with_commas(scene.unique_triangle_count()).c_str());
-  if (b.empty()) std::printf("  bounds      (empty)\n");
+  if (b.empty())
+    std::printf("  bounds      (empty)\n");
   else
     std::printf("  bounds      (%g, %g, %g) .. (%g, %g, %g)\n", b.lo.x, b.lo.y, b.lo.z, b.hi.x, b.hi.y, b.hi.z);
   if (scene.camera)

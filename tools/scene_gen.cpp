@@ -56,8 +56,10 @@ struct Builder {
         for (int j = 0; j < n; ++j)
           for (int i = 0; i < n; ++i) {
             const uint32_t a = base + j * (n + 1) + i, b = a + 1, c = a + n + 2, d = a + n + 1;
-            if (side) quad(a, b, c, d);
-            else quad(a, d, c, b);
+            if (side)
+              quad(a, b, c, d);
+            else
+              quad(a, d, c, b);
           }
       }
   }
@@ -124,9 +126,20 @@ Mesh named(Builder&& b, const char* name) {
 
 std::vector<std::pair<const char*, Template>> clutter_templates() {
   return {
-      {"crate", [](int d) { Builder b; b.box({-0.5, 0.0, -0.5}, {0.5, 1.0, 0.5}, std::max(1, d / 2)); return named(std::move(b), "crate"); }},
-      {"ball", [](int d) { Builder b; b.sphere(0.5, 4 * d, {0.0, 0.5, 0.0}); return named(std::move(b), "ball"); }},
-      {"vase", [](int d) {
+      {"crate",
+       [](int d) {
+         Builder b;
+         b.box({-0.5, 0.0, -0.5}, {0.5, 1.0, 0.5}, std::max(1, d / 2));
+         return named(std::move(b), "crate");
+       }},
+      {"ball",
+       [](int d) {
+         Builder b;
+         b.sphere(0.5, 4 * d, {0.0, 0.5, 0.0});
+         return named(std::move(b), "ball");
+       }},
+      {"vase",
+       [](int d) {
          Builder b;
          std::vector<glm::dvec2> p;
          const int n = 2 * d + 2;
@@ -137,7 +150,8 @@ std::vector<std::pair<const char*, Template>> clutter_templates() {
          b.lathe(p, 4 * d);
          return named(std::move(b), "vase");
        }},
-      {"table", [](int d) {
+      {"table",
+       [](int d) {
          Builder b;
          const int n = std::max(1, d / 3);
          b.box({-0.8, 0.72, -0.5}, {0.8, 0.78, 0.5}, n);
@@ -147,7 +161,8 @@ std::vector<std::pair<const char*, Template>> clutter_templates() {
          }
          return named(std::move(b), "table");
        }},
-      {"bench", [](int d) {
+      {"bench",
+       [](int d) {
          Builder b;
          const int n = std::max(1, d / 3);
          b.box({-1.0, 0.4, -0.25}, {1.0, 0.48, 0.25}, n);
@@ -155,7 +170,8 @@ std::vector<std::pair<const char*, Template>> clutter_templates() {
          b.box({0.85, 0.0, -0.2}, {0.95, 0.4, 0.2}, n);
          return named(std::move(b), "bench");
        }},
-      {"planter", [](int d) {
+      {"planter",
+       [](int d) {
          Builder b;
          b.lathe({{0.5, 0.0}, {0.6, 0.6}, {0.62, 0.65}}, 4 * d);
          b.sphere(0.55, 4 * d, {0.0, 1.1, 0.0});
@@ -279,8 +295,10 @@ Scene generate_atrium(const GenOptions& opt) {
   int lo = 1, hi = 64;
   while (lo < hi) {
     const int mid = (lo + hi + 1) / 2;
-    if (build(mid).triangle_count() <= opt.triangle_budget) lo = mid;
-    else hi = mid - 1;
+    if (build(mid).triangle_count() <= opt.triangle_budget)
+      lo = mid;
+    else
+      hi = mid - 1;
   }
   return build(lo);
 }

@@ -7,13 +7,13 @@
 #include <cstddef>
 #include <cstdint>
 
-#include "../host/scene.h"
+#include "scene/scene.h"
 
 namespace rayfold {
 
 struct GenOptions {
   uint64_t seed = 1;
-  int objects = 240;               // instances in the scene (at least 1)
+  int objects = 240;                // instances in the scene (at least 1)
   size_t triangle_budget = 150000;  // rendered triangles, approached from below
 };
 

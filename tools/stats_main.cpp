@@ -7,21 +7,22 @@
 #define RF_TRAVERSAL_STATS 1
 #include <cstdio>
 
-#include "../host/camera.h"
-#include "../host/cl_tracer.h"
-#include "../host/errors.h"
-#include "../host/frame.h"
-#include "../host/gltf_loader.h"
-#include "../host/ray_list.h"
-#include "../kernels/rf_trace.h"
 #include "cli_args.h"
+#include "fold/frame.h"
+#include "fold/ray_list.h"
+#include "opencl/cl_tracer.h"
+#include "rf_trace.h"
+#include "scene/camera.h"
+#include "scene/gltf_loader.h"
+#include "util/errors.h"
 
 thread_local rf_traversal_stats rf_stats;
 
 int main(int argc, char** argv) {
   using namespace rayfold;
   return cli::guarded_main([&] {
-    if (argc < 2) throw UsageError("usage: rayfold-stats SCENE [--eye X,Y,Z --look-at X,Y,Z] [--size WxH] [--fold MODE]");
+    if (argc < 2)
+      throw UsageError("usage: rayfold-stats SCENE [--eye X,Y,Z --look-at X,Y,Z] [--size WxH] [--fold MODE]");
     cli::Args args(argc, argv, 2);
     const Scene scene = load_gltf(argv[1]);
     CameraSpec spec = scene.camera ? *scene.camera : frame_bounds(scene.world_bounds());
@@ -30,14 +31,22 @@ int main(int argc, char** argv) {
     BraidOptions braid;
     while (!args.done()) {
       const std::string a = args.next();
-      if (a == "--eye") spec.eye = cli::parse_vec3(a, args.value(a));
-      else if (a == "--look-at") spec.look_at = cli::parse_vec3(a, args.value(a));
-      else if (a == "--size") cli::parse_size(a, args.value(a), &w, &h);
-      else if (a == "--fold") fold = parse_fold(args.value(a));
-      else if (a == "--no-braid") braid.enabled = false;
-      else if (a == "--braid-items") braid.items_per_instance = cli::parse_int(a, args.value(a), 1, 1 << 20);
-      else if (a == "--braid-min") braid.min_items = cli::parse_int(a, args.value(a), 0, 1 << 24);
-      else throw UsageError("unknown option " + a);
+      if (a == "--eye")
+        spec.eye = cli::parse_vec3(a, args.value(a));
+      else if (a == "--look-at")
+        spec.look_at = cli::parse_vec3(a, args.value(a));
+      else if (a == "--size")
+        cli::parse_size(a, args.value(a), &w, &h);
+      else if (a == "--fold")
+        fold = cli::parse_fold(a, args.value(a));
+      else if (a == "--no-braid")
+        braid.enabled = false;
+      else if (a == "--braid-items")
+        braid.items_per_instance = cli::parse_int(a, args.value(a), 1, 1 << 20);
+      else if (a == "--braid-min")
+        braid.min_items = cli::parse_int(a, args.value(a), 0, 1 << 24);
+      else
+        throw UsageError("unknown option " + a);
     }
     const Camera cam = make_camera(spec, w, h);
     const SceneData data = prepare_scene(scene, 0, braid);
@@ -50,17 +59,18 @@ int main(int argc, char** argv) {
     nodes.insert(nodes.end(), frame.tlas_nodes.begin(), frame.tlas_nodes.end());
     std::vector<rf_pixel_hit> out(static_cast<size_t>(w) * h);
     for (uint32_t e : rays.entries)
-      rf_trace_entry(e, &traced, nodes.data(), data.blas.tris.data(), frame.instances.data(),
-                     data.normal_xforms.data(), frame.tlas_root, out.data());
+      rf_trace_entry(e, &traced, nodes.data(), data.blas.tris.data(), frame.instances.data(), data.normal_xforms.data(),
+                     frame.tlas_root, out.data());
     const double n = static_cast<double>(rays.entries.size());
     const double px = static_cast<double>(rays.pixels);
     std::printf("%s (fold %s, %zu rays for %zu pixels; BLAS SAH %.1f, TLAS SAH %.1f, %zu instances kept)\n", argv[1],
                 fold_name(fold), rays.entries.size(), rays.pixels, data.blas.sah_cost, frame.stats.tlas_sah,
                 frame.stats.kept);
-    std::printf("  single-ray, per ray:   %.1f TLAS nodes, %.2f instances (%.2f set-ups), %.1f BLAS nodes, %.1f "
-                "triangle tests\n",
-                rf_stats.tlas_nodes / n, rf_stats.instances / n, rf_stats.setups / n, rf_stats.blas_nodes / n,
-                rf_stats.triangles / n);
+    std::printf(
+        "  single-ray, per ray:   %.1f TLAS nodes, %.2f instances (%.2f set-ups), %.1f BLAS nodes, %.1f "
+        "triangle tests\n",
+        rf_stats.tlas_nodes / n, rf_stats.instances / n, rf_stats.setups / n, rf_stats.blas_nodes / n,
+        rf_stats.triangles / n);
     std::printf("  single-ray, per pixel: %.1f TLAS nodes, %.2f set-ups, %.1f BLAS nodes, %.1f triangle tests\n",
                 rf_stats.tlas_nodes / px, rf_stats.setups / px, rf_stats.blas_nodes / px, rf_stats.triangles / px);
 
@@ -75,19 +85,21 @@ int main(int argc, char** argv) {
     double sum[RF_TILE_STAT_COUNT] = {};
     for (size_t i = 0; i < st.size(); ++i) sum[i % RF_TILE_STAT_COUNT] += st[i];
     const double tiles = static_cast<double>(rays.tiles.size() - 1);
-    std::printf("  tile (%u lanes), per tile of %.0f rays: %.1f TLAS nodes (%.1f lane-group boxes), %.1f instances "
-                "(%.1f set-ups), %.1f BLAS nodes (%.1f lane-group boxes), %.1f leaves, %.1f lane-group triangle "
-                "tests\n",
-                tile_lanes(device.info()), n / tiles, sum[RF_TILE_STAT_TLAS_NODES] / tiles,
-                sum[RF_TILE_STAT_TLAS_LANE_BOXES] / tiles, sum[RF_TILE_STAT_INSTANCES] / tiles,
-                sum[RF_TILE_STAT_SETUPS] / tiles, sum[RF_TILE_STAT_BLAS_NODES] / tiles,
-                sum[RF_TILE_STAT_BLAS_LANE_BOXES] / tiles, sum[RF_TILE_STAT_LEAVES] / tiles,
-                sum[RF_TILE_STAT_TRI_LANES] / tiles);
+    std::printf(
+        "  tile (%u lanes), per tile of %.0f rays: %.1f TLAS nodes (%.1f lane-group boxes), %.1f instances "
+        "(%.1f set-ups), %.1f BLAS nodes (%.1f lane-group boxes), %.1f leaves, %.1f lane-group triangle "
+        "tests\n",
+        tile_lanes(device.info()), n / tiles, sum[RF_TILE_STAT_TLAS_NODES] / tiles,
+        sum[RF_TILE_STAT_TLAS_LANE_BOXES] / tiles, sum[RF_TILE_STAT_INSTANCES] / tiles,
+        sum[RF_TILE_STAT_SETUPS] / tiles, sum[RF_TILE_STAT_BLAS_NODES] / tiles,
+        sum[RF_TILE_STAT_BLAS_LANE_BOXES] / tiles, sum[RF_TILE_STAT_LEAVES] / tiles,
+        sum[RF_TILE_STAT_TRI_LANES] / tiles);
     const double lanes = tile_lanes(device.info());
-    std::printf("  tile, per pixel (lane tests count each lane): %.1f TLAS box lanes, %.2f set-up lanes, %.1f BLAS "
-                "box lanes, %.1f triangle lanes\n",
-                sum[RF_TILE_STAT_TLAS_LANE_BOXES] * lanes / px, sum[RF_TILE_STAT_SETUPS] * RF_TILE_RAYS / px,
-                sum[RF_TILE_STAT_BLAS_LANE_BOXES] * lanes / px, sum[RF_TILE_STAT_TRI_LANES] * lanes / px);
+    std::printf(
+        "  tile, per pixel (lane tests count each lane): %.1f TLAS box lanes, %.2f set-up lanes, %.1f BLAS "
+        "box lanes, %.1f triangle lanes\n",
+        sum[RF_TILE_STAT_TLAS_LANE_BOXES] * lanes / px, sum[RF_TILE_STAT_SETUPS] * RF_TILE_RAYS / px,
+        sum[RF_TILE_STAT_BLAS_LANE_BOXES] * lanes / px, sum[RF_TILE_STAT_TRI_LANES] * lanes / px);
     return 0;
   });
 }

@@ -1,7 +1,7 @@
 // libFuzzer target: arbitrary bytes as a glTF file (.gltf or .glb), through
 // the loader, the bottom- and top-level builds and tiny traces. Bad input must
-// end in InputError (or UsageError for an unusable camera), never a crash or
-// a sanitizer report. Every accepted input must also keep rayfold's
+// end in InputError (also for an unusable camera), never a crash or a
+// sanitizer report. Every accepted input must also keep rayfold's
 // invariants, and a broken one aborts with what differed:
 //  - folded (xy) = unfolded, on the CPU reference;
 //  - the OpenCL single-ray and tile kernels = the CPU reference, folded too;
@@ -19,11 +19,11 @@
 #include <string>
 #include <vector>
 
-#include "../../host/cl_tracer.h"
-#include "../../host/errors.h"
-#include "../../host/gltf_loader.h"
-#include "../../host/ray_list.h"
-#include "../../host/renderer.h"
+#include "fold/ray_list.h"
+#include "opencl/cl_tracer.h"
+#include "renderer.h"
+#include "scene/gltf_loader.h"
+#include "util/errors.h"
 
 namespace {
 
@@ -83,8 +83,8 @@ void check_opencl(const Scene& scene, const SceneData& data, const Camera& camer
 // The largest magnitude among the scene's world bounds and the eye; 0 when
 // empty.
 double world_magnitude(const Scene& scene, const CameraSpec& spec) {
-  double m = std::max({std::fabs(spec.eye.x), std::fabs(spec.eye.y), std::fabs(spec.eye.z),
-                       std::fabs(spec.look_at.x), std::fabs(spec.look_at.y), std::fabs(spec.look_at.z)});
+  double m = std::max({std::fabs(spec.eye.x), std::fabs(spec.eye.y), std::fabs(spec.eye.z), std::fabs(spec.look_at.x),
+                       std::fabs(spec.look_at.y), std::fabs(spec.look_at.z)});
   const Aabb b = scene.world_bounds();
   if (!b.empty())
     for (int k = 0; k < 3; ++k) m = std::max({m, std::fabs(double(b.lo[k])), std::fabs(double(b.hi[k]))});
@@ -151,7 +151,6 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       if (lo <= hi) check_scaled(scene, spec, none.hits, lo + static_cast<int>(hash(data, size) % (hi - lo + 1)));
     }
   } catch (const InputError&) {
-  } catch (const UsageError&) {
   }
   return 0;
 }

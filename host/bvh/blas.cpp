@@ -1,0 +1,84 @@
+#include "bvh/blas.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "bvh/bvh_flatten.h"
+#include "util/parallel.h"
+#include "util/timer.h"
+
+namespace rayfold {
+
+int scale_exponent(const Aabb& box) {
+  if (box.empty()) return 0;
+  const float big = std::max({std::fabs(box.lo.x), std::fabs(box.lo.y), std::fabs(box.lo.z), std::fabs(box.hi.x),
+                              std::fabs(box.hi.y), std::fabs(box.hi.z)});
+  return big > 0.0f && std::isfinite(big) ? std::ilogb(big) : 0;
+}
+
+Xform object_from_tree(const BlasSet& blas, uint32_t mesh) { return uniform_scale(blas.tree_exponents[mesh]); }
+
+BlasSet build_blas_set(const Scene& scene, const BuildOptions& options, unsigned threads) {
+  const auto start = Clock::now();
+  const size_t mesh_count = scene.meshes.size();
+  BlasSet set;
+  set.roots.resize(mesh_count);
+  set.bounds.resize(mesh_count);
+  set.tree_exponents.resize(mesh_count);
+  // Tree-space positions, built from the mesh's vertices by an exact scaling
+  // (ldexp stays exact while the result is a normal float).
+  std::vector<std::vector<glm::vec3>> positions(mesh_count);
+  std::vector<BuildTree> trees(mesh_count);
+  std::vector<size_t> unresolvable(mesh_count, 0);
+  parallel_for(mesh_count, threads, 1, [&](size_t m, size_t) {
+    const Mesh& mesh = scene.meshes[m];
+    Aabb object_bounds;
+    for (uint32_t idx : mesh.indices) object_bounds.grow(mesh.positions[idx]);
+    const int e = scale_exponent(object_bounds);
+    set.bounds[m] = object_bounds;
+    set.tree_exponents[m] = e;
+    positions[m].resize(mesh.positions.size());
+    for (size_t i = 0; i < mesh.positions.size(); ++i)
+      for (int k = 0; k < 3; ++k) positions[m][i][k] = std::ldexp(mesh.positions[i][k], -e);
+    std::vector<Aabb> boxes(mesh.triangle_count());
+    for (size_t t = 0; t < boxes.size(); ++t)
+      for (int k = 0; k < 3; ++k) boxes[t].grow(positions[m][mesh.indices[3 * t + k]]);
+    for (const Aabb& b : boxes) {
+      const glm::vec3 e = b.extent();
+      const float size = std::max({e.x, e.y, e.z});
+      if (size > 0.0f && size < 0x1p-60f) unresolvable[m]++;
+    }
+    trees[m] = build_sah(boxes, options);
+  });
+  for (size_t n : unresolvable) set.unresolvable_triangles += n;
+
+  double weighted_sah = 0.0;
+  size_t weight = 0;
+  for (size_t m = 0; m < mesh_count; ++m) {
+    const Mesh& mesh = scene.meshes[m];
+    const BuildTree& tree = trees[m];
+    const uint32_t tri_base = static_cast<uint32_t>(set.tris.size());
+    for (uint32_t t : tree.order) {
+      rf_tri tri{};
+      const std::vector<glm::vec3>& p = positions[m];
+      const glm::vec3* v[3] = {&p[mesh.indices[3 * t]], &p[mesh.indices[3 * t + 1]], &p[mesh.indices[3 * t + 2]]};
+      for (int k = 0; k < 3; ++k) {
+        tri.v0[k] = (*v[0])[k];
+        tri.v1[k] = (*v[1])[k];
+        tri.v2[k] = (*v[2])[k];
+      }
+      tri.prim = t;
+      set.tris.push_back(tri);
+    }
+    set.roots[m] = flatten_bvh(tree, tri_base, nullptr, 0, set.nodes);
+    set.max_depth = std::max(set.max_depth, tree.depth);
+    weighted_sah += tree.sah_cost * tree.order.size();
+    weight += tree.order.size();
+  }
+  if (set.nodes.size() % 2 != 0) set.nodes.push_back(rf_node{});  // the TLAS starts at an even index
+  set.sah_cost = weight ? weighted_sah / weight : 0.0;
+  set.build_ms = ms_since(start);
+  return set;
+}
+
+}  // namespace rayfold

@@ -1,0 +1,44 @@
+// Bottom-level trees: one per mesh, built once when the scene is loaded and
+// laid out together in one flat node array and one triangle array.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "bvh/bvh_build.h"
+#include "device_layout.h"
+#include "scene/aabb.h"
+#include "scene/scene.h"
+
+namespace rayfold {
+
+// Each tree is stored in its mesh's tree space: object space in units of
+// 2^tree_exponents[m], so that the mesh's largest coordinate lies in [1, 2).
+// Scaling by a power of two is exact, so the trees of a mesh scaled by 2^k
+// hold the same floats; the scale moves into the instance transforms.
+struct BlasSet {
+  std::vector<rf_node> nodes;       // all meshes' trees (tree space); the TLAS follows them
+  std::vector<rf_tri> tris;         // all meshes' triangles in leaf order (tree space)
+  std::vector<uint32_t> roots;      // per mesh; RF_INVALID for a mesh with no triangle
+  std::vector<Aabb> bounds;         // per mesh, object space
+  std::vector<int> tree_exponents;  // per mesh: tree space = object space * 2^-e
+  // Triangles of nonzero extent under 2^-60 of their mesh's largest
+  // coordinate: the watertight test's edge functions, products of two such
+  // extents, fall below the normal floats and cannot resolve them.
+  size_t unresolvable_triangles = 0;
+  double build_ms = 0.0;
+  double sah_cost = 0.0;  // per mesh SAH cost, weighted by triangle count
+  int max_depth = 0;
+};
+
+// Builds the meshes' trees in parallel on `threads` threads (0: all cores).
+BlasSet build_blas_set(const Scene& scene, const BuildOptions& options = {}, unsigned threads = 0);
+
+// The power of two that brings a box's largest coordinate magnitude into
+// [1, 2): floor(log2(max |coordinate|)), 0 for an empty or all-zero box.
+int scale_exponent(const Aabb& box);
+
+// object_from_tree of a mesh: the uniform scale 2^tree_exponent.
+Xform object_from_tree(const BlasSet& blas, uint32_t mesh);
+
+}  // namespace rayfold

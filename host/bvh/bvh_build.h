@@ -1,0 +1,40 @@
+// Binned SAH BVH construction over primitive boxes: the build-time tree.
+// The same builder serves the bottom level (triangles) and the top level
+// (instances); host/bvh/bvh_flatten.h turns its result into rf_node arrays.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "scene/aabb.h"
+
+namespace rayfold {
+
+struct BuildNode {
+  Aabb bounds;
+  uint32_t left = 0, right = 0;   // child node indices (interior)
+  uint32_t first = 0, count = 0;  // range in BuildTree::order (leaf, count > 0)
+  bool is_leaf() const { return count > 0; }
+};
+
+struct BuildOptions {
+  int bins = 16;
+  uint32_t max_leaf_size = 8;
+  float traversal_cost = 1.0f;     // SAH cost of one box-pair test
+  float intersection_cost = 1.0f;  // SAH cost of one primitive test
+  // Past this depth splits become object medians, so that trees of up to
+  // 2^24 primitives stay within the device's 64-entry traversal stack.
+  int median_depth = 36;
+};
+
+struct BuildTree {
+  std::vector<BuildNode> nodes;  // nodes[0] is the root; empty for no input
+  std::vector<uint32_t> order;   // primitive indices in leaf order
+  int depth = 0;                 // levels, root = 1
+  double sah_cost = 0.0;         // expected cost per ray through the root
+};
+
+// Primitives with empty boxes are dropped (they can never be hit).
+BuildTree build_sah(const std::vector<Aabb>& prim_bounds, const BuildOptions& options = {});
+
+}  // namespace rayfold

@@ -1,0 +1,106 @@
+#include "bvh/scene_data.h"
+
+#include <algorithm>
+#include <cmath>
+#include <queue>
+
+#include "util/errors.h"
+
+namespace rayfold {
+namespace {
+
+// In double: world-space areas of float boxes overflow a float from about
+// 1e19 on, and the braid must choose the same cut at every scale.
+double half_area(const Aabb& b) {
+  if (b.empty()) return 0.0;
+  const glm::dvec3 e = glm::dvec3(b.hi) - glm::dvec3(b.lo);
+  return e.x * e.y + e.y * e.z + e.z * e.x;
+}
+
+// Opens the largest (in world space) BLAS nodes of all instances until the
+// budget is spent; the open frontier is each instance's cut.
+void choose_braid_cuts(const Scene& scene, SceneData& data, const BraidOptions& opt) {
+  struct Item {
+    double area;
+    uint32_t instance, node;
+    bool operator<(const Item& o) const {
+      if (area != o.area) return area < o.area;
+      if (instance != o.instance) return instance > o.instance;
+      return node > o.node;
+    }
+  };
+  const size_t n = scene.instances.size();
+  std::vector<std::vector<uint32_t>> cuts(n);
+  std::priority_queue<Item> open;
+  auto world_area = [&](uint32_t i, uint32_t node) {
+    Aabb b;
+    b.grow(glm::vec3(data.blas.nodes[node].bmin[0], data.blas.nodes[node].bmin[1], data.blas.nodes[node].bmin[2]));
+    b.grow(glm::vec3(data.blas.nodes[node].bmax[0], data.blas.nodes[node].bmax[1], data.blas.nodes[node].bmax[2]));
+    const Instance& inst = scene.instances[i];
+    return half_area(transform_bounds_conservative(inst.world_from_object * object_from_tree(data.blas, inst.mesh), b));
+  };
+  size_t items = 0;
+  for (uint32_t i = 0; i < n; ++i) {
+    if (!data.renderable[i]) continue;
+    open.push({world_area(i, data.blas.roots[scene.instances[i].mesh]), i, data.blas.roots[scene.instances[i].mesh]});
+    ++items;
+  }
+  if (opt.enabled) {
+    const size_t budget = std::max(opt.min_items, opt.items_per_instance * items);
+    const double min_area = opt.min_area_fraction * half_area(data.world_bounds);
+    while (!open.empty() && items < budget && open.top().area >= min_area) {
+      const Item top = open.top();
+      const rf_node& node = data.blas.nodes[top.node];
+      if ((node.meta & RF_NODE_COUNT_MASK) != 0) {  // a leaf cannot open
+        cuts[top.instance].push_back(top.node);
+        open.pop();
+        continue;
+      }
+      open.pop();
+      open.push({world_area(top.instance, node.first), top.instance, node.first});
+      open.push({world_area(top.instance, node.first + 1), top.instance, node.first + 1});
+      ++items;
+    }
+  }
+  for (; !open.empty(); open.pop()) cuts[open.top().instance].push_back(open.top().node);
+  data.braid_offsets.assign(1, 0);
+  for (uint32_t i = 0; i < n; ++i) {
+    std::sort(cuts[i].begin(), cuts[i].end());
+    data.braid_nodes.insert(data.braid_nodes.end(), cuts[i].begin(), cuts[i].end());
+    data.braid_offsets.push_back(static_cast<uint32_t>(data.braid_nodes.size()));
+  }
+}
+
+}  // namespace
+
+SceneData prepare_scene(const Scene& scene, unsigned threads, const BraidOptions& braid) {
+  check_world_range(scene, "");
+  SceneData data;
+  data.blas = build_blas_set(scene, BuildOptions{}, threads);
+  const size_t n = scene.instances.size();
+  data.tree_from_world.resize(n);
+  data.renderable.resize(n);
+  data.normal_xforms.resize(n);
+  for (size_t i = 0; i < n; ++i) {
+    const Instance& inst = scene.instances[i];
+    const Xform world_from_tree = inst.world_from_object * object_from_tree(data.blas, inst.mesh);
+    // glTF allows a zero scale: such an instance is simply not there.
+    const bool invertible = affine_inverse(world_from_tree, &data.tree_from_world[i]);
+    data.renderable[i] = invertible && data.blas.roots[inst.mesh] != RF_INVALID;
+    if (invertible) normal_matrix_rows3x3(world_from_tree, data.normal_xforms[i].m);
+    if (!invertible) data.hidden_instances++;
+    if (!data.renderable[i]) continue;
+    data.world_bounds.grow(transform_bounds_conservative(inst.world_from_object, data.blas.bounds[inst.mesh]));
+    double big = 0.0;
+    for (int c = 0; c < 3; ++c)
+      for (int r = 0; r < 3; ++r) big = std::max(big, std::fabs(data.tree_from_world[i][c][r]));
+    if (big > 0.0 && std::isfinite(big)) data.max_tree_scale = std::max(data.max_tree_scale, std::ilogb(big));
+  }
+  choose_braid_cuts(scene, data, braid);
+  return data;
+}
+
+size_t max_tlas_items(const SceneData& data) { return RF_MAX_GROUPS * data.braid_nodes.size(); }
+size_t max_tlas_nodes(const SceneData& data) { return 2 * max_tlas_items(data) + 2; }
+
+}  // namespace rayfold

@@ -1,0 +1,55 @@
+// What a scene needs once, whatever the view: the bottom-level trees in their
+// tree spaces, the instances' transforms and normal matrices, and the cut
+// through each tree that enters the top level (partial re-braiding). The
+// per-frame work over it is fold/frame.h.
+#pragma once
+
+#include <climits>
+#include <cstdint>
+#include <vector>
+
+#include "bvh/blas.h"
+#include "device_layout.h"
+#include "scene/scene.h"
+
+namespace rayfold {
+
+// Partial re-braiding (Benthin, Wald, Woop, Afra 2017): the top-level tree
+// is built not over whole instances but over a cut through each instance's
+// bottom-level tree, opened largest-first in world space. Meshes grouped by
+// material overlap the whole scene; their upper nodes in the top level make it
+// a spatial tree again, where near-to-far order stops rays early and culling
+// (per fold group) drops the parts of a mesh a quadrant cannot see.
+struct BraidOptions {
+  bool enabled = true;
+  size_t items_per_instance = 2;    // budget: this many items per instance on average...
+  size_t min_items = 256;           // ...but at least this many, so scenes of a few big meshes open
+  double min_area_fraction = 1e-3;  // never open a node smaller than this share of the scene
+};
+
+struct SceneData {
+  BlasSet blas;
+  // The cut of each instance's tree: braid_nodes[braid_offsets[i] ..
+  // braid_offsets[i + 1]) are the BLAS nodes that enter the top level for
+  // instance i (just its root when re-braiding is off).
+  std::vector<uint32_t> braid_offsets;
+  std::vector<uint32_t> braid_nodes;
+  std::vector<Xform> tree_from_world;          // per scene instance, into its mesh's tree space
+  std::vector<bool> renderable;                // false: singular transform or empty mesh
+  std::vector<rf_normal_xform> normal_xforms;  // per scene instance, tree-space normals to world
+  Aabb world_bounds;                           // of the renderable instances at rest
+  // The largest ilogb of a tree_from_world linear entry over the renderable
+  // instances: how many tree units the smallest instance packs into a world
+  // unit, as a power of two (frame.h's trace exponent keeps it in range).
+  int max_tree_scale = INT_MIN;
+  size_t hidden_instances = 0;
+};
+
+SceneData prepare_scene(const Scene& scene, unsigned threads = 0, const BraidOptions& braid = {});
+
+// The most top-level items (instances and their mirrored copies) and nodes a
+// frame of this scene can need; device buffers are sized by them once.
+size_t max_tlas_items(const SceneData& data);
+size_t max_tlas_nodes(const SceneData& data);
+
+}  // namespace rayfold

@@ -1,0 +1,149 @@
+#include "fold/frame.h"
+
+#include <algorithm>
+#include <climits>
+#include <cmath>
+
+#include "bvh/bvh_flatten.h"
+#include "fold/fold.h"
+#include "scene/animation.h"
+#include "util/errors.h"
+#include "util/timer.h"
+
+namespace rayfold {
+
+rf_camera frame_camera(const Camera& camera, const Frame& frame) {
+  rf_camera params = camera.params;
+  params.depth_scale = frame.depth_scale;
+  return params;
+}
+
+namespace {
+
+// Limits of trace space, as powers of two: the largest tree_from_trace
+// entry aimed for, how far below the scene's extent the trace unit may go to
+// reach it (trace-space boxes up to 2^60 keep the builder's float areas
+// finite), and the largest entry traced at all (a ray direction of up to
+// 2^7, a 179-degree view, stays finite).
+constexpr int kTreeFromTraceTarget = 100;
+constexpr int kTraceBelowExtent = 60;
+constexpr int kTreeFromTraceLimit = 118;
+
+// The eye's largest distance (per axis) to the scene's bounds, as a power of
+// two, lowered for the smallest instance (Frame::trace_exponent). Powers of
+// two move exactly with the scene: a scene and eye scaled by 2^k give
+// trace_exponent + k.
+int choose_trace_exponent(const SceneData& data, const glm::dvec3& eye) {
+  const Aabb& b = data.world_bounds;
+  if (b.empty()) return 0;
+  double far = 0.0;
+  for (int k = 0; k < 3; ++k)
+    far = std::max({far, std::fabs(double(b.lo[k]) - eye[k]), std::fabs(double(b.hi[k]) - eye[k])});
+  const int extent = far > 0.0 && std::isfinite(far) ? std::ilogb(far) : 0;
+  if (data.max_tree_scale == INT_MIN || data.max_tree_scale + extent <= kTreeFromTraceTarget) return extent;
+  return std::max(extent - kTraceBelowExtent, kTreeFromTraceTarget - data.max_tree_scale);
+}
+
+// Whether an instance's float tree_from_trace can be traced: finite, with
+// ray directions that cannot overflow.
+bool traceable(const float m[12]) {
+  for (int i = 0; i < 12; ++i)
+    if (!std::isfinite(m[i]) || (i % 4 != 3 && std::fabs(m[i]) > std::ldexp(1.0f, kTreeFromTraceLimit))) return false;
+  return true;
+}
+
+}  // namespace
+
+Frame build_frame(const Scene& scene, const SceneData& data, const Camera& camera, const RayList& rays,
+                  const FrameOptions& options) {
+  Frame frame;
+  frame.node_base = static_cast<uint32_t>(data.blas.nodes.size());
+  frame.trace_exponent = choose_trace_exponent(data, glm::dvec3(camera.world_from_camera[3]));
+  frame.camera_from_trace = uniform_scale(frame.trace_exponent);
+  frame.depth_scale = static_cast<float>(std::ldexp(1.0, frame.trace_exponent));
+  const Xform world_from_trace = camera.world_from_camera * frame.camera_from_trace;
+  const Xform trace_from_world = uniform_scale(-frame.trace_exponent) * camera.camera_from_world;
+
+  auto t0 = Clock::now();
+  std::vector<Frustum> frusta;
+  for (int g = 0; g < RF_MAX_GROUPS; ++g) frusta.emplace_back(camera.params, rays.regions[g]);
+  const bool animate = options.animate_frame >= 0;
+  if (animate) frame.normal_xforms = data.normal_xforms;
+  std::vector<Aabb> boxes;
+  std::vector<rf_instance> candidates;
+  for (size_t i = 0; i < scene.instances.size(); ++i) {
+    if (!data.renderable[i]) continue;
+    frame.stats.candidates++;
+    const Instance& inst = scene.instances[i];
+    Xform world_from_tree = inst.world_from_object * object_from_tree(data.blas, inst.mesh);
+    Xform tree_from_world = data.tree_from_world[i];
+    if (animate && is_animated(i)) {
+      world_from_tree = animated_world_from_object(inst, data.blas.bounds[inst.mesh], i, options.animate_frame) *
+                        object_from_tree(data.blas, inst.mesh);
+      const bool ok = affine_inverse(world_from_tree, &tree_from_world);
+      RF_CHECK(ok, "animation made a transform singular");
+      normal_matrix_rows3x3(world_from_tree, frame.normal_xforms[i].m);
+    }
+    const Xform trace_from_tree = trace_from_world * world_from_tree;
+    rf_instance base{};
+    to_rows3x4(tree_from_world * world_from_trace, base.tree_from_trace);
+    if (!traceable(base.tree_from_trace)) {
+      frame.stats.out_of_range++;
+      continue;
+    }
+    // The object-space ray starts at the float-rounded eye (the translation
+    // column), up to half an ulp of its coordinates beside the exact one;
+    // mapped back to camera space that shift must fit inside the item's box,
+    // or the top level could prune the item holding the closest hit in one
+    // traversal order and not in another (geometry stored far from its
+    // origin, docs/exactness.md).
+    double origin = 0.0, stretch = 0.0;
+    for (int r = 0; r < 3; ++r) {
+      origin = std::max(origin, static_cast<double>(std::fabs(base.tree_from_trace[4 * r + 3])));
+      stretch = std::max(stretch, std::fabs(trace_from_tree[0][r]) + std::fabs(trace_from_tree[1][r]) +
+                                      std::fabs(trace_from_tree[2][r]));
+    }
+    const double origin_pad = origin * stretch * 0x1p-22;
+    base.instance_id = static_cast<uint32_t>(i);
+    for (uint32_t c = data.braid_offsets[i]; c < data.braid_offsets[i + 1]; ++c) {
+      const rf_node& node = data.blas.nodes[data.braid_nodes[c]];
+      Aabb tree_box;
+      tree_box.grow(glm::vec3(node.bmin[0], node.bmin[1], node.bmin[2]));
+      tree_box.grow(glm::vec3(node.bmax[0], node.bmax[1], node.bmax[2]));
+      const Aabb box = transform_bounds_conservative(trace_from_tree, tree_box, origin_pad);
+      base.blas_root = data.braid_nodes[c];
+      for (int g = 0; g < RF_MAX_GROUPS; ++g) {
+        if (!rays.group_used[g]) continue;
+        const Aabb mirrored = mirror_box(box, g);
+        if (options.cull && !frusta[g].may_see(mirrored)) continue;
+        rf_instance out = base;
+        mirror_columns(out.tree_from_trace, g);
+        out.group = static_cast<uint32_t>(g);
+        candidates.push_back(out);
+        boxes.push_back(mirrored);
+      }
+    }
+  }
+  frame.stats.kept = candidates.size();
+  frame.stats.cull_ms = ms_since(t0);
+
+  t0 = Clock::now();
+  BuildOptions tlas_options;
+  tlas_options.max_leaf_size = 4;
+  tlas_options.intersection_cost = 2.0f;  // an instance costs a ray transform on top of its root test
+  const BuildTree tree = build_sah(boxes, tlas_options);
+  frame.instances.reserve(tree.order.size());
+  std::vector<uint32_t> groups;
+  groups.reserve(tree.order.size());
+  for (uint32_t k : tree.order) {
+    frame.instances.push_back(candidates[k]);
+    groups.push_back(1u << candidates[k].group);
+  }
+  frame.tlas_root = flatten_bvh(tree, 0, &groups, frame.node_base, frame.tlas_nodes);
+  frame.stats.tlas_ms = ms_since(t0);
+  frame.stats.tlas_sah = tree.sah_cost;
+  frame.stats.tlas_depth = tree.depth;
+  return frame;
+}
+
+}  // namespace rayfold

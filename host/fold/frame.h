@@ -1,0 +1,66 @@
+// What changes per frame: trace space, the instances and their mirrored
+// copies in it, culling, the top-level tree. What does not (the bottom-level
+// trees, normal matrices) is SceneData (bvh/scene_data.h), built once per
+// scene.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "bvh/scene_data.h"
+#include "device_layout.h"
+#include "fold/culling.h"
+#include "fold/ray_list.h"
+#include "scene/camera.h"
+#include "scene/scene.h"
+
+namespace rayfold {
+
+struct FrameOptions {
+  FoldMode fold = FoldMode::none;
+  bool cull = true;        // frustum culling before the top-level build
+  int animate_frame = -1;  // >= 0: pose of the animated instances (animation.h)
+};
+
+struct FrameStats {
+  size_t candidates = 0;  // renderable scene instances
+  size_t kept = 0;        // instances (mirrored copies included) in the top-level tree
+  double cull_ms = 0.0;
+  double tlas_ms = 0.0;
+  double tlas_sah = 0.0;
+  int tlas_depth = 0;
+  // Instances not traced because, at this view, their size relative to the
+  // distances in view is beyond the float range (a scene mixing sizes more
+  // than about 2^160 apart): their transform into trace space would overflow.
+  size_t out_of_range = 0;
+};
+
+struct Frame {
+  // Trace space is camera space in units of 2^trace_exponent: the power of
+  // two that brings the eye's largest distance to the scene's bounds into
+  // [1, 2), lowered (by up to 2^60) where the smallest instance would
+  // otherwise be more than 2^100 of its tree units per trace unit. Both move
+  // exactly with the scene, so a scene scaled by 2^k traces the same floats.
+  int trace_exponent = 0;
+  Xform camera_from_trace{1.0};
+  float depth_scale = 1.0f;            // 2^trace_exponent, rf_camera::depth_scale
+  uint32_t node_base = 0;              // first TLAS node index in the full node array
+  uint32_t tlas_root = RF_INVALID;     // RF_INVALID: nothing to trace
+  std::vector<rf_node> tlas_nodes;     // to be placed at node_base
+  std::vector<rf_instance> instances;  // in TLAS leaf order
+  // Normal matrices of every scene instance when animation moved some this
+  // frame; empty when SceneData's still hold.
+  std::vector<rf_normal_xform> normal_xforms;
+  FrameStats stats;
+};
+
+// Culls each scene instance, and for a folded ray list each mirrored copy of
+// it, against the frustum of the rays that can meet it, then builds the
+// top-level tree over what is left.
+Frame build_frame(const Scene& scene, const SceneData& data, const Camera& camera, const RayList& rays,
+                  const FrameOptions& options);
+
+// The camera's ray parameters as a frame traces them: with its depth scale.
+rf_camera frame_camera(const Camera& camera, const Frame& frame);
+
+}  // namespace rayfold

@@ -1,0 +1,39 @@
+// The compacted ray list: one 4-byte entry per traced ray (kernels/rf_types.h
+// documents the bits). Folded lists trace one ray per mirror-partner set;
+// pixels without a partner (the centre column or row of odd sizes, the
+// asymmetric part of a shifted window) are traced unfolded.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "device_layout.h"
+#include "fold/culling.h"
+#include "fold/fold.h"
+
+namespace rayfold {
+
+struct RayList {
+  std::vector<uint32_t> entries;
+  // The tile table (kernels/rf_types.h): tile t is entries [tiles[t],
+  // tiles[t + 1]), at most RF_TILE_RAYS of them.
+  std::vector<uint32_t> tiles;
+  size_t pixels = 0;  // pixels answered: width * height
+  // Per transform group, the bounds of the rays that answer it (for
+  // culling); groups no ray answers are marked unused.
+  std::array<TracedRegion, RF_MAX_GROUPS> regions{};
+  std::array<bool, RF_MAX_GROUPS> group_used{};
+};
+
+inline uint32_t encode_ray(int x, int y, bool mirror_x, bool mirror_y) {
+  return static_cast<uint32_t>(x) | (static_cast<uint32_t>(y) << RF_RAY_COORD_BITS) |
+         (mirror_x ? RF_RAY_MIRROR_X : 0u) | (mirror_y ? RF_RAY_MIRROR_Y : 0u);
+}
+
+// The rays to trace for a camera and fold mode, in tiles of RF_TILE_SIDE
+// pixels (8x8 blocks of 4x4 quads inside) so that a tile, its vectors, and
+// neighbouring work-items of the single-ray kernel trace coherent rays.
+RayList make_ray_list(const rf_camera& camera, FoldMode fold);
+
+}  // namespace rayfold

@@ -1,0 +1,126 @@
+#include "opencl/cl_device.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cstdlib>
+#include <vector>
+
+#include "util/errors.h"
+
+namespace rayfold {
+namespace {
+
+std::string lower(std::string s) {
+  std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return std::tolower(c); });
+  return s;
+}
+
+const char* error_name(cl_int code) {
+  switch (code) {
+    case CL_DEVICE_NOT_FOUND: return "CL_DEVICE_NOT_FOUND";
+    case CL_OUT_OF_RESOURCES: return "CL_OUT_OF_RESOURCES";
+    case CL_OUT_OF_HOST_MEMORY: return "CL_OUT_OF_HOST_MEMORY";
+    case CL_MEM_OBJECT_ALLOCATION_FAILURE: return "CL_MEM_OBJECT_ALLOCATION_FAILURE";
+    case CL_BUILD_PROGRAM_FAILURE: return "CL_BUILD_PROGRAM_FAILURE";
+    case CL_INVALID_VALUE: return "CL_INVALID_VALUE";
+    case CL_INVALID_BUFFER_SIZE: return "CL_INVALID_BUFFER_SIZE";
+    case CL_INVALID_KERNEL_ARGS: return "CL_INVALID_KERNEL_ARGS";
+    case CL_INVALID_WORK_GROUP_SIZE: return "CL_INVALID_WORK_GROUP_SIZE";
+    case CL_PLATFORM_NOT_FOUND_KHR: return "CL_PLATFORM_NOT_FOUND_KHR (no OpenCL platform installed)";
+    default: return "OpenCL error";
+  }
+}
+
+}  // namespace
+
+std::string cl_error_text(const cl::Error& e) {
+  return std::string(e.what()) + ": " + error_name(e.err()) + " (" + std::to_string(e.err()) + ")";
+}
+
+ClDevice::ClDevice(const std::string& hint_arg) {
+  std::string hint = hint_arg;
+  if (hint.empty()) {
+    if (const char* env = std::getenv("RAYFOLD_CL_DEVICE")) hint = env;
+  }
+  hint = lower(hint);
+  std::vector<cl::Platform> platforms;
+  try {
+    cl::Platform::get(&platforms);
+  } catch (const cl::Error& e) {
+    throw RuntimeFailure("no OpenCL platform found (install pocl-opencl-icd): " + cl_error_text(e));
+  }
+  struct Candidate {
+    cl::Device device;
+    std::string platform;
+  };
+  std::vector<Candidate> all;
+  for (cl::Platform& p : platforms) {
+    std::vector<cl::Device> devices;
+    try {
+      p.getDevices(CL_DEVICE_TYPE_ALL, &devices);
+    } catch (const cl::Error&) {
+      continue;  // a platform without devices
+    }
+    for (cl::Device& d : devices) all.push_back({d, p.getInfo<CL_PLATFORM_NAME>()});
+  }
+  if (all.empty()) throw RuntimeFailure("no OpenCL device found (install pocl-opencl-icd)");
+  const Candidate* chosen = nullptr;
+  if (!hint.empty()) {
+    for (const Candidate& c : all)
+      if (lower(c.platform + " " + c.device.getInfo<CL_DEVICE_NAME>()).find(hint) != std::string::npos) {
+        chosen = &c;
+        break;
+      }
+    if (!chosen) throw RuntimeFailure("no OpenCL device matches '" + hint + "'");
+  }
+  for (const Candidate& c : all)
+    if (!chosen && c.device.getInfo<CL_DEVICE_TYPE>() == CL_DEVICE_TYPE_GPU) chosen = &c;
+  if (!chosen) chosen = &all.front();
+
+  device_ = chosen->device;
+  info_.platform = chosen->platform;
+  info_.name = device_.getInfo<CL_DEVICE_NAME>();
+  info_.vendor = device_.getInfo<CL_DEVICE_VENDOR>();
+  info_.version = device_.getInfo<CL_DEVICE_VERSION>();
+  info_.compute_units = device_.getInfo<CL_DEVICE_MAX_COMPUTE_UNITS>();
+  info_.global_mem_bytes = device_.getInfo<CL_DEVICE_GLOBAL_MEM_SIZE>();
+  info_.max_alloc_bytes = device_.getInfo<CL_DEVICE_MAX_MEM_ALLOC_SIZE>();
+  info_.is_cpu = (device_.getInfo<CL_DEVICE_TYPE>() & CL_DEVICE_TYPE_CPU) != 0;
+  info_.native_float_width = device_.getInfo<CL_DEVICE_NATIVE_VECTOR_WIDTH_FLOAT>();
+  info_.correctly_rounded_divide_sqrt =
+      (device_.getInfo<CL_DEVICE_SINGLE_FP_CONFIG>() & CL_FP_CORRECTLY_ROUNDED_DIVIDE_SQRT) != 0;
+  try {
+    context_ = cl::Context(device_);
+    queue_ = cl::CommandQueue(context_, device_);
+  } catch (const cl::Error& e) {
+    throw RuntimeFailure("cannot open OpenCL device '" + info_.name + "': " + cl_error_text(e));
+  }
+}
+
+cl::Program ClDevice::build(const std::string& source, KernelPrecision precision, const std::string& defines) {
+  std::string options = "-cl-std=CL1.2";
+  if (!defines.empty()) options += " " + defines;
+  if (precision == KernelPrecision::exact) {
+    // Without correctly rounded division the kernels cannot match the host's
+    // bits; devices lacking it still run, and the parity tests say so.
+    if (info_.correctly_rounded_divide_sqrt) options += " -cl-fp32-correctly-rounded-divide-sqrt";
+  } else {
+    options += " -cl-fast-relaxed-math -cl-mad-enable -DRF_FAST_MATH";
+  }
+  cl::Program program(context_, source);
+  try {
+    program.build({device_}, options.c_str());
+  } catch (const cl::Error& e) {
+    std::string log;
+    try {
+      log = program.getBuildInfo<CL_PROGRAM_BUILD_LOG>(device_);
+    } catch (const cl::Error&) {
+      log = "(no build log)";
+    }
+    throw RuntimeFailure("OpenCL kernel build failed on '" + info_.name + "' with options '" + options +
+                         "': " + cl_error_text(e) + "\nbuild log:\n" + log);
+  }
+  return program;
+}
+
+}  // namespace rayfold

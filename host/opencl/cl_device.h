@@ -1,0 +1,56 @@
+// OpenCL device selection and program builds. Any OpenCL 1.2+ device works;
+// PoCL (the CPU) is the one every machine has.
+#pragma once
+
+#define CL_HPP_TARGET_OPENCL_VERSION 120
+#define CL_HPP_MINIMUM_OPENCL_VERSION 120
+#define CL_HPP_ENABLE_EXCEPTIONS
+#include <CL/opencl.hpp>
+
+#include <string>
+
+namespace rayfold {
+
+enum class KernelPrecision {
+  exact,  // correctly rounded divide and sqrt, no contraction: the CPU reference's bits
+  fast,   // -cl-fast-relaxed-math -cl-mad-enable: faster, not bit-exact
+};
+
+struct DeviceInfo {
+  std::string name, vendor, version, platform;
+  unsigned compute_units = 0;
+  size_t global_mem_bytes = 0;
+  size_t max_alloc_bytes = 0;
+  bool correctly_rounded_divide_sqrt = false;
+  bool is_cpu = false;              // CL_DEVICE_TYPE_CPU (PoCL): SIMD must come from inside a work-item
+  unsigned native_float_width = 1;  // CL_DEVICE_NATIVE_VECTOR_WIDTH_FLOAT: 8 with AVX2, 16 with AVX-512
+};
+
+class ClDevice {
+ public:
+  // Picks the device whose platform or device name contains `hint`
+  // (case-insensitive), else the environment's RAYFOLD_CL_DEVICE, else the
+  // first GPU, else the first device. Throws RuntimeFailure when none exists.
+  explicit ClDevice(const std::string& hint = "");
+
+  const DeviceInfo& info() const { return info_; }
+  cl::Context& context() { return context_; }
+  cl::Device& device() { return device_; }
+  cl::CommandQueue& queue() { return queue_; }
+
+  // Builds a program with the precision's options and `defines` (for
+  // example "-DRF_LANES=8"); a failed build throws RuntimeFailure with the
+  // build log.
+  cl::Program build(const std::string& source, KernelPrecision precision, const std::string& defines = "");
+
+ private:
+  cl::Device device_;
+  cl::Context context_;
+  cl::CommandQueue queue_;
+  DeviceInfo info_;
+};
+
+// "<call>: <OpenCL error name> (<code>)" for messages.
+std::string cl_error_text(const cl::Error& e);
+
+}  // namespace rayfold

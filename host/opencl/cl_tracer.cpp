@@ -1,0 +1,255 @@
+#include "opencl/cl_tracer.h"
+
+#include <algorithm>
+#include <cstdlib>
+#include <cstring>
+#include <sstream>
+
+#include "opencl/kernel_sources.h"
+#include "util/errors.h"
+#include "util/timer.h"
+
+namespace rayfold {
+namespace {
+
+// OpenCL refuses zero-sized buffers; every buffer gets at least one element.
+size_t at_least_one(size_t n) { return n ? n : 1; }
+
+}  // namespace
+
+unsigned tile_lanes(const DeviceInfo& info) {
+  if (const char* env = std::getenv("RAYFOLD_TILE_LANES")) return std::atoi(env) == 8 ? 8 : 16;
+  return info.native_float_width >= 16 ? 16 : 8;
+}
+
+const char* kernel_name(KernelKind k) { return k == KernelKind::tile ? "tile" : "single"; }
+
+ClTracer::ClTracer(ClDevice& device, KernelPrecision precision, bool tile_stats)
+    : device_(device), tile_stats_(tile_stats) {
+  std::string defines = "-DRF_LANES=" + std::to_string(tile_lanes(device.info()));
+  if (tile_stats) defines += " -DRF_TILE_STATS";
+  program_ = device_.build(trace_program_source(), precision, defines);
+  single_ = cl::Kernel(program_, "rf_trace_primary");
+  tile_ = cl::Kernel(program_, "rf_trace_tiles");
+}
+
+void ClTracer::upload_scene(const SceneData& data, size_t max_tlas_nodes, size_t max_instances, size_t max_rays,
+                            size_t pixel_count) {
+  const BlasSet& blas = data.blas;
+  blas_node_count_ = static_cast<uint32_t>(blas.nodes.size());
+  max_tlas_nodes_ = max_tlas_nodes;
+  max_instances_ = max_instances;
+  max_rays_ = max_rays;
+  pixel_count_ = pixel_count;
+  buffer_info_ = {
+      {"nodes", at_least_one(blas.nodes.size() + max_tlas_nodes) * sizeof(rf_node)},
+      {"triangles", at_least_one(blas.tris.size()) * sizeof(rf_tri)},
+      {"instances", at_least_one(max_instances) * sizeof(rf_instance)},
+      {"normal_xforms", at_least_one(data.normal_xforms.size()) * sizeof(rf_normal_xform)},
+      {"rays", at_least_one(max_rays) * sizeof(uint32_t)},
+      {"hits", at_least_one(pixel_count) * sizeof(rf_pixel_hit)},
+  };
+  const DeviceInfo& info = device_.info();
+  for (const BufferInfo& b : buffer_info_) {
+    if (b.bytes > info.max_alloc_bytes) {
+      std::ostringstream s;
+      s << "the " << b.name << " buffer needs " << (b.bytes >> 20) << " MiB, more than the largest allocation ("
+        << (info.max_alloc_bytes >> 20) << " MiB) that '" << info.name << "' allows";
+      throw RuntimeFailure(s.str());
+    }
+  }
+  if (device_bytes() > info.global_mem_bytes) {
+    std::ostringstream s;
+    s << "the scene and image need " << (device_bytes() >> 20) << " MiB of device memory; '" << info.name << "' has "
+      << (info.global_mem_bytes >> 20) << " MiB";
+    throw RuntimeFailure(s.str());
+  }
+  try {
+    cl::Context& ctx = device_.context();
+    cl::CommandQueue& q = device_.queue();
+    nodes_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, buffer_info_[0].bytes);
+    tris_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, buffer_info_[1].bytes);
+    instances_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, buffer_info_[2].bytes);
+    normal_xforms_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, buffer_info_[3].bytes);
+    for (RaySlot& r : slots_) r = RaySlot{};
+    slots_[0].rays = cl::Buffer(ctx, CL_MEM_READ_ONLY, buffer_info_[4].bytes);
+    slots_[0].rays_capacity = at_least_one(max_rays);
+    hits_ = cl::Buffer(ctx, CL_MEM_WRITE_ONLY, buffer_info_[5].bytes);
+    if (!blas.nodes.empty())
+      q.enqueueWriteBuffer(nodes_, CL_FALSE, 0, blas.nodes.size() * sizeof(rf_node), blas.nodes.data());
+    if (!blas.tris.empty())
+      q.enqueueWriteBuffer(tris_, CL_FALSE, 0, blas.tris.size() * sizeof(rf_tri), blas.tris.data());
+    if (!data.normal_xforms.empty())
+      q.enqueueWriteBuffer(normal_xforms_, CL_FALSE, 0, data.normal_xforms.size() * sizeof(rf_normal_xform),
+                           data.normal_xforms.data());
+    q.finish();
+  } catch (const cl::Error& e) {
+    throw RuntimeFailure("cannot upload the scene to '" + info.name + "': " + cl_error_text(e));
+  }
+}
+
+double ClTracer::upload_frame(const Frame& frame) {
+  RF_CHECK(frame.node_base == blas_node_count_, "frame built for another scene upload");
+  RF_CHECK(frame.tlas_nodes.size() <= max_tlas_nodes_ && frame.instances.size() <= max_instances_,
+           "frame larger than the space reserved for it");
+  const auto t0 = Clock::now();
+  try {
+    cl::CommandQueue& q = device_.queue();
+    if (!frame.tlas_nodes.empty())
+      q.enqueueWriteBuffer(nodes_, CL_FALSE, blas_node_count_ * sizeof(rf_node),
+                           frame.tlas_nodes.size() * sizeof(rf_node), frame.tlas_nodes.data());
+    if (!frame.instances.empty())
+      q.enqueueWriteBuffer(instances_, CL_FALSE, 0, frame.instances.size() * sizeof(rf_instance),
+                           frame.instances.data());
+    if (!frame.normal_xforms.empty())
+      q.enqueueWriteBuffer(normal_xforms_, CL_FALSE, 0, frame.normal_xforms.size() * sizeof(rf_normal_xform),
+                           frame.normal_xforms.data());
+    q.finish();
+  } catch (const cl::Error& e) {
+    throw RuntimeFailure("cannot upload a frame: " + cl_error_text(e));
+  }
+  tlas_root_ = frame.tlas_root;
+  return ms_since(t0);
+}
+
+double ClTracer::upload_rays(const RayList& rays, int slot) {
+  RF_CHECK(rays.entries.size() <= max_rays_, "ray list larger than its buffer");
+  RF_CHECK(!rays.tiles.empty() && rays.tiles.back() == rays.entries.size(), "tile table does not cover the rays");
+  RF_CHECK(slot >= 0 && slot < kRaySlots, "ray list slot out of range");
+  const auto t0 = Clock::now();
+  RaySlot& r = slots_[slot];
+  try {
+    cl::Context& ctx = device_.context();
+    if (rays.entries.size() > r.rays_capacity) {
+      r.rays = cl::Buffer(ctx, CL_MEM_READ_ONLY, rays.entries.size() * sizeof(uint32_t));
+      r.rays_capacity = rays.entries.size();
+    }
+    // The tile table is small (one entry per 256 rays at most); it grows
+    // when an image needs more tiles than any before.
+    if (rays.tiles.size() > r.tiles_capacity) {
+      r.tiles = cl::Buffer(ctx, CL_MEM_READ_ONLY, rays.tiles.size() * sizeof(uint32_t));
+      r.tiles_capacity = rays.tiles.size();
+    }
+    cl::CommandQueue& q = device_.queue();
+    q.enqueueWriteBuffer(r.tiles, CL_FALSE, 0, rays.tiles.size() * sizeof(uint32_t), rays.tiles.data());
+    if (!rays.entries.empty())
+      q.enqueueWriteBuffer(r.rays, CL_FALSE, 0, rays.entries.size() * sizeof(uint32_t), rays.entries.data());
+    q.finish();
+  } catch (const cl::Error& e) {
+    throw RuntimeFailure("cannot upload the ray list: " + cl_error_text(e));
+  }
+  r.ray_count = static_cast<uint32_t>(rays.entries.size());
+  r.tile_count = static_cast<uint32_t>(rays.tiles.size() - 1);
+  slot_ = slot;
+  return ms_since(t0);
+}
+
+void ClTracer::use_rays(int slot) {
+  RF_CHECK(slot >= 0 && slot < kRaySlots, "ray list slot out of range");
+  slot_ = slot;
+}
+
+double ClTracer::trace(const rf_camera& cam, KernelKind kind) {
+  RF_CHECK(static_cast<size_t>(cam.width) * cam.height <= pixel_count_, "image larger than the hit buffer");
+  const RaySlot& r = slots_[slot_];
+  if (r.ray_count == 0) return 0.0;
+  const auto t0 = Clock::now();
+  try {
+    cl::Kernel& kernel = kind == KernelKind::tile ? tile_ : single_;
+    int a = 0;
+    kernel.setArg(a++, nodes_);
+    kernel.setArg(a++, tris_);
+    kernel.setArg(a++, instances_);
+    kernel.setArg(a++, normal_xforms_);
+    kernel.setArg(a++, tlas_root_);
+    kernel.setArg(a++, r.rays);
+    if (kind == KernelKind::tile) {
+      kernel.setArg(a++, r.tiles);
+      kernel.setArg(a++, r.tile_count);
+    } else {
+      kernel.setArg(a++, r.ray_count);
+    }
+    kernel.setArg(a++, cam.scale_x);
+    kernel.setArg(a++, cam.scale_y);
+    kernel.setArg(a++, cam.kx0);
+    kernel.setArg(a++, cam.ky0);
+    kernel.setArg(a++, cam.width);
+    kernel.setArg(a++, cam.height);
+    kernel.setArg(a++, cam.xpair);
+    kernel.setArg(a++, cam.ypair);
+    kernel.setArg(a++, cam.depth_scale);
+    kernel.setArg(a++, host_out_ ? host_hits_ : hits_);
+    if (kind == KernelKind::tile && tile_stats_) {
+      stats_ = cl::Buffer(device_.context(), CL_MEM_WRITE_ONLY,
+                          std::max<size_t>(r.tile_count, 1) * RF_TILE_STAT_COUNT * sizeof(uint32_t));
+      kernel.setArg(a++, stats_);
+    }
+    if (kind == KernelKind::tile) {
+      // One tile per work-group: the SIMD is inside the work-item.
+      device_.queue().enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(r.tile_count), cl::NDRange(1));
+    } else {
+      constexpr size_t kGroup = 64;
+      const size_t global = (r.ray_count + kGroup - 1) / kGroup * kGroup;
+      device_.queue().enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(global), cl::NDRange(kGroup));
+    }
+    device_.queue().finish();
+  } catch (const cl::Error& e) {
+    throw RuntimeFailure(std::string(kernel_name(kind)) + " trace kernel failed on '" + device_.info().name +
+                         "': " + cl_error_text(e));
+  }
+  return ms_since(t0);
+}
+
+void ClTracer::bind_output(rf_pixel_hit* out, size_t pixel_count) {
+  RF_CHECK(pixel_count <= pixel_count_, "binding more hits than the buffer holds");
+  if (host_out_ == out && host_count_ == pixel_count) return;  // the same memory as last frame
+  host_out_ = nullptr;
+  host_count_ = 0;
+  if (!device_.info().is_cpu || pixel_count == 0) return;
+  try {
+    host_hits_ =
+        cl::Buffer(device_.context(), CL_MEM_WRITE_ONLY | CL_MEM_USE_HOST_PTR, pixel_count * sizeof(rf_pixel_hit), out);
+    host_out_ = out;
+    host_count_ = pixel_count;
+  } catch (const cl::Error&) {
+    host_out_ = nullptr;  // the device buffer and a copy still work
+  }
+}
+
+double ClTracer::read_hits(rf_pixel_hit* out, size_t pixel_count) {
+  RF_CHECK(pixel_count <= pixel_count_, "reading more hits than the buffer holds");
+  const auto t0 = Clock::now();
+  try {
+    cl::CommandQueue& q = device_.queue();
+    if (host_out_ == out && pixel_count > 0) {
+      // Mapping a host-pointer buffer hands back that memory; it
+      // synchronises without a copy on CPU devices.
+      void* p = q.enqueueMapBuffer(host_hits_, CL_TRUE, CL_MAP_READ, 0, pixel_count * sizeof(rf_pixel_hit));
+      if (p != out) std::memcpy(out, p, pixel_count * sizeof(rf_pixel_hit));
+      q.enqueueUnmapMemObject(host_hits_, p);
+      q.finish();
+    } else {
+      q.enqueueReadBuffer(hits_, CL_TRUE, 0, pixel_count * sizeof(rf_pixel_hit), out);
+    }
+  } catch (const cl::Error& e) {
+    throw RuntimeFailure("cannot read the hits back: " + cl_error_text(e));
+  }
+  return ms_since(t0);
+}
+
+std::vector<uint32_t> ClTracer::read_tile_stats() {
+  RF_CHECK(tile_stats_, "tracer built without tile statistics");
+  std::vector<uint32_t> out(static_cast<size_t>(slots_[slot_].tile_count) * RF_TILE_STAT_COUNT);
+  if (!out.empty()) device_.queue().enqueueReadBuffer(stats_, CL_TRUE, 0, out.size() * sizeof(uint32_t), out.data());
+  return out;
+}
+
+std::vector<BufferInfo> ClTracer::buffers() const { return buffer_info_; }
+
+size_t ClTracer::device_bytes() const {
+  size_t total = 0;
+  for (const BufferInfo& b : buffer_info_) total += b.bytes;
+  return total;
+}
+
+}  // namespace rayfold

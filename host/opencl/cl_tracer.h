@@ -1,0 +1,98 @@
+// Device buffers and the trace kernel. The scene part (bottom-level nodes,
+// triangles, normal matrices) is uploaded once; a frame re-uploads only its
+// top-level nodes and instances, into space reserved at scene upload.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "fold/frame.h"
+#include "fold/ray_list.h"
+#include "opencl/cl_device.h"
+
+namespace rayfold {
+
+struct BufferInfo {
+  std::string name;
+  size_t bytes = 0;
+};
+
+// Which kernel traces the ray list (kernels/rayfold.cl).
+enum class KernelKind {
+  tile,    // one work-item per tile of up to 256 rays, SIMD across the rays: CPU devices
+  single,  // one work-item per ray
+};
+const char* kernel_name(KernelKind k);
+
+// Rays per vector in the tile kernel: the device's native float vector
+// width, 8 (AVX2) or 16 (AVX-512).
+unsigned tile_lanes(const DeviceInfo& info);
+
+struct TraceTimes {
+  double upload_ms = 0.0;
+  double trace_ms = 0.0;
+  double readback_ms = 0.0;
+};
+
+class ClTracer {
+ public:
+  // tile_stats: build the tile kernel with its traversal counters
+  // (kernels/rf_tile.h), a diagnostic for rayfold-stats; slower.
+  ClTracer(ClDevice& device, KernelPrecision precision = KernelPrecision::exact, bool tile_stats = false);
+
+  // Allocates every buffer for this scene and image size, checking the
+  // device's memory first (RuntimeFailure when it would not fit).
+  void upload_scene(const SceneData& data, size_t max_tlas_nodes, size_t max_instances, size_t max_rays,
+                    size_t pixel_count);
+  // Returns the upload time in ms.
+  double upload_frame(const Frame& frame);
+  // Uploads a ray list into one of kRaySlots slots and makes it the one
+  // traced; a renderer keeps one slot per fold mode, so that alternating
+  // modes (a comparison, a benchmark) does not upload again.
+  static constexpr int kRaySlots = 4;
+  double upload_rays(const RayList& rays, int slot = 0);
+  // Traces the list already in `slot` from now on.
+  void use_rays(int slot);
+  // Traces the uploaded rays with the given kernel; ms of kernel time,
+  // measured around a finish().
+  double trace(const rf_camera& camera, KernelKind kernel);
+  // Where the next trace writes its hits. On CPU devices the kernel writes
+  // straight into `out` (a buffer over host memory), and read_hits only
+  // synchronises; elsewhere read_hits copies the device buffer into `out`.
+  void bind_output(rf_pixel_hit* out, size_t pixel_count);
+  double read_hits(rf_pixel_hit* out, size_t pixel_count);
+
+  // The tile kernel's counters of the last trace, RF_TILE_STAT_COUNT per
+  // tile (a tracer built with tile_stats only).
+  std::vector<uint32_t> read_tile_stats();
+
+  std::vector<BufferInfo> buffers() const;
+  size_t device_bytes() const;
+
+ private:
+  ClDevice& device_;
+  cl::Program program_;
+  cl::Kernel single_, tile_;
+  cl::Buffer nodes_, tris_, instances_, normal_xforms_, hits_;
+  // One uploaded ray list and its tile table. Slot 0's rays buffer is made
+  // with the scene (its size is checked against the device's memory); the
+  // others grow on first use.
+  struct RaySlot {
+    cl::Buffer rays, tiles;
+    size_t rays_capacity = 0, tiles_capacity = 0;
+    uint32_t ray_count = 0, tile_count = 0;
+  };
+  RaySlot slots_[kRaySlots];
+  int slot_ = 0;
+  bool tile_stats_ = false;
+  cl::Buffer stats_;
+  cl::Buffer host_hits_;  // over bound host memory (CPU devices)
+  rf_pixel_hit* host_out_ = nullptr;
+  size_t host_count_ = 0;
+  std::vector<BufferInfo> buffer_info_;
+  uint32_t blas_node_count_ = 0;
+  uint32_t tlas_root_ = RF_INVALID;
+  size_t max_tlas_nodes_ = 0, max_instances_ = 0, max_rays_ = 0, pixel_count_ = 0;
+};
+
+}  // namespace rayfold

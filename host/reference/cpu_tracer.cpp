@@ -1,0 +1,16 @@
+#include "reference/cpu_tracer.h"
+
+#include "rf_trace.h"
+#include "util/parallel.h"
+
+namespace rayfold {
+
+void trace_cpu(const TraceInputs& in, const RayList& rays, const rf_camera& camera, rf_pixel_hit* out,
+               unsigned threads) {
+  parallel_for(rays.entries.size(), threads, 256, [&](size_t begin, size_t end) {
+    for (size_t i = begin; i < end; ++i)
+      rf_trace_entry(rays.entries[i], &camera, in.nodes, in.tris, in.instances, in.normal_xforms, in.tlas_root, out);
+  });
+}
+
+}  // namespace rayfold

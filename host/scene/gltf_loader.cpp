@@ -1,0 +1,433 @@
+#include "scene/gltf_loader.h"
+
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <set>
+#include <sstream>
+
+#include <tiny_gltf.h>
+#include <glm/gtc/matrix_transform.hpp>
+#include <glm/gtc/quaternion.hpp>
+#include <glm/gtc/type_ptr.hpp>
+#include <nlohmann/json.hpp>
+
+#include "util/errors.h"
+
+namespace rayfold {
+namespace {
+
+// Hit info needs no pixels: images are neither decoded nor required.
+bool skip_image(tinygltf::Image*, const int, std::string*, std::string*, int, int, const unsigned char*, int, void*) {
+  return true;
+}
+
+// External buffers are read only from regular files: a URI naming a device
+// or a pipe (/dev/zero, a FIFO) would otherwise hang the loader or exhaust
+// memory. Files are otherwise read as tinygltf would.
+bool read_regular_file(std::vector<unsigned char>* out, std::string* err, const std::string& path, void* user) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) {
+    if (err) *err += "'" + path + "' is not a regular file\n";
+    return false;
+  }
+  return tinygltf::ReadWholeFile(out, err, path, user);
+}
+
+// Required extensions that change nothing about geometry can be ignored;
+// any other one changes how positions or indices are stored.
+bool geometry_neutral(const std::string& ext) {
+  static const char* prefixes[] = {"KHR_materials_", "KHR_texture_", "EXT_texture_", "KHR_lights_", "MSFT_texture_"};
+  for (const char* p : prefixes)
+    if (ext.rfind(p, 0) == 0) return true;
+  return false;
+}
+
+class Loader {
+ public:
+  Loader(const std::string& path, std::vector<std::string>* warnings) : path_(path), warnings_(warnings) {}
+
+  Scene run() {
+    read_model();
+    check_extensions();
+    std::vector<int> roots = root_nodes();
+    // Depth-first over the hierarchy with an explicit stack; `on_path` finds
+    // cycles, `visited` nodes reachable twice (a DAG is not a tree either).
+    struct Item {
+      int node;
+      Xform world_from_parent;
+      bool leaving;
+    };
+    std::vector<Item> stack;
+    for (auto it = roots.rbegin(); it != roots.rend(); ++it) stack.push_back({*it, Xform(1.0), false});
+    std::vector<char> on_path(model_.nodes.size(), 0), visited(model_.nodes.size(), 0);
+    while (!stack.empty()) {
+      Item item = stack.back();
+      stack.pop_back();
+      if (item.leaving) {
+        on_path[item.node] = 0;
+        continue;
+      }
+      const int ni = item.node;
+      if (ni < 0 || static_cast<size_t>(ni) >= model_.nodes.size())
+        fail("a node reference (" + std::to_string(ni) + ") is out of range");
+      if (on_path[ni]) fail("node " + std::to_string(ni) + " is its own ancestor (a cycle in the node hierarchy)");
+      if (visited[ni]) fail("node " + std::to_string(ni) + " has more than one parent");
+      visited[ni] = 1;
+      on_path[ni] = 1;
+      const tinygltf::Node& node = model_.nodes[ni];
+      const Xform world_from_node = item.world_from_parent * local_transform(ni);
+      if (node.mesh >= 0)
+        add_instance(ni, world_from_node);
+      else if (node.mesh < -1)
+        fail("node " + std::to_string(ni) + " has a negative mesh index");
+      if (node.camera >= 0) add_camera(ni, world_from_node);
+      stack.push_back({ni, Xform(1.0), true});
+      for (auto it = node.children.rbegin(); it != node.children.rend(); ++it)
+        stack.push_back({*it, world_from_node, false});
+    }
+    if (scene_.triangle_count() == 0) warn("the scene has no triangles; every pixel will miss");
+    return std::move(scene_);
+  }
+
+ private:
+  [[noreturn]] void fail(const std::string& what) const { throw InputError(path_, what); }
+  void warn(const std::string& what) const {
+    if (warnings_) warnings_->push_back(path_ + ": " + what);
+  }
+
+  // What tinygltf does not check: the GLB header's version and length, and
+  // nodes that carry both a matrix and TRS (tinygltf silently drops the TRS).
+  void check_raw(const std::string& bytes) const {
+    std::string json_text = bytes;
+    if (binary_) {
+      if (bytes.size() < 20) fail("the GLB header is truncated");
+      uint32_t version, length, chunk_length, chunk_type;
+      std::memcpy(&version, &bytes[4], 4);
+      std::memcpy(&length, &bytes[8], 4);
+      std::memcpy(&chunk_length, &bytes[12], 4);
+      std::memcpy(&chunk_type, &bytes[16], 4);
+      if (version != 2) fail("GLB version " + std::to_string(version) + "; only glTF 2.0 (version 2) is read");
+      if (length != bytes.size())
+        fail("the GLB header gives a length of " + std::to_string(length) + " bytes, the file has " +
+             std::to_string(bytes.size()));
+      if (chunk_type != 0x4E4F534Au) fail("the first GLB chunk is not of type JSON");
+      if (chunk_length > bytes.size() - 20) fail("the GLB JSON chunk runs past the end of the file");
+      json_text = bytes.substr(20, chunk_length);
+    }
+    const nlohmann::json j = nlohmann::json::parse(json_text, nullptr, false);
+    if (j.is_discarded() || !j.is_object()) return;  // tinygltf reports these
+    const auto nodes = j.find("nodes");
+    if (nodes == j.end() || !nodes->is_array()) return;
+    for (size_t i = 0; i < nodes->size(); ++i) {
+      const nlohmann::json& n = (*nodes)[i];
+      if (n.is_object() && n.contains("matrix") &&
+          (n.contains("translation") || n.contains("rotation") || n.contains("scale")))
+        fail("node " + std::to_string(i) + " has both a matrix and translation, rotation or scale (glTF 2.0, 5.25)");
+    }
+  }
+
+  void read_model() {
+    std::string bytes;
+    {
+      std::ifstream f(path_, std::ios::binary);
+      if (!f) fail("cannot open the file");
+      bytes.assign(std::istreambuf_iterator<char>(f), {});
+      if (bytes.empty()) fail("the file is empty");
+      binary_ = bytes.size() >= 4 && std::memcmp(bytes.data(), "glTF", 4) == 0;
+    }
+    check_raw(bytes);
+    tinygltf::TinyGLTF gltf;
+    gltf.SetImageLoader(skip_image, nullptr);
+    gltf.SetFsCallbacks(
+        {tinygltf::FileExists, tinygltf::ExpandFilePath, read_regular_file, tinygltf::WriteWholeFile, nullptr});
+    std::string err, warn;
+    bool ok = false;
+    try {
+      ok = binary_ ? gltf.LoadBinaryFromFile(&model_, &err, &warn, path_)
+                   : gltf.LoadASCIIFromFile(&model_, &err, &warn, path_);
+    } catch (const std::exception& e) {
+      fail(std::string("not a readable glTF file: ") + e.what());
+    }
+    if (!ok) {
+      std::string what = err.empty() ? "not a readable glTF file" : err;
+      while (!what.empty() && (what.back() == '\n' || what.back() == ' ')) what.pop_back();
+      fail(what);
+    }
+    std::istringstream lines(warn);
+    for (std::string line; std::getline(lines, line);)
+      if (!line.empty()) this->warn(line);
+  }
+
+  void check_extensions() const {
+    std::string unsupported;
+    for (const std::string& ext : model_.extensionsRequired)
+      if (!geometry_neutral(ext)) unsupported += (unsupported.empty() ? "" : ", ") + ext;
+    if (!unsupported.empty()) fail("requires extensions rayfold does not support: " + unsupported);
+  }
+
+  std::vector<int> root_nodes() const {
+    if (!model_.scenes.empty()) {
+      int s = model_.defaultScene >= 0 ? model_.defaultScene : 0;
+      if (static_cast<size_t>(s) >= model_.scenes.size()) fail("the default scene index is out of range");
+      return model_.scenes[s].nodes;
+    }
+    // No scene: every node that is nobody's child is a root.
+    std::vector<char> is_child(model_.nodes.size(), 0);
+    for (const tinygltf::Node& n : model_.nodes)
+      for (int c : n.children)
+        if (c >= 0 && static_cast<size_t>(c) < model_.nodes.size()) is_child[c] = 1;
+    std::vector<int> roots;
+    for (size_t i = 0; i < model_.nodes.size(); ++i)
+      if (!is_child[i]) roots.push_back(static_cast<int>(i));
+    return roots;
+  }
+
+  Xform local_transform(int ni) const {
+    const tinygltf::Node& n = model_.nodes[ni];
+    const std::string where = "node " + std::to_string(ni);
+    auto finite = [&](const std::vector<double>& v, const char* what) {
+      for (double x : v)
+        if (!std::isfinite(x)) fail(where + " has a non-finite " + what);
+    };
+    if (!n.matrix.empty()) {
+      if (n.matrix.size() != 16) fail(where + " has a matrix with " + std::to_string(n.matrix.size()) + " values");
+      finite(n.matrix, "matrix");
+      Xform m = glm::make_mat4(n.matrix.data());
+      if (m[0][3] != 0.0 || m[1][3] != 0.0 || m[2][3] != 0.0 || m[3][3] != 1.0)
+        fail(where + " has a matrix that is not affine (its last row must be 0 0 0 1)");
+      return m;
+    }
+    Xform m(1.0);
+    if (!n.translation.empty()) {
+      if (n.translation.size() != 3) fail(where + " has a translation without 3 values");
+      finite(n.translation, "translation");
+      m[3] = glm::dvec4(n.translation[0], n.translation[1], n.translation[2], 1.0);
+    }
+    if (!n.rotation.empty()) {
+      if (n.rotation.size() != 4) fail(where + " has a rotation without 4 values");
+      finite(n.rotation, "rotation");
+      glm::dquat q(n.rotation[3], n.rotation[0], n.rotation[1], n.rotation[2]);
+      const double len = glm::length(q);
+      if (!(len > 0.0)) fail(where + " has a zero rotation quaternion");
+      if (std::fabs(len - 1.0) > 1e-3) warn(where + " has a rotation quaternion that is not unit length; normalised");
+      m = m * Xform(glm::mat4_cast(q / len));
+    }
+    if (!n.scale.empty()) {
+      if (n.scale.size() != 3) fail(where + " has a scale without 3 values");
+      finite(n.scale, "scale");
+      m = glm::scale(m, glm::dvec3(n.scale[0], n.scale[1], n.scale[2]));
+    }
+    return m;
+  }
+
+  void add_camera(int ni, const Xform& world_from_node) {
+    if (scene_.camera) return;
+    const int ci = model_.nodes[ni].camera;
+    if (static_cast<size_t>(ci) >= model_.cameras.size())
+      fail("node " + std::to_string(ni) + " refers to camera " + std::to_string(ci) + ", which does not exist");
+    const tinygltf::Camera& c = model_.cameras[ci];
+    if (c.type != "perspective") return;
+    const double yfov = c.perspective.yfov * 180.0 / M_PI;
+    if (!(yfov > 0.0 && yfov < 180.0)) {
+      warn("camera " + std::to_string(ci) + " has a vertical field of view outside (0, 180) degrees; ignored");
+      return;
+    }
+    CameraSpec spec;
+    spec.eye = transform_point(world_from_node, glm::dvec3(0.0));
+    spec.look_at = transform_point(world_from_node, glm::dvec3(0.0, 0.0, -1.0));
+    spec.up = glm::dvec3(world_from_node * glm::dvec4(0.0, 1.0, 0.0, 0.0));
+    spec.vfov_degrees = yfov;
+    scene_.camera = spec;
+  }
+
+  void add_instance(int ni, const Xform& world_from_node) {
+    const int mi = model_.nodes[ni].mesh;
+    if (static_cast<size_t>(mi) >= model_.meshes.size())
+      fail("node " + std::to_string(ni) + " refers to mesh " + std::to_string(mi) + ", which does not exist");
+    auto found = mesh_slot_.find(mi);
+    if (found == mesh_slot_.end()) found = mesh_slot_.emplace(mi, convert_mesh(mi)).first;
+    if (found->second < 0) return;  // a mesh without triangles
+    if (linear_determinant(world_from_node) == 0.0)
+      warn("node " + std::to_string(ni) + " has a zero scale; it is hidden");
+    Instance inst;
+    inst.mesh = static_cast<uint32_t>(found->second);
+    inst.world_from_object = world_from_node;
+    inst.name = model_.nodes[ni].name;
+    scene_.instances.push_back(std::move(inst));
+  }
+
+  // Converts a glTF mesh (all its triangle primitives) into one Mesh; returns
+  // its index in scene_.meshes, or -1 when it has no triangles.
+  int convert_mesh(int mi) {
+    const tinygltf::Mesh& gm = model_.meshes[mi];
+    Mesh mesh;
+    mesh.name = gm.name;
+    for (size_t pi = 0; pi < gm.primitives.size(); ++pi) {
+      const tinygltf::Primitive& prim = gm.primitives[pi];
+      const std::string where = "mesh " + std::to_string(mi) + " primitive " + std::to_string(pi);
+      const int mode = prim.mode < 0 ? TINYGLTF_MODE_TRIANGLES : prim.mode;
+      if (mode == TINYGLTF_MODE_POINTS || mode == TINYGLTF_MODE_LINE || mode == TINYGLTF_MODE_LINE_LOOP ||
+          mode == TINYGLTF_MODE_LINE_STRIP) {
+        warn(where + " draws points or lines; skipped");
+        continue;
+      }
+      if (mode != TINYGLTF_MODE_TRIANGLES && mode != TINYGLTF_MODE_TRIANGLE_STRIP && mode != TINYGLTF_MODE_TRIANGLE_FAN)
+        fail(where + " has an unknown primitive mode " + std::to_string(mode));
+      const auto pos = prim.attributes.find("POSITION");
+      if (pos == prim.attributes.end()) fail(where + " has no POSITION attribute");
+      const uint32_t base = static_cast<uint32_t>(mesh.positions.size());
+      read_positions(pos->second, where, mesh.positions);
+      const uint32_t vertex_count = static_cast<uint32_t>(mesh.positions.size()) - base;
+      std::vector<uint32_t> seq;
+      if (prim.indices >= 0) {
+        read_indices(prim.indices, where, vertex_count, seq);
+      } else {
+        seq.resize(vertex_count);
+        for (uint32_t i = 0; i < vertex_count; ++i) seq[i] = i;
+      }
+      size_t dropped = 0;
+      append_triangles(mode, seq, base, mesh.indices, &dropped);
+      if (dropped)
+        warn(where + " has " + std::to_string(seq.size()) + " triangle vertices, not a multiple of 3; the last " +
+             std::to_string(dropped) + " are ignored");
+    }
+    if (mesh.indices.empty()) {
+      warn("mesh " + std::to_string(mi) + (gm.name.empty() ? "" : " (" + gm.name + ")") + " has no triangles");
+      return -1;
+    }
+    scene_.meshes.push_back(std::move(mesh));
+    return static_cast<int>(scene_.meshes.size()) - 1;
+  }
+
+  static void append_triangles(int mode, const std::vector<uint32_t>& seq, uint32_t base, std::vector<uint32_t>& out,
+                               size_t* dropped) {
+    auto tri = [&](uint32_t a, uint32_t b, uint32_t c) {
+      out.push_back(base + seq[a]);
+      out.push_back(base + seq[b]);
+      out.push_back(base + seq[c]);
+    };
+    const size_t n = seq.size();
+    if (mode == TINYGLTF_MODE_TRIANGLES) {
+      for (size_t i = 0; i + 2 < n; i += 3) tri(i, i + 1, i + 2);
+      if (n % 3 != 0 && dropped) *dropped = n % 3;
+    } else if (mode == TINYGLTF_MODE_TRIANGLE_STRIP) {
+      // glTF 2.0 spec 3.7.2.1: triangle i is (i, i + 1 + i % 2, i + 2 - i % 2).
+      for (size_t i = 0; i + 2 < n; ++i) tri(i, i + 1 + i % 2, i + 2 - i % 2);
+    } else {
+      // Fan: triangle i is (i + 1, i + 2, 0).
+      for (size_t i = 0; i + 2 < n; ++i) tri(i + 1, i + 2, 0);
+    }
+  }
+
+  // Validates an accessor against its view and buffer; returns the bytes of
+  // element 0 and the stride between elements.
+  const unsigned char* accessor_data(int ai, const std::string& where, size_t element_bytes, size_t component_bytes,
+                                     bool is_index, size_t* stride, size_t* count) const {
+    const std::string acc = where + ": accessor " + std::to_string(ai);
+    if (ai < 0 || static_cast<size_t>(ai) >= model_.accessors.size()) fail(acc + " does not exist");
+    const tinygltf::Accessor& a = model_.accessors[ai];
+    if (a.sparse.isSparse) fail(acc + " is sparse, which rayfold does not support");
+    *count = a.count;
+    if (a.count == 0) {
+      *stride = element_bytes;
+      return nullptr;
+    }
+    if (a.bufferView < 0 || static_cast<size_t>(a.bufferView) >= model_.bufferViews.size())
+      fail(acc + " refers to a buffer view that does not exist");
+    const tinygltf::BufferView& v = model_.bufferViews[a.bufferView];
+    if (v.buffer < 0 || static_cast<size_t>(v.buffer) >= model_.buffers.size())
+      fail(acc + ": its buffer view refers to a buffer that does not exist");
+    const std::vector<unsigned char>& data = model_.buffers[v.buffer].data;
+    if (v.byteOffset > data.size() || v.byteLength > data.size() - v.byteOffset)
+      fail(acc + ": its buffer view (offset " + std::to_string(v.byteOffset) + ", length " +
+           std::to_string(v.byteLength) + ") runs past its buffer of " + std::to_string(data.size()) + " bytes");
+    // glTF 2.0, 3.6.2.4 and 5.11: strides are 4..252 and a multiple of 4;
+    // index views have none; accessors are aligned to their component size.
+    if (v.byteStride != 0 && (v.byteStride < 4 || v.byteStride > 252 || v.byteStride % 4 != 0))
+      fail(acc + ": its buffer view's byteStride " + std::to_string(v.byteStride) +
+           " is not a multiple of 4 between 4 and 252");
+    if (is_index && v.byteStride != 0) fail(acc + " holds indices but its buffer view defines a byteStride");
+    if ((v.byteOffset + a.byteOffset) % component_bytes != 0)
+      fail(acc + " is not aligned to its " + std::to_string(component_bytes) + "-byte components");
+    *stride = v.byteStride ? v.byteStride : element_bytes;
+    if (*stride < element_bytes) fail(acc + " has a byte stride smaller than its element");
+    // Written so that no product can overflow: the last element must end
+    // inside the view.
+    if (a.byteOffset > v.byteLength || element_bytes > v.byteLength - a.byteOffset ||
+        (a.count - 1) > (v.byteLength - a.byteOffset - element_bytes) / *stride)
+      fail(acc + " (" + std::to_string(a.count) + " elements from offset " + std::to_string(a.byteOffset) +
+           ") runs past its buffer view of " + std::to_string(v.byteLength) + " bytes");
+    return data.data() + v.byteOffset + a.byteOffset;
+  }
+
+  void read_positions(int ai, const std::string& where, std::vector<glm::vec3>& out) const {
+    if (ai < 0 || static_cast<size_t>(ai) >= model_.accessors.size())
+      fail(where + ": POSITION accessor " + std::to_string(ai) + " does not exist");
+    const tinygltf::Accessor& a = model_.accessors[ai];
+    if (a.type != TINYGLTF_TYPE_VEC3 || a.componentType != TINYGLTF_COMPONENT_TYPE_FLOAT)
+      fail(where + ": POSITION must be VEC3 of FLOAT");
+    size_t stride = 0, count = 0;
+    const unsigned char* p = accessor_data(ai, where, 12, 4, false, &stride, &count);
+    out.reserve(out.size() + count);
+    for (size_t i = 0; i < count; ++i) {
+      glm::vec3 v;
+      std::memcpy(&v, p + i * stride, 12);
+      if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z))
+        fail(where + ": position " + std::to_string(i) + " is not finite");
+      out.push_back(v);
+    }
+  }
+
+  void read_indices(int ai, const std::string& where, uint32_t vertex_count, std::vector<uint32_t>& out) const {
+    if (ai < 0 || static_cast<size_t>(ai) >= model_.accessors.size())
+      fail(where + ": index accessor " + std::to_string(ai) + " does not exist");
+    const tinygltf::Accessor& a = model_.accessors[ai];
+    if (a.type != TINYGLTF_TYPE_SCALAR) fail(where + ": indices must be SCALAR");
+    size_t bytes = 0;
+    switch (a.componentType) {
+      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: bytes = 1; break;
+      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: bytes = 2; break;
+      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: bytes = 4; break;
+      default: fail(where + ": indices must be unsigned byte, short or int");
+    }
+    size_t stride = 0, count = 0;
+    const unsigned char* p = accessor_data(ai, where, bytes, bytes, true, &stride, &count);
+    out.resize(count);
+    for (size_t i = 0; i < count; ++i) {
+      uint32_t v = 0;
+      if (bytes == 1)
+        v = p[i * stride];
+      else if (bytes == 2) {
+        uint16_t s;
+        std::memcpy(&s, p + i * stride, 2);
+        v = s;
+      } else {
+        std::memcpy(&v, p + i * stride, 4);
+      }
+      if (v >= vertex_count)
+        fail(where + ": index " + std::to_string(i) + " is " + std::to_string(v) + ", past the " +
+             std::to_string(vertex_count) + " vertices");
+      out[i] = v;
+    }
+  }
+
+  std::string path_;
+  std::vector<std::string>* warnings_;
+  bool binary_ = false;
+  tinygltf::Model model_;
+  Scene scene_;
+  std::map<int, int> mesh_slot_;  // glTF mesh -> scene mesh (or -1)
+};
+
+}  // namespace
+
+Scene load_gltf(const std::string& path, std::vector<std::string>* warnings) {
+  Scene scene = Loader(path, warnings).run();
+  check_world_range(scene, path);
+  return scene;
+}
+
+}  // namespace rayfold

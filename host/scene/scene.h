@@ -1,0 +1,59 @@
+// The scene model: only what hit info needs. Meshes hold positions and
+// triangle indices; instances place a mesh in the world. No materials, no
+// normals, no texture coordinates.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <glm/vec3.hpp>
+
+#include "scene/aabb.h"
+#include "scene/transform.h"
+
+namespace rayfold {
+
+struct Mesh {
+  std::string name;
+  std::vector<glm::vec3> positions;
+  std::vector<uint32_t> indices;  // three per triangle, in the file's winding
+  size_t triangle_count() const { return indices.size() / 3; }
+};
+
+struct Instance {
+  uint32_t mesh = 0;
+  Xform world_from_object{1.0};
+  std::string name;
+};
+
+// A perspective camera; +y of the image is `up` projected onto the view plane.
+struct CameraSpec {
+  glm::dvec3 eye{0.0, 0.0, 0.0};
+  glm::dvec3 look_at{0.0, 0.0, -1.0};
+  glm::dvec3 up{0.0, 1.0, 0.0};
+  double vfov_degrees = 60.0;
+};
+
+// The largest world-space coordinate rayfold accepts (2^126, about 8.5e37):
+// every distance between two such points, and so every depth, is a finite
+// float, and the trace space of any view stays inside the float range.
+constexpr double kMaxWorldCoordinate = 0x1p126;
+
+struct Scene {
+  std::vector<Mesh> meshes;
+  std::vector<Instance> instances;
+  std::optional<CameraSpec> camera;  // the file's first perspective camera
+
+  size_t triangle_count() const;         // over instances, as rendered
+  size_t unique_triangle_count() const;  // over meshes, as stored
+  Aabb mesh_bounds(uint32_t mesh) const;
+  Aabb world_bounds() const;
+};
+
+// Throws InputError(file, ...) naming the first instance whose geometry
+// reaches beyond kMaxWorldCoordinate (or is not finite) in world space.
+void check_world_range(const Scene& scene, const std::string& file);
+
+}  // namespace rayfold
