@@ -141,6 +141,34 @@ TEST(Scale, EveryPowerOfTwoFromMinus100To100) {
   }
 }
 
+TEST(Scale, SubnormalDepthsKeepEveryOtherChannel) {
+  // Found by the fuzz target: at 2^-135 the depths themselves are subnormal
+  // floats and have lost bits, which scaling up cannot restore; every other
+  // channel stays bit-identical, and nothing is lost.
+  const Scene base = soup(61);
+  const CameraSpec spec = soup_camera(62, base);
+  RendererOptions cpu;
+  cpu.backend = Backend::cpu;
+  const Camera cam0 = make_camera(scaled(spec, -135), 40, 30);
+  const std::vector<rf_pixel_hit> tiny = Renderer(scaled(base, -135, Placement::nodes), cpu).render(cam0).hits;
+  const std::vector<rf_pixel_hit> ref = Renderer(base, cpu).render(make_camera(spec, 40, 30)).hits;
+  size_t subnormal = 0;
+  for (size_t i = 0; i < ref.size(); ++i) {
+    rf_pixel_hit a = ref[i], b = tiny[i];
+    if (std::fpclassify(b.z) == FP_SUBNORMAL) {
+      ++subnormal;
+      // Rounded once, to the nearest multiple of 2^-149: half of that away.
+      EXPECT_LE(std::fabs(std::ldexp(double(b.z), 135) - a.z), 0x1p-15) << "pixel " << i;
+      a.z = b.z = 0.0f;
+    } else {
+      a.z = std::ldexp(a.z, -135);
+    }
+    EXPECT_EQ(testing::compare_hits({a}, {b}, 1), "") << "pixel " << i;
+  }
+  EXPECT_EQ(subnormal, count_hits(ref)) << "every depth is subnormal at 2^-135";
+  EXPECT_GT(subnormal, 0u);
+}
+
 TEST(Scale, VertexAndNodeScalesGiveTheSameBits) {
   // The same geometry written two ways: a power of two in the vertices or in
   // the node lands in the same tree space, so even the depths agree.
