@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "gltf_fixture.h"
 #include "test_util.h"
 #include "util/image_output.h"
 
@@ -201,6 +202,106 @@ TEST(Cli, InfoDescribesTheDefaultScene) {
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.out.find("instances"), std::string::npos);
   EXPECT_NE(r.out.find("bounds"), std::string::npos);
+}
+
+TEST(Cli, OutputExtensionsMustMatchTheirKind) {
+  const fs::path d = work_dir();
+  for (const std::string args : {"-o " + (d / "x.png").string(), "--png " + (d / "x.exr").string(),
+                                 "-o " + (d / "same.exr").string() + " --stats " + (d / "same.exr").string(),
+                                 "--stats " + (d / "s.txt").string()}) {
+    const CliRun r = rayfold("render --size 8x8 " + args);
+    EXPECT_EQ(r.code, 2) << args;
+    EXPECT_NE(r.err.find("must end in"), std::string::npos) << args << ": " << r.err;
+  }
+  EXPECT_FALSE(fs::exists(d / "x.png"));
+  EXPECT_FALSE(fs::exists(d / "same.exr"));
+  const CliRun none = rayfold("render --size 8x8");
+  EXPECT_EQ(none.code, 0) << none.err;
+  EXPECT_NE(none.out.find("nothing written"), std::string::npos) << none.out;
+}
+
+TEST(Cli, ScenesThatAreNotGltfFilesExitTwoNamingTheFile) {
+  const fs::path d = work_dir();
+  const std::string obj = (d / "mesh.obj").string(), dir = (d / "a_directory").string();
+  std::ofstream(obj) << "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+  fs::create_directories(dir);
+  for (auto [path, why] : {std::pair{obj, std::string("not a glTF file but an OBJ file")},
+                           {dir, std::string("is a directory")}}) {
+    for (const std::string command : {"render ", "info "}) {
+      const CliRun r = rayfold(command + path);
+      EXPECT_EQ(r.code, 2) << command << path;
+      EXPECT_NE(r.err.find("error: " + path + ": " + why), std::string::npos) << r.err;
+    }
+  }
+}
+
+TEST(Cli, VersionDevicesAndDeviceErrors) {
+  CliRun r = rayfold("--version");
+  EXPECT_EQ(r.code, 0);
+  EXPECT_EQ(r.out.rfind("rayfold ", 0), 0u) << r.out;
+  r = rayfold("devices");
+  EXPECT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("compute units"), std::string::npos) << r.out;
+  const std::string device_line = r.out.substr(r.out.find('\n') + 1);
+  r = rayfold("render --size 8x8 --device no-such-device-anywhere");
+  EXPECT_EQ(r.code, 3);
+  EXPECT_NE(r.err.find("no OpenCL device matches"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find(device_line.substr(0, device_line.find('('))), std::string::npos)
+      << "the devices are listed: " << r.err;
+  r = rayfold("render --size 8x8 --backend cpu --device pthread");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("--device"), std::string::npos) << r.err;
+}
+
+TEST(Cli, CommandLineCameraIsUprightWithoutUp) {
+  // A file whose camera is rolled 90 degrees: --eye and --look-at replace the
+  // camera whole, +Y up, as the help says; --up alone turns the file's.
+  testing::GltfFile f;
+  f.one_triangle();
+  f.j["cameras"] = {{{"type", "perspective"}, {"perspective", {{"yfov", 1.0}, {"znear", 0.01}}}}};
+  // Rolled: the camera's +y points along world -x.
+  f.j["nodes"].push_back({{"camera", 0}, {"matrix", {0, -1, 0, 0, 1, 0, 0, 0, 0, 0, 1, 0, 0.3, 0.3, 3, 1}}});
+  f.j["scenes"] = {{{"nodes", {0, 1}}}};
+  const std::string scene = f.write("rolled_camera");
+  const fs::path d = work_dir();
+  const std::string a = (d / "no_up.exr").string(), b = (d / "up.exr").string(), c = (d / "file.exr").string();
+  const std::string view = " --size 24x16 --eye 0.3,0.3,3 --look-at 0.3,0.3,0 ";
+  ASSERT_EQ(rayfold("render " + scene + view + "-o " + a).code, 0);
+  ASSERT_EQ(rayfold("render " + scene + view + "--up 0,1,0 -o " + b).code, 0);
+  ASSERT_EQ(rayfold("render " + scene + " --size 24x16 -o " + c).code, 0);
+  int w = 0, h = 0;
+  const auto no_up = read_exr(a, &w, &h), up = read_exr(b, &w, &h), file = read_exr(c, &w, &h);
+  EXPECT_EQ(testing::compare_hits(no_up, up, 24), "");
+  EXPECT_NE(testing::compare_hits(no_up, file, 24), "") << "the file's rolled camera must differ";
+}
+
+TEST(Cli, AutoFramedCameraIsPrintedAndReusable) {
+  testing::GltfFile f;
+  f.one_triangle();
+  const std::string scene = f.write("no_camera");
+  const fs::path d = work_dir();
+  const std::string a = (d / "auto.exr").string(), b = (d / "again.exr").string();
+  const CliRun r = rayfold("render " + scene + " --size 20x12 -o " + a);
+  ASSERT_EQ(r.code, 0) << r.err;
+  const size_t at = r.out.find("auto-framed");
+  ASSERT_NE(at, std::string::npos) << r.out;
+  const std::string line = r.out.substr(at + 11, r.out.find('\n', at) - at - 11);
+  ASSERT_EQ(rayfold("render " + scene + " --size 20x12 " + line + " -o " + b).code, 0) << line;
+  int w = 0, h = 0;
+  EXPECT_EQ(testing::compare_hits(read_exr(a, &w, &h), read_exr(b, &w, &h), 20), "") << line;
+}
+
+TEST(Cli, OneWarningLinePerKind) {
+  testing::GltfFile f;
+  f.one_triangle();
+  for (int i = 0; i < 5; ++i) f.j["nodes"].push_back({{"mesh", 0}, {"scale", {0, 0, 0}}});
+  f.j["scenes"] = {{{"nodes", {0, 1, 2, 3, 4, 5}}}};
+  const CliRun r = rayfold("render " + f.write("zero_scales") + " --size 8x8");
+  EXPECT_EQ(r.code, 0) << r.err;
+  size_t lines = 0;
+  for (size_t p = r.err.find("zero scale"); p != std::string::npos; p = r.err.find("zero scale", p + 1)) ++lines;
+  EXPECT_EQ(lines, 1u) << r.err;
+  EXPECT_NE(r.err.find("(and 4 more like it)"), std::string::npos) << r.err;
 }
 
 }  // namespace

@@ -1,7 +1,10 @@
 // rayfold: the command-line tool. `rayfold render` traces primary rays and
 // writes the hit info; `rayfold info` describes a scene.
 #include <cstdio>
+#include <cctype>
 #include <cstring>
+#include <filesystem>
+#include <initializer_list>
 #include <fstream>
 #include <iostream>
 #include <new>
@@ -20,6 +23,10 @@
 #include "util/image_output.h"
 #include "util/timer.h"
 
+#ifndef RAYFOLD_VERSION
+#define RAYFOLD_VERSION "unknown"
+#endif
+
 #ifndef RAYFOLD_DEFAULT_SCENE
 #define RAYFOLD_DEFAULT_SCENE "scenes/atrium.glb"
 #endif
@@ -34,6 +41,8 @@ const char* kUsage =
     "  render [SCENE]   trace primary rays and write the hit info\n"
     "  info SCENE       meshes, instances, triangles and bounds of a scene\n"
     "  bench [SCENE]    every fold mode on the same camera path: the paper's tables\n"
+    "  devices          the OpenCL platforms and devices (--device picks by name)\n"
+    "  --version        rayfold's version\n"
     "\n"
     "`rayfold <command> --help` describes a command. SCENE is a .gltf or .glb file;\n"
     "without it, render uses the bundled default scene.\n"
@@ -46,6 +55,7 @@ const char* kRenderUsage =
     "  --eye X,Y,Z            camera position         } without these, the file's\n"
     "  --look-at X,Y,Z        point looked at         } camera, else a view that\n"
     "  --up X,Y,Z             up direction (0,1,0)    } frames the whole scene\n"
+    "                         (--up alone turns the file's camera)\n"
     "  --vfov DEG             vertical field of view (default: the file's, else 60)\n"
     "  --backend opencl|cpu   OpenCL device (default) or the CPU reference tracer\n"
     "  --device NAME          OpenCL device whose name contains NAME\n"
@@ -70,7 +80,9 @@ const char* kRenderUsage =
     "  -o, --output F.exr     OpenEXR hit info: Z N.X N.Y N.Z U V InstanceID PrimitiveID\n"
     "  --png F.png            normal-shaded preview, misses black\n"
     "  --stats F.json         phase times and device buffer sizes\n"
-    "  -q, --quiet            print nothing but errors\n";
+    "  -q, --quiet            print nothing but errors\n"
+    "Each output's extension must match its kind (.exr, .png, .json), so no two\n"
+    "outputs can name the same file.\n";
 
 const char* kBenchUsage =
     "usage: rayfold bench [SCENE] [options]\n"
@@ -171,6 +183,29 @@ bool parse_renderer_option(const std::string& a, cli::Args& args, RendererOption
 void check_renderer_options(const RendererOptions& r) {
   if (r.backend == Backend::cpu && r.kernel != KernelChoice::automatic)
     throw UsageError("--kernel: the CPU backend runs the reference tracer, not an OpenCL kernel");
+  if (r.backend == Backend::cpu && !r.device_hint.empty())
+    throw UsageError("--device: the CPU backend runs the reference tracer on no OpenCL device");
+}
+
+struct Output {
+  const char* option;
+  const std::string* path;
+  const char* extension;
+};
+
+// The extension decides the format: a mismatch is an error, not a file of
+// one kind under another's name. Kinds have different extensions, so no two
+// outputs can name one file either.
+void check_outputs(std::initializer_list<Output> outputs) {
+  namespace fs = std::filesystem;
+  for (const Output& o : outputs) {
+    if (o.path->empty()) continue;
+    std::string ext = fs::path(*o.path).extension().string();
+    for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    if (ext != o.extension)
+      throw UsageError(std::string(o.option) + ": '" + *o.path + "' must end in " + o.extension +
+                       " (-o writes OpenEXR, --png a PNG preview, --stats JSON)");
+  }
 }
 
 RenderArgs parse_render(cli::Args& args) {
@@ -226,6 +261,7 @@ RenderArgs parse_render(cli::Args& args) {
     }
   }
   if (r.eye.has_value() != r.look_at.has_value()) throw UsageError("--eye and --look-at go together");
+  check_outputs({{"-o", &r.exr, ".exr"}, {"--png", &r.png, ".png"}, {"--stats", &r.stats, ".json"}});
   if (r.compare && r.frame.fold == FoldMode::none) r.frame.fold = FoldMode::xy;
   check_renderer_options(r.renderer);
   return r;
@@ -304,10 +340,12 @@ int run_render(cli::Args& args) {
   const double load_ms = ms_since(t0);
 
   CameraSpec spec = scene.camera ? *scene.camera : frame_bounds(scene.world_bounds());
+  const bool auto_framed = !scene.camera && !r.eye;
   if (r.eye) {
+    // A camera given on the command line is given whole: +Y up unless --up.
     spec.eye = *r.eye;
     spec.look_at = *r.look_at;
-    if (!scene.camera) spec.up = glm::dvec3(0.0, 1.0, 0.0);
+    spec.up = glm::dvec3(0.0, 1.0, 0.0);
   }
   if (r.up) spec.up = *r.up;
   if (r.vfov) spec.vfov_degrees = *r.vfov;
@@ -344,10 +382,16 @@ int run_render(cli::Args& args) {
     std::printf("  %-12s %9.2f ms   (median of %zu frames)\n", "trace", m.trace_ms, result.frames.size());
     std::printf("  %-12s %9.2f   (%zu rays for %zu pixels: %.2f Mpixels/s)\n", "Mrays/s", mrays, result.rays,
                 result.hits.size(), result.hits.size() / (m.trace_ms * 1e3));
+    if (auto_framed)
+      std::printf("  %-12s --eye %.17g,%.17g,%.17g --look-at %.17g,%.17g,%.17g --up 0,1,0 --vfov %.17g\n",
+                  "auto-framed", spec.eye.x, spec.eye.y, spec.eye.z, spec.look_at.x, spec.look_at.y, spec.look_at.z,
+                  spec.vfov_degrees);
     if (unfolded) print_comparison(*unfolded, result, r.frame.fold);
     if (!r.exr.empty()) std::printf("  wrote %s\n", r.exr.c_str());
     if (!r.png.empty()) std::printf("  wrote %s\n", r.png.c_str());
     if (!r.stats.empty()) std::printf("  wrote %s\n", r.stats.c_str());
+    if (r.exr.empty() && r.png.empty() && r.stats.empty())
+      std::printf("  nothing written (-o F.exr, --png F.png or --stats F.json write the results)\n");
   }
   if (unfolded && count_differing_pixels(unfolded->hits, result.hits) != 0) {
     std::fprintf(stderr, "error: the folded render differs from the unfolded one\n");
@@ -411,6 +455,7 @@ int run_bench_command(cli::Args& args) {
   }
   check_view_path(opt);
   check_renderer_options(opt.renderer);
+  check_outputs({{"--json", &json, ".json"}, {"--md", &md, ".md"}});
   for (const std::string* out : {&json, &md})
     if (!out->empty()) check_writable(*out);
   const BenchReport report = run_bench(opt);
@@ -436,6 +481,16 @@ int run(int argc, char** argv) {
     std::fputs(kUsage, stdout);
     return 0;
   }
+  if (command == "--version" || command == "version") {
+    std::printf("rayfold %s\n", RAYFOLD_VERSION);
+    return 0;
+  }
+  if (command == "devices") {
+    if (!args.done()) throw UsageError("devices: takes no arguments");
+    std::printf("OpenCL devices (--device NAME picks the first whose platform or name contains NAME):\n%s",
+                describe_devices(list_devices()).c_str());
+    return 0;
+  }
   if (command == "render") return run_render(args);
   if (command == "info") return run_info(args);
   if (command == "bench") return run_bench_command(args);
@@ -446,5 +501,7 @@ int run(int argc, char** argv) {
 }  // namespace rayfold
 
 int main(int argc, char** argv) {
+  // Line by line also into pipes and logs, as on a terminal.
+  std::setvbuf(stdout, nullptr, _IOLBF, 0);
   return rayfold::cli::guarded_main([&] { return rayfold::run(argc, argv); });
 }

@@ -21,8 +21,16 @@ thread_local rf_traversal_stats rf_stats;
 int main(int argc, char** argv) {
   using namespace rayfold;
   return cli::guarded_main([&] {
-    if (argc < 2)
-      throw UsageError("usage: rayfold-stats SCENE [--eye X,Y,Z --look-at X,Y,Z] [--size WxH] [--fold MODE]");
+    const char* usage =
+        "usage: rayfold-stats SCENE [--eye X,Y,Z --look-at X,Y,Z] [--size WxH] [--fold MODE] [--no-braid]\n"
+        "                     [--braid-items N] [--braid-min N]\n"
+        "Traversal counters per ray and per pixel: the single-ray kernel's on the CPU reference, the tile\n"
+        "kernel's on the OpenCL device (default 320x180, the file's camera or a framing view).";
+    if (argc >= 2 && (std::string(argv[1]) == "--help" || std::string(argv[1]) == "-h")) {
+      std::puts(usage);
+      return 0;
+    }
+    if (argc < 2) throw UsageError(std::string("no scene given\n") + usage);
     cli::Args args(argc, argv, 2);
     const Scene scene = load_gltf(argv[1]);
     CameraSpec spec = scene.camera ? *scene.camera : frame_bounds(scene.world_bounds());

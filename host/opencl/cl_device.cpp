@@ -37,22 +37,21 @@ std::string cl_error_text(const cl::Error& e) {
   return std::string(e.what()) + ": " + error_name(e.err()) + " (" + std::to_string(e.err()) + ")";
 }
 
-ClDevice::ClDevice(const std::string& hint_arg) {
-  std::string hint = hint_arg;
-  if (hint.empty()) {
-    if (const char* env = std::getenv("RAYFOLD_CL_DEVICE")) hint = env;
-  }
-  hint = lower(hint);
+namespace {
+
+struct Candidate {
+  cl::Device device;
+  std::string platform;
+};
+
+// Every device of every platform; throws RuntimeFailure when there is none.
+std::vector<Candidate> all_devices() {
   std::vector<cl::Platform> platforms;
   try {
     cl::Platform::get(&platforms);
   } catch (const cl::Error& e) {
     throw RuntimeFailure("no OpenCL platform found (install pocl-opencl-icd): " + cl_error_text(e));
   }
-  struct Candidate {
-    cl::Device device;
-    std::string platform;
-  };
   std::vector<Candidate> all;
   for (cl::Platform& p : platforms) {
     std::vector<cl::Device> devices;
@@ -64,6 +63,49 @@ ClDevice::ClDevice(const std::string& hint_arg) {
     for (cl::Device& d : devices) all.push_back({d, p.getInfo<CL_PLATFORM_NAME>()});
   }
   if (all.empty()) throw RuntimeFailure("no OpenCL device found (install pocl-opencl-icd)");
+  return all;
+}
+
+DeviceInfo describe(const Candidate& c) {
+  DeviceInfo info;
+  const cl::Device& d = c.device;
+  info.platform = c.platform;
+  info.name = d.getInfo<CL_DEVICE_NAME>();
+  info.vendor = d.getInfo<CL_DEVICE_VENDOR>();
+  info.version = d.getInfo<CL_DEVICE_VERSION>();
+  info.compute_units = d.getInfo<CL_DEVICE_MAX_COMPUTE_UNITS>();
+  info.global_mem_bytes = d.getInfo<CL_DEVICE_GLOBAL_MEM_SIZE>();
+  info.max_alloc_bytes = d.getInfo<CL_DEVICE_MAX_MEM_ALLOC_SIZE>();
+  info.is_cpu = (d.getInfo<CL_DEVICE_TYPE>() & CL_DEVICE_TYPE_CPU) != 0;
+  info.native_float_width = d.getInfo<CL_DEVICE_NATIVE_VECTOR_WIDTH_FLOAT>();
+  info.correctly_rounded_divide_sqrt =
+      (d.getInfo<CL_DEVICE_SINGLE_FP_CONFIG>() & CL_FP_CORRECTLY_ROUNDED_DIVIDE_SQRT) != 0;
+  return info;
+}
+
+}  // namespace
+
+std::vector<DeviceInfo> list_devices() {
+  std::vector<DeviceInfo> out;
+  for (const Candidate& c : all_devices()) out.push_back(describe(c));
+  return out;
+}
+
+std::string describe_devices(const std::vector<DeviceInfo>& devices) {
+  std::string s;
+  for (const DeviceInfo& d : devices)
+    s += "  " + d.platform + ": " + d.name + " (" + (d.is_cpu ? "CPU" : "not a CPU") + ", " +
+         std::to_string(d.compute_units) + " compute units, " + d.version + ")\n";
+  return s;
+}
+
+ClDevice::ClDevice(const std::string& hint_arg) {
+  std::string hint = hint_arg;
+  if (hint.empty()) {
+    if (const char* env = std::getenv("RAYFOLD_CL_DEVICE")) hint = env;
+  }
+  hint = lower(hint);
+  const std::vector<Candidate> all = all_devices();
   const Candidate* chosen = nullptr;
   if (!hint.empty()) {
     for (const Candidate& c : all)
@@ -71,24 +113,20 @@ ClDevice::ClDevice(const std::string& hint_arg) {
         chosen = &c;
         break;
       }
-    if (!chosen) throw RuntimeFailure("no OpenCL device matches '" + hint + "'");
+    if (!chosen) {
+      std::vector<DeviceInfo> infos;
+      for (const Candidate& c : all) infos.push_back(describe(c));
+      std::string list = describe_devices(infos);
+      list.pop_back();
+      throw RuntimeFailure("no OpenCL device matches '" + hint + "'; the devices are:\n" + list);
+    }
   }
   for (const Candidate& c : all)
     if (!chosen && c.device.getInfo<CL_DEVICE_TYPE>() == CL_DEVICE_TYPE_GPU) chosen = &c;
   if (!chosen) chosen = &all.front();
 
   device_ = chosen->device;
-  info_.platform = chosen->platform;
-  info_.name = device_.getInfo<CL_DEVICE_NAME>();
-  info_.vendor = device_.getInfo<CL_DEVICE_VENDOR>();
-  info_.version = device_.getInfo<CL_DEVICE_VERSION>();
-  info_.compute_units = device_.getInfo<CL_DEVICE_MAX_COMPUTE_UNITS>();
-  info_.global_mem_bytes = device_.getInfo<CL_DEVICE_GLOBAL_MEM_SIZE>();
-  info_.max_alloc_bytes = device_.getInfo<CL_DEVICE_MAX_MEM_ALLOC_SIZE>();
-  info_.is_cpu = (device_.getInfo<CL_DEVICE_TYPE>() & CL_DEVICE_TYPE_CPU) != 0;
-  info_.native_float_width = device_.getInfo<CL_DEVICE_NATIVE_VECTOR_WIDTH_FLOAT>();
-  info_.correctly_rounded_divide_sqrt =
-      (device_.getInfo<CL_DEVICE_SINGLE_FP_CONFIG>() & CL_FP_CORRECTLY_ROUNDED_DIVIDE_SQRT) != 0;
+  info_ = describe(*chosen);
   try {
     context_ = cl::Context(device_);
     queue_ = cl::CommandQueue(context_, device_);

@@ -8,6 +8,7 @@
 #include <CL/opencl.hpp>
 
 #include <string>
+#include <vector>
 
 namespace rayfold {
 
@@ -49,6 +50,12 @@ class ClDevice {
   cl::CommandQueue queue_;
   DeviceInfo info_;
 };
+
+// Every OpenCL device of every platform, in platform order; throws
+// RuntimeFailure when there is none.
+std::vector<DeviceInfo> list_devices();
+// One line per device: "  <platform>: <name> (CPU, N compute units, <version>)".
+std::string describe_devices(const std::vector<DeviceInfo>& devices);
 
 // "<call>: <OpenCL error name> (<code>)" for messages.
 std::string cl_error_text(const cl::Error& e);

@@ -1,5 +1,6 @@
 #include "scene/gltf_loader.h"
 
+#include <cerrno>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -89,13 +90,48 @@ class Loader {
         stack.push_back({*it, world_from_node, false});
     }
     if (scene_.triangle_count() == 0) warn("the scene has no triangles; every pixel will miss");
+    flush_warnings();
     return std::move(scene_);
   }
 
  private:
   [[noreturn]] void fail(const std::string& what) const { throw InputError(path_, what); }
-  void warn(const std::string& what) const {
-    if (warnings_) warnings_->push_back(path_ + ": " + what);
+  // One line per kind of warning: the first case, and how many more there
+  // are. The kind is the message up to its first digit ("node 7 has a zero
+  // scale" and "node 9 has a zero scale" are one kind).
+  void warn(const std::string& what) {
+    std::string kind;
+    for (char c : what) kind += (c >= '0' && c <= '9') ? '#' : c;
+    for (Warning& w : pending_)
+      if (w.kind == kind) {
+        ++w.more;
+        return;
+      }
+    pending_.push_back({kind, what, 0});
+  }
+  void flush_warnings() {
+    if (!warnings_) return;
+    for (const Warning& w : pending_)
+      warnings_->push_back(path_ + ": " + w.first +
+                           (w.more ? " (and " + std::to_string(w.more) + " more like it)" : std::string()));
+  }
+
+  // A file that is neither GLB nor JSON is some other format: say which, if
+  // its extension tells, rather than report a JSON syntax error.
+  void check_json_start(const std::string& bytes) const {
+    const size_t first = bytes.find_first_not_of(" \t\r\n");
+    if (first != std::string::npos && bytes[first] == '{') return;
+    std::string ext = std::filesystem::path(path_).extension().string();
+    for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    static const std::pair<const char*, const char*> formats[] = {
+        {".obj", "an OBJ file"}, {".ply", "a PLY file"},     {".fbx", "an FBX file"},    {".stl", "an STL file"},
+        {".dae", "a COLLADA file"}, {".usd", "a USD file"},  {".usda", "a USD file"},   {".usdz", "a USD file"},
+        {".3ds", "a 3DS file"},  {".blend", "a Blender file"}, {".off", "an OFF file"}};
+    std::string what = "not a glTF file";
+    for (const auto& [e, name] : formats)
+      if (ext == e) what = std::string("not a glTF file but ") + name;
+    fail(what + " (rayfold reads glTF 2.0, .gltf or .glb; other formats can be converted, for example with "
+                "Blender or assimp export)");
   }
 
   // What tinygltf does not check: the GLB header's version and length, and
@@ -132,11 +168,16 @@ class Loader {
   void read_model() {
     std::string bytes;
     {
+      std::error_code ec;
+      const auto status = std::filesystem::status(path_, ec);
+      if (std::filesystem::is_directory(status)) fail("is a directory, not a glTF file");
+      if (std::filesystem::exists(status) && !std::filesystem::is_regular_file(status)) fail("is not a regular file");
       std::ifstream f(path_, std::ios::binary);
-      if (!f) fail("cannot open the file");
+      if (!f) fail(std::string("cannot open the file (") + std::strerror(errno) + ")");
       bytes.assign(std::istreambuf_iterator<char>(f), {});
       if (bytes.empty()) fail("the file is empty");
       binary_ = bytes.size() >= 4 && std::memcmp(bytes.data(), "glTF", 4) == 0;
+      if (!binary_) check_json_start(bytes);
     }
     check_raw(bytes);
     tinygltf::TinyGLTF gltf;
@@ -156,9 +197,15 @@ class Loader {
       while (!what.empty() && (what.back() == '\n' || what.back() == ' ')) what.pop_back();
       fail(what);
     }
+    // Images are never decoded, so a missing image file is no concern of
+    // rayfold's (tinygltf reports one; a missing buffer is an error).
     std::istringstream lines(warn);
-    for (std::string line; std::getline(lines, line);)
-      if (!line.empty()) this->warn(line);
+    for (std::string line; std::getline(lines, line);) {
+      if (line.empty() || line.rfind("File not found : ", 0) == 0 ||
+          line.find("Failed to load external 'uri' for image[") != std::string::npos)
+        continue;
+      this->warn(line);
+    }
   }
 
   void check_extensions() const {
@@ -185,7 +232,7 @@ class Loader {
     return roots;
   }
 
-  Xform local_transform(int ni) const {
+  Xform local_transform(int ni) {
     const tinygltf::Node& n = model_.nodes[ni];
     const std::string where = "node " + std::to_string(ni);
     auto finite = [&](const std::vector<double>& v, const char* what) {
@@ -414,8 +461,13 @@ class Loader {
     }
   }
 
+  struct Warning {
+    std::string kind, first;
+    size_t more;
+  };
   std::string path_;
   std::vector<std::string>* warnings_;
+  std::vector<Warning> pending_;
   bool binary_ = false;
   tinygltf::Model model_;
   Scene scene_;
