@@ -32,11 +32,10 @@ const Method kMethods[] = {
 
 // Bytes a frame uses on the device: the scene (BLAS nodes, triangles, normal
 // matrices), the frame (TLAS nodes, instances), the ray list and the hits.
-double frame_bytes(const SceneData& data, const RenderResult& r, size_t pixels) {
-  return static_cast<double>(data.blas.nodes.size() * sizeof(rf_node) + data.blas.tris.size() * sizeof(rf_tri) +
-                             data.normal_xforms.size() * sizeof(rf_normal_xform) + r.tlas_nodes * sizeof(rf_node) +
-                             r.instances * sizeof(rf_instance) + r.rays * sizeof(uint32_t) +
-                             pixels * sizeof(rf_pixel_hit));
+size_t frame_bytes(const SceneData& data, const RenderResult& r, size_t pixels) {
+  return data.blas.nodes.size() * sizeof(rf_node) + data.blas.tris.size() * sizeof(rf_tri) +
+         data.normal_xforms.size() * sizeof(rf_normal_xform) + r.tlas_nodes * sizeof(rf_node) +
+         r.instances * sizeof(rf_instance) + r.rays * sizeof(uint32_t) + pixels * sizeof(rf_pixel_hit);
 }
 
 std::string fmt(const char* f, double v) {
@@ -187,7 +186,8 @@ std::string bench_markdown(const BenchReport& r) {
       << fmt("%.2fx", none.render_ms / row.render_ms) << " | " << fmt("%.1f", row.trace_ms) << " | "
       << fmt("%.1f", pixels / (row.render_ms * 1e3)) << " | " << fmt("%.0f", row.rays) << " | "
       << fmt("%.1f", row.rays / (row.trace_ms * 1e3)) << " | " << fmt("%.0f", row.instances) << " | "
-      << fmt("%.4f", row.memory_bytes / 1048576.0) << " | " << fmt("%.4f", row.memory_bytes / none.memory_bytes)
+      << fmt("%.4f", row.memory_bytes / 1048576.0) << " | "
+      << fmt("%.4f", static_cast<double>(row.memory_bytes) / static_cast<double>(none.memory_bytes))
       << " | " << row.mismatched_pixels << " |\n";
   }
   s << "\nTable 2 - BVH pre-build (all bottom-level trees) and per-frame update (culling + top-level build + "

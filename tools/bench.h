@@ -38,7 +38,7 @@ struct BenchRow {
   double render_ms = 0.0;  // T: ray list + trace + readback, mean over views of per-view medians
   double trace_ms = 0.0;
   double update_ms = 0.0;        // culling + TLAS build + upload
-  double memory_bytes = 0.0;     // M: the largest over views of the bytes the frame uses on the device
+  size_t memory_bytes = 0;       // M: the largest over views of the bytes the frame uses on the device
   double rays = 0.0;             // traced per frame, mean over views
   double instances = 0.0;        // in the TLAS, mean over views
   size_t mismatched_pixels = 0;  // against the unfolded image, over all views
