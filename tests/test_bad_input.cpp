@@ -217,6 +217,36 @@ TEST(BadInput, Nodes) {
   }
 }
 
+TEST(BadInput, SchemaTypesAreCheckedWithThePathOfTheMember) {
+  // tinygltf reads a member of the wrong JSON type as if it were absent: a
+  // mesh whose primitives are an object rendered as an empty scene, exit 0.
+  struct Case {
+    const char* name;
+    const char* expect;
+    std::function<void(GltfFile&)> edit;
+  };
+  const std::vector<Case> cases = {
+      {"primitives_object", "meshes[0].primitives must be an array of objects (glTF 2.0 schema), not object",
+       [](GltfFile& f) { f.j["meshes"][0]["primitives"] = f.j["meshes"][0]["primitives"][0]; }},
+      {"children_string", "nodes[0].children must be an array of integers",
+       [](GltfFile& f) { f.j["nodes"][0]["children"] = "1"; }},
+      {"count_string", "accessors[0].count must be an integer (glTF 2.0 schema), not string",
+       [](GltfFile& f) { f.j["accessors"][0]["count"] = "3"; }},
+      {"nodes_object", ".nodes must be an array of objects", [](GltfFile& f) { f.j["nodes"] = {{"mesh", 0}}; }},
+      {"position_float", "attributes.POSITION must be an integer",
+       [](GltfFile& f) { f.j["meshes"][0]["primitives"][0]["attributes"]["POSITION"] = 0.5; }},
+      {"translation_string", "nodes[0].translation must be an array of numbers",
+       [](GltfFile& f) { f.j["nodes"][0]["translation"] = {1, "2", 3}; }},
+      {"scene_string", ".scene must be an integer", [](GltfFile& f) { f.j["scene"] = "0"; }},
+  };
+  for (const Case& c : cases) {
+    GltfFile f;
+    f.one_triangle();
+    c.edit(f);
+    expect_error(f.write(c.name), c.expect);
+  }
+}
+
 TEST(BadInput, UnsupportedRequiredExtensionsAreNamed) {
   for (const char* ext : {"KHR_draco_mesh_compression", "EXT_meshopt_compression", "KHR_mesh_quantization"}) {
     GltfFile f;

@@ -134,6 +134,84 @@ class Loader {
                 "Blender or assimp export)");
   }
 
+  // tinygltf reads a member of the wrong JSON type as absent: "primitives"
+  // written as an object gives a mesh without triangles, silently. Every
+  // member rayfold's reading depends on is checked against the glTF 2.0
+  // schema's type, and a mismatch names its path.
+  void check_schema_types(const nlohmann::json& j) const {
+    using json = nlohmann::json;
+    enum Kind { kInt, kNumber, kString, kArray, kObject, kIntArray, kNumberArray, kObjectArray };
+    auto is = [](const json& v, Kind k) {
+      auto all = [&](auto pred) {
+        if (!v.is_array()) return false;
+        for (const json& e : v)
+          if (!pred(e)) return false;
+        return true;
+      };
+      switch (k) {
+        case kInt: return v.is_number_integer();
+        case kNumber: return v.is_number();
+        case kString: return v.is_string();
+        case kArray: return v.is_array();
+        case kObject: return v.is_object();
+        case kIntArray: return all([](const json& e) { return e.is_number_integer(); });
+        case kNumberArray: return all([](const json& e) { return e.is_number(); });
+        case kObjectArray: return all([](const json& e) { return e.is_object(); });
+      }
+      return false;
+    };
+    static const char* names[] = {"an integer", "a number",  "a string", "an array",
+                                  "an object",  "an array of integers", "an array of numbers",
+                                  "an array of objects"};
+    auto check = [&](const json& obj, const std::string& path, std::initializer_list<std::pair<const char*, Kind>> m) {
+      for (const auto& [key, kind] : m) {
+        const auto it = obj.find(key);
+        if (it != obj.end() && !is(*it, kind))
+          fail(path + "." + key + " must be " + names[kind] + " (glTF 2.0 schema), not " + it->type_name());
+      }
+    };
+    check(j, "", {{"scene", kInt}, {"scenes", kObjectArray}, {"nodes", kObjectArray}, {"meshes", kObjectArray},
+                  {"accessors", kObjectArray}, {"bufferViews", kObjectArray}, {"buffers", kObjectArray},
+                  {"cameras", kObjectArray}, {"extensionsRequired", kArray}, {"extensionsUsed", kArray}});
+    auto each = [&](const char* array, auto fn) {
+      const auto it = j.find(array);
+      if (it == j.end()) return;
+      for (size_t i = 0; i < it->size(); ++i) fn((*it)[i], std::string(array) + "[" + std::to_string(i) + "]");
+    };
+    each("scenes", [&](const json& o, const std::string& p) { check(o, p, {{"nodes", kIntArray}}); });
+    each("nodes", [&](const json& o, const std::string& p) {
+      check(o, p, {{"mesh", kInt}, {"camera", kInt}, {"children", kIntArray}, {"matrix", kNumberArray},
+                   {"translation", kNumberArray}, {"rotation", kNumberArray}, {"scale", kNumberArray},
+                   {"name", kString}});
+    });
+    each("meshes", [&](const json& o, const std::string& p) {
+      check(o, p, {{"primitives", kObjectArray}, {"weights", kNumberArray}, {"name", kString}});
+      const auto prims = o.find("primitives");
+      if (prims == o.end()) return;
+      for (size_t i = 0; i < prims->size(); ++i) {
+        const std::string pp = p + ".primitives[" + std::to_string(i) + "]";
+        check((*prims)[i], pp, {{"attributes", kObject}, {"indices", kInt}, {"mode", kInt}, {"targets", kObjectArray}});
+        const auto attrs = (*prims)[i].find("attributes");
+        if (attrs != (*prims)[i].end()) check(*attrs, pp + ".attributes", {{"POSITION", kInt}});
+      }
+    });
+    each("accessors", [&](const json& o, const std::string& p) {
+      check(o, p, {{"bufferView", kInt}, {"byteOffset", kInt}, {"componentType", kInt}, {"count", kInt},
+                   {"type", kString}, {"sparse", kObject}, {"min", kNumberArray}, {"max", kNumberArray}});
+    });
+    each("bufferViews", [&](const json& o, const std::string& p) {
+      check(o, p, {{"buffer", kInt}, {"byteOffset", kInt}, {"byteLength", kInt}, {"byteStride", kInt}});
+    });
+    each("buffers", [&](const json& o, const std::string& p) {
+      check(o, p, {{"uri", kString}, {"byteLength", kInt}});
+    });
+    each("cameras", [&](const json& o, const std::string& p) {
+      check(o, p, {{"type", kString}, {"perspective", kObject}, {"orthographic", kObject}});
+      const auto persp = o.find("perspective");
+      if (persp != o.end()) check(*persp, p + ".perspective", {{"yfov", kNumber}, {"aspectRatio", kNumber}});
+    });
+  }
+
   // What tinygltf does not check: the GLB header's version and length, and
   // nodes that carry both a matrix and TRS (tinygltf silently drops the TRS).
   void check_raw(const std::string& bytes) const {
@@ -155,6 +233,7 @@ class Loader {
     }
     const nlohmann::json j = nlohmann::json::parse(json_text, nullptr, false);
     if (j.is_discarded() || !j.is_object()) return;  // tinygltf reports these
+    check_schema_types(j);
     const auto nodes = j.find("nodes");
     if (nodes == j.end() || !nodes->is_array()) return;
     for (size_t i = 0; i < nodes->size(); ++i) {
