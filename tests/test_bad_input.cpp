@@ -106,18 +106,36 @@ TEST(BadInput, Accessors) {
       {"offset_past_view", "", [](GltfFile& f) { f.j["accessors"][0]["byteOffset"] = 1000; }},
       {"misaligned", "aligned", [](GltfFile& f) { f.j["accessors"][0]["byteOffset"] = 2; }},
       {"view_ref", "", [](GltfFile& f) { f.j["accessors"][0]["bufferView"] = 9; }},
-      {"position_vec2", "VEC3 of FLOAT", [](GltfFile& f) { f.j["accessors"][0]["type"] = "VEC2"; }},
-      {"position_short", "", [](GltfFile& f) { f.j["accessors"][0]["componentType"] = 5123; }},
+      {"position_vec2", "must be VEC3", [](GltfFile& f) { f.j["accessors"][0]["type"] = "VEC2"; }},
+      {"position_short", "only with KHR_mesh_quantization",
+       [](GltfFile& f) { f.j["accessors"][0]["componentType"] = 5123; }},
+      {"position_uint", "must be FLOAT or (normalized) byte or short",
+       [](GltfFile& f) { f.j["accessors"][0]["componentType"] = 5125; }},
       {"indices_float", "", [](GltfFile& f) { f.j["accessors"][1]["componentType"] = 5126; }},
       {"indices_signed", "", [](GltfFile& f) { f.j["accessors"][1]["componentType"] = 5122; }},
       {"indices_vec3", "SCALAR", [](GltfFile& f) { f.j["accessors"][1]["type"] = "VEC3"; }},
       {"index_stride", "byteStride", [](GltfFile& f) { f.j["bufferViews"][1]["byteStride"] = 4; }},
       {"odd_stride", "byteStride", [](GltfFile& f) { f.j["bufferViews"][0]["byteStride"] = 14; }},
       {"huge_stride", "", [](GltfFile& f) { f.j["bufferViews"][0]["byteStride"] = 256; }},
-      {"sparse", "",
+      {"sparse_count", "sparse with 5 substitutions for 3 elements",
        [](GltfFile& f) {
          f.j["accessors"][0]["sparse"] = {
-             {"count", 1}, {"indices", {{"bufferView", 1}, {"componentType", 5123}}}, {"values", {{"bufferView", 0}}}};
+             {"count", 5}, {"indices", {{"bufferView", 1}, {"componentType", 5123}}}, {"values", {{"bufferView", 0}}}};
+       }},
+      {"sparse_index_float", "sparse indices must be unsigned",
+       [](GltfFile& f) {
+         f.j["accessors"][0]["sparse"] = {
+             {"count", 1}, {"indices", {{"bufferView", 1}, {"componentType", 5126}}}, {"values", {{"bufferView", 0}}}};
+       }},
+      {"sparse_values_view", "sparse values",
+       [](GltfFile& f) {
+         f.j["accessors"][0]["sparse"] = {
+             {"count", 1}, {"indices", {{"bufferView", 1}, {"componentType", 5123}}}, {"values", {{"bufferView", 9}}}};
+       }},
+      {"morph_weights", "morph targets but 2 weights",
+       [](GltfFile& f) {
+         f.j["meshes"][0]["primitives"][0]["targets"] = {{{"POSITION", 0}}};
+         f.j["meshes"][0]["weights"] = {0.5, 0.5};
        }},
       {"position_ref", "", [](GltfFile& f) { f.j["meshes"][0]["primitives"][0]["attributes"]["POSITION"] = 7; }},
       {"index_ref", "", [](GltfFile& f) { f.j["meshes"][0]["primitives"][0]["indices"] = 7; }},
@@ -248,7 +266,7 @@ TEST(BadInput, SchemaTypesAreCheckedWithThePathOfTheMember) {
 }
 
 TEST(BadInput, UnsupportedRequiredExtensionsAreNamed) {
-  for (const char* ext : {"KHR_draco_mesh_compression", "EXT_meshopt_compression", "KHR_mesh_quantization"}) {
+  for (const char* ext : {"KHR_draco_mesh_compression", "EXT_meshopt_compression"}) {
     GltfFile f;
     f.one_triangle();
     f.j["extensionsUsed"] = {ext};

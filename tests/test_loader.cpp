@@ -213,5 +213,96 @@ TEST(Loader, SharedScenes) {
   EXPECT_GT(found, 0);
 }
 
+// The same geometry written another way must load as the same positions:
+// quantized, sparse, or displaced by morph targets at their default weights.
+std::vector<glm::vec3> loaded_positions(const std::string& path) {
+  const Scene scene = load_gltf(path);
+  EXPECT_EQ(scene.meshes.size(), 1u);
+  return scene.meshes.empty() ? std::vector<glm::vec3>{} : scene.meshes[0].positions;
+}
+
+TEST(Loader, QuantizedPositionsAsGltfReadsThem) {
+  // KHR_mesh_quantization: integers as they are, normalized ones mapped to
+  // [-1, 1] (bytes, shorts) or [0, 1] (unsigned).
+  testing::GltfFile f;
+  const int16_t s[9] = {0, 0, 0, 3, 0, 0, 0, -2, 5};
+  const int pv = f.view(s, sizeof s);
+  const int pa = f.accessor(pv, 5122, "VEC3", 3);
+  const uint16_t idx[3] = {0, 1, 2};
+  const int ia = f.accessor(f.view(idx, sizeof idx), 5123, "SCALAR", 3);
+  f.j["meshes"] = {testing::mesh({testing::prim(pa, ia)})};
+  f.j["nodes"] = {testing::node_with_mesh(0)};
+  f.j["extensionsUsed"] = {"KHR_mesh_quantization"};
+  f.j["extensionsRequired"] = {"KHR_mesh_quantization"};
+  EXPECT_EQ(loaded_positions(f.write("quantized_shorts")),
+            (std::vector<glm::vec3>{{0, 0, 0}, {3, 0, 0}, {0, -2, 5}}));
+  f.j["accessors"][pa]["normalized"] = true;
+  const std::vector<glm::vec3> n = loaded_positions(f.write("quantized_normalized"));
+  ASSERT_EQ(n.size(), 3u);
+  EXPECT_EQ(n[1].x, static_cast<float>(3.0 / 32767.0));
+  EXPECT_EQ(n[2].y, static_cast<float>(-2.0 / 32767.0));
+  const uint8_t b[12] = {0, 0, 0, 0, 255, 0, 0, 0, 0, 0, 128, 0};  // 4-byte aligned elements, stride 4
+  testing::GltfFile g;
+  const int bv = g.view(b, sizeof b, 4);
+  const int ba = g.accessor(bv, 5121, "VEC3", 3);
+  g.j["accessors"][ba]["normalized"] = true;
+  const int gi = g.accessor(g.view(idx, sizeof idx), 5123, "SCALAR", 3);
+  g.j["meshes"] = {testing::mesh({testing::prim(ba, gi)})};
+  g.j["nodes"] = {testing::node_with_mesh(0)};
+  g.j["extensionsUsed"] = {"KHR_mesh_quantization"};
+  EXPECT_EQ(loaded_positions(g.write("quantized_ubytes")),
+            (std::vector<glm::vec3>{{0, 0, 0}, {1, 0, 0}, {0, 0, static_cast<float>(128.0 / 255.0)}}));
+}
+
+TEST(Loader, SparseAccessorsEqualTheirDenseForm) {
+  // Positions: a base of four and two substitutions; indices: a base of
+  // zeros and three substitutions (tinygltf insists that index accessors
+  // have a buffer view, so the zeros are written). Written densely, the same
+  // triangles.
+  const std::vector<glm::vec3> dense = {{0, 0, 0}, {4, 0, 0}, {0, 1, 0}, {7, 7, 7}};
+  testing::GltfFile f;
+  const int base = f.positions({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 0}});
+  const uint16_t at[2] = {1, 3};
+  const glm::vec3 values[2] = {{4, 0, 0}, {7, 7, 7}};
+  const int at_view = f.view(at, sizeof at), values_view = f.view(values, sizeof values);
+  f.j["accessors"][base]["sparse"] = {{"count", 2},
+                                      {"indices", {{"bufferView", at_view}, {"componentType", 5123}}},
+                                      {"values", {{"bufferView", values_view}}}};
+  const uint32_t idx_at[3] = {0, 1, 2}, idx_values[3] = {3, 1, 0}, zeros[3] = {0, 0, 0};
+  const int ia = f.accessor(f.view(zeros, sizeof zeros), 5125, "SCALAR", 3);
+  f.j["accessors"][ia]["sparse"] = {{"count", 3},
+                                    {"indices", {{"bufferView", f.view(idx_at, sizeof idx_at)}, {"componentType", 5125}}},
+                                    {"values", {{"bufferView", f.view(idx_values, sizeof idx_values)}}}};
+  f.j["meshes"] = {testing::mesh({testing::prim(base, ia)})};
+  f.j["nodes"] = {testing::node_with_mesh(0)};
+  const Scene scene = load_gltf(f.write("sparse"));
+  ASSERT_EQ(scene.meshes.size(), 1u);
+  EXPECT_EQ(scene.meshes[0].positions, dense);
+  EXPECT_EQ(scene.meshes[0].indices, (std::vector<uint32_t>{3, 1, 0}));
+}
+
+TEST(Loader, MorphTargetsAtTheirDefaultWeights) {
+  // Mesh weights (0.5, 0.25) over two targets; a second node overrides them
+  // with (1, 0) and gets a mesh of its own; a node with no weights uses the
+  // mesh's. Displacements chosen so that the sums are exact.
+  testing::GltfFile f;
+  f.one_triangle();
+  const int t0 = f.positions({{2, 0, 0}, {2, 0, 0}, {2, 0, 0}});
+  const int t1 = f.positions({{0, 4, 0}, {0, 0, 0}, {0, 0, 8}});
+  f.j["meshes"][0]["primitives"][0]["targets"] = {{{"POSITION", t0}}, {{"POSITION", t1}}};
+  f.j["meshes"][0]["weights"] = {0.5, 0.25};
+  f.j["nodes"].push_back({{"mesh", 0}, {"weights", {1.0, 0.0}}});
+  f.j["nodes"].push_back({{"mesh", 0}});
+  f.j["scenes"] = {{{"nodes", {0, 1, 2}}}};
+  const Scene scene = load_gltf(f.write("morph"));
+  ASSERT_EQ(scene.instances.size(), 3u);
+  ASSERT_EQ(scene.meshes.size(), 2u);
+  EXPECT_EQ(scene.instances[0].mesh, scene.instances[2].mesh);
+  EXPECT_EQ(scene.meshes[scene.instances[0].mesh].positions,
+            (std::vector<glm::vec3>{{1, 1, 0}, {2, 0, 0}, {1, 1, 2}}));
+  EXPECT_EQ(scene.meshes[scene.instances[1].mesh].positions,
+            (std::vector<glm::vec3>{{2, 0, 0}, {3, 0, 0}, {2, 1, 0}}));
+}
+
 }  // namespace
 }  // namespace rayfold

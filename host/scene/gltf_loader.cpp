@@ -43,7 +43,7 @@ bool geometry_neutral(const std::string& ext) {
   static const char* prefixes[] = {"KHR_materials_", "KHR_texture_", "EXT_texture_", "KHR_lights_", "MSFT_texture_"};
   for (const char* p : prefixes)
     if (ext.rfind(p, 0) == 0) return true;
-  return false;
+  return ext == "KHR_mesh_quantization";  // read: integer positions are converted as glTF says
 }
 
 class Loader {
@@ -373,8 +373,13 @@ class Loader {
     const int mi = model_.nodes[ni].mesh;
     if (static_cast<size_t>(mi) >= model_.meshes.size())
       fail("node " + std::to_string(ni) + " refers to mesh " + std::to_string(mi) + ", which does not exist");
-    auto found = mesh_slot_.find(mi);
-    if (found == mesh_slot_.end()) found = mesh_slot_.emplace(mi, convert_mesh(mi)).first;
+    // Morph weights: the node's override the mesh's; each set of weights is
+    // a mesh of its own.
+    const std::vector<double>& weights =
+        model_.nodes[ni].weights.empty() ? model_.meshes[mi].weights : model_.nodes[ni].weights;
+    const auto key = std::make_pair(mi, weights);
+    auto found = mesh_slot_.find(key);
+    if (found == mesh_slot_.end()) found = mesh_slot_.emplace(key, convert_mesh(mi, weights)).first;
     if (found->second < 0) return;  // a mesh without triangles
     if (linear_determinant(world_from_node) == 0.0)
       warn("node " + std::to_string(ni) + " has a zero scale; it is hidden");
@@ -385,9 +390,35 @@ class Loader {
     scene_.instances.push_back(std::move(inst));
   }
 
+  // Morph targets at the default weights (glTF 2.0, 3.7.2.2): the node's,
+  // else the mesh's, else 0; summed in double and rounded once.
+  void apply_morph_targets(int mi, size_t pi, const std::vector<double>& weights, const std::string& where,
+                           std::vector<glm::vec3>& positions) const {
+    const tinygltf::Primitive& prim = model_.meshes[mi].primitives[pi];
+    if (prim.targets.empty()) return;
+    if (!weights.empty() && weights.size() != prim.targets.size())
+      fail(where + " has " + std::to_string(prim.targets.size()) + " morph targets but " +
+           std::to_string(weights.size()) + " weights");
+    std::vector<glm::dvec3> sum(positions.begin(), positions.end());
+    bool moved = false;
+    for (size_t t = 0; t < prim.targets.size(); ++t) {
+      const double w = weights.empty() ? 0.0 : weights[t];
+      const auto p = prim.targets[t].find("POSITION");
+      if (w == 0.0 || p == prim.targets[t].end()) continue;
+      const std::vector<glm::vec3> d = read_vec3(p->second, where + ": morph target " + std::to_string(t) + " POSITION");
+      if (d.size() != positions.size())
+        fail(where + ": morph target " + std::to_string(t) + " has " + std::to_string(d.size()) +
+             " positions for " + std::to_string(positions.size()) + " vertices");
+      for (size_t i = 0; i < d.size(); ++i) sum[i] += w * glm::dvec3(d[i]);
+      moved = true;
+    }
+    if (moved)
+      for (size_t i = 0; i < positions.size(); ++i) positions[i] = glm::vec3(sum[i]);
+  }
+
   // Converts a glTF mesh (all its triangle primitives) into one Mesh; returns
   // its index in scene_.meshes, or -1 when it has no triangles.
-  int convert_mesh(int mi) {
+  int convert_mesh(int mi, const std::vector<double>& weights) {
     const tinygltf::Mesh& gm = model_.meshes[mi];
     Mesh mesh;
     mesh.name = gm.name;
@@ -405,8 +436,10 @@ class Loader {
       const auto pos = prim.attributes.find("POSITION");
       if (pos == prim.attributes.end()) fail(where + " has no POSITION attribute");
       const uint32_t base = static_cast<uint32_t>(mesh.positions.size());
-      read_positions(pos->second, where, mesh.positions);
-      const uint32_t vertex_count = static_cast<uint32_t>(mesh.positions.size()) - base;
+      std::vector<glm::vec3> positions = read_vec3(pos->second, where + ": POSITION");
+      apply_morph_targets(mi, pi, weights, where, positions);
+      mesh.positions.insert(mesh.positions.end(), positions.begin(), positions.end());
+      const uint32_t vertex_count = static_cast<uint32_t>(positions.size());
       std::vector<uint32_t> seq;
       if (prim.indices >= 0) {
         read_indices(prim.indices, where, vertex_count, seq);
@@ -448,22 +481,65 @@ class Loader {
     }
   }
 
-  // Validates an accessor against its view and buffer; returns the bytes of
-  // element 0 and the stride between elements.
-  const unsigned char* accessor_data(int ai, const std::string& where, size_t element_bytes, size_t component_bytes,
-                                     bool is_index, size_t* stride, size_t* count) const {
-    const std::string acc = where + ": accessor " + std::to_string(ai);
-    if (ai < 0 || static_cast<size_t>(ai) >= model_.accessors.size()) fail(acc + " does not exist");
-    const tinygltf::Accessor& a = model_.accessors[ai];
-    if (a.sparse.isSparse) fail(acc + " is sparse, which rayfold does not support");
-    *count = a.count;
-    if (a.count == 0) {
-      *stride = element_bytes;
-      return nullptr;
+  bool uses_extension(const std::string& name) const {
+    for (const std::string& e : model_.extensionsUsed)
+      if (e == name) return true;
+    return false;
+  }
+
+  static size_t component_bytes(int type) {
+    switch (type) {
+      case TINYGLTF_COMPONENT_TYPE_BYTE:
+      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return 1;
+      case TINYGLTF_COMPONENT_TYPE_SHORT:
+      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: return 2;
+      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT:
+      case TINYGLTF_COMPONENT_TYPE_FLOAT: return 4;
+      default: return 0;
     }
-    if (a.bufferView < 0 || static_cast<size_t>(a.bufferView) >= model_.bufferViews.size())
+  }
+
+  // One component as glTF reads it (2.0, 3.11): FLOAT as stored, a
+  // normalized integer mapped to [0, 1] or [-1, 1], any other integer as its
+  // value.
+  static double component(const unsigned char* p, int type, bool normalized) {
+    switch (type) {
+      case TINYGLTF_COMPONENT_TYPE_BYTE: {
+        const double v = static_cast<int8_t>(p[0]);
+        return normalized ? std::max(v / 127.0, -1.0) : v;
+      }
+      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return normalized ? p[0] / 255.0 : p[0];
+      case TINYGLTF_COMPONENT_TYPE_SHORT: {
+        int16_t v;
+        std::memcpy(&v, p, 2);
+        return normalized ? std::max(v / 32767.0, -1.0) : v;
+      }
+      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
+        uint16_t v;
+        std::memcpy(&v, p, 2);
+        return normalized ? v / 65535.0 : v;
+      }
+      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: {
+        uint32_t v;
+        std::memcpy(&v, p, 4);
+        return v;
+      }
+      default: {
+        float v;
+        std::memcpy(&v, p, 4);
+        return v;
+      }
+    }
+  }
+
+  // `count` elements of `element_bytes` from view vi at `offset` with the
+  // view's stride (or tightly packed): the bytes of element 0 and the
+  // stride, after checking that the last element ends inside the view.
+  const unsigned char* view_data(int vi, size_t offset, size_t count, size_t element_bytes, size_t align,
+                                 bool is_index, const std::string& acc, size_t* stride) const {
+    if (vi < 0 || static_cast<size_t>(vi) >= model_.bufferViews.size())
       fail(acc + " refers to a buffer view that does not exist");
-    const tinygltf::BufferView& v = model_.bufferViews[a.bufferView];
+    const tinygltf::BufferView& v = model_.bufferViews[vi];
     if (v.buffer < 0 || static_cast<size_t>(v.buffer) >= model_.buffers.size())
       fail(acc + ": its buffer view refers to a buffer that does not exist");
     const std::vector<unsigned char>& data = model_.buffers[v.buffer].data;
@@ -476,35 +552,94 @@ class Loader {
       fail(acc + ": its buffer view's byteStride " + std::to_string(v.byteStride) +
            " is not a multiple of 4 between 4 and 252");
     if (is_index && v.byteStride != 0) fail(acc + " holds indices but its buffer view defines a byteStride");
-    if ((v.byteOffset + a.byteOffset) % component_bytes != 0)
-      fail(acc + " is not aligned to its " + std::to_string(component_bytes) + "-byte components");
+    if ((v.byteOffset + offset) % align != 0)
+      fail(acc + " is not aligned to its " + std::to_string(align) + "-byte components");
     *stride = v.byteStride ? v.byteStride : element_bytes;
     if (*stride < element_bytes) fail(acc + " has a byte stride smaller than its element");
+    if (count == 0) return nullptr;
     // Written so that no product can overflow: the last element must end
     // inside the view.
-    if (a.byteOffset > v.byteLength || element_bytes > v.byteLength - a.byteOffset ||
-        (a.count - 1) > (v.byteLength - a.byteOffset - element_bytes) / *stride)
-      fail(acc + " (" + std::to_string(a.count) + " elements from offset " + std::to_string(a.byteOffset) +
+    if (offset > v.byteLength || element_bytes > v.byteLength - offset ||
+        (count - 1) > (v.byteLength - offset - element_bytes) / *stride)
+      fail(acc + " (" + std::to_string(count) + " elements from offset " + std::to_string(offset) +
            ") runs past its buffer view of " + std::to_string(v.byteLength) + " bytes");
-    return data.data() + v.byteOffset + a.byteOffset;
+    return data.data() + v.byteOffset + offset;
   }
 
-  void read_positions(int ai, const std::string& where, std::vector<glm::vec3>& out) const {
-    if (ai < 0 || static_cast<size_t>(ai) >= model_.accessors.size())
-      fail(where + ": POSITION accessor " + std::to_string(ai) + " does not exist");
+  // An accessor's elements, `components` per element, as glTF reads them
+  // (component()), with a sparse accessor's substitutions applied over its
+  // base values (zeros without a buffer view).
+  std::vector<double> read_elements(int ai, const std::string& what, int components, bool is_index) const {
+    const std::string acc = what + " accessor " + std::to_string(ai);
+    if (ai < 0 || static_cast<size_t>(ai) >= model_.accessors.size()) fail(acc + " does not exist");
     const tinygltf::Accessor& a = model_.accessors[ai];
-    if (a.type != TINYGLTF_TYPE_VEC3 || a.componentType != TINYGLTF_COMPONENT_TYPE_FLOAT)
-      fail(where + ": POSITION must be VEC3 of FLOAT");
-    size_t stride = 0, count = 0;
-    const unsigned char* p = accessor_data(ai, where, 12, 4, false, &stride, &count);
-    out.reserve(out.size() + count);
-    for (size_t i = 0; i < count; ++i) {
-      glm::vec3 v;
-      std::memcpy(&v, p + i * stride, 12);
-      if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z))
-        fail(where + ": position " + std::to_string(i) + " is not finite");
-      out.push_back(v);
+    const size_t cb = component_bytes(a.componentType);
+    if (cb == 0) fail(acc + " has an unknown component type " + std::to_string(a.componentType));
+    const size_t element = cb * static_cast<size_t>(components);
+    std::vector<double> out;
+    if (a.count > (size_t(1) << 31)) fail(acc + " has " + std::to_string(a.count) + " elements, too many");
+    out.assign(a.count * static_cast<size_t>(components), 0.0);
+    auto read = [&](const unsigned char* p, size_t stride, size_t n, auto at) {
+      for (size_t i = 0; i < n; ++i)
+        for (int c = 0; c < components; ++c)
+          out[at(i) * components + c] = component(p + i * stride + c * cb, a.componentType, a.normalized);
+    };
+    if (a.bufferView >= 0 || !a.sparse.isSparse) {
+      size_t stride = 0;
+      const unsigned char* p = view_data(a.bufferView, a.byteOffset, a.count, element, cb, is_index, acc, &stride);
+      read(p, stride, a.count, [](size_t i) { return i; });
     }
+    if (a.sparse.isSparse) {
+      const size_t n = static_cast<size_t>(std::max(a.sparse.count, 0));
+      if (a.sparse.count < 1 || n > a.count)
+        fail(acc + " is sparse with " + std::to_string(a.sparse.count) + " substitutions for " +
+             std::to_string(a.count) + " elements");
+      const int it = a.sparse.indices.componentType;
+      if (it != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE && it != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT &&
+          it != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT)
+        fail(acc + ": sparse indices must be unsigned byte, short or int");
+      size_t istride = 0, vstride = 0;
+      const unsigned char* ip = view_data(a.sparse.indices.bufferView, a.sparse.indices.byteOffset, n,
+                                          component_bytes(it), component_bytes(it), true, acc + " (sparse indices)",
+                                          &istride);
+      const unsigned char* vp = view_data(a.sparse.values.bufferView, a.sparse.values.byteOffset, n, element, cb,
+                                          false, acc + " (sparse values)", &vstride);
+      std::vector<size_t> targets(n);
+      for (size_t i = 0; i < n; ++i) {
+        const double t = component(ip + i * istride, it, false);
+        if (t >= static_cast<double>(a.count))
+          fail(acc + ": sparse index " + std::to_string(i) + " is " + std::to_string(static_cast<uint64_t>(t)) +
+               ", past its " + std::to_string(a.count) + " elements");
+        if (i > 0 && t <= static_cast<double>(targets[i - 1]))
+          fail(acc + ": sparse indices must strictly increase (index " + std::to_string(i) + ")");
+        targets[i] = static_cast<size_t>(t);
+      }
+      read(vp, vstride, n, [&](size_t i) { return targets[i]; });
+    }
+    return out;
+  }
+
+  // Positions (and morph target displacements): VEC3 of FLOAT, or of
+  // (normalized) integers as KHR_mesh_quantization allows.
+  std::vector<glm::vec3> read_vec3(int ai, const std::string& what) const {
+    if (ai >= 0 && static_cast<size_t>(ai) < model_.accessors.size()) {
+      const tinygltf::Accessor& a = model_.accessors[ai];
+      if (a.type != TINYGLTF_TYPE_VEC3) fail(what + " accessor " + std::to_string(ai) + " must be VEC3");
+      if (a.componentType == TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT)
+        fail(what + " accessor " + std::to_string(ai) + " must be FLOAT or (normalized) byte or short");
+      if (a.componentType != TINYGLTF_COMPONENT_TYPE_FLOAT && !uses_extension("KHR_mesh_quantization"))
+        fail(what + " accessor " + std::to_string(ai) +
+             " holds integers, which glTF 2.0 allows only with KHR_mesh_quantization in extensionsUsed");
+    }
+    const std::vector<double> e = read_elements(ai, what, 3, false);
+    std::vector<glm::vec3> out(e.size() / 3);
+    for (size_t i = 0; i < out.size(); ++i) {
+      out[i] = glm::vec3(static_cast<float>(e[3 * i]), static_cast<float>(e[3 * i + 1]),
+                         static_cast<float>(e[3 * i + 2]));
+      if (!std::isfinite(out[i].x) || !std::isfinite(out[i].y) || !std::isfinite(out[i].z))
+        fail(what + " " + std::to_string(i) + " is not finite");
+    }
+    return out;
   }
 
   void read_indices(int ai, const std::string& where, uint32_t vertex_count, std::vector<uint32_t>& out) const {
@@ -512,31 +647,17 @@ class Loader {
       fail(where + ": index accessor " + std::to_string(ai) + " does not exist");
     const tinygltf::Accessor& a = model_.accessors[ai];
     if (a.type != TINYGLTF_TYPE_SCALAR) fail(where + ": indices must be SCALAR");
-    size_t bytes = 0;
-    switch (a.componentType) {
-      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: bytes = 1; break;
-      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: bytes = 2; break;
-      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: bytes = 4; break;
-      default: fail(where + ": indices must be unsigned byte, short or int");
-    }
-    size_t stride = 0, count = 0;
-    const unsigned char* p = accessor_data(ai, where, bytes, bytes, true, &stride, &count);
-    out.resize(count);
-    for (size_t i = 0; i < count; ++i) {
-      uint32_t v = 0;
-      if (bytes == 1)
-        v = p[i * stride];
-      else if (bytes == 2) {
-        uint16_t s;
-        std::memcpy(&s, p + i * stride, 2);
-        v = s;
-      } else {
-        std::memcpy(&v, p + i * stride, 4);
-      }
-      if (v >= vertex_count)
-        fail(where + ": index " + std::to_string(i) + " is " + std::to_string(v) + ", past the " +
-             std::to_string(vertex_count) + " vertices");
-      out[i] = v;
+    if (a.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE &&
+        a.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT &&
+        a.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT)
+      fail(where + ": indices must be unsigned byte, short or int");
+    const std::vector<double> e = read_elements(ai, where + ": index", 1, true);
+    out.resize(e.size());
+    for (size_t i = 0; i < e.size(); ++i) {
+      if (e[i] >= vertex_count)
+        fail(where + ": index " + std::to_string(i) + " is " + std::to_string(static_cast<uint64_t>(e[i])) +
+             ", past the " + std::to_string(vertex_count) + " vertices");
+      out[i] = static_cast<uint32_t>(e[i]);
     }
   }
 
@@ -550,7 +671,7 @@ class Loader {
   bool binary_ = false;
   tinygltf::Model model_;
   Scene scene_;
-  std::map<int, int> mesh_slot_;  // glTF mesh -> scene mesh (or -1)
+  std::map<std::pair<int, std::vector<double>>, int> mesh_slot_;  // glTF mesh and weights -> scene mesh (or -1)
 };
 
 }  // namespace
