@@ -265,6 +265,42 @@ TEST(BadInput, SchemaTypesAreCheckedWithThePathOfTheMember) {
   }
 }
 
+TEST(BadInput, GpuInstancing) {
+  struct Case {
+    const char* name;
+    const char* expect;
+    std::function<void(GltfFile&)> edit;
+  };
+  const float t[6] = {0, 0, 0, 1, 0, 0}, q[4] = {0, 0, 0, 1};
+  const std::vector<Case> cases = {
+      {"gpu_counts", "different numbers of instances",
+       [&](GltfFile& f) {
+         const int ta = f.accessor(f.view(t, sizeof t), 5126, "VEC3", 2);
+         const int ra = f.accessor(f.view(q, sizeof q), 5126, "VEC4", 1);
+         f.j["nodes"][0]["extensions"]["EXT_mesh_gpu_instancing"]["attributes"] = {{"TRANSLATION", ta},
+                                                                                  {"ROTATION", ra}};
+       }},
+      {"gpu_rotation_vec3", "ROTATION must be VEC4",
+       [&](GltfFile& f) {
+         const int ra = f.accessor(f.view(t, sizeof t), 5126, "VEC3", 2);
+         f.j["nodes"][0]["extensions"]["EXT_mesh_gpu_instancing"]["attributes"] = {{"ROTATION", ra}};
+       }},
+      {"gpu_empty", "none of TRANSLATION, ROTATION and SCALE",
+       [&](GltfFile& f) { f.j["nodes"][0]["extensions"]["EXT_mesh_gpu_instancing"]["attributes"] = json::object(); }},
+      {"gpu_accessor_ref", "does not exist",
+       [&](GltfFile& f) {
+         f.j["nodes"][0]["extensions"]["EXT_mesh_gpu_instancing"]["attributes"] = {{"SCALE", 42}};
+       }},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.name);
+    GltfFile f;
+    f.one_triangle();
+    c.edit(f);
+    expect_error(f.write(c.name), c.expect);
+  }
+}
+
 TEST(BadInput, UnsupportedRequiredExtensionsAreNamed) {
   for (const char* ext : {"KHR_draco_mesh_compression", "EXT_meshopt_compression"}) {
     GltfFile f;

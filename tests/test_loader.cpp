@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <set>
 
 #include <glm/gtc/matrix_transform.hpp>
 #include <nlohmann/json.hpp>
@@ -302,6 +303,52 @@ TEST(Loader, MorphTargetsAtTheirDefaultWeights) {
             (std::vector<glm::vec3>{{1, 1, 0}, {2, 0, 0}, {1, 1, 2}}));
   EXPECT_EQ(scene.meshes[scene.instances[1].mesh].positions,
             (std::vector<glm::vec3>{{2, 0, 0}, {3, 0, 0}, {2, 1, 0}}));
+}
+
+TEST(Loader, GpuInstancesEqualTheSameInstancesWrittenAsNodes) {
+  // EXT_mesh_gpu_instancing (used, not required): three copies of a
+  // triangle, each with its own translation, rotation and scale under a
+  // moved node; written again as three child nodes with the same TRS.
+  const std::vector<glm::vec3> t = {{0, 0, 0}, {3, 0, -1}, {-2, 1, 0.5f}};
+  const std::vector<float> r = {0, 0, 0, 1, 0, 0.38268343f, 0, 0.92387953f, 0, 0, 0.70710677f, 0.70710677f};
+  const std::vector<glm::vec3> sc = {{1, 1, 1}, {2, 2, 2}, {1, -1, 0.5f}};
+  testing::GltfFile gpu;
+  gpu.one_triangle();
+  const int ta = gpu.accessor(gpu.view(t.data(), 36), 5126, "VEC3", 3);
+  const int ra = gpu.accessor(gpu.view(r.data(), 48), 5126, "VEC4", 3);
+  const int sa = gpu.accessor(gpu.view(sc.data(), 36), 5126, "VEC3", 3);
+  gpu.j["nodes"][0]["translation"] = {0.25, 0.0, -4.0};
+  gpu.j["nodes"][0]["name"] = "crowd";
+  gpu.j["nodes"][0]["extensions"]["EXT_mesh_gpu_instancing"]["attributes"] = {
+      {"TRANSLATION", ta}, {"ROTATION", ra}, {"SCALE", sa}};
+  gpu.j["extensionsUsed"] = {"EXT_mesh_gpu_instancing"};
+  testing::GltfFile plain;
+  plain.one_triangle();
+  plain.j["nodes"][0] = {{"translation", {0.25, 0.0, -4.0}}, {"children", {1, 2, 3}}};
+  for (int i = 0; i < 3; ++i)
+    plain.j["nodes"].push_back({{"mesh", 0},
+                                {"translation", {t[i].x, t[i].y, t[i].z}},
+                                {"rotation", {r[4 * i], r[4 * i + 1], r[4 * i + 2], r[4 * i + 3]}},
+                                {"scale", {sc[i].x, sc[i].y, sc[i].z}}});
+  const Scene a = load_gltf(gpu.write("gpu_instancing")), b = load_gltf(plain.write("gpu_instancing_plain"));
+  ASSERT_EQ(a.instances.size(), 3u);
+  ASSERT_EQ(b.instances.size(), 3u);
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_EQ(a.instances[i].world_from_object, b.instances[i].world_from_object) << "instance " << i;
+    EXPECT_EQ(a.instances[i].name, "crowd[" + std::to_string(i) + "]");
+  }
+  CameraSpec spec;
+  spec.eye = {0, 0, 6};
+  spec.look_at = {0, 0, -4};
+  const Camera cam = make_camera(spec, 48, 32);
+  RendererOptions cpu;
+  cpu.backend = Backend::cpu;
+  const auto ha = Renderer(a, cpu).render(cam).hits, hb = Renderer(b, cpu).render(cam).hits;
+  EXPECT_EQ(testing::compare_hits(ha, hb, 48), "");
+  std::set<uint32_t> seen;
+  for (const rf_pixel_hit& h : ha)
+    if (h.instance != RF_INVALID) seen.insert(h.instance);
+  EXPECT_EQ(seen.size(), 3u) << "every copy is in view";
 }
 
 }  // namespace

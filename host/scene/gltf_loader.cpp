@@ -43,7 +43,9 @@ bool geometry_neutral(const std::string& ext) {
   static const char* prefixes[] = {"KHR_materials_", "KHR_texture_", "EXT_texture_", "KHR_lights_", "MSFT_texture_"};
   for (const char* p : prefixes)
     if (ext.rfind(p, 0) == 0) return true;
-  return ext == "KHR_mesh_quantization";  // read: integer positions are converted as glTF says
+  // Read: integer positions are converted as glTF says; GPU instances become
+  // instances.
+  return ext == "KHR_mesh_quantization" || ext == "EXT_mesh_gpu_instancing";
 }
 
 class Loader {
@@ -326,27 +328,79 @@ class Loader {
         fail(where + " has a matrix that is not affine (its last row must be 0 0 0 1)");
       return m;
     }
+    for (const auto* v : {&n.translation, &n.scale})
+      if (!v->empty() && v->size() != 3) fail(where + " has a translation or scale without 3 values");
+    if (!n.rotation.empty() && n.rotation.size() != 4) fail(where + " has a rotation without 4 values");
+    finite(n.translation, "translation");
+    finite(n.rotation, "rotation");
+    finite(n.scale, "scale");
+    return trs(n.translation.empty() ? nullptr : n.translation.data(), n.rotation.empty() ? nullptr : n.rotation.data(),
+               n.scale.empty() ? nullptr : n.scale.data(), where);
+  }
+
+  // T * R * S (glTF 2.0, 3.5.3); a missing part is the identity. A rotation
+  // quaternion (x, y, z, w) that is not unit length is normalised, with a
+  // warning.
+  Xform trs(const double* t, const double* r, const double* s, const std::string& where) {
     Xform m(1.0);
-    if (!n.translation.empty()) {
-      if (n.translation.size() != 3) fail(where + " has a translation without 3 values");
-      finite(n.translation, "translation");
-      m[3] = glm::dvec4(n.translation[0], n.translation[1], n.translation[2], 1.0);
-    }
-    if (!n.rotation.empty()) {
-      if (n.rotation.size() != 4) fail(where + " has a rotation without 4 values");
-      finite(n.rotation, "rotation");
-      glm::dquat q(n.rotation[3], n.rotation[0], n.rotation[1], n.rotation[2]);
+    if (t) m[3] = glm::dvec4(t[0], t[1], t[2], 1.0);
+    if (r) {
+      glm::dquat q(r[3], r[0], r[1], r[2]);
       const double len = glm::length(q);
       if (!(len > 0.0)) fail(where + " has a zero rotation quaternion");
       if (std::fabs(len - 1.0) > 1e-3) warn(where + " has a rotation quaternion that is not unit length; normalised");
       m = m * Xform(glm::mat4_cast(q / len));
     }
-    if (!n.scale.empty()) {
-      if (n.scale.size() != 3) fail(where + " has a scale without 3 values");
-      finite(n.scale, "scale");
-      m = glm::scale(m, glm::dvec3(n.scale[0], n.scale[1], n.scale[2]));
-    }
+    if (s) m = glm::scale(m, glm::dvec3(s[0], s[1], s[2]));
     return m;
+  }
+
+  // EXT_mesh_gpu_instancing: the node's mesh drawn once per element of its
+  // TRANSLATION, ROTATION and SCALE accessors, each transform applied before
+  // the node's own. Empty when the node does not use it.
+  std::vector<Xform> gpu_instances(int ni) {
+    const auto ext = model_.nodes[ni].extensions.find("EXT_mesh_gpu_instancing");
+    if (ext == model_.nodes[ni].extensions.end()) return {};
+    const std::string where = "node " + std::to_string(ni) + " (EXT_mesh_gpu_instancing)";
+    if (!ext->second.IsObject() || !ext->second.Has("attributes") || !ext->second.Get("attributes").IsObject())
+      fail(where + " has none of TRANSLATION, ROTATION and SCALE");
+    const tinygltf::Value& attrs = ext->second.Get("attributes");
+    std::vector<double> parts[3];
+    const char* names[3] = {"TRANSLATION", "ROTATION", "SCALE"};
+    const int components[3] = {3, 4, 3};
+    size_t count = 0;
+    bool any = false;
+    for (int k = 0; k < 3; ++k) {
+      if (!attrs.Has(names[k])) continue;
+      if (!attrs.Get(names[k]).IsInt()) fail(where + ": " + names[k] + " must be an accessor index");
+      const int ai = attrs.Get(names[k]).GetNumberAsInt();
+      const std::string what = where + " " + names[k];
+      if (ai >= 0 && static_cast<size_t>(ai) < model_.accessors.size()) {
+        const tinygltf::Accessor& a = model_.accessors[ai];
+        if (a.type != (k == 1 ? TINYGLTF_TYPE_VEC4 : TINYGLTF_TYPE_VEC3))
+          fail(what + " must be " + (k == 1 ? "VEC4" : "VEC3"));
+        const bool quantized_rotation = k == 1 && a.normalized &&
+                                        (a.componentType == TINYGLTF_COMPONENT_TYPE_BYTE ||
+                                         a.componentType == TINYGLTF_COMPONENT_TYPE_SHORT);
+        if (a.componentType != TINYGLTF_COMPONENT_TYPE_FLOAT && !quantized_rotation)
+          fail(what + " must be FLOAT" + (k == 1 ? " or normalized byte or short" : ""));
+      }
+      parts[k] = read_elements(ai, what, components[k], false);
+      for (double v : parts[k])
+        if (!std::isfinite(v)) fail(what + " holds a non-finite value");
+      const size_t n = parts[k].size() / components[k];
+      if (any && n != count)
+        fail(where + ": its attributes hold different numbers of instances (" + std::to_string(count) + " and " +
+             std::to_string(n) + ")");
+      count = n;
+      any = true;
+    }
+    if (!any) fail(where + " has none of TRANSLATION, ROTATION and SCALE");
+    std::vector<Xform> out(count);
+    for (size_t i = 0; i < count; ++i)
+      out[i] = trs(parts[0].empty() ? nullptr : &parts[0][3 * i], parts[1].empty() ? nullptr : &parts[1][4 * i],
+                   parts[2].empty() ? nullptr : &parts[2][3 * i], where + " instance " + std::to_string(i));
+    return out;
   }
 
   void add_camera(int ni, const Xform& world_from_node) {
@@ -380,6 +434,7 @@ class Loader {
     const auto key = std::make_pair(mi, weights);
     auto found = mesh_slot_.find(key);
     if (found == mesh_slot_.end()) found = mesh_slot_.emplace(key, convert_mesh(mi, weights)).first;
+    const std::vector<Xform> gpu = gpu_instances(ni);
     if (found->second < 0) return;  // a mesh without triangles
     if (linear_determinant(world_from_node) == 0.0)
       warn("node " + std::to_string(ni) + " has a zero scale; it is hidden");
@@ -387,7 +442,20 @@ class Loader {
     inst.mesh = static_cast<uint32_t>(found->second);
     inst.world_from_object = world_from_node;
     inst.name = model_.nodes[ni].name;
-    scene_.instances.push_back(std::move(inst));
+    if (gpu.empty()) {
+      scene_.instances.push_back(std::move(inst));
+      return;
+    }
+    // One scene instance per GPU instance, consecutive ids, named
+    // "<node>[i]".
+    for (size_t i = 0; i < gpu.size(); ++i) {
+      Instance g = inst;
+      g.world_from_object = world_from_node * gpu[i];
+      g.name = inst.name + "[" + std::to_string(i) + "]";
+      if (linear_determinant(g.world_from_object) == 0.0)
+        warn("node " + std::to_string(ni) + " GPU instance " + std::to_string(i) + " has a zero scale; it is hidden");
+      scene_.instances.push_back(std::move(g));
+    }
   }
 
   // Morph targets at the default weights (glTF 2.0, 3.7.2.2): the node's,
