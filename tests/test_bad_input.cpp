@@ -301,6 +301,43 @@ TEST(BadInput, GpuInstancing) {
   }
 }
 
+TEST(BadInput, Skins) {
+  struct Case {
+    const char* name;
+    const char* expect;
+    std::function<void(GltfFile&)> edit;
+  };
+  const uint8_t joints[12] = {0, 0, 0, 0, 3, 0, 0, 0, 0, 0, 0, 0};
+  const float weights[12] = {1, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0};
+  auto skinned = [&](GltfFile& f) {
+    f.j["meshes"][0]["primitives"][0]["attributes"]["JOINTS_0"] = f.accessor(f.view(joints, 12), 5121, "VEC4", 3);
+    f.j["meshes"][0]["primitives"][0]["attributes"]["WEIGHTS_0"] = f.accessor(f.view(weights, 48), 5126, "VEC4", 3);
+    f.j["nodes"][0]["skin"] = 0;
+    f.j["skins"] = {{{"joints", {0}}}};
+  };
+  const std::vector<Case> cases = {
+      {"skin_ref", "refers to skin 0, which does not exist", [&](GltfFile& f) { f.j["nodes"][0]["skin"] = 0; }},
+      {"skin_joint_range", "refers to joint 3 of 1", skinned},
+      {"skin_no_joints", "has no JOINTS_0 and WEIGHTS_0",
+       [&](GltfFile& f) {
+         f.j["nodes"][0]["skin"] = 0;
+         f.j["skins"] = {{{"joints", {0}}}};
+       }},
+      {"skin_joint_node", "is node 9, which does not exist",
+       [&](GltfFile& f) {
+         skinned(f);
+         f.j["skins"][0]["joints"] = {9};
+       }},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.name);
+    GltfFile f;
+    f.one_triangle();
+    c.edit(f);
+    expect_error(f.write(c.name), c.expect);
+  }
+}
+
 TEST(BadInput, UnsupportedRequiredExtensionsAreNamed) {
   for (const char* ext : {"KHR_draco_mesh_compression", "EXT_meshopt_compression"}) {
     GltfFile f;

@@ -351,5 +351,66 @@ TEST(Loader, GpuInstancesEqualTheSameInstancesWrittenAsNodes) {
   EXPECT_EQ(seen.size(), 3u) << "every copy is in view";
 }
 
+TEST(Loader, SkinnedMeshesAtTheDefaultPose) {
+  // Joint 0 at (0, 0, -2), joint 1 its child 3 up; no inverse bind
+  // matrices. Vertex 0 follows joint 0, vertex 1 joint 1, vertex 2 half of
+  // each. The skinned node's own transform (a far translation) is ignored,
+  // as glTF specifies.
+  testing::GltfFile f;
+  f.one_triangle();
+  const uint8_t joints[12] = {0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0};
+  const float weights[12] = {1, 0, 0, 0, 1, 0, 0, 0, 0.5f, 0.5f, 0, 0};
+  const int ja = f.accessor(f.view(joints, sizeof joints), 5121, "VEC4", 3);
+  const int wa = f.accessor(f.view(weights, sizeof weights), 5126, "VEC4", 3);
+  f.j["meshes"][0]["primitives"][0]["attributes"]["JOINTS_0"] = ja;
+  f.j["meshes"][0]["primitives"][0]["attributes"]["WEIGHTS_0"] = wa;
+  f.j["nodes"][0]["skin"] = 0;
+  f.j["nodes"][0]["translation"] = {100, 0, 0};
+  f.j["nodes"].push_back({{"translation", {0, 0, -2}}, {"children", {2}}});
+  f.j["nodes"].push_back({{"translation", {0, 3, 0}}});
+  f.j["skins"] = {{{"joints", {1, 2}}}};
+  f.j["scenes"] = {{{"nodes", {0, 1}}}};
+  const Scene scene = load_gltf(f.write("skinned"));
+  ASSERT_EQ(scene.instances.size(), 1u);
+  EXPECT_EQ(scene.instances[0].world_from_object, Xform(1.0));
+  EXPECT_EQ(scene.meshes[scene.instances[0].mesh].positions,
+            (std::vector<glm::vec3>{{0, 0, -2}, {1, 3, -2}, {0, 2.5f, -2}}));
+
+  // A skin whose every vertex follows one joint with an inverse bind matrix
+  // renders as the mesh under joint * inverse bind, written plainly.
+  testing::GltfFile g;
+  g.one_triangle();
+  const uint8_t zero[12] = {0};
+  const float one[12] = {1, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0};
+  const float ibm[16] = {2, 0, 0, 0, 0, 2, 0, 0, 0, 0, 2, 0, 0.5f, 0, 0, 1};  // column-major: scale 2, x + 0.5
+  g.j["meshes"][0]["primitives"][0]["attributes"]["JOINTS_0"] = g.accessor(g.view(zero, sizeof zero), 5121, "VEC4", 3);
+  g.j["meshes"][0]["primitives"][0]["attributes"]["WEIGHTS_0"] = g.accessor(g.view(one, sizeof one), 5126, "VEC4", 3);
+  g.j["nodes"][0]["skin"] = 0;
+  g.j["nodes"].push_back({{"translation", {-0.5, 0.25, -3}}, {"rotation", {0, 0, 0.38268343, 0.92387953}}});
+  g.j["skins"] = {{{"joints", {1}}, {"inverseBindMatrices", g.accessor(g.view(ibm, sizeof ibm), 5126, "MAT4", 1)}}};
+  g.j["scenes"] = {{{"nodes", {0, 1}}}};
+  testing::GltfFile plain;
+  plain.one_triangle();
+  plain.j["nodes"][0] = {{"children", {1}}, {"translation", {-0.5, 0.25, -3}}, {"rotation", {0, 0, 0.38268343, 0.92387953}}};
+  plain.j["nodes"].push_back({{"mesh", 0}, {"matrix", {2, 0, 0, 0, 0, 2, 0, 0, 0, 0, 2, 0, 0.5, 0, 0, 1}}});
+  CameraSpec spec;
+  spec.eye = {0, 0.5, -1};
+  spec.look_at = {0, 0.5, -3};
+  const Camera cam = make_camera(spec, 40, 30);
+  RendererOptions cpu;
+  cpu.backend = Backend::cpu;
+  const auto a = Renderer(load_gltf(g.write("skinned_one_joint")), cpu).render(cam).hits;
+  const auto b = Renderer(load_gltf(plain.write("skinned_one_joint_plain")), cpu).render(cam).hits;
+  size_t same = 0, hits = 0;
+  for (size_t i = 0; i < a.size(); ++i) {
+    hits += b[i].instance != RF_INVALID;
+    same += a[i].instance == b[i].instance && a[i].primitive == b[i].primitive;
+  }
+  EXPECT_GT(hits, a.size() / 20) << "the triangle is in view";
+  // Skinning rounds world-space vertices once, the plain file rounds nothing
+  // before the trace: the same pixels, up to silhouette rounding.
+  EXPECT_GE(same, a.size() - a.size() / 100);
+}
+
 }  // namespace
 }  // namespace rayfold

@@ -8,6 +8,7 @@
 #include <map>
 #include <set>
 #include <sstream>
+#include <tuple>
 
 #include <tiny_gltf.h>
 #include <glm/gtc/matrix_transform.hpp>
@@ -174,7 +175,8 @@ class Loader {
     };
     check(j, "", {{"scene", kInt}, {"scenes", kObjectArray}, {"nodes", kObjectArray}, {"meshes", kObjectArray},
                   {"accessors", kObjectArray}, {"bufferViews", kObjectArray}, {"buffers", kObjectArray},
-                  {"cameras", kObjectArray}, {"extensionsRequired", kArray}, {"extensionsUsed", kArray}});
+                  {"cameras", kObjectArray}, {"skins", kObjectArray}, {"extensionsRequired", kArray},
+                  {"extensionsUsed", kArray}});
     auto each = [&](const char* array, auto fn) {
       const auto it = j.find(array);
       if (it == j.end()) return;
@@ -182,7 +184,7 @@ class Loader {
     };
     each("scenes", [&](const json& o, const std::string& p) { check(o, p, {{"nodes", kIntArray}}); });
     each("nodes", [&](const json& o, const std::string& p) {
-      check(o, p, {{"mesh", kInt}, {"camera", kInt}, {"children", kIntArray}, {"matrix", kNumberArray},
+      check(o, p, {{"mesh", kInt}, {"camera", kInt}, {"skin", kInt}, {"children", kIntArray}, {"matrix", kNumberArray},
                    {"translation", kNumberArray}, {"rotation", kNumberArray}, {"scale", kNumberArray},
                    {"name", kString}});
     });
@@ -200,6 +202,9 @@ class Loader {
     each("accessors", [&](const json& o, const std::string& p) {
       check(o, p, {{"bufferView", kInt}, {"byteOffset", kInt}, {"componentType", kInt}, {"count", kInt},
                    {"type", kString}, {"sparse", kObject}, {"min", kNumberArray}, {"max", kNumberArray}});
+    });
+    each("skins", [&](const json& o, const std::string& p) {
+      check(o, p, {{"joints", kIntArray}, {"inverseBindMatrices", kInt}, {"skeleton", kInt}});
     });
     each("bufferViews", [&](const json& o, const std::string& p) {
       check(o, p, {{"buffer", kInt}, {"byteOffset", kInt}, {"byteLength", kInt}, {"byteStride", kInt}});
@@ -428,19 +433,25 @@ class Loader {
     if (static_cast<size_t>(mi) >= model_.meshes.size())
       fail("node " + std::to_string(ni) + " refers to mesh " + std::to_string(mi) + ", which does not exist");
     // Morph weights: the node's override the mesh's; each set of weights is
-    // a mesh of its own.
+    // a mesh of its own, and so is each skin a mesh is bound with.
     const std::vector<double>& weights =
         model_.nodes[ni].weights.empty() ? model_.meshes[mi].weights : model_.nodes[ni].weights;
-    const auto key = std::make_pair(mi, weights);
+    const int skin = model_.nodes[ni].skin;
+    if (skin >= 0 && static_cast<size_t>(skin) >= model_.skins.size())
+      fail("node " + std::to_string(ni) + " refers to skin " + std::to_string(skin) + ", which does not exist");
+    const MeshKey key{mi, weights, skin};
     auto found = mesh_slot_.find(key);
-    if (found == mesh_slot_.end()) found = mesh_slot_.emplace(key, convert_mesh(mi, weights)).first;
+    if (found == mesh_slot_.end()) found = mesh_slot_.emplace(key, convert_mesh(mi, weights, skin)).first;
     const std::vector<Xform> gpu = gpu_instances(ni);
     if (found->second < 0) return;  // a mesh without triangles
-    if (linear_determinant(world_from_node) == 0.0)
+    // A skinned mesh's vertices are placed by its joints, in world space;
+    // the node's own transform does not apply (glTF 2.0, 3.7.3.3).
+    const Xform world_from_object = skin >= 0 ? Xform(1.0) : world_from_node;
+    if (linear_determinant(world_from_object) == 0.0)
       warn("node " + std::to_string(ni) + " has a zero scale; it is hidden");
     Instance inst;
     inst.mesh = static_cast<uint32_t>(found->second);
-    inst.world_from_object = world_from_node;
+    inst.world_from_object = world_from_object;
     inst.name = model_.nodes[ni].name;
     if (gpu.empty()) {
       scene_.instances.push_back(std::move(inst));
@@ -450,7 +461,7 @@ class Loader {
     // "<node>[i]".
     for (size_t i = 0; i < gpu.size(); ++i) {
       Instance g = inst;
-      g.world_from_object = world_from_node * gpu[i];
+      g.world_from_object = world_from_object * gpu[i];
       g.name = inst.name + "[" + std::to_string(i) + "]";
       if (linear_determinant(g.world_from_object) == 0.0)
         warn("node " + std::to_string(ni) + " GPU instance " + std::to_string(i) + " has a zero scale; it is hidden");
@@ -484,9 +495,112 @@ class Loader {
       for (size_t i = 0; i < positions.size(); ++i) positions[i] = glm::vec3(sum[i]);
   }
 
+  // World transform of any node, whether or not the scene shows it (joints
+  // may live outside the scene's hierarchy): its ancestors' transforms times
+  // its own, memoised.
+  Xform node_world(int ni) {
+    if (parent_.empty()) {
+      parent_.assign(model_.nodes.size(), -1);
+      for (size_t p = 0; p < model_.nodes.size(); ++p)
+        for (int c : model_.nodes[p].children)
+          if (c >= 0 && static_cast<size_t>(c) < model_.nodes.size()) parent_[c] = static_cast<int>(p);
+      world_.resize(model_.nodes.size());
+      world_known_.assign(model_.nodes.size(), 0);
+    }
+    std::vector<int> chain;
+    for (int n = ni; n >= 0 && !world_known_[n]; n = parent_[n]) {
+      if (chain.size() > model_.nodes.size()) fail("node " + std::to_string(ni) + " has a cycle among its ancestors");
+      chain.push_back(n);
+    }
+    for (auto it = chain.rbegin(); it != chain.rend(); ++it) {
+      const int n = *it;
+      world_[n] = (parent_[n] >= 0 ? world_[parent_[n]] : Xform(1.0)) * local_transform(n);
+      world_known_[n] = 1;
+    }
+    return world_[ni];
+  }
+
+  // A skin's joint matrices at the default pose: each joint's world
+  // transform times its inverse bind matrix (identity when absent).
+  std::vector<Xform> joint_matrices(int si) {
+    const tinygltf::Skin& sk = model_.skins[si];
+    const std::string where = "skin " + std::to_string(si);
+    if (sk.joints.empty()) fail(where + " has no joints");
+    std::vector<double> ibm;
+    if (sk.inverseBindMatrices >= 0) {
+      if (static_cast<size_t>(sk.inverseBindMatrices) < model_.accessors.size()) {
+        const tinygltf::Accessor& a = model_.accessors[sk.inverseBindMatrices];
+        if (a.type != TINYGLTF_TYPE_MAT4 || a.componentType != TINYGLTF_COMPONENT_TYPE_FLOAT)
+          fail(where + ": inverseBindMatrices must be MAT4 of FLOAT");
+      }
+      ibm = read_elements(sk.inverseBindMatrices, where + " inverseBindMatrices", 16, false);
+      if (ibm.size() != 16 * sk.joints.size())
+        fail(where + " has " + std::to_string(ibm.size() / 16) + " inverse bind matrices for " +
+             std::to_string(sk.joints.size()) + " joints");
+    }
+    std::vector<Xform> out;
+    for (size_t j = 0; j < sk.joints.size(); ++j) {
+      const int jn = sk.joints[j];
+      if (jn < 0 || static_cast<size_t>(jn) >= model_.nodes.size())
+        fail(where + ": joint " + std::to_string(j) + " is node " + std::to_string(jn) + ", which does not exist");
+      Xform inverse_bind(1.0);
+      if (!ibm.empty()) {
+        for (int k = 0; k < 16; ++k)
+          if (!std::isfinite(ibm[16 * j + k])) fail(where + ": inverse bind matrix " + std::to_string(j) + " is not finite");
+        inverse_bind = glm::make_mat4(&ibm[16 * j]);
+      }
+      out.push_back(node_world(jn) * inverse_bind);
+    }
+    return out;
+  }
+
+  // Linear blend skinning (glTF 2.0, 3.7.3): each vertex moved by the
+  // weighted sum of its joints' matrices, from every JOINTS_n / WEIGHTS_n
+  // set; summed in double and rounded once.
+  void apply_skin(const tinygltf::Primitive& prim, const std::vector<Xform>& joints, const std::string& where,
+                  std::vector<glm::vec3>& positions) const {
+    std::vector<glm::dvec3> sum(positions.size(), glm::dvec3(0.0));
+    std::vector<double> total(positions.size(), 0.0);
+    int sets = 0;
+    for (int set = 0;; ++set) {
+      const auto j = prim.attributes.find("JOINTS_" + std::to_string(set));
+      const auto w = prim.attributes.find("WEIGHTS_" + std::to_string(set));
+      if (j == prim.attributes.end() && w == prim.attributes.end()) break;
+      if (j == prim.attributes.end() || w == prim.attributes.end())
+        fail(where + ": JOINTS_" + std::to_string(set) + " and WEIGHTS_" + std::to_string(set) + " come in pairs");
+      const std::vector<double> ji = read_elements(j->second, where + ": JOINTS_" + std::to_string(set), 4, false);
+      const std::vector<double> wi = read_elements(w->second, where + ": WEIGHTS_" + std::to_string(set), 4, false);
+      if (ji.size() != 4 * positions.size() || wi.size() != 4 * positions.size())
+        fail(where + ": JOINTS_" + std::to_string(set) + " or WEIGHTS_" + std::to_string(set) +
+             " does not have one element per vertex");
+      for (size_t v = 0; v < positions.size(); ++v)
+        for (int k = 0; k < 4; ++k) {
+          const double weight = wi[4 * v + k];
+          if (weight == 0.0) continue;
+          if (!(weight >= 0.0) || !std::isfinite(weight))
+            fail(where + ": vertex " + std::to_string(v) + " has a weight that is not a finite non-negative number");
+          const double joint = ji[4 * v + k];
+          if (joint < 0.0 || joint >= static_cast<double>(joints.size()) || joint != std::floor(joint))
+            fail(where + ": vertex " + std::to_string(v) + " refers to joint " +
+                 std::to_string(static_cast<long long>(joint)) + " of " + std::to_string(joints.size()));
+          sum[v] += weight * glm::dvec3(joints[static_cast<size_t>(joint)] * glm::dvec4(glm::dvec3(positions[v]), 1.0));
+          total[v] += weight;
+        }
+      ++sets;
+    }
+    if (sets == 0) fail(where + " is bound to a skin but has no JOINTS_0 and WEIGHTS_0");
+    for (size_t v = 0; v < positions.size(); ++v) {
+      if (!(total[v] > 0.0)) fail(where + ": vertex " + std::to_string(v) + " has no joint weight");
+      // Weights should sum to 1; normalising keeps a file that rounds them
+      // (as 8-bit weights do) from shrinking the mesh.
+      positions[v] = glm::vec3(sum[v] / total[v]);
+    }
+  }
+
   // Converts a glTF mesh (all its triangle primitives) into one Mesh; returns
   // its index in scene_.meshes, or -1 when it has no triangles.
-  int convert_mesh(int mi, const std::vector<double>& weights) {
+  int convert_mesh(int mi, const std::vector<double>& weights, int skin) {
+    const std::vector<Xform> joints = skin >= 0 ? joint_matrices(skin) : std::vector<Xform>{};
     const tinygltf::Mesh& gm = model_.meshes[mi];
     Mesh mesh;
     mesh.name = gm.name;
@@ -506,6 +620,7 @@ class Loader {
       const uint32_t base = static_cast<uint32_t>(mesh.positions.size());
       std::vector<glm::vec3> positions = read_vec3(pos->second, where + ": POSITION");
       apply_morph_targets(mi, pi, weights, where, positions);
+      if (skin >= 0) apply_skin(prim, joints, where, positions);
       mesh.positions.insert(mesh.positions.end(), positions.begin(), positions.end());
       const uint32_t vertex_count = static_cast<uint32_t>(positions.size());
       std::vector<uint32_t> seq;
@@ -739,7 +854,16 @@ class Loader {
   bool binary_ = false;
   tinygltf::Model model_;
   Scene scene_;
-  std::map<std::pair<int, std::vector<double>>, int> mesh_slot_;  // glTF mesh and weights -> scene mesh (or -1)
+  struct MeshKey {
+    int mesh;
+    std::vector<double> weights;
+    int skin;
+    bool operator<(const MeshKey& o) const { return std::tie(mesh, weights, skin) < std::tie(o.mesh, o.weights, o.skin); }
+  };
+  std::map<MeshKey, int> mesh_slot_;  // glTF mesh, morph weights and skin -> scene mesh (or -1)
+  std::vector<int> parent_;
+  std::vector<Xform> world_;
+  std::vector<char> world_known_;
 };
 
 }  // namespace
