@@ -83,9 +83,11 @@ json node_with_mesh(int m) {
   return n;
 }
 
-void expect_error(const std::string& path, const std::string& what) {
+void expect_error(const std::string& path, const std::string& what) { expect_error_with(path, {}, what); }
+
+void expect_error_with(const std::string& path, const LoadOptions& options, const std::string& what) {
   try {
-    load_gltf(path);
+    load_gltf(path, nullptr, options);
     ADD_FAILURE() << path << ": loaded, expected an error containing '" << what << "'";
   } catch (const InputError& e) {
     const std::string msg = e.what();

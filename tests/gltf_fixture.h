@@ -9,6 +9,8 @@
 #include <glm/vec3.hpp>
 #include <nlohmann/json.hpp>
 
+#include "scene/gltf_loader.h"
+
 namespace rayfold::testing {
 
 std::filesystem::path temp_dir();
@@ -39,5 +41,7 @@ nlohmann::json node_with_mesh(int m);
 // Expects load_gltf(path) to throw InputError whose message names the file
 // and contains `what`.
 void expect_error(const std::string& path, const std::string& what);
+// The same with load options.
+void expect_error_with(const std::string& path, const LoadOptions& options, const std::string& what);
 
 }  // namespace rayfold::testing

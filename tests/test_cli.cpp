@@ -304,5 +304,34 @@ TEST(Cli, OneWarningLinePerKind) {
   EXPECT_NE(r.err.find("(and 4 more like it)"), std::string::npos) << r.err;
 }
 
+TEST(Cli, SceneAndCameraOptionsAndInfoListsThem) {
+  testing::GltfFile f;
+  f.one_triangle();
+  f.j["cameras"] = {{{"type", "perspective"}, {"perspective", {{"yfov", 0.5}, {"znear", 0.1}}}},
+                    {{"type", "perspective"}, {"perspective", {{"yfov", 0.8}, {"znear", 0.1}}}}};
+  f.j["nodes"].push_back({{"camera", 0}, {"name", "near"}, {"translation", {0.3, 0.3, 2}}});
+  f.j["nodes"].push_back({{"camera", 1}, {"name", "far"}, {"translation", {0.3, 0.3, 9}}});
+  f.j["scenes"] = {{{"nodes", {0, 1, 2}}, {"name", "main"}}, {{"nodes", {1}}, {"name", "empty"}}};
+  const std::string scene = f.write("cli_scenes");
+  CliRun r = rayfold("info " + scene);
+  EXPECT_EQ(r.code, 0) << r.err;
+  for (const char* text : {"scene 0     main  [shown", "scene 1     empty", "camera 0    node 1 'near'", "camera 1"})
+    EXPECT_NE(r.out.find(text), std::string::npos) << text << " in:\n" << r.out;
+  const fs::path d = work_dir();
+  const std::string a = (d / "cam0.exr").string(), b = (d / "cam1.exr").string(), c = (d / "default.exr").string();
+  ASSERT_EQ(rayfold("render " + scene + " --size 16x16 --camera 0 -o " + a).code, 0);
+  ASSERT_EQ(rayfold("render " + scene + " --size 16x16 --camera 1 -o " + b).code, 0);
+  ASSERT_EQ(rayfold("render " + scene + " --size 16x16 -o " + c).code, 0);
+  int w = 0, h = 0;
+  EXPECT_EQ(testing::compare_hits(read_exr(a, &w, &h), read_exr(c, &w, &h), 16), "") << "camera 0 is the default";
+  EXPECT_NE(testing::compare_hits(read_exr(a, &w, &h), read_exr(b, &w, &h), 16), "") << "camera 1 sees otherwise";
+  r = rayfold("render " + scene + " --size 16x16 --scene 1");
+  EXPECT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.err.find("no triangles"), std::string::npos) << "scene 1 holds only a camera: " << r.err;
+  r = rayfold("render " + scene + " --size 16x16 --camera 7");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("camera 7 does not exist"), std::string::npos) << r.err;
+}
+
 }  // namespace
 }  // namespace rayfold

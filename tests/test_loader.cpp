@@ -412,5 +412,49 @@ TEST(Loader, SkinnedMeshesAtTheDefaultPose) {
   EXPECT_GE(same, a.size() - a.size() / 100);
 }
 
+// Two scenes, the second showing the mesh twice and two cameras, the first
+// orthographic.
+testing::GltfFile scenes_and_cameras() {
+  testing::GltfFile f;
+  f.one_triangle();
+  f.j["cameras"] = {{{"type", "orthographic"}, {"orthographic", {{"xmag", 1}, {"ymag", 1}, {"znear", 0}, {"zfar", 9}}}},
+                    {{"type", "perspective"}, {"perspective", {{"yfov", 0.5}, {"znear", 0.1}}}}};
+  f.j["nodes"].push_back({{"mesh", 0}, {"translation", {2, 0, 0}}});
+  f.j["nodes"].push_back({{"camera", 0}, {"name", "top"}, {"translation", {0, 0, 5}}});
+  f.j["nodes"].push_back({{"camera", 1}, {"name", "front"}, {"translation", {0, 0, 7}}});
+  f.j["scenes"] = {{{"nodes", {0}}, {"name", "one"}}, {{"nodes", {0, 1, 2, 3}}, {"name", "two"}}};
+  f.j["scene"] = 0;
+  return f;
+}
+
+TEST(Loader, ScenesAndCamerasAreChosenAndListed) {
+  const std::string path = scenes_and_cameras().write("scenes_and_cameras");
+  const Scene first = load_gltf(path);
+  EXPECT_EQ(first.scene_index, 0);
+  EXPECT_EQ(first.scene_names, (std::vector<std::string>{"one", "two"}));
+  EXPECT_EQ(first.instances.size(), 1u);
+  EXPECT_FALSE(first.camera.has_value());
+  LoadOptions two;
+  two.scene = 1;
+  std::vector<std::string> warnings;
+  const Scene second = load_gltf(path, &warnings, two);
+  EXPECT_EQ(second.instances.size(), 2u);
+  ASSERT_EQ(second.cameras.size(), 2u);
+  EXPECT_FALSE(second.cameras[0].perspective);
+  EXPECT_EQ(second.cameras[1].name, "front");
+  ASSERT_TRUE(second.camera.has_value()) << "the first perspective camera";
+  EXPECT_EQ(second.camera->eye, glm::dvec3(0, 0, 7));
+  EXPECT_NEAR(second.camera->vfov_degrees, 0.5 * 180.0 / M_PI, 1e-12);
+  ASSERT_EQ(warnings.size(), 1u);
+  EXPECT_NE(warnings[0].find("camera 0 is orthographic"), std::string::npos) << warnings[0];
+  two.camera = 0;
+  testing::expect_error_with(path, two, "camera 0 is orthographic; rayfold renders perspective views only");
+  two.camera = 2;
+  testing::expect_error_with(path, two, "camera 2 does not exist (the scene shows 2 cameras)");
+  two.camera = -1;
+  two.scene = 2;
+  testing::expect_error_with(path, two, "scene 2 does not exist (the file has 2 scenes)");
+}
+
 }  // namespace
 }  // namespace rayfold

@@ -57,6 +57,9 @@ const char* kRenderUsage =
     "  --up X,Y,Z             up direction (0,1,0)    } frames the whole scene\n"
     "                         (--up alone turns the file's camera)\n"
     "  --vfov DEG             vertical field of view (default: the file's, else 60)\n"
+    "  --scene N              the file's scene N (default: its `scene`, else 0)\n"
+    "  --camera N             the scene's camera N (default: its first perspective\n"
+    "                         camera); `rayfold info` lists both\n"
     "  --backend opencl|cpu   OpenCL device (default) or the CPU reference tracer\n"
     "  --device NAME          OpenCL device whose name contains NAME\n"
     "  --kernel tile|single|measure|auto  OpenCL kernel: tiles of 256 rays in vector\n"
@@ -118,6 +121,7 @@ struct RenderArgs {
   std::string exr, png, stats;
   bool quiet = false;
   bool compare = false;
+  LoadOptions load;
 };
 
 std::string with_commas(size_t n) {
@@ -126,9 +130,9 @@ std::string with_commas(size_t n) {
   return s;
 }
 
-Scene load_scene(const std::string& path, bool quiet) {
+Scene load_scene(const std::string& path, bool quiet, const LoadOptions& options = {}) {
   std::vector<std::string> warnings;
-  Scene scene = load_gltf(path, &warnings);
+  Scene scene = load_gltf(path, &warnings, options);
   if (!quiet)
     for (const std::string& w : warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
   return scene;
@@ -226,6 +230,10 @@ RenderArgs parse_render(cli::Args& args) {
       r.up = cli::parse_vec3(a, args.value(a));
     } else if (a == "--vfov") {
       r.vfov = cli::parse_double(a, args.value(a));
+    } else if (a == "--scene") {
+      r.load.scene = cli::parse_int(a, args.value(a), 0, 1 << 30);
+    } else if (a == "--camera") {
+      r.load.camera = cli::parse_int(a, args.value(a), 0, 1 << 30);
     } else if (parse_renderer_option(a, args, r.renderer)) {
     } else if (a == "--fold") {
       r.frame.fold = cli::parse_fold(a, args.value(a));
@@ -336,7 +344,7 @@ int run_render(cli::Args& args) {
     if (!out->empty()) check_writable(*out);
 
   auto t0 = Clock::now();
-  const Scene scene = load_scene(r.scene, r.quiet);
+  const Scene scene = load_scene(r.scene, r.quiet, r.load);
   const double load_ms = ms_since(t0);
 
   CameraSpec spec = scene.camera ? *scene.camera : frame_bounds(scene.world_bounds());
@@ -424,10 +432,18 @@ int run_info(cli::Args& args) {
     std::printf("  bounds      (empty)\n");
   else
     std::printf("  bounds      (%g, %g, %g) .. (%g, %g, %g)\n", b.lo.x, b.lo.y, b.lo.z, b.hi.x, b.hi.y, b.hi.z);
-  if (scene.camera)
-    std::printf("  camera      eye (%g, %g, %g), looking at (%g, %g, %g), vfov %g\n", scene.camera->eye.x,
-                scene.camera->eye.y, scene.camera->eye.z, scene.camera->look_at.x, scene.camera->look_at.y,
-                scene.camera->look_at.z, scene.camera->vfov_degrees);
+  for (size_t i = 0; i < scene.scene_names.size(); ++i)
+    std::printf("  scene %-5zu %s%s\n", i, scene.scene_names[i].empty() ? "(unnamed)" : scene.scene_names[i].c_str(),
+                static_cast<int>(i) == scene.scene_index ? "  [shown; --scene N picks another]" : "");
+  for (size_t i = 0; i < scene.cameras.size(); ++i) {
+    const Scene::FileCamera& c = scene.cameras[i];
+    if (c.perspective)
+      std::printf("  camera %-4zu node %d '%s': eye (%g, %g, %g), looking at (%g, %g, %g), vfov %g\n", i, c.node,
+                  c.name.c_str(), c.spec.eye.x, c.spec.eye.y, c.spec.eye.z, c.spec.look_at.x, c.spec.look_at.y,
+                  c.spec.look_at.z, c.spec.vfov_degrees);
+    else
+      std::printf("  camera %-4zu node %d '%s': orthographic (not rendered)\n", i, c.node, c.name.c_str());
+  }
   return 0;
 }
 

@@ -51,7 +51,8 @@ bool geometry_neutral(const std::string& ext) {
 
 class Loader {
  public:
-  Loader(const std::string& path, std::vector<std::string>* warnings) : path_(path), warnings_(warnings) {}
+  Loader(const std::string& path, std::vector<std::string>* warnings, const LoadOptions& options)
+      : path_(path), warnings_(warnings), options_(options) {}
 
   Scene run() {
     read_model();
@@ -92,6 +93,7 @@ class Loader {
       for (auto it = node.children.rbegin(); it != node.children.rend(); ++it)
         stack.push_back({*it, world_from_node, false});
     }
+    choose_camera();
     if (scene_.triangle_count() == 0) warn("the scene has no triangles; every pixel will miss");
     flush_warnings();
     return std::move(scene_);
@@ -301,10 +303,15 @@ class Loader {
     if (!unsupported.empty()) fail("requires extensions rayfold does not support: " + unsupported);
   }
 
-  std::vector<int> root_nodes() const {
+  std::vector<int> root_nodes() {
+    for (const tinygltf::Scene& sc : model_.scenes) scene_.scene_names.push_back(sc.name);
+    if (options_.scene >= 0 && static_cast<size_t>(options_.scene) >= model_.scenes.size())
+      fail("scene " + std::to_string(options_.scene) + " does not exist (the file has " +
+           std::to_string(model_.scenes.size()) + " scenes)");
     if (!model_.scenes.empty()) {
-      int s = model_.defaultScene >= 0 ? model_.defaultScene : 0;
+      const int s = options_.scene >= 0 ? options_.scene : model_.defaultScene >= 0 ? model_.defaultScene : 0;
       if (static_cast<size_t>(s) >= model_.scenes.size()) fail("the default scene index is out of range");
+      scene_.scene_index = s;
       return model_.scenes[s].nodes;
     }
     // No scene: every node that is nobody's child is a root.
@@ -409,23 +416,47 @@ class Loader {
   }
 
   void add_camera(int ni, const Xform& world_from_node) {
-    if (scene_.camera) return;
     const int ci = model_.nodes[ni].camera;
     if (static_cast<size_t>(ci) >= model_.cameras.size())
       fail("node " + std::to_string(ni) + " refers to camera " + std::to_string(ci) + ", which does not exist");
     const tinygltf::Camera& c = model_.cameras[ci];
-    if (c.type != "perspective") return;
-    const double yfov = c.perspective.yfov * 180.0 / M_PI;
-    if (!(yfov > 0.0 && yfov < 180.0)) {
-      warn("camera " + std::to_string(ci) + " has a vertical field of view outside (0, 180) degrees; ignored");
+    Scene::FileCamera fc;
+    fc.name = model_.nodes[ni].name;
+    fc.node = ni;
+    fc.perspective = c.type == "perspective";
+    fc.spec.eye = transform_point(world_from_node, glm::dvec3(0.0));
+    fc.spec.look_at = transform_point(world_from_node, glm::dvec3(0.0, 0.0, -1.0));
+    fc.spec.up = glm::dvec3(world_from_node * glm::dvec4(0.0, 1.0, 0.0, 0.0));
+    if (fc.perspective) {
+      fc.spec.vfov_degrees = c.perspective.yfov * 180.0 / M_PI;
+      if (!(fc.spec.vfov_degrees > 0.0 && fc.spec.vfov_degrees < 180.0)) {
+        warn("camera " + std::to_string(ci) + " has a vertical field of view outside (0, 180) degrees; ignored");
+        return;
+      }
+    }
+    scene_.cameras.push_back(fc);
+  }
+
+  // The camera the scene is rendered with: the one asked for, else the
+  // first perspective camera. Orthographic cameras are listed, not used.
+  void choose_camera() {
+    const int asked = options_.camera;
+    if (asked >= 0) {
+      if (static_cast<size_t>(asked) >= scene_.cameras.size())
+        fail("camera " + std::to_string(asked) + " does not exist (the scene shows " +
+             std::to_string(scene_.cameras.size()) + " cameras)");
+      if (!scene_.cameras[asked].perspective)
+        fail("camera " + std::to_string(asked) + " is orthographic; rayfold renders perspective views only");
+      scene_.camera = scene_.cameras[asked].spec;
       return;
     }
-    CameraSpec spec;
-    spec.eye = transform_point(world_from_node, glm::dvec3(0.0));
-    spec.look_at = transform_point(world_from_node, glm::dvec3(0.0, 0.0, -1.0));
-    spec.up = glm::dvec3(world_from_node * glm::dvec4(0.0, 1.0, 0.0, 0.0));
-    spec.vfov_degrees = yfov;
-    scene_.camera = spec;
+    for (size_t i = 0; i < scene_.cameras.size(); ++i) {
+      if (scene_.cameras[i].perspective) {
+        scene_.camera = scene_.cameras[i].spec;
+        return;
+      }
+      warn("camera " + std::to_string(i) + " is orthographic, which rayfold does not render; it is skipped");
+    }
   }
 
   void add_instance(int ni, const Xform& world_from_node) {
@@ -850,6 +881,7 @@ class Loader {
   };
   std::string path_;
   std::vector<std::string>* warnings_;
+  LoadOptions options_;
   std::vector<Warning> pending_;
   bool binary_ = false;
   tinygltf::Model model_;
@@ -868,8 +900,8 @@ class Loader {
 
 }  // namespace
 
-Scene load_gltf(const std::string& path, std::vector<std::string>* warnings) {
-  Scene scene = Loader(path, warnings).run();
+Scene load_gltf(const std::string& path, std::vector<std::string>* warnings, const LoadOptions& options) {
+  Scene scene = Loader(path, warnings, options).run();
   check_world_range(scene, path);
   return scene;
 }

@@ -9,8 +9,15 @@
 
 namespace rayfold {
 
-// Throws InputError naming the file and what is wrong. Non-fatal oddities
-// (points and lines skipped, images not found) are appended to warnings.
-Scene load_gltf(const std::string& path, std::vector<std::string>* warnings = nullptr);
+struct LoadOptions {
+  int scene = -1;   // the file's scene to show; -1: its `scene`, else scene 0
+  int camera = -1;  // index into Scene::cameras of the camera to use; -1: the first perspective one
+};
+
+// Throws InputError naming the file and what is wrong (also for a scene or
+// camera index the file does not have). Non-fatal oddities (points and
+// lines skipped) are appended to warnings, one line per kind.
+Scene load_gltf(const std::string& path, std::vector<std::string>* warnings = nullptr,
+                const LoadOptions& options = {});
 
 }  // namespace rayfold

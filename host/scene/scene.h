@@ -44,7 +44,18 @@ constexpr double kMaxWorldCoordinate = 0x1p126;
 struct Scene {
   std::vector<Mesh> meshes;
   std::vector<Instance> instances;
-  std::optional<CameraSpec> camera;  // the file's first perspective camera
+  std::optional<CameraSpec> camera;  // the chosen camera (LoadOptions), by default the first perspective one
+
+  // What the file holds besides the scene shown, for `rayfold info`.
+  struct FileCamera {
+    std::string name;        // the node's name
+    int node = -1;           // the node that places it
+    bool perspective = true; // orthographic cameras are listed but not rendered
+    CameraSpec spec;         // eye, look-at, up and vertical field of view (perspective)
+  };
+  std::vector<FileCamera> cameras;       // every camera node of the shown scene, in node order
+  std::vector<std::string> scene_names;  // every scene of the file ("" when unnamed)
+  int scene_index = -1;                  // the one shown; -1 when the file has no scenes
 
   size_t triangle_count() const;         // over instances, as rendered
   size_t unique_triangle_count() const;  // over meshes, as stored
