@@ -189,17 +189,23 @@ void Renderer::render_into(RenderResult& result, const Camera& camera, int frame
                   pixel_angle(camera));
     result.warnings.push_back(what);
   }
+  result.median = median_times(result.frames);
+}
+
+FrameTimes median_times(const std::vector<FrameTimes>& frames) {
   auto pick = [&](double FrameTimes::*field) {
     std::vector<double> v;
-    for (const FrameTimes& t : result.frames) v.push_back(t.*field);
+    for (const FrameTimes& t : frames) v.push_back(t.*field);
     return median(v);
   };
-  result.median.cull_ms = pick(&FrameTimes::cull_ms);
-  result.median.tlas_ms = pick(&FrameTimes::tlas_ms);
-  result.median.upload_ms = pick(&FrameTimes::upload_ms);
-  result.median.ray_list_ms = pick(&FrameTimes::ray_list_ms);
-  result.median.trace_ms = pick(&FrameTimes::trace_ms);
-  result.median.readback_ms = pick(&FrameTimes::readback_ms);
+  FrameTimes m;
+  m.cull_ms = pick(&FrameTimes::cull_ms);
+  m.tlas_ms = pick(&FrameTimes::tlas_ms);
+  m.upload_ms = pick(&FrameTimes::upload_ms);
+  m.ray_list_ms = pick(&FrameTimes::ray_list_ms);
+  m.trace_ms = pick(&FrameTimes::trace_ms);
+  m.readback_ms = pick(&FrameTimes::readback_ms);
+  return m;
 }
 
 }  // namespace rayfold

@@ -111,5 +111,7 @@ class Renderer {
 
 // Median of a list of values (the upper median for even counts).
 double median(std::vector<double> values);
+// Each phase's median over frames.
+FrameTimes median_times(const std::vector<FrameTimes>& frames);
 
 }  // namespace rayfold

@@ -250,11 +250,16 @@ TEST(BadInput, SchemaTypesAreCheckedWithThePathOfTheMember) {
        [](GltfFile& f) { f.j["nodes"][0]["children"] = "1"; }},
       {"count_string", "accessors[0].count must be an integer (glTF 2.0 schema), not string",
        [](GltfFile& f) { f.j["accessors"][0]["count"] = "3"; }},
-      {"nodes_object", ".nodes must be an array of objects", [](GltfFile& f) { f.j["nodes"] = {{"mesh", 0}}; }},
+      {"nodes_object", ".nodes must be an array of objects",
+       [](GltfFile& f) {
+         f.j["nodes"] = {{"mesh", 0}};
+       }},
       {"position_float", "attributes.POSITION must be an integer",
        [](GltfFile& f) { f.j["meshes"][0]["primitives"][0]["attributes"]["POSITION"] = 0.5; }},
       {"translation_string", "nodes[0].translation must be an array of numbers",
-       [](GltfFile& f) { f.j["nodes"][0]["translation"] = {1, "2", 3}; }},
+       [](GltfFile& f) {
+         f.j["nodes"][0]["translation"] = {1, "2", 3};
+       }},
       {"scene_string", ".scene must be an integer", [](GltfFile& f) { f.j["scene"] = "0"; }},
   };
   for (const Case& c : cases) {
@@ -278,7 +283,7 @@ TEST(BadInput, GpuInstancing) {
          const int ta = f.accessor(f.view(t, sizeof t), 5126, "VEC3", 2);
          const int ra = f.accessor(f.view(q, sizeof q), 5126, "VEC4", 1);
          f.j["nodes"][0]["extensions"]["EXT_mesh_gpu_instancing"]["attributes"] = {{"TRANSLATION", ta},
-                                                                                  {"ROTATION", ra}};
+                                                                                   {"ROTATION", ra}};
        }},
       {"gpu_rotation_vec3", "ROTATION must be VEC4",
        [&](GltfFile& f) {

@@ -225,8 +225,8 @@ TEST(Cli, ScenesThatAreNotGltfFilesExitTwoNamingTheFile) {
   const std::string obj = (d / "mesh.obj").string(), dir = (d / "a_directory").string();
   std::ofstream(obj) << "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
   fs::create_directories(dir);
-  for (auto [path, why] : {std::pair{obj, std::string("not a glTF file but an OBJ file")},
-                           {dir, std::string("is a directory")}}) {
+  for (auto [path, why] :
+       {std::pair{obj, std::string("not a glTF file but an OBJ file")}, {dir, std::string("is a directory")}}) {
     for (const std::string command : {"render ", "info "}) {
       const CliRun r = rayfold(command + path);
       EXPECT_EQ(r.code, 2) << command << path;
@@ -331,6 +331,32 @@ TEST(Cli, SceneAndCameraOptionsAndInfoListsThem) {
   r = rayfold("render " + scene + " --size 16x16 --camera 7");
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("camera 7 does not exist"), std::string::npos) << r.err;
+}
+
+TEST(Cli, FrameSequencesWriteEveryFrame) {
+  const fs::path d = work_dir() / "sequence";
+  fs::create_directories(d);
+  const std::string pattern = (d / "frame_%04d.exr").string(), single = (d / "single.exr").string();
+  CliRun r = rayfold("render --size 40x24 --animate --frames 3 -o " + pattern + " --png " + (d / "p%d.png").string());
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("frame_0000.exr .. " + (d / "frame_0002.exr").string() + " (3 frames)"), std::string::npos)
+      << r.out;
+  ASSERT_EQ(rayfold("render --size 40x24 --animate -o " + single).code, 0);
+  int w = 0, h = 0;
+  std::vector<std::vector<rf_pixel_hit>> frames;
+  for (const char* f : {"frame_0000.exr", "frame_0001.exr", "frame_0002.exr"})
+    frames.push_back(read_exr((d / f).string(), &w, &h));
+  for (const char* f : {"p0.png", "p1.png", "p2.png"}) EXPECT_TRUE(fs::exists(d / f)) << f;
+  EXPECT_FALSE(fs::exists(d / "frame_0003.exr"));
+  EXPECT_EQ(testing::compare_hits(frames[0], read_exr(single, &w, &h), 40), "")
+      << "frame 0 is the first animated frame";
+  EXPECT_NE(testing::compare_hits(frames[0], frames[1], 40), "") << "the animation moves";
+  EXPECT_NE(testing::compare_hits(frames[1], frames[2], 40), "") << "the animation moves";
+  for (const char* bad : {"x_%s.exr", "x_%d_%d.exr", "x_%.exr"}) {
+    r = rayfold("render --size 8x8 -o " + (d / bad).string());
+    EXPECT_EQ(r.code, 2) << bad;
+    EXPECT_NE(r.err.find("one frame field"), std::string::npos) << r.err;
+  }
 }
 
 }  // namespace

@@ -235,8 +235,7 @@ TEST(Loader, QuantizedPositionsAsGltfReadsThem) {
   f.j["nodes"] = {testing::node_with_mesh(0)};
   f.j["extensionsUsed"] = {"KHR_mesh_quantization"};
   f.j["extensionsRequired"] = {"KHR_mesh_quantization"};
-  EXPECT_EQ(loaded_positions(f.write("quantized_shorts")),
-            (std::vector<glm::vec3>{{0, 0, 0}, {3, 0, 0}, {0, -2, 5}}));
+  EXPECT_EQ(loaded_positions(f.write("quantized_shorts")), (std::vector<glm::vec3>{{0, 0, 0}, {3, 0, 0}, {0, -2, 5}}));
   f.j["accessors"][pa]["normalized"] = true;
   const std::vector<glm::vec3> n = loaded_positions(f.write("quantized_normalized"));
   ASSERT_EQ(n.size(), 3u);
@@ -271,9 +270,10 @@ TEST(Loader, SparseAccessorsEqualTheirDenseForm) {
                                       {"values", {{"bufferView", values_view}}}};
   const uint32_t idx_at[3] = {0, 1, 2}, idx_values[3] = {3, 1, 0}, zeros[3] = {0, 0, 0};
   const int ia = f.accessor(f.view(zeros, sizeof zeros), 5125, "SCALAR", 3);
-  f.j["accessors"][ia]["sparse"] = {{"count", 3},
-                                    {"indices", {{"bufferView", f.view(idx_at, sizeof idx_at)}, {"componentType", 5125}}},
-                                    {"values", {{"bufferView", f.view(idx_values, sizeof idx_values)}}}};
+  f.j["accessors"][ia]["sparse"] = {
+      {"count", 3},
+      {"indices", {{"bufferView", f.view(idx_at, sizeof idx_at)}, {"componentType", 5125}}},
+      {"values", {{"bufferView", f.view(idx_values, sizeof idx_values)}}}};
   f.j["meshes"] = {testing::mesh({testing::prim(base, ia)})};
   f.j["nodes"] = {testing::node_with_mesh(0)};
   const Scene scene = load_gltf(f.write("sparse"));
@@ -299,10 +299,8 @@ TEST(Loader, MorphTargetsAtTheirDefaultWeights) {
   ASSERT_EQ(scene.instances.size(), 3u);
   ASSERT_EQ(scene.meshes.size(), 2u);
   EXPECT_EQ(scene.instances[0].mesh, scene.instances[2].mesh);
-  EXPECT_EQ(scene.meshes[scene.instances[0].mesh].positions,
-            (std::vector<glm::vec3>{{1, 1, 0}, {2, 0, 0}, {1, 1, 2}}));
-  EXPECT_EQ(scene.meshes[scene.instances[1].mesh].positions,
-            (std::vector<glm::vec3>{{2, 0, 0}, {3, 0, 0}, {2, 1, 0}}));
+  EXPECT_EQ(scene.meshes[scene.instances[0].mesh].positions, (std::vector<glm::vec3>{{1, 1, 0}, {2, 0, 0}, {1, 1, 2}}));
+  EXPECT_EQ(scene.meshes[scene.instances[1].mesh].positions, (std::vector<glm::vec3>{{2, 0, 0}, {3, 0, 0}, {2, 1, 0}}));
 }
 
 TEST(Loader, GpuInstancesEqualTheSameInstancesWrittenAsNodes) {
@@ -391,7 +389,8 @@ TEST(Loader, SkinnedMeshesAtTheDefaultPose) {
   g.j["scenes"] = {{{"nodes", {0, 1}}}};
   testing::GltfFile plain;
   plain.one_triangle();
-  plain.j["nodes"][0] = {{"children", {1}}, {"translation", {-0.5, 0.25, -3}}, {"rotation", {0, 0, 0.38268343, 0.92387953}}};
+  plain.j["nodes"][0] = {
+      {"children", {1}}, {"translation", {-0.5, 0.25, -3}}, {"rotation", {0, 0, 0.38268343, 0.92387953}}};
   plain.j["nodes"].push_back({{"mesh", 0}, {"matrix", {2, 0, 0, 0, 0, 2, 0, 0, 0, 0, 2, 0, 0.5, 0, 0, 1}}});
   CameraSpec spec;
   spec.eye = {0, 0.5, -1};

@@ -1,11 +1,11 @@
 // rayfold: the command-line tool. `rayfold render` traces primary rays and
 // writes the hit info; `rayfold info` describes a scene.
-#include <cstdio>
 #include <cctype>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
-#include <initializer_list>
 #include <fstream>
+#include <initializer_list>
 #include <iostream>
 #include <new>
 #include <optional>
@@ -80,7 +80,8 @@ const char* kRenderUsage =
     "  --no-cull              keep instances outside the view in the top-level tree\n"
     "  --threads N            CPU threads for the CPU backend and builds (0 = all)\n"
     "  --frames N             trace N times and report the medians (default 1)\n"
-    "  -o, --output F.exr     OpenEXR hit info: Z N.X N.Y N.Z U V InstanceID PrimitiveID\n"
+    "  -o, --output F.exr     OpenEXR hit info: Z N.X N.Y N.Z U V InstanceID PrimitiveID;\n"
+    "                         a frame field (out/frame_%04d.exr) writes every frame\n"
     "  --png F.png            normal-shaded preview, misses black\n"
     "  --stats F.json         phase times and device buffer sizes\n"
     "  -q, --quiet            print nothing but errors\n"
@@ -337,11 +338,45 @@ void print_comparison(const RenderResult& none, const RenderResult& folded, Fold
     std::printf("  %-28s %22zu pixels DIFFER\n", "hit info", differ);
 }
 
+// An output name with one frame field (%d, %04d, ...): the name of frame f.
+// Returns the name unchanged when it has no field; a second field or any
+// other % is a usage error.
+std::string frame_name(const std::string& option, const std::string& name, int frame, bool* has_field) {
+  std::string out;
+  bool field = false;
+  for (size_t i = 0; i < name.size(); ++i) {
+    if (name[i] != '%') {
+      out += name[i];
+      continue;
+    }
+    size_t j = i + 1;
+    while (j < name.size() && std::isdigit(static_cast<unsigned char>(name[j]))) ++j;
+    if (j >= name.size() || name[j] != 'd' || field || j - i > 3)
+      throw UsageError(option + ": '" + name + "' may hold one frame field such as %04d, and no other %");
+    char buf[32];
+    std::snprintf(buf, sizeof buf, ("%" + name.substr(i + 1, j - i - 1) + "d").c_str(), frame);
+    out += buf;
+    field = true;
+    i = j;
+  }
+  if (has_field) *has_field = field;
+  return out;
+}
+
 int run_render(cli::Args& args) {
   const RenderArgs r = parse_render(args);
+  // Frame sequences: with a frame field in -o or --png, every frame is
+  // written (animated frames advance with --animate).
+  bool sequence = false;
+  for (auto [option, out] : {std::pair{"-o", &r.exr}, {"--png", &r.png}}) {
+    bool field = false;
+    if (!out->empty()) frame_name(option, *out, 0, &field);
+    sequence = sequence || field;
+  }
+  if (sequence && r.compare) throw UsageError("--compare: compares one frame; write a sequence without it");
   // Fail on unwritable outputs before any expensive work.
   for (const std::string* out : {&r.exr, &r.png, &r.stats})
-    if (!out->empty()) check_writable(*out);
+    if (!out->empty()) check_writable(frame_name("output", *out, 0, nullptr));
 
   auto t0 = Clock::now();
   const Scene scene = load_scene(r.scene, r.quiet, r.load);
@@ -366,11 +401,36 @@ int run_render(cli::Args& args) {
     none.fold = FoldMode::none;
     unfolded = renderer.render(camera, r.frames, none);
   }
-  const RenderResult result = renderer.render(camera, r.frames, r.frame);
+  RenderResult result;
+  std::vector<std::string> written;
+  if (!sequence) {
+    result = renderer.render(camera, r.frames, r.frame);
+    if (!r.exr.empty()) write_exr(r.exr, result.hits, r.width, r.height);
+    if (!r.png.empty()) write_png(r.png, result.hits, r.width, r.height);
+    for (const std::string* out : {&r.exr, &r.png})
+      if (!out->empty()) written.push_back(*out);
+  } else {
+    std::vector<FrameTimes> times;
+    for (int f = 0; f < r.frames; ++f) {
+      FrameOptions o = r.frame;
+      if (o.animate_frame >= 0) o.animate_frame += f;
+      renderer.render_into(result, camera, 1, o);
+      times.push_back(result.frames.front());
+      for (auto [out, write] : {std::pair{&r.exr, &write_exr}, {&r.png, &write_png}}) {
+        if (out->empty()) continue;
+        write(frame_name("output", *out, f, nullptr), result.hits, r.width, r.height);
+      }
+    }
+    for (const std::string* out : {&r.exr, &r.png})
+      if (!out->empty())
+        written.push_back(frame_name("output", *out, 0, nullptr) + " .. " +
+                          frame_name("output", *out, r.frames - 1, nullptr) + " (" + std::to_string(r.frames) +
+                          " frames)");
+    result.frames = times;
+    result.median = median_times(times);
+  }
   for (const std::string& w : result.warnings) std::fprintf(stderr, "warning: %s (docs/exactness.md)\n", w.c_str());
 
-  if (!r.exr.empty()) write_exr(r.exr, result.hits, r.width, r.height);
-  if (!r.png.empty()) write_png(r.png, result.hits, r.width, r.height);
   if (!r.stats.empty()) write_stats(r.stats, r, scene, renderer, result, load_ms);
 
   if (!r.quiet) {
@@ -395,8 +455,7 @@ int run_render(cli::Args& args) {
                   "auto-framed", spec.eye.x, spec.eye.y, spec.eye.z, spec.look_at.x, spec.look_at.y, spec.look_at.z,
                   spec.vfov_degrees);
     if (unfolded) print_comparison(*unfolded, result, r.frame.fold);
-    if (!r.exr.empty()) std::printf("  wrote %s\n", r.exr.c_str());
-    if (!r.png.empty()) std::printf("  wrote %s\n", r.png.c_str());
+    for (const std::string& w : written) std::printf("  wrote %s\n", w.c_str());
     if (!r.stats.empty()) std::printf("  wrote %s\n", r.stats.c_str());
     if (r.exr.empty() && r.png.empty() && r.stats.empty())
       std::printf("  nothing written (-o F.exr, --png F.png or --stats F.json write the results)\n");

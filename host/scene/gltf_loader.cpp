@@ -129,14 +129,15 @@ class Loader {
     std::string ext = std::filesystem::path(path_).extension().string();
     for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
     static const std::pair<const char*, const char*> formats[] = {
-        {".obj", "an OBJ file"}, {".ply", "a PLY file"},     {".fbx", "an FBX file"},    {".stl", "an STL file"},
-        {".dae", "a COLLADA file"}, {".usd", "a USD file"},  {".usda", "a USD file"},   {".usdz", "a USD file"},
-        {".3ds", "a 3DS file"},  {".blend", "a Blender file"}, {".off", "an OFF file"}};
+        {".obj", "an OBJ file"},    {".ply", "a PLY file"},       {".fbx", "an FBX file"}, {".stl", "an STL file"},
+        {".dae", "a COLLADA file"}, {".usd", "a USD file"},       {".usda", "a USD file"}, {".usdz", "a USD file"},
+        {".3ds", "a 3DS file"},     {".blend", "a Blender file"}, {".off", "an OFF file"}};
     std::string what = "not a glTF file";
     for (const auto& [e, name] : formats)
       if (ext == e) what = std::string("not a glTF file but ") + name;
-    fail(what + " (rayfold reads glTF 2.0, .gltf or .glb; other formats can be converted, for example with "
-                "Blender or assimp export)");
+    fail(what +
+         " (rayfold reads glTF 2.0, .gltf or .glb; other formats can be converted, for example with "
+         "Blender or assimp export)");
   }
 
   // tinygltf reads a member of the wrong JSON type as absent: "primitives"
@@ -165,9 +166,9 @@ class Loader {
       }
       return false;
     };
-    static const char* names[] = {"an integer", "a number",  "a string", "an array",
-                                  "an object",  "an array of integers", "an array of numbers",
-                                  "an array of objects"};
+    static const char* names[] = {
+        "an integer",          "a number",           "a string", "an array", "an object", "an array of integers",
+        "an array of numbers", "an array of objects"};
     auto check = [&](const json& obj, const std::string& path, std::initializer_list<std::pair<const char*, Kind>> m) {
       for (const auto& [key, kind] : m) {
         const auto it = obj.find(key);
@@ -175,10 +176,18 @@ class Loader {
           fail(path + "." + key + " must be " + names[kind] + " (glTF 2.0 schema), not " + it->type_name());
       }
     };
-    check(j, "", {{"scene", kInt}, {"scenes", kObjectArray}, {"nodes", kObjectArray}, {"meshes", kObjectArray},
-                  {"accessors", kObjectArray}, {"bufferViews", kObjectArray}, {"buffers", kObjectArray},
-                  {"cameras", kObjectArray}, {"skins", kObjectArray}, {"extensionsRequired", kArray},
-                  {"extensionsUsed", kArray}});
+    check(j, "",
+          {{"scene", kInt},
+           {"scenes", kObjectArray},
+           {"nodes", kObjectArray},
+           {"meshes", kObjectArray},
+           {"accessors", kObjectArray},
+           {"bufferViews", kObjectArray},
+           {"buffers", kObjectArray},
+           {"cameras", kObjectArray},
+           {"skins", kObjectArray},
+           {"extensionsRequired", kArray},
+           {"extensionsUsed", kArray}});
     auto each = [&](const char* array, auto fn) {
       const auto it = j.find(array);
       if (it == j.end()) return;
@@ -186,9 +195,16 @@ class Loader {
     };
     each("scenes", [&](const json& o, const std::string& p) { check(o, p, {{"nodes", kIntArray}}); });
     each("nodes", [&](const json& o, const std::string& p) {
-      check(o, p, {{"mesh", kInt}, {"camera", kInt}, {"skin", kInt}, {"children", kIntArray}, {"matrix", kNumberArray},
-                   {"translation", kNumberArray}, {"rotation", kNumberArray}, {"scale", kNumberArray},
-                   {"name", kString}});
+      check(o, p,
+            {{"mesh", kInt},
+             {"camera", kInt},
+             {"skin", kInt},
+             {"children", kIntArray},
+             {"matrix", kNumberArray},
+             {"translation", kNumberArray},
+             {"rotation", kNumberArray},
+             {"scale", kNumberArray},
+             {"name", kString}});
     });
     each("meshes", [&](const json& o, const std::string& p) {
       check(o, p, {{"primitives", kObjectArray}, {"weights", kNumberArray}, {"name", kString}});
@@ -202,8 +218,15 @@ class Loader {
       }
     });
     each("accessors", [&](const json& o, const std::string& p) {
-      check(o, p, {{"bufferView", kInt}, {"byteOffset", kInt}, {"componentType", kInt}, {"count", kInt},
-                   {"type", kString}, {"sparse", kObject}, {"min", kNumberArray}, {"max", kNumberArray}});
+      check(o, p,
+            {{"bufferView", kInt},
+             {"byteOffset", kInt},
+             {"componentType", kInt},
+             {"count", kInt},
+             {"type", kString},
+             {"sparse", kObject},
+             {"min", kNumberArray},
+             {"max", kNumberArray}});
     });
     each("skins", [&](const json& o, const std::string& p) {
       check(o, p, {{"joints", kIntArray}, {"inverseBindMatrices", kInt}, {"skeleton", kInt}});
@@ -391,9 +414,9 @@ class Loader {
         const tinygltf::Accessor& a = model_.accessors[ai];
         if (a.type != (k == 1 ? TINYGLTF_TYPE_VEC4 : TINYGLTF_TYPE_VEC3))
           fail(what + " must be " + (k == 1 ? "VEC4" : "VEC3"));
-        const bool quantized_rotation = k == 1 && a.normalized &&
-                                        (a.componentType == TINYGLTF_COMPONENT_TYPE_BYTE ||
-                                         a.componentType == TINYGLTF_COMPONENT_TYPE_SHORT);
+        const bool quantized_rotation =
+            k == 1 && a.normalized &&
+            (a.componentType == TINYGLTF_COMPONENT_TYPE_BYTE || a.componentType == TINYGLTF_COMPONENT_TYPE_SHORT);
         if (a.componentType != TINYGLTF_COMPONENT_TYPE_FLOAT && !quantized_rotation)
           fail(what + " must be FLOAT" + (k == 1 ? " or normalized byte or short" : ""));
       }
@@ -515,10 +538,11 @@ class Loader {
       const double w = weights.empty() ? 0.0 : weights[t];
       const auto p = prim.targets[t].find("POSITION");
       if (w == 0.0 || p == prim.targets[t].end()) continue;
-      const std::vector<glm::vec3> d = read_vec3(p->second, where + ": morph target " + std::to_string(t) + " POSITION");
+      const std::vector<glm::vec3> d =
+          read_vec3(p->second, where + ": morph target " + std::to_string(t) + " POSITION");
       if (d.size() != positions.size())
-        fail(where + ": morph target " + std::to_string(t) + " has " + std::to_string(d.size()) +
-             " positions for " + std::to_string(positions.size()) + " vertices");
+        fail(where + ": morph target " + std::to_string(t) + " has " + std::to_string(d.size()) + " positions for " +
+             std::to_string(positions.size()) + " vertices");
       for (size_t i = 0; i < d.size(); ++i) sum[i] += w * glm::dvec3(d[i]);
       moved = true;
     }
@@ -577,7 +601,8 @@ class Loader {
       Xform inverse_bind(1.0);
       if (!ibm.empty()) {
         for (int k = 0; k < 16; ++k)
-          if (!std::isfinite(ibm[16 * j + k])) fail(where + ": inverse bind matrix " + std::to_string(j) + " is not finite");
+          if (!std::isfinite(ibm[16 * j + k]))
+            fail(where + ": inverse bind matrix " + std::to_string(j) + " is not finite");
         inverse_bind = glm::make_mat4(&ibm[16 * j]);
       }
       out.push_back(node_world(jn) * inverse_bind);
@@ -749,8 +774,8 @@ class Loader {
   // `count` elements of `element_bytes` from view vi at `offset` with the
   // view's stride (or tightly packed): the bytes of element 0 and the
   // stride, after checking that the last element ends inside the view.
-  const unsigned char* view_data(int vi, size_t offset, size_t count, size_t element_bytes, size_t align,
-                                 bool is_index, const std::string& acc, size_t* stride) const {
+  const unsigned char* view_data(int vi, size_t offset, size_t count, size_t element_bytes, size_t align, bool is_index,
+                                 const std::string& acc, size_t* stride) const {
     if (vi < 0 || static_cast<size_t>(vi) >= model_.bufferViews.size())
       fail(acc + " refers to a buffer view that does not exist");
     const tinygltf::BufferView& v = model_.bufferViews[vi];
@@ -813,11 +838,11 @@ class Loader {
           it != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT)
         fail(acc + ": sparse indices must be unsigned byte, short or int");
       size_t istride = 0, vstride = 0;
-      const unsigned char* ip = view_data(a.sparse.indices.bufferView, a.sparse.indices.byteOffset, n,
-                                          component_bytes(it), component_bytes(it), true, acc + " (sparse indices)",
-                                          &istride);
-      const unsigned char* vp = view_data(a.sparse.values.bufferView, a.sparse.values.byteOffset, n, element, cb,
-                                          false, acc + " (sparse values)", &vstride);
+      const unsigned char* ip =
+          view_data(a.sparse.indices.bufferView, a.sparse.indices.byteOffset, n, component_bytes(it),
+                    component_bytes(it), true, acc + " (sparse indices)", &istride);
+      const unsigned char* vp = view_data(a.sparse.values.bufferView, a.sparse.values.byteOffset, n, element, cb, false,
+                                          acc + " (sparse values)", &vstride);
       std::vector<size_t> targets(n);
       for (size_t i = 0; i < n; ++i) {
         const double t = component(ip + i * istride, it, false);
@@ -848,8 +873,8 @@ class Loader {
     const std::vector<double> e = read_elements(ai, what, 3, false);
     std::vector<glm::vec3> out(e.size() / 3);
     for (size_t i = 0; i < out.size(); ++i) {
-      out[i] = glm::vec3(static_cast<float>(e[3 * i]), static_cast<float>(e[3 * i + 1]),
-                         static_cast<float>(e[3 * i + 2]));
+      out[i] =
+          glm::vec3(static_cast<float>(e[3 * i]), static_cast<float>(e[3 * i + 1]), static_cast<float>(e[3 * i + 2]));
       if (!std::isfinite(out[i].x) || !std::isfinite(out[i].y) || !std::isfinite(out[i].z))
         fail(what + " " + std::to_string(i) + " is not finite");
     }
@@ -890,7 +915,9 @@ class Loader {
     int mesh;
     std::vector<double> weights;
     int skin;
-    bool operator<(const MeshKey& o) const { return std::tie(mesh, weights, skin) < std::tie(o.mesh, o.weights, o.skin); }
+    bool operator<(const MeshKey& o) const {
+      return std::tie(mesh, weights, skin) < std::tie(o.mesh, o.weights, o.skin);
+    }
   };
   std::map<MeshKey, int> mesh_slot_;  // glTF mesh, morph weights and skin -> scene mesh (or -1)
   std::vector<int> parent_;
