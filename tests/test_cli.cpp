@@ -359,5 +359,32 @@ TEST(Cli, FrameSequencesWriteEveryFrame) {
   }
 }
 
+TEST(Cli, ProgressOnlyOnATerminalAndVerboseStages) {
+  // Captured (not a terminal): no progress line, no carriage return.
+  CliRun r = rayfold("render --size 32x24 --frames 2 -v");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(r.err.find('\r'), std::string::npos) << r.err;
+  EXPECT_NE(r.out.find("stages       load"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("frame 1      cull"), std::string::npos) << r.out;
+  // On a terminal (script(1) gives the command one): the stages appear,
+  // and with -q nothing does.
+  if (std::system("command -v script >/dev/null 2>&1") != 0) GTEST_SKIP() << "script(1) not installed";
+  const fs::path d = work_dir();
+  const std::string log = (d / "tty.log").string();
+  const std::string cmd = "script -qec '" + std::string(RAYFOLD_BIN) + " render --size 32x24 --frames 3 -o " +
+                          (d / "tty_%d.exr").string() + "' /dev/null > " + log;
+  ASSERT_EQ(std::system(cmd.c_str()), 0);
+  std::ifstream in(log);
+  const std::string tty((std::istreambuf_iterator<char>(in)), {});
+  EXPECT_NE(tty.find("\033[Ktracing"), std::string::npos) << tty;
+  EXPECT_NE(tty.find("%"), std::string::npos) << tty;
+  const std::string quiet_cmd =
+      "script -qec '" + std::string(RAYFOLD_BIN) + " render --size 32x24 -q' /dev/null > " + log;
+  ASSERT_EQ(std::system(quiet_cmd.c_str()), 0);
+  std::ifstream qin(log);
+  const std::string quiet((std::istreambuf_iterator<char>(qin)), {});
+  EXPECT_EQ(quiet.find("tracing"), std::string::npos) << quiet;
+}
+
 }  // namespace
 }  // namespace rayfold

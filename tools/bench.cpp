@@ -102,7 +102,7 @@ void check_view_path(const ViewPath& p) {
   if (p.eye.has_value() != p.look_at.has_value()) throw UsageError("--eye and --look-at go together");
 }
 
-BenchReport run_bench(const BenchOptions& opt) {
+BenchReport run_bench(const BenchOptions& opt, const std::function<void(size_t, size_t)>& progress) {
   const Scene scene = load_gltf(opt.scene);
   const std::vector<CameraSpec> path = camera_path(scene, opt);
   Renderer renderer(scene, opt.renderer);
@@ -124,6 +124,12 @@ BenchReport run_bench(const BenchOptions& opt) {
   for (const Method& m : kMethods) rep.rows.push_back({m.name, m.fold, m.cull});
 
   const size_t pixels = static_cast<size_t>(opt.width) * opt.height;
+  const size_t total = static_cast<size_t>(opt.views) * rep.rows.size() * static_cast<size_t>(opt.warmup + opt.frames);
+  size_t done = 0;
+  auto tick = [&](size_t n) {
+    done += n;
+    if (progress) progress(done, total);
+  };
   for (int v = 0; v < opt.views; ++v) {
     const Camera cam = make_camera(path[v], opt.width, opt.height);
     auto options = [&](const BenchRow& row, int frame) {
@@ -133,8 +139,10 @@ BenchReport run_bench(const BenchOptions& opt) {
       fo.animate_frame = opt.animate ? frame : -1;
       return fo;
     };
-    for (BenchRow& row : rep.rows)
+    for (BenchRow& row : rep.rows) {
       if (opt.warmup > 0) renderer.render(cam, opt.warmup, options(row, 0));
+      tick(static_cast<size_t>(opt.warmup));
+    }
     // Methods take turns frame by frame, so that the drift of a noisy
     // machine affects them alike (the renderer keeps every mode's ray list).
     std::vector<std::vector<double>> t(rep.rows.size()), tr(rep.rows.size()), up(rep.rows.size());
@@ -154,6 +162,7 @@ BenchReport run_bench(const BenchOptions& opt) {
           row.memory_bytes = std::max(row.memory_bytes, frame_bytes(renderer.scene_data(), r, pixels));
         }
         if (mi > 0) row.mismatched_pixels += count_differing_pixels(results[0].hits, r.hits);
+        tick(1);
       }
     }
     for (size_t mi = 0; mi < rep.rows.size(); ++mi) {
@@ -187,8 +196,8 @@ std::string bench_markdown(const BenchReport& r) {
       << fmt("%.1f", pixels / (row.render_ms * 1e3)) << " | " << fmt("%.0f", row.rays) << " | "
       << fmt("%.1f", row.rays / (row.trace_ms * 1e3)) << " | " << fmt("%.0f", row.instances) << " | "
       << fmt("%.4f", row.memory_bytes / 1048576.0) << " | "
-      << fmt("%.4f", static_cast<double>(row.memory_bytes) / static_cast<double>(none.memory_bytes))
-      << " | " << row.mismatched_pixels << " |\n";
+      << fmt("%.4f", static_cast<double>(row.memory_bytes) / static_cast<double>(none.memory_bytes)) << " | "
+      << row.mismatched_pixels << " |\n";
   }
   s << "\nTable 2 - BVH pre-build (all bottom-level trees) and per-frame update (culling + top-level build + "
        "upload)\n\n";

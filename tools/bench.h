@@ -4,6 +4,7 @@
 // against the unfolded one before a figure is reported.
 #pragma once
 
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -61,7 +62,9 @@ bool parse_view_path_option(const std::string& a, cli::Args& args, ViewPath& pat
 // After parsing: --eye and --look-at go together.
 void check_view_path(const ViewPath& path);
 
-BenchReport run_bench(const BenchOptions& options);
+// `progress` (may be null) is told each frame done, of views x methods x
+// (warm-up + frames).
+BenchReport run_bench(const BenchOptions& options, const std::function<void(size_t done, size_t total)>& progress = {});
 std::string bench_markdown(const BenchReport& report);
 std::string bench_json(const BenchReport& report);
 

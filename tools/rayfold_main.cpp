@@ -15,6 +15,7 @@
 
 #include "bench.h"
 #include "cli_args.h"
+#include "progress.h"
 #include "reference/hit_compare.h"
 #include "renderer.h"
 #include "scene/gltf_loader.h"
@@ -84,7 +85,8 @@ const char* kRenderUsage =
     "                         a frame field (out/frame_%04d.exr) writes every frame\n"
     "  --png F.png            normal-shaded preview, misses black\n"
     "  --stats F.json         phase times and device buffer sizes\n"
-    "  -q, --quiet            print nothing but errors\n"
+    "  -q, --quiet            print nothing but errors (and no progress)\n"
+    "  -v, --verbose          also the time of every stage, and of every frame\n"
     "Each output's extension must match its kind (.exr, .png, .json), so no two\n"
     "outputs can name the same file.\n";
 
@@ -121,6 +123,7 @@ struct RenderArgs {
   int frames = 1;
   std::string exr, png, stats;
   bool quiet = false;
+  bool verbose = false;
   bool compare = false;
   LoadOptions load;
 };
@@ -260,6 +263,8 @@ RenderArgs parse_render(cli::Args& args) {
       r.stats = args.value(a);
     } else if (a == "-q" || a == "--quiet") {
       r.quiet = true;
+    } else if (a == "-v" || a == "--verbose") {
+      r.verbose = true;
     } else if (!a.empty() && a[0] == '-') {
       throw UsageError("render: unknown option '" + a + "' (see rayfold render --help)");
     } else if (!have_scene) {
@@ -378,6 +383,9 @@ int run_render(cli::Args& args) {
   for (const std::string* out : {&r.exr, &r.png, &r.stats})
     if (!out->empty()) check_writable(frame_name("output", *out, 0, nullptr));
 
+  // Progress on a terminal only; the table and warnings come after it.
+  Progress progress(!r.quiet);
+  progress.stage("loading " + r.scene);
   auto t0 = Clock::now();
   const Scene scene = load_scene(r.scene, r.quiet, r.load);
   const double load_ms = ms_since(t0);
@@ -394,7 +402,11 @@ int run_render(cli::Args& args) {
   if (r.vfov) spec.vfov_degrees = *r.vfov;
   const Camera camera = make_camera(spec, r.width, r.height, r.shift_x, r.shift_y);
 
+  progress.stage("building the bottom-level trees and the kernels");
+  t0 = Clock::now();
   Renderer renderer(scene, r.renderer);
+  const double setup_ms = ms_since(t0);
+  progress.stage("tracing", sequence ? static_cast<size_t>(r.frames) : 0);
   std::optional<RenderResult> unfolded;
   if (r.compare) {
     FrameOptions none = r.frame;
@@ -405,6 +417,7 @@ int run_render(cli::Args& args) {
   std::vector<std::string> written;
   if (!sequence) {
     result = renderer.render(camera, r.frames, r.frame);
+    progress.stage("writing");
     if (!r.exr.empty()) write_exr(r.exr, result.hits, r.width, r.height);
     if (!r.png.empty()) write_png(r.png, result.hits, r.width, r.height);
     for (const std::string* out : {&r.exr, &r.png})
@@ -420,6 +433,7 @@ int run_render(cli::Args& args) {
         if (out->empty()) continue;
         write(frame_name("output", *out, f, nullptr), result.hits, r.width, r.height);
       }
+      progress.update(static_cast<size_t>(f + 1));
     }
     for (const std::string* out : {&r.exr, &r.png})
       if (!out->empty())
@@ -429,6 +443,7 @@ int run_render(cli::Args& args) {
     result.frames = times;
     result.median = median_times(times);
   }
+  progress.clear();
   for (const std::string& w : result.warnings) std::fprintf(stderr, "warning: %s (docs/exactness.md)\n", w.c_str());
 
   if (!r.stats.empty()) write_stats(r.stats, r, scene, renderer, result, load_ms);
@@ -455,6 +470,16 @@ int run_render(cli::Args& args) {
                   "auto-framed", spec.eye.x, spec.eye.y, spec.eye.z, spec.look_at.x, spec.look_at.y, spec.look_at.z,
                   spec.vfov_degrees);
     if (unfolded) print_comparison(*unfolded, result, r.frame.fold);
+    if (r.verbose) {
+      std::printf("  %-12s load %.2f ms, trees and kernels %.2f ms (BLAS %.2f ms)\n", "stages", load_ms, setup_ms,
+                  renderer.blas_build_ms());
+      for (size_t f = 0; f < result.frames.size(); ++f) {
+        const FrameTimes& t = result.frames[f];
+        std::printf("  %-12s cull %.3f, TLAS %.3f, upload %.3f, ray list %.3f, trace %.3f, readback %.3f ms\n",
+                    ("frame " + std::to_string(f)).c_str(), t.cull_ms, t.tlas_ms, t.upload_ms, t.ray_list_ms,
+                    t.trace_ms, t.readback_ms);
+      }
+    }
     for (const std::string& w : written) std::printf("  wrote %s\n", w.c_str());
     if (!r.stats.empty()) std::printf("  wrote %s\n", r.stats.c_str());
     if (r.exr.empty() && r.png.empty() && r.stats.empty())
@@ -533,7 +558,14 @@ int run_bench_command(cli::Args& args) {
   check_outputs({{"--json", &json, ".json"}, {"--md", &md, ".md"}});
   for (const std::string* out : {&json, &md})
     if (!out->empty()) check_writable(*out);
-  const BenchReport report = run_bench(opt);
+  Progress progress(true);
+  bool started = false;
+  const BenchReport report = run_bench(opt, [&](size_t done, size_t total) {
+    if (!started) progress.stage("bench: views x methods x frames", total);
+    started = true;
+    progress.update(done);
+  });
+  progress.clear();
   const std::string text = bench_markdown(report);
   std::fputs(text.c_str(), stdout);
   if (!json.empty()) write_text_file(json, bench_json(report));

@@ -1,0 +1,44 @@
+#include "progress.h"
+
+#include <unistd.h>
+
+#include <cstdio>
+
+namespace rayfold {
+
+Progress::Progress(bool show) : enabled_(show && ::isatty(STDERR_FILENO)), start_(Clock::now()), last_(start_) {}
+
+Progress::~Progress() { clear(); }
+
+void Progress::stage(const std::string& name, size_t total) {
+  stage_ = name;
+  total_ = total;
+  last_ = Clock::time_point{};
+  draw(0);
+}
+
+void Progress::update(size_t done) {
+  if (!enabled_ || ms_since(last_) < 100.0) return;
+  draw(done);
+}
+
+void Progress::draw(size_t done) {
+  if (!enabled_) return;
+  last_ = Clock::now();
+  const double seconds = ms_since(start_) / 1000.0;
+  if (total_ > 0)
+    std::fprintf(stderr, "\r\033[K%s  %3.0f%%  %.1f s", stage_.c_str(), 100.0 * done / total_, seconds);
+  else
+    std::fprintf(stderr, "\r\033[K%s  %.1f s", stage_.c_str(), seconds);
+  std::fflush(stderr);
+  drawn_ = true;
+}
+
+void Progress::clear() {
+  if (!drawn_) return;
+  std::fprintf(stderr, "\r\033[K");
+  std::fflush(stderr);
+  drawn_ = false;
+}
+
+}  // namespace rayfold

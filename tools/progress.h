@@ -1,0 +1,35 @@
+// Progress on stderr for long work, as a line rewritten in place: the stage,
+// a percentage when the total is known, and the elapsed time. Shown only
+// when stderr is a terminal and the user did not ask for quiet; otherwise
+// every call does nothing, so logs and pipes stay clean.
+#pragma once
+
+#include <string>
+
+#include "util/timer.h"
+
+namespace rayfold {
+
+class Progress {
+ public:
+  // Enabled when `show` and stderr is a terminal.
+  explicit Progress(bool show);
+  ~Progress();  // clears the line
+
+  // Starts a stage; `total` 0 when its amount of work is unknown.
+  void stage(const std::string& name, size_t total = 0);
+  // `done` of the stage's total; redraws at most ten times a second.
+  void update(size_t done);
+  // Clears the line (before printing results).
+  void clear();
+
+ private:
+  void draw(size_t done);
+  bool enabled_ = false;
+  bool drawn_ = false;
+  std::string stage_;
+  size_t total_ = 0;
+  Clock::time_point start_, last_;
+};
+
+}  // namespace rayfold
