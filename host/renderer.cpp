@@ -181,6 +181,9 @@ void Renderer::render_into(RenderResult& result, const Camera& camera, int frame
     result.warnings.push_back(std::to_string(data_.blas.unresolvable_triangles) +
                               " triangles are smaller than 2^-60 of their mesh's extent, below what the triangle test "
                               "resolves: they may be missed");
+  if (result.frame_stats.trace_exponent < -125)
+    result.warnings.push_back("the view's distances are below 2^-125 world units: depths are subnormal floats with "
+                              "fewer bits, or 0 (ids, barycentrics and normals are unaffected)");
   if (pixel_angle(camera) < kFinestPixelAngle) {
     char what[200];
     std::snprintf(what, sizeof what,

@@ -61,6 +61,7 @@ Frame build_frame(const Scene& scene, const SceneData& data, const Camera& camer
   frame.trace_exponent = choose_trace_exponent(data, glm::dvec3(camera.world_from_camera[3]));
   frame.camera_from_trace = uniform_scale(frame.trace_exponent);
   frame.depth_scale = static_cast<float>(std::ldexp(1.0, frame.trace_exponent));
+  frame.stats.trace_exponent = frame.trace_exponent;
   const Xform world_from_trace = camera.world_from_camera * frame.camera_from_trace;
   const Xform trace_from_world = uniform_scale(-frame.trace_exponent) * camera.camera_from_world;
 

@@ -33,6 +33,7 @@ struct FrameStats {
   // distances in view is beyond the float range (a scene mixing sizes more
   // than about 2^160 apart): their transform into trace space would overflow.
   size_t out_of_range = 0;
+  int trace_exponent = 0;  // Frame::trace_exponent, for the renderer's warnings
 };
 
 struct Frame {
