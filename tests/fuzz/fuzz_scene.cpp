@@ -36,7 +36,20 @@ const std::string& scratch_path() {
   return path;
 }
 
+// The input being run: a broken invariant saves it as invariant-<hash>
+// (libFuzzer's own crash file was not always written for an abort).
+const uint8_t* g_data = nullptr;
+size_t g_size = 0;
+uint64_t hash(const uint8_t* data, size_t size);
+
 [[noreturn]] void fail(const char* what, size_t pixel, const rf_pixel_hit& a, const rf_pixel_hit& b) {
+  char name[64];
+  std::snprintf(name, sizeof name, "invariant-%016llx", static_cast<unsigned long long>(hash(g_data, g_size)));
+  if (std::FILE* f = std::fopen(name, "wb")) {
+    std::fwrite(g_data, 1, g_size, f);
+    std::fclose(f);
+  }
+  std::fprintf(stderr, "fuzz: input saved as %s\n", name);
   std::fprintf(stderr,
                "fuzz: %s at pixel %zu: z %a / %a, n (%a %a %a) / (%a %a %a), uv (%a %a) / (%a %a), "
                "instance %u / %u, primitive %u / %u\n",
@@ -130,6 +143,8 @@ uint64_t hash(const uint8_t* data, size_t size) {
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  g_data = data;
+  g_size = size;
   {
     std::FILE* f = std::fopen(scratch_path().c_str(), "wb");
     if (!f) return 0;
