@@ -351,6 +351,24 @@ TEST(BadInput, UnsupportedRequiredExtensionsAreNamed) {
     f.j["extensionsRequired"] = {ext};
     expect_error(f.write(ext), ext);
   }
+  // Used but not required, compressed geometry is refused by name too: its
+  // fallback data need not be the geometry.
+  {
+    GltfFile f;
+    f.one_triangle();
+    f.j["extensionsUsed"] = {"KHR_draco_mesh_compression"};
+    f.j["meshes"][0]["primitives"][0]["extensions"]["KHR_draco_mesh_compression"] = {
+        {"bufferView", 0}, {"attributes", {{"POSITION", 0}}}};
+    expect_error(f.write("draco_optional"), "Draco-compressed (KHR_draco_mesh_compression)");
+  }
+  {
+    GltfFile f;
+    f.one_triangle();
+    f.j["extensionsUsed"] = {"EXT_meshopt_compression"};
+    f.j["bufferViews"][0]["extensions"]["EXT_meshopt_compression"] = {
+        {"buffer", 0}, {"byteLength", 36}, {"byteStride", 12}, {"count", 3}, {"mode", "ATTRIBUTES"}};
+    expect_error(f.write("meshopt_optional"), "meshopt-compressed (EXT_meshopt_compression)");
+  }
   // A required extension that cannot change geometry is fine.
   GltfFile f;
   f.one_triangle();

@@ -671,6 +671,11 @@ class Loader {
       }
       if (mode != TINYGLTF_MODE_TRIANGLES && mode != TINYGLTF_MODE_TRIANGLE_STRIP && mode != TINYGLTF_MODE_TRIANGLE_FAN)
         fail(where + " has an unknown primitive mode " + std::to_string(mode));
+      // Compressed geometry the loader cannot decode is refused by name even
+      // when the file marks it optional: its fallback accessors may be
+      // empty or placeholders, which would render as a different scene.
+      if (prim.extensions.count("KHR_draco_mesh_compression"))
+        fail(where + " is Draco-compressed (KHR_draco_mesh_compression), which rayfold does not decode");
       const auto pos = prim.attributes.find("POSITION");
       if (pos == prim.attributes.end()) fail(where + " has no POSITION attribute");
       const uint32_t base = static_cast<uint32_t>(mesh.positions.size());
@@ -779,6 +784,8 @@ class Loader {
     if (vi < 0 || static_cast<size_t>(vi) >= model_.bufferViews.size())
       fail(acc + " refers to a buffer view that does not exist");
     const tinygltf::BufferView& v = model_.bufferViews[vi];
+    if (v.extensions.count("EXT_meshopt_compression"))
+      fail(acc + ": its buffer view is meshopt-compressed (EXT_meshopt_compression), which rayfold does not decode");
     if (v.buffer < 0 || static_cast<size_t>(v.buffer) >= model_.buffers.size())
       fail(acc + ": its buffer view refers to a buffer that does not exist");
     const std::vector<unsigned char>& data = model_.buffers[v.buffer].data;
