@@ -455,5 +455,56 @@ TEST(Loader, ScenesAndCamerasAreChosenAndListed) {
   testing::expect_error_with(path, two, "scene 2 does not exist (the file has 2 scenes)");
 }
 
+TEST(Loader, AnimationsSampledAtATime) {
+  // Node 0 moves from x = 0 to x = 4 over 2 s (linear); its rotation turns
+  // 90 degrees about z (slerp); node 1 steps in scale and follows a cubic
+  // spline in y with zero tangents.
+  testing::GltfFile f;
+  f.one_triangle();
+  f.j["nodes"].push_back({{"mesh", 0}});
+  const float times[2] = {0, 2};
+  const float move[6] = {0, 0, 0, 4, 0, 0};
+  const float turn[8] = {0, 0, 0, 1, 0, 0, 0.70710678f, 0.70710678f};
+  const float grow[6] = {1, 1, 1, 3, 3, 3};
+  const float spline[18] = {0, 0, 0, 0, 1, 0, 0, 0, 0, 0, 0, 0, 0, 5, 0, 0, 0, 0};  // in, value, out per key
+  const int tin = f.accessor(f.view(times, 8), 5126, "SCALAR", 2);
+  f.j["accessors"][tin]["min"] = {0};
+  f.j["accessors"][tin]["max"] = {2};
+  const int mv = f.accessor(f.view(move, 24), 5126, "VEC3", 2), tv = f.accessor(f.view(turn, 32), 5126, "VEC4", 2);
+  const int gv = f.accessor(f.view(grow, 24), 5126, "VEC3", 2), sv = f.accessor(f.view(spline, 72), 5126, "VEC3", 6);
+  f.j["animations"] = {{{"samplers",
+                         {{{"input", tin}, {"output", mv}},
+                          {{"input", tin}, {"output", tv}},
+                          {{"input", tin}, {"output", gv}, {"interpolation", "STEP"}},
+                          {{"input", tin}, {"output", sv}, {"interpolation", "CUBICSPLINE"}}}},
+                        {"channels",
+                         {{{"sampler", 0}, {"target", {{"node", 0}, {"path", "translation"}}}},
+                          {{"sampler", 1}, {"target", {{"node", 0}, {"path", "rotation"}}}},
+                          {{"sampler", 2}, {"target", {{"node", 1}, {"path", "scale"}}}},
+                          {{"sampler", 3}, {"target", {{"node", 1}, {"path", "translation"}}}}}}}};
+  f.j["scenes"] = {{{"nodes", {0, 1}}}};
+  const std::string path = f.write("animated");
+  auto at = [&](double t) {
+    LoadOptions o;
+    o.time = t;
+    return load_gltf(path, nullptr, o);
+  };
+  const Scene rest = load_gltf(path), half = at(0.5), mid = at(1.0), late = at(9.0);
+  EXPECT_EQ(rest.instances[0].world_from_object, Xform(1.0)) << "no time: the rest pose";
+  const Xform& m = half.instances[0].world_from_object;
+  EXPECT_NEAR(m[3][0], 1.0, 1e-12);
+  // 22.5 degrees about z at a quarter of the way: slerp, not a linear blend.
+  EXPECT_NEAR(std::atan2(m[0][1], m[0][0]) * 180.0 / M_PI, 22.5, 1e-5);
+  EXPECT_EQ(half.instances[1].world_from_object[0][0], 1.0) << "a step holds the first key until the second";
+  // Hermite with zero tangents at the middle: halfway between 1 and 5.
+  EXPECT_NEAR(mid.instances[1].world_from_object[3][1], 3.0, 1e-12);
+  EXPECT_NEAR(late.instances[0].world_from_object[3][0], 4.0, 1e-12) << "after the last key: its value";
+  EXPECT_EQ(late.instances[1].world_from_object[0][0], 3.0);
+  f.j["animations"][0]["channels"][0]["target"]["path"] = "color";
+  LoadOptions o;
+  o.time = 1.0;
+  testing::expect_error_with(f.write("animated_bad_path"), o, "animates 'color'");
+}
+
 }  // namespace
 }  // namespace rayfold

@@ -61,6 +61,7 @@ const char* kRenderUsage =
     "  --scene N              the file's scene N (default: its `scene`, else 0)\n"
     "  --camera N             the scene's camera N (default: its first perspective\n"
     "                         camera); `rayfold info` lists both\n"
+    "  --time T               the pose of the file's animations at T seconds\n"
     "  --backend opencl|cpu   OpenCL device (default) or the CPU reference tracer\n"
     "  --device NAME          OpenCL device whose name contains NAME\n"
     "  --kernel tile|single|measure|auto  OpenCL kernel: tiles of 256 rays in vector\n"
@@ -238,6 +239,8 @@ RenderArgs parse_render(cli::Args& args) {
       r.load.scene = cli::parse_int(a, args.value(a), 0, 1 << 30);
     } else if (a == "--camera") {
       r.load.camera = cli::parse_int(a, args.value(a), 0, 1 << 30);
+    } else if (a == "--time") {
+      r.load.time = cli::parse_double(a, args.value(a));
     } else if (parse_renderer_option(a, args, r.renderer)) {
     } else if (a == "--fold") {
       r.frame.fold = cli::parse_fold(a, args.value(a));

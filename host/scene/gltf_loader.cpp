@@ -1,5 +1,6 @@
 #include "scene/gltf_loader.h"
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstring>
@@ -57,6 +58,7 @@ class Loader {
   Scene run() {
     read_model();
     check_extensions();
+    if (!std::isnan(options_.time)) pose_at(options_.time);
     std::vector<int> roots = root_nodes();
     // Depth-first over the hierarchy with an explicit stack; `on_path` finds
     // cycles, `visited` nodes reachable twice (a DAG is not a tree either).
@@ -548,6 +550,105 @@ class Loader {
     }
     if (moved)
       for (size_t i = 0; i < positions.size(); ++i) positions[i] = glm::vec3(sum[i]);
+  }
+
+  // Every animation channel sampled at `time`, written over the node's TRS or
+  // weights before the hierarchy is read (glTF 2.0, 3.11). Times outside a
+  // sampler's keys hold its first or last value.
+  void pose_at(double time) {
+    if (!std::isfinite(time)) fail("the animation time must be finite");
+    for (size_t ai = 0; ai < model_.animations.size(); ++ai) {
+      const tinygltf::Animation& anim = model_.animations[ai];
+      for (size_t ci = 0; ci < anim.channels.size(); ++ci) {
+        const tinygltf::AnimationChannel& ch = anim.channels[ci];
+        const std::string where = "animation " + std::to_string(ai) + " channel " + std::to_string(ci);
+        if (ch.target_node < 0) continue;  // a channel of an extension's object
+        if (static_cast<size_t>(ch.target_node) >= model_.nodes.size())
+          fail(where + " targets node " + std::to_string(ch.target_node) + ", which does not exist");
+        if (ch.sampler < 0 || static_cast<size_t>(ch.sampler) >= anim.samplers.size())
+          fail(where + " refers to sampler " + std::to_string(ch.sampler) + ", which does not exist");
+        tinygltf::Node& node = model_.nodes[ch.target_node];
+        const int n = ch.target_path == "translation" || ch.target_path == "scale" ? 3
+                      : ch.target_path == "rotation"                               ? 4
+                      : ch.target_path == "weights" ? static_cast<int>(weight_count(ch.target_node))
+                                                    : -1;
+        if (n < 0) fail(where + " animates '" + ch.target_path + "', which is not a node property glTF defines");
+        if (n == 0) fail(where + " animates the weights of a node whose mesh has no morph targets");
+        if (ch.target_path != "weights" && !node.matrix.empty())
+          fail(where + " animates node " + std::to_string(ch.target_node) + ", which has a matrix (glTF 2.0, 3.5.3)");
+        const std::vector<double> v = sample(anim.samplers[ch.sampler], n, ch.target_path == "rotation", time, where);
+        if (ch.target_path == "translation") node.translation = v;
+        if (ch.target_path == "rotation") node.rotation = v;
+        if (ch.target_path == "scale") node.scale = v;
+        if (ch.target_path == "weights") node.weights = v;
+      }
+    }
+  }
+
+  // Components per element of an accessor's type (VEC3: 3), for values read
+  // whole; 0 refused.
+  int components(int ai, const std::string& where) const {
+    if (ai < 0 || static_cast<size_t>(ai) >= model_.accessors.size())
+      fail(where + ": accessor " + std::to_string(ai) + " does not exist");
+    const int n = tinygltf::GetNumComponentsInType(static_cast<uint32_t>(model_.accessors[ai].type));
+    if (n <= 0) fail(where + ": accessor " + std::to_string(ai) + " has an unknown type");
+    return n;
+  }
+
+  size_t weight_count(int ni) const {
+    const int mi = model_.nodes[ni].mesh;
+    if (mi < 0 || static_cast<size_t>(mi) >= model_.meshes.size() || model_.meshes[mi].primitives.empty()) return 0;
+    return model_.meshes[mi].primitives[0].targets.size();
+  }
+
+  // One sampler's value at `time`: n components per key (3n for a cubic
+  // spline: in-tangent, value, out-tangent).
+  std::vector<double> sample(const tinygltf::AnimationSampler& s, int n, bool rotation, double time,
+                             const std::string& where) const {
+    const bool cubic = s.interpolation == "CUBICSPLINE";
+    if (!cubic && s.interpolation != "LINEAR" && s.interpolation != "STEP")
+      fail(where + " has the unknown interpolation '" + s.interpolation + "'");
+    const std::vector<double> keys = read_elements(s.input, where + " input", 1, false);
+    if (keys.empty()) fail(where + " has no keyframes");
+    for (size_t k = 0; k < keys.size(); ++k)
+      if (!std::isfinite(keys[k]) || (k > 0 && !(keys[k] > keys[k - 1])))
+        fail(where + ": keyframe times must be finite and strictly increasing (key " + std::to_string(k) + ")");
+    const size_t per = static_cast<size_t>(n) * (cubic ? 3 : 1);
+    std::vector<double> out = read_elements(s.output, where + " output", components(s.output, where), false);
+    if (out.size() != per * keys.size())
+      fail(where + " has " + std::to_string(out.size()) + " output values for " + std::to_string(keys.size()) +
+           " keyframes of " + std::to_string(per));
+    for (double x : out)
+      if (!std::isfinite(x)) fail(where + " has a non-finite output value");
+    auto value = [&](size_t k, int part) {  // part: 0 in-tangent, 1 value, 2 out-tangent (cubic)
+      const size_t base = k * per + (cubic ? static_cast<size_t>(part) * n : 0);
+      return std::vector<double>(out.begin() + base, out.begin() + base + n);
+    };
+    if (time <= keys.front()) return value(0, 1);
+    if (time >= keys.back()) return value(keys.size() - 1, 1);
+    const size_t k = static_cast<size_t>(std::upper_bound(keys.begin(), keys.end(), time) - keys.begin()) - 1;
+    const double dt = keys[k + 1] - keys[k], u = (time - keys[k]) / dt;
+    std::vector<double> a = value(k, 1), b = value(k + 1, 1), r(n);
+    if (s.interpolation == "STEP") return a;
+    if (cubic) {
+      const std::vector<double> out_tangent = value(k, 2), in_tangent = value(k + 1, 0);
+      const double u2 = u * u, u3 = u2 * u;
+      for (int c = 0; c < n; ++c)
+        r[c] = (2 * u3 - 3 * u2 + 1) * a[c] + (u3 - 2 * u2 + u) * dt * out_tangent[c] + (-2 * u3 + 3 * u2) * b[c] +
+               (u3 - u2) * dt * in_tangent[c];
+    } else if (rotation) {
+      glm::dquat qa(a[3], a[0], a[1], a[2]), qb(b[3], b[0], b[1], b[2]);
+      const glm::dquat q = glm::slerp(glm::normalize(qa), glm::normalize(qb), u);
+      r = {q.x, q.y, q.z, q.w};
+    } else {
+      for (int c = 0; c < n; ++c) r[c] = a[c] + u * (b[c] - a[c]);
+    }
+    if (rotation) {
+      const double len = std::sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2] + r[3] * r[3]);
+      if (!(len > 0.0)) fail(where + " interpolates to a zero rotation");
+      for (double& x : r) x /= len;
+    }
+    return r;
   }
 
   // World transform of any node, whether or not the scene shows it (joints
