@@ -166,6 +166,17 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     check_opencl(scene, renderer.scene_data(), camera, none.hits);
     // A power of two that keeps every world coordinate a normal float with
     // room to spare (the supported range, docs/exactness.md).
+    // The file's animations posed at a time from the input's hash: loading
+    // must hold up, and the fold stays lossless.
+    LoadOptions posed;
+    posed.time = static_cast<double>(hash(data, size) % 4000) / 1000.0 - 1.0;
+    const Scene animated = load_gltf(scratch_path(), nullptr, posed);
+    if (animated.triangle_count() <= 100000) {
+      Renderer r2(animated, options);
+      const Camera c2 = make_camera(animated.camera ? *animated.camera : frame_bounds(animated.world_bounds()), 9, 7);
+      expect_same("posed: folded render differs from unfolded", r2.render(c2, 1, FrameOptions{FoldMode::none}).hits,
+                  r2.render(c2, 1, FrameOptions{FoldMode::xy}).hits);
+    }
     const double magnitude = world_magnitude(scene, spec);
     if (magnitude > 0.0 && std::isfinite(magnitude)) {
       const int top = std::ilogb(magnitude);
