@@ -42,6 +42,24 @@ std::string small_glb() {
   return read_bytes(p);
 }
 
+// A one-triangle file broken by `edit` must be refused with `expect` in
+// its message.
+struct EditCase {
+  const char* name;
+  const char* expect;
+  std::function<void(GltfFile&)> edit;
+};
+
+void expect_errors(const std::vector<EditCase>& cases) {
+  for (const EditCase& c : cases) {
+    SCOPED_TRACE(c.name);
+    GltfFile f;
+    f.one_triangle();
+    c.edit(f);
+    expect_error(f.write(c.name), c.expect);
+  }
+}
+
 void put_u32(std::string& b, size_t at, uint32_t v) { std::memcpy(&b[at], &v, 4); }
 
 TEST(BadInput, GlbContainer) {
@@ -95,12 +113,7 @@ TEST(BadInput, JsonAndBuffers) {
 }
 
 TEST(BadInput, Accessors) {
-  struct Case {
-    const char* name;
-    const char* expect;
-    std::function<void(GltfFile&)> edit;
-  };
-  const std::vector<Case> cases = {
+  const std::vector<EditCase> cases = {
       {"count_past_view", "runs past its buffer view", [](GltfFile& f) { f.j["accessors"][0]["count"] = 4; }},
       {"absurd_count", "", [](GltfFile& f) { f.j["accessors"][0]["count"] = 1ull << 40; }},
       {"offset_past_view", "", [](GltfFile& f) { f.j["accessors"][0]["byteOffset"] = 1000; }},
@@ -142,13 +155,7 @@ TEST(BadInput, Accessors) {
       {"mode", "", [](GltfFile& f) { f.j["meshes"][0]["primitives"][0]["mode"] = 9; }},
       {"no_position", "", [](GltfFile& f) { f.j["meshes"][0]["primitives"][0]["attributes"].erase("POSITION"); }},
   };
-  for (const Case& c : cases) {
-    SCOPED_TRACE(c.name);
-    GltfFile f;
-    f.one_triangle();
-    c.edit(f);
-    expect_error(f.write(c.name), c.expect);
-  }
+  expect_errors(cases);
 }
 
 TEST(BadInput, IndicesAndPositions) {
@@ -168,12 +175,7 @@ TEST(BadInput, IndicesAndPositions) {
 }
 
 TEST(BadInput, Nodes) {
-  struct Case {
-    const char* name;
-    const char* expect;
-    std::function<void(GltfFile&)> edit;
-  };
-  const std::vector<Case> cases = {
+  const std::vector<EditCase> cases = {
       {"self_cycle", "cycle",
        [](GltfFile& f) {
          f.j["nodes"][0]["children"] = {0};
@@ -224,7 +226,7 @@ TEST(BadInput, Nodes) {
          f.j["nodes"][0]["scale"] = {1, 2};
        }},
   };
-  for (const Case& c : cases) {
+  for (const EditCase& c : cases) {
     SCOPED_TRACE(c.name);
     GltfFile f;
     f.one_triangle();
@@ -238,12 +240,7 @@ TEST(BadInput, Nodes) {
 TEST(BadInput, SchemaTypesAreCheckedWithThePathOfTheMember) {
   // tinygltf reads a member of the wrong JSON type as if it were absent: a
   // mesh whose primitives are an object rendered as an empty scene, exit 0.
-  struct Case {
-    const char* name;
-    const char* expect;
-    std::function<void(GltfFile&)> edit;
-  };
-  const std::vector<Case> cases = {
+  const std::vector<EditCase> cases = {
       {"primitives_object", "meshes[0].primitives must be an array of objects (glTF 2.0 schema), not object",
        [](GltfFile& f) { f.j["meshes"][0]["primitives"] = f.j["meshes"][0]["primitives"][0]; }},
       {"children_string", "nodes[0].children must be an array of integers",
@@ -262,22 +259,12 @@ TEST(BadInput, SchemaTypesAreCheckedWithThePathOfTheMember) {
        }},
       {"scene_string", ".scene must be an integer", [](GltfFile& f) { f.j["scene"] = "0"; }},
   };
-  for (const Case& c : cases) {
-    GltfFile f;
-    f.one_triangle();
-    c.edit(f);
-    expect_error(f.write(c.name), c.expect);
-  }
+  expect_errors(cases);
 }
 
 TEST(BadInput, GpuInstancing) {
-  struct Case {
-    const char* name;
-    const char* expect;
-    std::function<void(GltfFile&)> edit;
-  };
   const float t[6] = {0, 0, 0, 1, 0, 0}, q[4] = {0, 0, 0, 1};
-  const std::vector<Case> cases = {
+  const std::vector<EditCase> cases = {
       {"gpu_counts", "different numbers of instances",
        [&](GltfFile& f) {
          const int ta = f.accessor(f.view(t, sizeof t), 5126, "VEC3", 2);
@@ -297,21 +284,10 @@ TEST(BadInput, GpuInstancing) {
          f.j["nodes"][0]["extensions"]["EXT_mesh_gpu_instancing"]["attributes"] = {{"SCALE", 42}};
        }},
   };
-  for (const Case& c : cases) {
-    SCOPED_TRACE(c.name);
-    GltfFile f;
-    f.one_triangle();
-    c.edit(f);
-    expect_error(f.write(c.name), c.expect);
-  }
+  expect_errors(cases);
 }
 
 TEST(BadInput, Skins) {
-  struct Case {
-    const char* name;
-    const char* expect;
-    std::function<void(GltfFile&)> edit;
-  };
   const uint8_t joints[12] = {0, 0, 0, 0, 3, 0, 0, 0, 0, 0, 0, 0};
   const float weights[12] = {1, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0};
   auto skinned = [&](GltfFile& f) {
@@ -320,7 +296,7 @@ TEST(BadInput, Skins) {
     f.j["nodes"][0]["skin"] = 0;
     f.j["skins"] = {{{"joints", {0}}}};
   };
-  const std::vector<Case> cases = {
+  const std::vector<EditCase> cases = {
       {"skin_ref", "refers to skin 0, which does not exist", [&](GltfFile& f) { f.j["nodes"][0]["skin"] = 0; }},
       {"skin_joint_range", "refers to joint 3 of 1", skinned},
       {"skin_no_joints", "has no JOINTS_0 and WEIGHTS_0",
@@ -334,13 +310,7 @@ TEST(BadInput, Skins) {
          f.j["skins"][0]["joints"] = {9};
        }},
   };
-  for (const Case& c : cases) {
-    SCOPED_TRACE(c.name);
-    GltfFile f;
-    f.one_triangle();
-    c.edit(f);
-    expect_error(f.write(c.name), c.expect);
-  }
+  expect_errors(cases);
 }
 
 TEST(BadInput, UnsupportedRequiredExtensionsAreNamed) {
