@@ -13,7 +13,7 @@
 #include "reference/cpu_tracer.h"
 #include "util/parallel.h"
 
-namespace rayfold {
+namespace rayfold::core {
 
 double median(std::vector<double> values) {
   if (values.empty()) return 0.0;
@@ -111,9 +111,11 @@ void Renderer::render_into(RenderResult& result, const Camera& camera, int frame
   if (result.hits.size() != pixels) result.hits.assign(pixels, rf_pixel_hit{});
   result.frames.clear();
   frames = std::max(frames, 1);
+  result.fold = restrict_fold(frame_options.fold, can_fold_columns(camera), can_fold_rows(camera));
   for (int f = 0; f < frames; ++f) {
     FrameTimes times;
     FrameOptions options = frame_options;
+    options.fold = result.fold;
     if (options.animate_frame >= 0) options.animate_frame += f;
     auto t0 = Clock::now();
     const RayList& rays = ray_list(camera.params, options.fold);
@@ -211,4 +213,4 @@ FrameTimes median_times(const std::vector<FrameTimes>& frames) {
   return m;
 }
 
-}  // namespace rayfold
+}  // namespace rayfold::core

@@ -13,7 +13,7 @@
 #include "scene/camera.h"
 #include "scene/scene.h"
 
-namespace rayfold {
+namespace rayfold::core {
 
 enum class Backend { opencl, cpu };
 
@@ -52,6 +52,9 @@ struct RenderResult {
   size_t rays = 0;         // rays traced per frame
   size_t tlas_nodes = 0;   // of the last frame
   size_t instances = 0;    // traced instances (mirrored copies included) of the last frame
+  // The fold traced: the one asked for, less an axis the camera's principal
+  // point cannot mirror exactly (camera.h, can_fold_columns).
+  FoldMode fold = FoldMode::none;
   // What this render may have lost, in words: instances beyond the float
   // range at this view, pixels finer than float positions resolve. Empty
   // when the render is within rayfold's exact range (docs/exactness.md).
@@ -114,4 +117,4 @@ double median(std::vector<double> values);
 // Each phase's median over frames.
 FrameTimes median_times(const std::vector<FrameTimes>& frames);
 
-}  // namespace rayfold
+}  // namespace rayfold::core

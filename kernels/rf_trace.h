@@ -229,8 +229,8 @@ RF_INLINE rf_camera_ray rf_decode_entry(rf_u32 entry, const rf_camera* cam) {
   const rf_u32 mirror_x = (entry & RF_RAY_MIRROR_X) != 0u;
   const rf_u32 mirror_y = (entry & RF_RAY_MIRROR_Y) != 0u;
   r.groups = 1u | (mirror_x << 1) | (mirror_y << 2) | ((mirror_x & mirror_y) << 3);
-  r.dx = cam->scale_x * (float)(2 * r.x + cam->kx0);
-  r.dy = cam->scale_y * (float)(cam->ky0 - 2 * r.y);
+  r.dx = cam->scale_x * ((float)(2 * r.x + cam->kx0) + cam->frac_x);
+  r.dy = cam->scale_y * ((float)(cam->ky0 - 2 * r.y) + cam->frac_y);
   return r;
 }
 

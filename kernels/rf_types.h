@@ -137,17 +137,21 @@ typedef struct {
 #define RF_TILE_STAT_COUNT 8
 
 /* How pixel (x, y) becomes a trace-space ray, origin at the eye:
- *   d = (scale_x * (2x + kx0), scale_y * (ky0 - 2y), -1)
+ *   d = (scale_x * ((float)(2x + kx0) + frac_x), scale_y * ((float)(ky0 - 2y) + frac_y), -1)
  * and a hit at parameter t a depth: (t * |d|) * depth_scale.
  * The integer offsets keep mirror partners exact: the column xpair - x gives
  * exactly the negated float. A centred W x H image has kx0 = 1 - W,
- * ky0 = H - 1, xpair = W - 1, ypair = H - 1. */
+ * ky0 = H - 1, xpair = W - 1, ypair = H - 1. frac_x and frac_y, in half
+ * pixels and within (-1, 1), place a principal point off the half-pixel grid
+ * (a calibrated camera's); they are 0 for every camera that can fold, and
+ * adding 0 leaves the integer's float unchanged. */
 typedef struct {
   float scale_x, scale_y;
   rf_i32 kx0, ky0;
   rf_i32 width, height;
   rf_i32 xpair, ypair;
   float depth_scale; /* 2^c of the frame's trace space; 1 until a frame sets it */
+  float frac_x, frac_y;
 } rf_camera;
 
 #endif /* RF_TYPES_H */

@@ -10,7 +10,7 @@
 #include "scene/gltf_loader.h"
 #include "util/errors.h"
 
-namespace rayfold::testing {
+namespace rayfold::core::testing {
 
 namespace fs = std::filesystem;
 using nlohmann::json;
@@ -96,4 +96,4 @@ void expect_error_with(const std::string& path, const LoadOptions& options, cons
   }
 }
 
-}  // namespace rayfold::testing
+}  // namespace rayfold::core::testing

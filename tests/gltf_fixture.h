@@ -11,7 +11,7 @@
 
 #include "scene/gltf_loader.h"
 
-namespace rayfold::testing {
+namespace rayfold::core::testing {
 
 std::filesystem::path temp_dir();
 
@@ -44,4 +44,4 @@ void expect_error(const std::string& path, const std::string& what);
 // The same with load options.
 void expect_error_with(const std::string& path, const LoadOptions& options, const std::string& what);
 
-}  // namespace rayfold::testing
+}  // namespace rayfold::core::testing

@@ -10,7 +10,7 @@
 #include "scene/gltf_loader.h"
 #include "test_util.h"
 
-namespace rayfold {
+namespace rayfold::core {
 namespace {
 
 TEST(DoubleReference, TreesLoseNothingAgainstBruteForce) {
@@ -82,4 +82,4 @@ TEST(DoubleReference, FloatTracersAgainstReference) {
 }
 
 }  // namespace
-}  // namespace rayfold
+}  // namespace rayfold::core

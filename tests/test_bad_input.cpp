@@ -14,7 +14,7 @@
 #include "test_util.h"
 #include "util/errors.h"
 
-namespace rayfold {
+namespace rayfold::core {
 namespace {
 
 namespace fs = std::filesystem;
@@ -414,4 +414,4 @@ TEST(OddInput, RendersWithWarnings) {
 }
 
 }  // namespace
-}  // namespace rayfold
+}  // namespace rayfold::core

@@ -14,7 +14,7 @@
 #include "rf_trace.h"
 #include "test_util.h"
 
-namespace rayfold {
+namespace rayfold::core {
 namespace {
 
 using testing::Rng;
@@ -205,4 +205,4 @@ TEST(Bvh, TieRulePicksLowerInstanceThenPrimitive) {
 }
 
 }  // namespace
-}  // namespace rayfold
+}  // namespace rayfold::core

@@ -12,7 +12,7 @@
 #include "test_util.h"
 #include "util/image_output.h"
 
-namespace rayfold {
+namespace rayfold::core {
 namespace {
 
 namespace fs = std::filesystem;
@@ -206,7 +206,7 @@ TEST(Cli, InfoDescribesTheDefaultScene) {
 
 TEST(Cli, OutputExtensionsMustMatchTheirKind) {
   const fs::path d = work_dir();
-  for (const std::string args : {"-o " + (d / "x.png").string(), "--png " + (d / "x.exr").string(),
+  for (const std::string& args : {"-o " + (d / "x.png").string(), "--png " + (d / "x.exr").string(),
                                  "-o " + (d / "same.exr").string() + " --stats " + (d / "same.exr").string(),
                                  "--stats " + (d / "s.txt").string()}) {
     const CliRun r = rayfold("render --size 8x8 " + args);
@@ -387,4 +387,4 @@ TEST(Cli, ProgressOnlyOnATerminalAndVerboseStages) {
 }
 
 }  // namespace
-}  // namespace rayfold
+}  // namespace rayfold::core

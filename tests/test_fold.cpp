@@ -12,7 +12,7 @@
 #include "scene/gltf_loader.h"
 #include "test_util.h"
 
-namespace rayfold {
+namespace rayfold::core {
 namespace {
 
 const FoldMode kFolds[] = {FoldMode::y, FoldMode::x, FoldMode::xy};
@@ -212,4 +212,4 @@ TEST(Fold, SharedScenes) {
 }
 
 }  // namespace
-}  // namespace rayfold
+}  // namespace rayfold::core

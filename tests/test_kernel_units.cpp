@@ -11,7 +11,7 @@
 #include "rf_types.h"
 #include "test_util.h"
 
-namespace rayfold {
+namespace rayfold::core {
 namespace {
 
 using testing::Rng;
@@ -353,4 +353,4 @@ TEST_F(KernelUnits, TileTriangleEqualsScalarTriangleTest) {
 }
 
 }  // namespace
-}  // namespace rayfold
+}  // namespace rayfold::core

@@ -20,7 +20,7 @@
 #include "test_util.h"
 #include "util/errors.h"
 
-namespace rayfold {
+namespace rayfold::core {
 namespace {
 
 namespace fs = std::filesystem;
@@ -507,4 +507,4 @@ TEST(Loader, AnimationsSampledAtATime) {
 }
 
 }  // namespace
-}  // namespace rayfold
+}  // namespace rayfold::core

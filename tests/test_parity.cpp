@@ -10,7 +10,7 @@
 #include "scene/gltf_loader.h"
 #include "test_util.h"
 
-namespace rayfold {
+namespace rayfold::core {
 namespace {
 
 RendererOptions cpu_options() {
@@ -66,9 +66,9 @@ TEST(Parity, RandomTriangleSoupsWithMirrors) {
 }
 
 }  // namespace
-}  // namespace rayfold
+}  // namespace rayfold::core
 
-namespace rayfold {
+namespace rayfold::core {
 namespace {
 
 TEST(Parity, SharedScenesSuggestedViews) {
@@ -88,4 +88,4 @@ TEST(Parity, SharedScenesSuggestedViews) {
 }
 
 }  // namespace
-}  // namespace rayfold
+}  // namespace rayfold::core

@@ -6,7 +6,7 @@
 #include "../tools/embree_peer.h"
 #include "../tools/peers.h"
 
-namespace rayfold {
+namespace rayfold::core {
 namespace {
 
 TEST(Peers, EveryVariantIsMeasured) {
@@ -71,4 +71,4 @@ TEST(Peers, AMismatchInvalidatesTheReport) {
 }
 
 }  // namespace
-}  // namespace rayfold
+}  // namespace rayfold::core

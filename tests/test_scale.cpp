@@ -18,7 +18,7 @@
 #include "test_util.h"
 #include "util/errors.h"
 
-namespace rayfold {
+namespace rayfold::core {
 namespace {
 
 using testing::Rng;
@@ -378,4 +378,4 @@ TEST(Scale, FuzzRegressionsRenderLosslessly) {
 }
 
 }  // namespace
-}  // namespace rayfold
+}  // namespace rayfold::core

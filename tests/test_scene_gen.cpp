@@ -10,7 +10,7 @@
 #include "../tools/scene_gen.h"
 #include "scene/gltf_loader.h"
 
-namespace rayfold {
+namespace rayfold::core {
 namespace {
 
 std::string read_bytes(const std::string& path) {
@@ -76,4 +76,4 @@ TEST(SceneGen, BundledSceneIsTheGeneratorsOutput) {
 }
 
 }  // namespace
-}  // namespace rayfold
+}  // namespace rayfold::core

@@ -16,7 +16,7 @@
 #include "scene/gltf_loader.h"
 #include "test_util.h"
 
-namespace rayfold {
+namespace rayfold::core {
 namespace {
 
 using testing::Rng;
@@ -220,9 +220,9 @@ TEST(Exactness, FarFromTheOriginAndTiny) {
 }
 
 }  // namespace
-}  // namespace rayfold
+}  // namespace rayfold::core
 
-namespace rayfold {
+namespace rayfold::core {
 namespace {
 
 struct Agreement {
@@ -300,4 +300,4 @@ TEST(Exactness, FastBuildAgainstExact) {
 }
 
 }  // namespace
-}  // namespace rayfold
+}  // namespace rayfold::core

@@ -16,7 +16,7 @@
 #include "scene/gltf_loader.h"
 #include "test_util.h"
 
-namespace rayfold {
+namespace rayfold::core {
 namespace {
 
 using testing::ThreeWays;
@@ -205,4 +205,4 @@ TEST(TileKernel, SharedScenes) {
 }
 
 }  // namespace
-}  // namespace rayfold
+}  // namespace rayfold::core

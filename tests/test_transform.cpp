@@ -7,7 +7,7 @@
 #include "scene/transform.h"
 #include "test_util.h"
 
-namespace rayfold {
+namespace rayfold::core {
 namespace {
 
 TEST(Transform, InverseOfTranslateRotateScaleByHand) {
@@ -87,4 +87,4 @@ TEST(Transform, ConservativeBoundsContainTransformedPoints) {
 }
 
 }  // namespace
-}  // namespace rayfold
+}  // namespace rayfold::core

@@ -13,7 +13,7 @@
 #include "rf_trace.h"
 #include "scene/gltf_loader.h"
 
-namespace rayfold::testing {
+namespace rayfold::core::testing {
 
 uint64_t Rng::next() {
   uint64_t z = (s_ += 0x9E3779B97F4A7C15ull);
@@ -57,8 +57,8 @@ std::vector<rf_pixel_hit> brute_force(const Scene& scene, const SceneData& data,
   std::vector<rf_pixel_hit> out(static_cast<size_t>(cam.width) * cam.height);
   for (int y = 0; y < cam.height; ++y)
     for (int x = 0; x < cam.width; ++x) {
-      const float dx = cam.scale_x * static_cast<float>(2 * x + cam.kx0);
-      const float dy = cam.scale_y * static_cast<float>(cam.ky0 - 2 * y);
+      const float dx = cam.scale_x * (static_cast<float>(2 * x + cam.kx0) + cam.frac_x);
+      const float dy = cam.scale_y * (static_cast<float>(cam.ky0 - 2 * y) + cam.frac_y);
       const float dz = -1.0f;
       rf_hit best;
       rf_hit_reset(&best);
@@ -279,4 +279,4 @@ Mesh closed_cube(int n) {
   return m;
 }
 
-}  // namespace rayfold::testing
+}  // namespace rayfold::core::testing

@@ -15,7 +15,7 @@
 #include "scene/camera.h"
 #include "scene/scene.h"
 
-namespace rayfold::testing {
+namespace rayfold::core::testing {
 
 // splitmix64, for reproducible test inputs.
 class Rng {
@@ -93,4 +93,4 @@ const std::vector<SharedView>& shared_views();
 // scene; returns how many were.
 int for_each_shared_scene(const std::function<void(const SharedView&, const Scene&)>& fn);
 
-}  // namespace rayfold::testing
+}  // namespace rayfold::core::testing

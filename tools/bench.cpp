@@ -14,7 +14,7 @@
 #include "util/errors.h"
 #include "util/parallel.h"
 
-namespace rayfold {
+namespace rayfold::core {
 namespace {
 
 struct Method {
@@ -242,4 +242,4 @@ std::string bench_json(const BenchReport& r) {
   return j.dump(2) + "\n";
 }
 
-}  // namespace rayfold
+}  // namespace rayfold::core

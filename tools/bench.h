@@ -14,7 +14,7 @@
 #include "cli_args.h"
 #include "renderer.h"
 
-namespace rayfold {
+namespace rayfold::core {
 
 // What the benchmarks render: a scene, an image size, and K views on a short
 // path around a base view, each measured over some frames after a warm-up.
@@ -77,4 +77,4 @@ std::vector<CameraSpec> camera_path(const CameraSpec& base, int views);
 // file's camera, else a view framing the scene.
 std::vector<CameraSpec> camera_path(const Scene& scene, const ViewPath& path);
 
-}  // namespace rayfold
+}  // namespace rayfold::core

@@ -8,7 +8,7 @@
 
 #include "util/errors.h"
 
-namespace rayfold::cli {
+namespace rayfold::core::cli {
 
 Args::Args(int argc, char** argv, int first) {
   for (int i = first; i < argc; ++i) args_.emplace_back(argv[i]);
@@ -83,4 +83,4 @@ void parse_size(const std::string& option, const std::string& text, int* width, 
   *height = parse_int(option, text.substr(x + 1), 1, 32767);
 }
 
-}  // namespace rayfold::cli
+}  // namespace rayfold::core::cli

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <functional>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -10,7 +11,17 @@
 
 #include "fold/fold.h"
 
-namespace rayfold::cli {
+namespace rayfold::core {
+
+// A bad command line. Exit 2.
+class UsageError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+}  // namespace rayfold::core
+
+namespace rayfold::core::cli {
 
 class Args {
  public:
@@ -38,4 +49,4 @@ void parse_size(const std::string& option, const std::string& text, int* width, 
 // none, y, x or xy (yx too).
 FoldMode parse_fold(const std::string& option, const std::string& text);
 
-}  // namespace rayfold::cli
+}  // namespace rayfold::core::cli

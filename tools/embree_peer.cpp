@@ -11,7 +11,7 @@
 #include <chrono>
 #include <cmath>
 
-namespace rayfold {
+namespace rayfold::core {
 
 struct EmbreePeer::Impl {
   const Scene& scene;
@@ -124,8 +124,8 @@ struct EmbreePeer::Impl {
   // rayfold's ray for pixel (x, y), bit for bit (kernels/rf_trace.h).
   void direction(int x, int y, float d[3]) const {
     const rf_camera& c = camera.params;
-    d[0] = c.scale_x * static_cast<float>(2 * x + c.kx0);
-    d[1] = c.scale_y * static_cast<float>(c.ky0 - 2 * y);
+    d[0] = c.scale_x * (static_cast<float>(2 * x + c.kx0) + c.frac_x);
+    d[1] = c.scale_y * (static_cast<float>(c.ky0 - 2 * y) + c.frac_y);
     d[2] = -1.0f;
   }
 
@@ -236,11 +236,11 @@ double EmbreePeer::trace16(std::vector<rf_pixel_hit>& hits, EmbreeScene which) {
       tx * ty);
 }
 
-}  // namespace rayfold
+}  // namespace rayfold::core
 
 #else  // no Embree
 
-namespace rayfold {
+namespace rayfold::core {
 
 struct EmbreePeer::Impl {};
 bool EmbreePeer::available() { return false; }
@@ -252,6 +252,6 @@ void EmbreePeer::set_camera(const Camera&) {}
 double EmbreePeer::trace1(std::vector<rf_pixel_hit>&, EmbreeScene) { return 0.0; }
 double EmbreePeer::trace16(std::vector<rf_pixel_hit>&, EmbreeScene) { return 0.0; }
 
-}  // namespace rayfold
+}  // namespace rayfold::core
 
 #endif

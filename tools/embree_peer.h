@@ -17,7 +17,7 @@
 #include "scene/camera.h"
 #include "scene/scene.h"
 
-namespace rayfold {
+namespace rayfold::core {
 
 enum class EmbreeScene { instanced, flat };
 
@@ -41,4 +41,4 @@ class EmbreePeer {
   std::unique_ptr<Impl> impl_;
 };
 
-}  // namespace rayfold
+}  // namespace rayfold::core

@@ -10,6 +10,7 @@
 
 int main(int argc, char** argv) {
   using namespace rayfold;
+  using namespace rayfold::core;
   return cli::guarded_main([&] {
     GenOptions opt;
     std::string out;

@@ -9,7 +9,7 @@
 #include "util/atomic_file.h"
 #include "util/errors.h"
 
-namespace rayfold {
+namespace rayfold::core {
 namespace {
 
 // Appends bytes to the single buffer, 4-byte aligned as glTF requires, and
@@ -115,4 +115,4 @@ void write_glb(const Scene& scene, const std::string& path) {
   file.commit();
 }
 
-}  // namespace rayfold
+}  // namespace rayfold::core

@@ -7,9 +7,9 @@
 
 #include "scene/scene.h"
 
-namespace rayfold {
+namespace rayfold::core {
 
 // Written atomically; throws InputError naming the file on failure.
 void write_glb(const Scene& scene, const std::string& path);
 
-}  // namespace rayfold
+}  // namespace rayfold::core

@@ -23,7 +23,7 @@
 #include "util/atomic_file.h"
 #include "util/errors.h"
 
-namespace rayfold {
+namespace rayfold::core {
 namespace {
 
 struct Render {
@@ -256,10 +256,11 @@ int run(int width, int height, const std::string& md) {
 }
 
 }  // namespace
-}  // namespace rayfold
+}  // namespace rayfold::core
 
 int main(int argc, char** argv) {
   using namespace rayfold;
+  using namespace rayfold::core;
   return cli::guarded_main([&] {
     int width = 320, height = 180;
     std::string md;

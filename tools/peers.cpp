@@ -15,7 +15,7 @@
 #include "renderer.h"
 #include "scene/gltf_loader.h"
 
-namespace rayfold {
+namespace rayfold::core {
 namespace {
 
 struct Accumulator {
@@ -262,4 +262,4 @@ std::string peers_json(const PeerReport& r) {
   return j.dump(2) + "\n";
 }
 
-}  // namespace rayfold
+}  // namespace rayfold::core

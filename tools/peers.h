@@ -14,7 +14,7 @@
 #include "bench.h"
 #include "reference/accuracy.h"
 
-namespace rayfold {
+namespace rayfold::core {
 
 struct PeerOptions : ViewPath {
   unsigned threads = 2;
@@ -58,4 +58,4 @@ PeerReport run_peers(const PeerOptions& options);
 std::string peers_markdown(const PeerReport& report);
 std::string peers_json(const PeerReport& report);
 
-}  // namespace rayfold
+}  // namespace rayfold::core

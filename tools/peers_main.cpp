@@ -13,6 +13,7 @@
 
 int main(int argc, char** argv) {
   using namespace rayfold;
+  using namespace rayfold::core;
   return cli::guarded_main([&] {
     PeerOptions opt;
     opt.scene = RAYFOLD_DEFAULT_SCENE;

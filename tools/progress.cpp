@@ -4,7 +4,7 @@
 
 #include <cstdio>
 
-namespace rayfold {
+namespace rayfold::core {
 
 Progress::Progress(bool show) : enabled_(show && ::isatty(STDERR_FILENO)), start_(Clock::now()), last_(start_) {}
 
@@ -41,4 +41,4 @@ void Progress::clear() {
   drawn_ = false;
 }
 
-}  // namespace rayfold
+}  // namespace rayfold::core

@@ -8,7 +8,7 @@
 
 #include "util/timer.h"
 
-namespace rayfold {
+namespace rayfold::core {
 
 class Progress {
  public:
@@ -32,4 +32,4 @@ class Progress {
   Clock::time_point start_, last_;
 };
 
-}  // namespace rayfold
+}  // namespace rayfold::core

@@ -32,7 +32,7 @@
 #define RAYFOLD_DEFAULT_SCENE "scenes/atrium.glb"
 #endif
 
-namespace rayfold {
+namespace rayfold::core {
 namespace {
 
 const char* kUsage =
@@ -608,10 +608,10 @@ int run(int argc, char** argv) {
 }
 
 }  // namespace
-}  // namespace rayfold
+}  // namespace rayfold::core
 
 int main(int argc, char** argv) {
   // Line by line also into pipes and logs, as on a terminal.
   std::setvbuf(stdout, nullptr, _IOLBF, 0);
-  return rayfold::cli::guarded_main([&] { return rayfold::run(argc, argv); });
+  return rayfold::core::cli::guarded_main([&] { return rayfold::core::run(argc, argv); });
 }

@@ -6,7 +6,7 @@
 
 #include <glm/gtc/matrix_transform.hpp>
 
-namespace rayfold {
+namespace rayfold::core {
 namespace {
 
 // splitmix64: a fixed, portable generator (the standard distributions are
@@ -303,4 +303,4 @@ Scene generate_atrium(const GenOptions& opt) {
   return build(lo);
 }
 
-}  // namespace rayfold
+}  // namespace rayfold::core

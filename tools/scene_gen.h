@@ -9,7 +9,7 @@
 
 #include "scene/scene.h"
 
-namespace rayfold {
+namespace rayfold::core {
 
 struct GenOptions {
   uint64_t seed = 1;
@@ -19,4 +19,4 @@ struct GenOptions {
 
 Scene generate_atrium(const GenOptions& options);
 
-}  // namespace rayfold
+}  // namespace rayfold::core

@@ -20,6 +20,7 @@ thread_local rf_traversal_stats rf_stats;
 
 int main(int argc, char** argv) {
   using namespace rayfold;
+  using namespace rayfold::core;
   return cli::guarded_main([&] {
     const char* usage =
         "usage: rayfold-stats SCENE [--eye X,Y,Z --look-at X,Y,Z] [--size WxH] [--fold MODE] [--no-braid]\n"

@@ -7,7 +7,7 @@
 #include "util/parallel.h"
 #include "util/timer.h"
 
-namespace rayfold {
+namespace rayfold::core {
 
 int scale_exponent(const Aabb& box) {
   if (box.empty()) return 0;
@@ -81,4 +81,4 @@ BlasSet build_blas_set(const Scene& scene, const BuildOptions& options, unsigned
   return set;
 }
 
-}  // namespace rayfold
+}  // namespace rayfold::core

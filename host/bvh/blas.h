@@ -10,7 +10,7 @@
 #include "scene/aabb.h"
 #include "scene/scene.h"
 
-namespace rayfold {
+namespace rayfold::core {
 
 // Each tree is stored in its mesh's tree space: object space in units of
 // 2^tree_exponents[m], so that the mesh's largest coordinate lies in [1, 2).
@@ -41,4 +41,4 @@ int scale_exponent(const Aabb& box);
 // object_from_tree of a mesh: the uniform scale 2^tree_exponent.
 Xform object_from_tree(const BlasSet& blas, uint32_t mesh);
 
-}  // namespace rayfold
+}  // namespace rayfold::core

@@ -7,7 +7,7 @@
 
 #include "util/errors.h"
 
-namespace rayfold {
+namespace rayfold::core {
 namespace {
 
 struct Bin {
@@ -207,4 +207,4 @@ BuildTree build_sah(const std::vector<Aabb>& prim_bounds, const BuildOptions& op
   return Builder(prim_bounds, options).run();
 }
 
-}  // namespace rayfold
+}  // namespace rayfold::core

@@ -8,7 +8,7 @@
 
 #include "scene/aabb.h"
 
-namespace rayfold {
+namespace rayfold::core {
 
 struct BuildNode {
   Aabb bounds;
@@ -37,4 +37,4 @@ struct BuildTree {
 // Primitives with empty boxes are dropped (they can never be hit).
 BuildTree build_sah(const std::vector<Aabb>& prim_bounds, const BuildOptions& options = {});
 
-}  // namespace rayfold
+}  // namespace rayfold::core

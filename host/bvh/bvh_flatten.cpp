@@ -5,7 +5,7 @@
 #include "rf_trace.h"
 #include "util/errors.h"
 
-namespace rayfold {
+namespace rayfold::core {
 namespace {
 
 rf_node make_node(const BuildNode& b) {
@@ -64,4 +64,4 @@ uint32_t flatten_bvh(const BuildTree& tree, uint32_t item_base, const std::vecto
   return root;
 }
 
-}  // namespace rayfold
+}  // namespace rayfold::core

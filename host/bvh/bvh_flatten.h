@@ -7,7 +7,7 @@
 #include "bvh/bvh_build.h"
 #include "device_layout.h"
 
-namespace rayfold {
+namespace rayfold::core {
 
 // Appends `tree` to `out` and returns the root's index (RF_INVALID for an empty
 // tree). Node indices are written as index_base + position in `out`; sibling
@@ -18,4 +18,4 @@ namespace rayfold {
 uint32_t flatten_bvh(const BuildTree& tree, uint32_t item_base, const std::vector<uint32_t>* item_groups,
                      uint32_t index_base, std::vector<rf_node>& out);
 
-}  // namespace rayfold
+}  // namespace rayfold::core

@@ -6,7 +6,7 @@
 
 #include "util/errors.h"
 
-namespace rayfold {
+namespace rayfold::core {
 namespace {
 
 // In double: world-space areas of float boxes overflow a float from about
@@ -103,4 +103,4 @@ SceneData prepare_scene(const Scene& scene, unsigned threads, const BraidOptions
 size_t max_tlas_items(const SceneData& data) { return RF_MAX_GROUPS * data.braid_nodes.size(); }
 size_t max_tlas_nodes(const SceneData& data) { return 2 * max_tlas_items(data) + 2; }
 
-}  // namespace rayfold
+}  // namespace rayfold::core

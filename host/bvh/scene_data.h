@@ -12,7 +12,7 @@
 #include "device_layout.h"
 #include "scene/scene.h"
 
-namespace rayfold {
+namespace rayfold::core {
 
 // Partial re-braiding (Benthin, Wald, Woop, Afra 2017): the top-level tree
 // is built not over whole instances but over a cut through each instance's
@@ -52,4 +52,4 @@ SceneData prepare_scene(const Scene& scene, unsigned threads = 0, const BraidOpt
 size_t max_tlas_items(const SceneData& data);
 size_t max_tlas_nodes(const SceneData& data);
 
-}  // namespace rayfold
+}  // namespace rayfold::core

@@ -3,15 +3,16 @@
 #include <algorithm>
 #include <cmath>
 
-namespace rayfold {
+namespace rayfold::core {
 
 Frustum::Frustum(const rf_camera& cam, const TracedRegion& region) {
-  // A ray is t * (sx * kx, sy * ky, -1); a point p in front (p.z < 0) lies in
-  // the region when sx * kx_min <= p.x / -p.z <= sx * kx_max, and so on.
-  const double x_lo = static_cast<double>(cam.scale_x) * region.kx_min;
-  const double x_hi = static_cast<double>(cam.scale_x) * region.kx_max;
-  const double y_lo = static_cast<double>(cam.scale_y) * region.ky_min;
-  const double y_hi = static_cast<double>(cam.scale_y) * region.ky_max;
+  // A ray is t * (sx * (kx + fx), sy * (ky + fy), -1); a point p in front
+  // (p.z < 0) lies in the region when sx * (kx_min + fx) <= p.x / -p.z <=
+  // sx * (kx_max + fx), and so on.
+  const double x_lo = static_cast<double>(cam.scale_x) * (region.kx_min + static_cast<double>(cam.frac_x));
+  const double x_hi = static_cast<double>(cam.scale_x) * (region.kx_max + static_cast<double>(cam.frac_x));
+  const double y_lo = static_cast<double>(cam.scale_y) * (region.ky_min + static_cast<double>(cam.frac_y));
+  const double y_hi = static_cast<double>(cam.scale_y) * (region.ky_max + static_cast<double>(cam.frac_y));
   const double p[5][3] = {{1.0, 0.0, x_lo}, {-1.0, 0.0, -x_hi}, {0.0, 1.0, y_lo}, {0.0, -1.0, -y_hi}, {0.0, 0.0, -1.0}};
   std::copy(&p[0][0], &p[0][0] + 15, &planes_[0][0]);
 }
@@ -33,4 +34,4 @@ bool Frustum::may_see(const Aabb& b) const {
   return true;
 }
 
-}  // namespace rayfold
+}  // namespace rayfold::core

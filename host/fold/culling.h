@@ -7,7 +7,7 @@
 #include "device_layout.h"
 #include "scene/aabb.h"
 
-namespace rayfold {
+namespace rayfold::core {
 
 // The traced region of the image in the ray generator's integer coordinates
 // (kx = 2x + kx0, ky = ky0 - 2y), inclusive.
@@ -27,4 +27,4 @@ class Frustum {
   double planes_[5][3];
 };
 
-}  // namespace rayfold
+}  // namespace rayfold::core

@@ -1,6 +1,6 @@
 #include "fold/fold.h"
 
-namespace rayfold {
+namespace rayfold::core {
 
 const char* fold_name(FoldMode m) {
   switch (m) {
@@ -32,4 +32,4 @@ void mirror_columns(float rows[12], int group) {
   }
 }
 
-}  // namespace rayfold
+}  // namespace rayfold::core

@@ -10,12 +10,19 @@
 
 #include "scene/aabb.h"
 
-namespace rayfold {
+namespace rayfold::core {
 
 enum class FoldMode { none, y, x, xy };
 
 inline bool folds_columns(FoldMode m) { return m == FoldMode::y || m == FoldMode::xy; }
 inline bool folds_rows(FoldMode m) { return m == FoldMode::x || m == FoldMode::xy; }
+
+// The fold with the axes that cannot pair dropped: a camera whose principal
+// point is off the half-pixel grid in x cannot pair columns (y), in y rows.
+inline FoldMode restrict_fold(FoldMode m, bool columns_ok, bool rows_ok) {
+  const bool cols = folds_columns(m) && columns_ok, rows = folds_rows(m) && rows_ok;
+  return cols && rows ? FoldMode::xy : cols ? FoldMode::y : rows ? FoldMode::x : FoldMode::none;
+}
 
 // "none", "y", "x" or "xy".
 const char* fold_name(FoldMode m);
@@ -34,4 +41,4 @@ Aabb mirror_box(const Aabb& b, int group);
 // original.
 void mirror_columns(float rows[12], int group);
 
-}  // namespace rayfold
+}  // namespace rayfold::core

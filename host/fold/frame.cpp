@@ -10,7 +10,7 @@
 #include "util/errors.h"
 #include "util/timer.h"
 
-namespace rayfold {
+namespace rayfold::core {
 
 rf_camera frame_camera(const Camera& camera, const Frame& frame) {
   rf_camera params = camera.params;
@@ -69,7 +69,15 @@ Frame build_frame(const Scene& scene, const SceneData& data, const Camera& camer
   std::vector<Frustum> frusta;
   for (int g = 0; g < RF_MAX_GROUPS; ++g) frusta.emplace_back(camera.params, rays.regions[g]);
   const bool animate = options.animate_frame >= 0;
-  if (animate) frame.normal_xforms = data.normal_xforms;
+  std::vector<char> moved;
+  if (!options.moved.empty()) {
+    moved.assign(scene.instances.size(), 0);
+    for (uint32_t i : options.moved) {
+      RF_CHECK(i < moved.size(), "moved instance index out of range");
+      moved[i] = 1;
+    }
+  }
+  if (animate || !moved.empty()) frame.normal_xforms = data.normal_xforms;
   std::vector<Aabb> boxes;
   std::vector<rf_instance> candidates;
   for (size_t i = 0; i < scene.instances.size(); ++i) {
@@ -83,6 +91,9 @@ Frame build_frame(const Scene& scene, const SceneData& data, const Camera& camer
                         object_from_tree(data.blas, inst.mesh);
       const bool ok = affine_inverse(world_from_tree, &tree_from_world);
       RF_CHECK(ok, "animation made a transform singular");
+      normal_matrix_rows3x3(world_from_tree, frame.normal_xforms[i].m);
+    } else if (!moved.empty() && moved[i]) {
+      if (!affine_inverse(world_from_tree, &tree_from_world)) continue;
       normal_matrix_rows3x3(world_from_tree, frame.normal_xforms[i].m);
     }
     const Xform trace_from_tree = trace_from_world * world_from_tree;
@@ -147,4 +158,4 @@ Frame build_frame(const Scene& scene, const SceneData& data, const Camera& camer
   return frame;
 }
 
-}  // namespace rayfold
+}  // namespace rayfold::core

@@ -14,12 +14,16 @@
 #include "scene/camera.h"
 #include "scene/scene.h"
 
-namespace rayfold {
+namespace rayfold::core {
 
 struct FrameOptions {
   FoldMode fold = FoldMode::none;
   bool cull = true;        // frustum culling before the top-level build
   int animate_frame = -1;  // >= 0: pose of the animated instances (animation.h)
+  // Scene instances whose world_from_object changed since prepare_scene: their
+  // tree_from_world and normal matrix are computed again from the scene. A
+  // moved transform that is singular hides the instance for the frame.
+  std::vector<uint32_t> moved{};
 };
 
 struct FrameStats {
@@ -64,4 +68,4 @@ Frame build_frame(const Scene& scene, const SceneData& data, const Camera& camer
 // The camera's ray parameters as a frame traces them: with its depth scale.
 rf_camera frame_camera(const Camera& camera, const Frame& frame);
 
-}  // namespace rayfold
+}  // namespace rayfold::core

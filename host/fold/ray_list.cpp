@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <climits>
 
-namespace rayfold {
+namespace rayfold::core {
 namespace {
 
 // How one column (or row) takes part in a fold.
@@ -80,4 +80,4 @@ RayList make_ray_list(const rf_camera& cam, FoldMode fold) {
   return list;
 }
 
-}  // namespace rayfold
+}  // namespace rayfold::core

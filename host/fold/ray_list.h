@@ -12,7 +12,7 @@
 #include "fold/culling.h"
 #include "fold/fold.h"
 
-namespace rayfold {
+namespace rayfold::core {
 
 struct RayList {
   std::vector<uint32_t> entries;
@@ -36,4 +36,4 @@ inline uint32_t encode_ray(int x, int y, bool mirror_x, bool mirror_y) {
 // neighbouring work-items of the single-ray kernel trace coherent rays.
 RayList make_ray_list(const rf_camera& camera, FoldMode fold);
 
-}  // namespace rayfold
+}  // namespace rayfold::core

@@ -7,7 +7,7 @@
 
 #include "util/errors.h"
 
-namespace rayfold {
+namespace rayfold::core {
 namespace {
 
 std::string lower(std::string s) {
@@ -161,4 +161,4 @@ cl::Program ClDevice::build(const std::string& source, KernelPrecision precision
   return program;
 }
 
-}  // namespace rayfold
+}  // namespace rayfold::core

@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-namespace rayfold {
+namespace rayfold::core {
 
 enum class KernelPrecision {
   exact,  // correctly rounded divide and sqrt, no contraction: the CPU reference's bits
@@ -60,4 +60,4 @@ std::string describe_devices(const std::vector<DeviceInfo>& devices);
 // "<call>: <OpenCL error name> (<code>)" for messages.
 std::string cl_error_text(const cl::Error& e);
 
-}  // namespace rayfold
+}  // namespace rayfold::core

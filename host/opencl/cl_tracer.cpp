@@ -9,7 +9,7 @@
 #include "util/errors.h"
 #include "util/timer.h"
 
-namespace rayfold {
+namespace rayfold::core {
 namespace {
 
 // OpenCL refuses zero-sized buffers; every buffer gets at least one element.
@@ -178,6 +178,8 @@ double ClTracer::trace(const rf_camera& cam, KernelKind kind) {
     kernel.setArg(a++, cam.xpair);
     kernel.setArg(a++, cam.ypair);
     kernel.setArg(a++, cam.depth_scale);
+    kernel.setArg(a++, cam.frac_x);
+    kernel.setArg(a++, cam.frac_y);
     kernel.setArg(a++, host_out_ ? host_hits_ : hits_);
     if (kind == KernelKind::tile && tile_stats_) {
       stats_ = cl::Buffer(device_.context(), CL_MEM_WRITE_ONLY,
@@ -252,4 +254,4 @@ size_t ClTracer::device_bytes() const {
   return total;
 }
 
-}  // namespace rayfold
+}  // namespace rayfold::core

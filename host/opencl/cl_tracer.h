@@ -10,7 +10,7 @@
 #include "fold/ray_list.h"
 #include "opencl/cl_device.h"
 
-namespace rayfold {
+namespace rayfold::core {
 
 struct BufferInfo {
   std::string name;
@@ -95,4 +95,4 @@ class ClTracer {
   size_t max_tlas_nodes_ = 0, max_instances_ = 0, max_rays_ = 0, pixel_count_ = 0;
 };
 
-}  // namespace rayfold
+}  // namespace rayfold::core

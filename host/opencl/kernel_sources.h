@@ -3,7 +3,7 @@
 
 #include <string>
 
-namespace rayfold {
+namespace rayfold::core {
 namespace kernel_text {
 extern const char* const rf_common;
 extern const char* const rf_types;
@@ -25,4 +25,4 @@ inline std::string trace_program_source() {
 // The same plus the single-function wrappers that the unit tests run.
 inline std::string unit_test_program_source() { return trace_program_source() + kernel_text::rf_unit_tests_cl; }
 
-}  // namespace rayfold
+}  // namespace rayfold::core

@@ -5,7 +5,7 @@
 
 #include "util/errors.h"
 
-namespace rayfold {
+namespace rayfold::core {
 
 Accuracy measure_accuracy(const std::vector<ReferenceHit>& ref, const std::vector<rf_pixel_hit>& hits) {
   RF_CHECK(ref.size() == hits.size(), "accuracy: images of different sizes");
@@ -32,4 +32,4 @@ Accuracy measure_accuracy(const std::vector<ReferenceHit>& ref, const std::vecto
   return a;
 }
 
-}  // namespace rayfold
+}  // namespace rayfold::core

@@ -6,7 +6,7 @@
 #include "device_layout.h"
 #include "reference/double_reference.h"
 
-namespace rayfold {
+namespace rayfold::core {
 
 struct Accuracy {
   double same_hit = 0.0;  // share of pixels with the reference's (instance, primitive), misses included
@@ -22,4 +22,4 @@ struct Accuracy {
 
 Accuracy measure_accuracy(const std::vector<ReferenceHit>& reference, const std::vector<rf_pixel_hit>& hits);
 
-}  // namespace rayfold
+}  // namespace rayfold::core

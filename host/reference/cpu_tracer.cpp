@@ -3,7 +3,7 @@
 #include "rf_trace.h"
 #include "util/parallel.h"
 
-namespace rayfold {
+namespace rayfold::core {
 
 void trace_cpu(const TraceInputs& in, const RayList& rays, const rf_camera& camera, rf_pixel_hit* out,
                unsigned threads) {
@@ -13,4 +13,4 @@ void trace_cpu(const TraceInputs& in, const RayList& rays, const rf_camera& came
   });
 }
 
-}  // namespace rayfold
+}  // namespace rayfold::core

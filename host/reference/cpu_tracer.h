@@ -6,11 +6,11 @@
 #include "fold/ray_list.h"
 #include "reference/trace_inputs.h"
 
-namespace rayfold {
+namespace rayfold::core {
 
 // out has camera.width * camera.height entries; every pixel the list covers
 // is written. threads = 0: all cores.
 void trace_cpu(const TraceInputs& in, const RayList& rays, const rf_camera& camera, rf_pixel_hit* out,
                unsigned threads = 0);
 
-}  // namespace rayfold
+}  // namespace rayfold::core

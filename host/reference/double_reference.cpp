@@ -6,7 +6,7 @@
 #include "rf_trace.h"
 #include "util/parallel.h"
 
-namespace rayfold {
+namespace rayfold::core {
 namespace {
 
 struct Ray {
@@ -129,12 +129,11 @@ std::vector<ReferenceHit> trace_double_reference(const Scene& scene, const Scene
     tree_from_trace[i] = data.tree_from_world[i] * camera.world_from_camera * frame.camera_from_trace;
 
   const int w = camera.width, h = camera.height;
-  const double s = std::tan(camera.vfov_degrees * M_PI / 360.0) / h;  // exact, unlike the float scale
   std::vector<ReferenceHit> out(static_cast<size_t>(w) * h);
   parallel_for(static_cast<size_t>(h), threads, 1, [&](size_t row, size_t) {
     const int y = static_cast<int>(row);
     for (int x = 0; x < w; ++x) {
-      const glm::dvec3 d(s * (2 * x + camera.params.kx0), s * (camera.params.ky0 - 2 * y), -1.0);
+      const glm::dvec3 d = exact_direction(camera, x, y);  // exact, unlike the float rays
       const Ray cam_ray = make_ray(glm::dvec3(0.0), d);
       Best best;
       if (brute_force) {
@@ -164,4 +163,4 @@ std::vector<ReferenceHit> trace_double_reference(const Scene& scene, const Scene
   return out;
 }
 
-}  // namespace rayfold
+}  // namespace rayfold::core

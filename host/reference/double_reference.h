@@ -11,7 +11,7 @@
 #include "scene/camera.h"
 #include "scene/scene.h"
 
-namespace rayfold {
+namespace rayfold::core {
 
 struct ReferenceHit {
   double distance = INFINITY;  // from the eye along the normalised ray
@@ -25,4 +25,4 @@ struct ReferenceHit {
 std::vector<ReferenceHit> trace_double_reference(const Scene& scene, const SceneData& data, const Camera& camera,
                                                  unsigned threads = 0, bool brute_force = false);
 
-}  // namespace rayfold
+}  // namespace rayfold::core

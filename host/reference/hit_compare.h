@@ -7,7 +7,7 @@
 
 #include "device_layout.h"
 
-namespace rayfold {
+namespace rayfold::core {
 
 // Pixels whose hit info differs in any bit (0 for identical renders).
 inline size_t count_differing_pixels(const std::vector<rf_pixel_hit>& a, const std::vector<rf_pixel_hit>& b) {
@@ -16,4 +16,4 @@ inline size_t count_differing_pixels(const std::vector<rf_pixel_hit>& a, const s
   return n;
 }
 
-}  // namespace rayfold
+}  // namespace rayfold::core

@@ -7,7 +7,7 @@
 
 #include "device_layout.h"
 
-namespace rayfold {
+namespace rayfold::core {
 
 struct TraceInputs {
   const rf_node* nodes = nullptr;  // BLAS nodes followed by the frame's TLAS
@@ -21,4 +21,4 @@ struct TraceInputs {
   uint32_t tlas_root = RF_INVALID;
 };
 
-}  // namespace rayfold
+}  // namespace rayfold::core

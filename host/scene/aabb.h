@@ -8,7 +8,7 @@
 #include <glm/common.hpp>
 #include <glm/vec3.hpp>
 
-namespace rayfold {
+namespace rayfold::core {
 
 struct Aabb {
   glm::vec3 lo{std::numeric_limits<float>::infinity()};
@@ -33,4 +33,4 @@ struct Aabb {
   }
 };
 
-}  // namespace rayfold
+}  // namespace rayfold::core

@@ -4,7 +4,7 @@
 
 #include <glm/gtc/matrix_transform.hpp>
 
-namespace rayfold {
+namespace rayfold::core {
 
 Xform animated_world_from_object(const Instance& instance, const Aabb& object_bounds, size_t index, int frame) {
   const Aabb world = transform_bounds_conservative(instance.world_from_object, object_bounds);
@@ -20,4 +20,4 @@ Xform animated_world_from_object(const Instance& instance, const Aabb& object_bo
   return m * instance.world_from_object;
 }
 
-}  // namespace rayfold
+}  // namespace rayfold::core

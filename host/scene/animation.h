@@ -8,7 +8,7 @@
 
 #include "scene/scene.h"
 
-namespace rayfold {
+namespace rayfold::core {
 
 // Every fourth instance moves.
 inline bool is_animated(size_t instance) { return instance % 4 == 1; }
@@ -16,4 +16,4 @@ inline bool is_animated(size_t instance) { return instance % 4 == 1; }
 // The instance's world_from_object at a frame (frame 0 is the file's pose).
 Xform animated_world_from_object(const Instance& instance, const Aabb& object_bounds, size_t index, int frame);
 
-}  // namespace rayfold
+}  // namespace rayfold::core

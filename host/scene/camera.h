@@ -6,7 +6,7 @@
 #include "scene/scene.h"
 #include "scene/transform.h"
 
-namespace rayfold {
+namespace rayfold::core {
 
 struct Camera {
   Xform world_from_camera{1.0};
@@ -14,6 +14,15 @@ struct Camera {
   int width = 0, height = 0;
   double vfov_degrees = 60.0;
   rf_camera params{};  // how the device turns pixels into rays
+  // The exact values params rounds to float (params.scale_x, ..., frac_y):
+  // the double reference traces these.
+  double scale_x = 0.0, scale_y = 0.0, frac_x = 0.0, frac_y = 0.0;
+};
+
+// Pinhole intrinsics in pixels, with pixel (x, y)'s centre at (x + 0.5,
+// y + 0.5) from the image's top-left corner, +y down.
+struct Intrinsics {
+  double fx = 0.0, fy = 0.0, cx = 0.0, cy = 0.0;
 };
 
 // Throws InputError for a degenerate view (eye == look_at, up parallel to the
@@ -22,6 +31,27 @@ struct Camera {
 // units of half the image width and height; they are rounded to whole half
 // pixels so that mirror partners keep exactly negated rays.
 Camera make_camera(const CameraSpec& spec, int width, int height, double shift_x = 0.0, double shift_y = 0.0);
+
+// A camera from a rigid world_from_camera (camera space: +x right, +y up,
+// looking down -z) and pinhole intrinsics. A principal point on the
+// half-pixel grid keeps mirror partners exact (frac_x, frac_y are 0); one off
+// it cannot fold along that axis (can_fold_columns, can_fold_rows). Throws
+// InputError for a transform that is not rigid or not finite, focal lengths
+// that are not positive and finite, or a principal point more than 100
+// images off centre.
+Camera make_camera(const Xform& world_from_camera, const Intrinsics& k, int width, int height);
+
+// Whether the principal point lets the fold pair columns (mirror about the
+// vertical plane) or rows.
+inline bool can_fold_columns(const Camera& c) { return c.params.frac_x == 0.0f; }
+inline bool can_fold_rows(const Camera& c) { return c.params.frac_y == 0.0f; }
+
+// The camera's intrinsics (whatever made it), pixel centres at +0.5.
+Intrinsics intrinsics(const Camera& camera);
+
+// Pixel (x, y)'s camera-space ray direction in double, the exact value the
+// device's float direction rounds.
+glm::dvec3 exact_direction(const Camera& camera, int x, int y);
 
 // The angle between neighbouring pixels' rays at the image centre, radians.
 double pixel_angle(const Camera& camera);
@@ -36,4 +66,4 @@ constexpr double kFinestPixelAngle = 0x1p-20;
 // A view of the whole scene from its +z side, slightly above, as a default.
 CameraSpec frame_bounds(const Aabb& world_bounds, double vfov_degrees = 60.0);
 
-}  // namespace rayfold
+}  // namespace rayfold::core

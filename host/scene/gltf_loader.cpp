@@ -19,7 +19,7 @@
 
 #include "util/errors.h"
 
-namespace rayfold {
+namespace rayfold::core {
 namespace {
 
 // Hit info needs no pixels: images are neither decoded nor required.
@@ -1041,4 +1041,4 @@ Scene load_gltf(const std::string& path, std::vector<std::string>* warnings, con
   return scene;
 }
 
-}  // namespace rayfold
+}  // namespace rayfold::core

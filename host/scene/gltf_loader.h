@@ -8,7 +8,7 @@
 
 #include "scene/scene.h"
 
-namespace rayfold {
+namespace rayfold::core {
 
 struct LoadOptions {
   int scene = -1;   // the file's scene to show; -1: its `scene`, else scene 0
@@ -25,4 +25,4 @@ struct LoadOptions {
 Scene load_gltf(const std::string& path, std::vector<std::string>* warnings = nullptr,
                 const LoadOptions& options = {});
 
-}  // namespace rayfold
+}  // namespace rayfold::core

@@ -5,7 +5,7 @@
 
 #include "util/errors.h"
 
-namespace rayfold {
+namespace rayfold::core {
 
 size_t Scene::triangle_count() const {
   size_t n = 0;
@@ -57,4 +57,4 @@ void check_world_range(const Scene& scene, const std::string& file) {
   }
 }
 
-}  // namespace rayfold
+}  // namespace rayfold::core

@@ -13,7 +13,7 @@
 #include "scene/aabb.h"
 #include "scene/transform.h"
 
-namespace rayfold {
+namespace rayfold::core {
 
 struct Mesh {
   std::string name;
@@ -67,4 +67,4 @@ struct Scene {
 // reaches beyond kMaxWorldCoordinate (or is not finite) in world space.
 void check_world_range(const Scene& scene, const std::string& file);
 
-}  // namespace rayfold
+}  // namespace rayfold::core

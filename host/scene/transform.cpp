@@ -6,7 +6,7 @@
 #include <glm/gtc/matrix_inverse.hpp>
 #include <glm/mat3x3.hpp>
 
-namespace rayfold {
+namespace rayfold::core {
 
 double linear_determinant(const Xform& m) { return glm::determinant(glm::dmat3(m)); }
 
@@ -70,4 +70,4 @@ Aabb transform_bounds_conservative(const Xform& m, const Aabb& b, double extra_p
   return out;
 }
 
-}  // namespace rayfold
+}  // namespace rayfold::core

@@ -8,7 +8,7 @@
 
 #include "scene/aabb.h"
 
-namespace rayfold {
+namespace rayfold::core {
 
 using Xform = glm::dmat4;  // column-major; the last row is (0, 0, 0, 1)
 
@@ -39,4 +39,4 @@ glm::dvec3 transform_point(const Xform& m, const glm::dvec3& p);
 // rounding.
 Aabb transform_bounds_conservative(const Xform& m, const Aabb& b, double extra_pad = 0.0);
 
-}  // namespace rayfold
+}  // namespace rayfold::core

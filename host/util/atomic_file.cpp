@@ -8,7 +8,7 @@
 
 #include "util/errors.h"
 
-namespace rayfold {
+namespace rayfold::core {
 
 AtomicFile::AtomicFile(std::string path) : path_(std::move(path)) {
   temp_ = path_ + ".tmp-" + std::to_string(::getpid());
@@ -42,4 +42,4 @@ void check_writable(const std::string& path) {
   std::fclose(f);
 }
 
-}  // namespace rayfold
+}  // namespace rayfold::core

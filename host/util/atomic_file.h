@@ -5,7 +5,7 @@
 
 #include <string>
 
-namespace rayfold {
+namespace rayfold::core {
 
 class AtomicFile {
  public:
@@ -31,4 +31,4 @@ void write_text_file(const std::string& path, const std::string& text);
 // before expensive work so a bad output path fails fast.
 void check_writable(const std::string& path);
 
-}  // namespace rayfold
+}  // namespace rayfold::core

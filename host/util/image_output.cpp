@@ -16,7 +16,7 @@
 #include "util/atomic_file.h"
 #include "util/errors.h"
 
-namespace rayfold {
+namespace rayfold::core {
 namespace {
 
 struct Channel {
@@ -105,4 +105,4 @@ void write_png(const std::string& path, const std::vector<rf_pixel_hit>& hits, i
   file.commit();
 }
 
-}  // namespace rayfold
+}  // namespace rayfold::core

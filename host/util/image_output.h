@@ -6,7 +6,7 @@
 
 #include "device_layout.h"
 
-namespace rayfold {
+namespace rayfold::core {
 
 // One part, channels Z, N.X, N.Y, N.Z, U, V (FLOAT), InstanceID, PrimitiveID
 // (UINT). Throws InputError naming the file on failure; never leaves a
@@ -19,4 +19,4 @@ void write_png(const std::string& path, const std::vector<rf_pixel_hit>& hits, i
 // Reads back what write_exr wrote (for tests and tools); InputError on failure.
 std::vector<rf_pixel_hit> read_exr(const std::string& path, int* width, int* height);
 
-}  // namespace rayfold
+}  // namespace rayfold::core

@@ -5,7 +5,7 @@
 #include <thread>
 #include <vector>
 
-namespace rayfold {
+namespace rayfold::core {
 
 unsigned resolve_threads(unsigned threads) {
   return threads ? threads : std::max(1u, std::thread::hardware_concurrency());
@@ -23,4 +23,4 @@ void parallel_for(size_t n, unsigned threads, size_t chunk, const std::function<
   for (std::thread& t : pool) t.join();
 }
 
-}  // namespace rayfold
+}  // namespace rayfold::core

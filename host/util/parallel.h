@@ -6,7 +6,7 @@
 #include <cstddef>
 #include <functional>
 
-namespace rayfold {
+namespace rayfold::core {
 
 // 0 means every core the machine reports (at least 1).
 unsigned resolve_threads(unsigned threads);
@@ -15,4 +15,4 @@ unsigned resolve_threads(unsigned threads);
 // threads (the caller's included); returns when all are done.
 void parallel_for(size_t n, unsigned threads, size_t chunk, const std::function<void(size_t, size_t)>& body);
 
-}  // namespace rayfold
+}  // namespace rayfold::core

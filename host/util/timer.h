@@ -3,7 +3,7 @@
 
 #include <chrono>
 
-namespace rayfold {
+namespace rayfold::core {
 
 using Clock = std::chrono::steady_clock;
 
@@ -12,4 +12,4 @@ inline double ms_since(Clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
 }
 
-}  // namespace rayfold
+}  // namespace rayfold::core

@@ -30,6 +30,7 @@
 namespace {
 
 using namespace rayfold;
+using namespace rayfold::core;
 
 const std::string& scratch_path() {
   static const std::string path = "/tmp/rayfold_fuzz_" + std::to_string(::getpid()) + ".gltf";

@@ -1,0 +1,75 @@
+#include "rayfold/camera.h"
+
+#include <glm/geometric.hpp>
+
+#include "api/convert.h"
+#include "rayfold/errors.h"
+#include "scene/camera.h"
+
+namespace rayfold {
+namespace {
+
+// OpenCV's camera axes are OpenGL's with y and z negated.
+core::Xform flip_yz() {
+  core::Xform f(1.0);
+  f[1][1] = -1.0;
+  f[2][2] = -1.0;
+  return f;
+}
+
+}  // namespace
+
+Camera Camera::look_at(const Vec3& eye, const Vec3& target, const Vec3& up, double vfov_degrees, int width,
+                       int height) {
+  core::CameraSpec spec;
+  spec.eye = glm::dvec3(eye[0], eye[1], eye[2]);
+  spec.look_at = glm::dvec3(target[0], target[1], target[2]);
+  spec.up = glm::dvec3(up[0], up[1], up[2]);
+  spec.vfov_degrees = vfov_degrees;
+  return Camera(std::make_shared<core::Camera>(core::make_camera(spec, width, height)));
+}
+
+Camera Camera::from_matrix(const Matrix4& camera_to_world, const Intrinsics& k, int width, int height,
+                           CameraConvention convention) {
+  detail::check_affine(camera_to_world, "camera-to-world matrix");
+  core::Xform world_from_camera = detail::to_xform(camera_to_world);
+  if (convention == CameraConvention::opencv) world_from_camera = world_from_camera * flip_yz();
+  core::Intrinsics ki{k.fx, k.fy, k.cx, k.cy};
+  return Camera(std::make_shared<core::Camera>(core::make_camera(world_from_camera, ki, width, height)));
+}
+
+int Camera::width() const { return impl_->width; }
+int Camera::height() const { return impl_->height; }
+
+Matrix4 Camera::camera_to_world(CameraConvention convention) const {
+  const core::Xform& m = impl_->world_from_camera;
+  return detail::to_matrix(convention == CameraConvention::opencv ? m * flip_yz() : m);
+}
+
+Matrix4 Camera::world_to_camera(CameraConvention convention) const {
+  const core::Xform& m = impl_->camera_from_world;
+  return detail::to_matrix(convention == CameraConvention::opencv ? flip_yz() * m : m);
+}
+
+Intrinsics Camera::intrinsics() const {
+  const core::Intrinsics k = core::intrinsics(*impl_);
+  return {k.fx, k.fy, k.cx, k.cy};
+}
+
+Vec3 Camera::eye() const {
+  const glm::dvec3 e(impl_->world_from_camera[3]);
+  return {e.x, e.y, e.z};
+}
+
+double Camera::vfov_degrees() const { return impl_->vfov_degrees; }
+
+Vec3 Camera::ray_direction(int x, int y) const {
+  const glm::dvec3 d =
+      glm::normalize(glm::dvec3(impl_->world_from_camera * glm::dvec4(core::exact_direction(*impl_, x, y), 0.0)));
+  return {d.x, d.y, d.z};
+}
+
+bool Camera::can_fold_columns() const { return core::can_fold_columns(*impl_); }
+bool Camera::can_fold_rows() const { return core::can_fold_rows(*impl_); }
+
+}  // namespace rayfold

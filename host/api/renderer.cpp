@@ -1,0 +1,142 @@
+#include "rayfold/renderer.h"
+
+#include <cmath>
+
+#include "api/scene_state.h"
+#include "renderer.h"
+#include "util/timer.h"
+
+namespace rayfold {
+namespace {
+
+core::FoldMode to_core(Fold f) {
+  switch (f) {
+    case Fold::y:
+      return core::FoldMode::y;
+    case Fold::x:
+      return core::FoldMode::x;
+    case Fold::xy:
+      return core::FoldMode::xy;
+    default:
+      return core::FoldMode::none;
+  }
+}
+
+Fold from_core(core::FoldMode f) {
+  switch (f) {
+    case core::FoldMode::y:
+      return Fold::y;
+    case core::FoldMode::x:
+      return Fold::x;
+    case core::FoldMode::xy:
+      return Fold::xy;
+    default:
+      return Fold::none;
+  }
+}
+
+core::KernelChoice to_core(Kernel k) {
+  switch (k) {
+    case Kernel::tile:
+      return core::KernelChoice::tile;
+    case Kernel::single:
+      return core::KernelChoice::single;
+    default:
+      return core::KernelChoice::automatic;
+  }
+}
+
+}  // namespace
+
+struct Renderer::Impl {
+  std::shared_ptr<detail::SceneState> state;
+  core::RendererOptions options;
+  std::unique_ptr<core::Renderer> core;
+  uint64_t built_version = 0;  // SceneState::structure_version the trees were built for
+  uint64_t built_clock = 0;    // SceneState::clock then: later set_transforms are moves
+  core::RenderResult result;   // its hit buffer is reused render to render
+
+  void build() {
+    core.reset();
+    core = std::make_unique<core::Renderer>(state->scene, options);
+    built_version = state->structure_version;
+    built_clock = state->clock;
+  }
+
+  // Instances set_transform moved since the trees were built; rebuilds when
+  // the scene's structure changed or a moved instance was hidden at build
+  // (a singular transform then: it has no tree_from_world to start from).
+  std::vector<uint32_t> moved() {
+    if (state->structure_version != built_version) build();
+    std::vector<uint32_t> out;
+    for (size_t i = 0; i < state->moved_at.size(); ++i)
+      if (state->moved_at[i] > built_clock) out.push_back(static_cast<uint32_t>(i));
+    for (uint32_t i : out)
+      if (!core->scene_data().renderable[i] && !state->scene.meshes[state->scene.instances[i].mesh].indices.empty()) {
+        build();
+        return {};
+      }
+    return out;
+  }
+};
+
+Renderer::Renderer(const Scene& scene, const RendererOptions& options) : impl_(std::make_unique<Impl>()) {
+  impl_->state = scene.state();
+  impl_->options.backend = options.backend == Backend::cpu ? core::Backend::cpu : core::Backend::opencl;
+  impl_->options.device_hint = options.device;
+  impl_->options.kernel = to_core(options.kernel);
+  impl_->options.threads = options.threads;
+  impl_->build();
+}
+
+Renderer::~Renderer() = default;
+Renderer::Renderer(Renderer&&) noexcept = default;
+Renderer& Renderer::operator=(Renderer&&) noexcept = default;
+
+GBuffer Renderer::render(const Camera& camera, Fold fold) {
+  GBuffer g;
+  render_into(g, camera, fold);
+  return g;
+}
+
+void Renderer::render_into(GBuffer& g, const Camera& camera, Fold fold) {
+  const auto t0 = core::Clock::now();
+  core::FrameOptions frame;
+  frame.fold = to_core(fold);
+  frame.moved = impl_->moved();
+  core::RenderResult& r = impl_->result;
+  impl_->core->render_into(r, camera.core(), 1, frame);
+
+  const size_t n = r.hits.size();
+  g.width = camera.width();
+  g.height = camera.height();
+  g.depth.resize(n);
+  g.normal.resize(3 * n);
+  g.uv.resize(2 * n);
+  g.instance_id.resize(n);
+  g.primitive_id.resize(n);
+  size_t hits = 0;
+  for (size_t i = 0; i < n; ++i) {
+    const rf_pixel_hit& h = r.hits[i];
+    g.depth[i] = h.z;
+    g.normal[3 * i] = h.nx;
+    g.normal[3 * i + 1] = h.ny;
+    g.normal[3 * i + 2] = h.nz;
+    g.uv[2 * i] = h.u;
+    g.uv[2 * i + 1] = h.v;
+    g.instance_id[i] = h.instance;
+    g.primitive_id[i] = h.primitive;
+    hits += h.instance != RF_INVALID;
+  }
+  g.hits = hits;
+  g.fold = from_core(r.fold);
+  g.rays = r.rays;
+  g.trace_ms = r.median.trace_ms;
+  g.warnings = r.warnings;
+  g.frame_ms = core::ms_since(t0);
+}
+
+std::string Renderer::device_name() const { return impl_->core->device_name(); }
+std::string Renderer::kernel() const { return impl_->core->kernel_label(); }
+
+}  // namespace rayfold

@@ -1,0 +1,158 @@
+#include "rayfold/scene.h"
+
+#include <sstream>
+
+#include "api/convert.h"
+#include "api/scene_state.h"
+#include "rayfold/errors.h"
+#include "scene/camera.h"
+#include "scene/gltf_loader.h"
+
+namespace rayfold {
+namespace detail {
+
+void check_affine(const Matrix4& m, const std::string& what) {
+  for (double v : m)
+    if (!std::isfinite(v)) throw InputError("", what + " is not finite");
+  if (m[12] != 0.0 || m[13] != 0.0 || m[14] != 0.0 || m[15] != 1.0)
+    throw InputError("", what + " is not affine: its last row must be 0 0 0 1");
+}
+
+}  // namespace detail
+namespace {
+
+void check_instance(const detail::SceneState& s, uint32_t instance) {
+  if (instance >= s.scene.instances.size())
+    throw InputError(s.path, "instance " + std::to_string(instance) + " does not exist (the scene has " +
+                                 std::to_string(s.scene.instances.size()) + ")");
+}
+
+}  // namespace
+
+Scene::Scene() : state_(std::make_shared<detail::SceneState>()) {}
+
+Scene Scene::load(const std::string& path, const LoadOptions& options) {
+  Scene s;
+  core::LoadOptions lo;
+  lo.scene = options.scene;
+  lo.camera = options.camera;
+  lo.time = options.time;
+  s.state_->scene = core::load_gltf(path, &s.state_->warnings, lo);
+  s.state_->path = path;
+  s.state_->moved_at.assign(s.state_->scene.instances.size(), 0);
+  return s;
+}
+
+uint32_t Scene::add_mesh(const float* positions, size_t vertex_count, const uint32_t* indices, size_t index_count,
+                         const std::string& name) {
+  if (index_count % 3 != 0)
+    throw InputError("", "mesh '" + name + "': " + std::to_string(index_count) +
+                             " indices is not a whole number of triangles");
+  core::Mesh mesh;
+  mesh.name = name;
+  mesh.positions.resize(vertex_count);
+  for (size_t v = 0; v < vertex_count; ++v) {
+    for (int k = 0; k < 3; ++k)
+      if (!std::isfinite(positions[3 * v + k]))
+        throw InputError("", "mesh '" + name + "': position " + std::to_string(v) + " is not finite");
+    mesh.positions[v] = glm::vec3(positions[3 * v], positions[3 * v + 1], positions[3 * v + 2]);
+  }
+  mesh.indices.assign(indices, indices + index_count);
+  for (size_t i = 0; i < index_count; ++i)
+    if (indices[i] >= vertex_count) {
+      std::ostringstream s;
+      s << "mesh '" << name << "': index " << i << " is " << indices[i] << ", but the mesh has " << vertex_count
+        << " vertices";
+      throw InputError("", s.str());
+    }
+  state_->scene.meshes.push_back(std::move(mesh));
+  state_->structure_version++;
+  return static_cast<uint32_t>(state_->scene.meshes.size() - 1);
+}
+
+uint32_t Scene::add_mesh(const std::vector<float>& positions, const std::vector<uint32_t>& indices,
+                         const std::string& name) {
+  if (positions.size() % 3 != 0)
+    throw InputError("", "mesh '" + name + "': " + std::to_string(positions.size()) +
+                             " position values is not a whole number of x, y, z vertices");
+  return add_mesh(positions.data(), positions.size() / 3, indices.data(), indices.size(), name);
+}
+
+uint32_t Scene::add_instance(uint32_t mesh, const Matrix4& world_from_object, const std::string& name) {
+  if (mesh >= state_->scene.meshes.size())
+    throw InputError("", "instance '" + name + "': mesh " + std::to_string(mesh) + " does not exist (the scene has " +
+                             std::to_string(state_->scene.meshes.size()) + ")");
+  detail::check_affine(world_from_object, "instance '" + name + "': world_from_object");
+  core::Instance inst;
+  inst.mesh = mesh;
+  inst.world_from_object = detail::to_xform(world_from_object);
+  inst.name = name.empty() ? "instance " + std::to_string(state_->scene.instances.size()) : name;
+  state_->scene.instances.push_back(inst);
+  state_->moved_at.push_back(0);
+  state_->structure_version++;
+  return static_cast<uint32_t>(state_->scene.instances.size() - 1);
+}
+
+void Scene::set_transform(uint32_t instance, const Matrix4& world_from_object) {
+  check_instance(*state_, instance);
+  core::Instance& inst = state_->scene.instances[instance];
+  detail::check_affine(world_from_object, "instance '" + inst.name + "': world_from_object");
+  const core::Aabb b = state_->scene.mesh_bounds(inst.mesh);
+  const core::Xform m = detail::to_xform(world_from_object);
+  if (!b.empty())
+    for (int corner = 0; corner < 8; ++corner) {
+      const glm::dvec3 p((corner & 1 ? b.hi : b.lo).x, (corner & 2 ? b.hi : b.lo).y, (corner & 4 ? b.hi : b.lo).z);
+      const glm::dvec3 w = core::transform_point(m, p);
+      for (int k = 0; k < 3; ++k)
+        if (!(std::fabs(w[k]) <= core::kMaxWorldCoordinate))
+          throw InputError(state_->path, "instance '" + inst.name +
+                                             "' would reach beyond world coordinates of +-8.5e37 (2^126)");
+    }
+  inst.world_from_object = m;
+  state_->moved_at[instance] = ++state_->clock;
+}
+
+Matrix4 Scene::transform(uint32_t instance) const {
+  check_instance(*state_, instance);
+  return detail::to_matrix(state_->scene.instances[instance].world_from_object);
+}
+
+size_t Scene::mesh_count() const { return state_->scene.meshes.size(); }
+size_t Scene::instance_count() const { return state_->scene.instances.size(); }
+size_t Scene::triangle_count() const { return state_->scene.triangle_count(); }
+
+uint32_t Scene::instance_mesh(uint32_t instance) const {
+  check_instance(*state_, instance);
+  return state_->scene.instances[instance].mesh;
+}
+
+std::vector<std::string> Scene::instance_names() const {
+  std::vector<std::string> names;
+  names.reserve(state_->scene.instances.size());
+  for (const core::Instance& i : state_->scene.instances) names.push_back(i.name);
+  return names;
+}
+
+const std::string& Scene::path() const { return state_->path; }
+const std::vector<std::string>& Scene::warnings() const { return state_->warnings; }
+
+std::vector<std::string> Scene::camera_names() const {
+  std::vector<std::string> names;
+  for (const core::Scene::FileCamera& c : state_->scene.cameras) names.push_back(c.name);
+  return names;
+}
+
+Camera Scene::default_camera(int width, int height) const {
+  const core::Scene& s = state_->scene;
+  const core::CameraSpec spec = s.camera ? *s.camera : core::frame_bounds(s.world_bounds());
+  return Camera::look_at({spec.eye.x, spec.eye.y, spec.eye.z}, {spec.look_at.x, spec.look_at.y, spec.look_at.z},
+                         {spec.up.x, spec.up.y, spec.up.z}, spec.vfov_degrees, width, height);
+}
+
+std::array<double, 6> Scene::bounds() const {
+  const core::Aabb b = state_->scene.world_bounds();
+  if (b.empty()) return {0, 0, 0, 0, 0, 0};
+  return {b.lo.x, b.lo.y, b.lo.z, b.hi.x, b.hi.y, b.hi.z};
+}
+
+}  // namespace rayfold

@@ -1,0 +1,24 @@
+// What a public Scene handle shares: the core scene and what tells a
+// Renderer that it changed.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "scene/scene.h"
+
+namespace rayfold::detail {
+
+struct SceneState {
+  core::Scene scene;
+  std::string path;
+  std::vector<std::string> warnings;
+  // Bumped when meshes or instances are added: a renderer rebuilds its trees.
+  uint64_t structure_version = 0;
+  // Per instance, the clock value of its last set_transform (0: as added).
+  std::vector<uint64_t> moved_at;
+  uint64_t clock = 0;
+};
+
+}  // namespace rayfold::detail

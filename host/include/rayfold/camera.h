@@ -1,0 +1,67 @@
+// A pinhole camera: a rigid pose and intrinsics in pixels. Pixel (x, y) has
+// its centre at (x + 0.5, y + 0.5) from the image's top-left corner; rows go
+// down. Depths are distances from the eye along each pixel's ray.
+#pragma once
+
+#include <memory>
+
+#include "rayfold/types.h"
+
+namespace rayfold {
+namespace core {
+struct Camera;
+}
+
+// How a camera-to-world matrix's camera axes point.
+enum class CameraConvention {
+  opengl,  // +x right, +y up, looking down -z (rayfold's camera space; glTF, Blender, NeRF)
+  opencv,  // +x right, +y down, looking down +z (OpenCV, COLMAP)
+};
+
+// Pinhole intrinsics in pixels: focal lengths and the principal point, pixel
+// centres at +0.5 (an OpenCV calibration, whose centres sit at integers,
+// adds 0.5 to cx and cy).
+struct Intrinsics {
+  double fx = 0.0, fy = 0.0, cx = 0.0, cy = 0.0;
+};
+
+class Camera {
+ public:
+  // From an eye looking at target, +y of the image along up projected onto
+  // the view plane, a vertical field of view in degrees (0, 180) and a size
+  // of 1..32767 pixels per side; square pixels, centred principal point.
+  // Throws InputError for a degenerate view.
+  static Camera look_at(const Vec3& eye, const Vec3& target, const Vec3& up, double vfov_degrees, int width,
+                        int height);
+  // From a rigid camera-to-world matrix in the named convention (rotations
+  // rounded to float are accepted to 1e-5 and made orthonormal; scale, shear
+  // and mirrors are InputErrors) and intrinsics. A principal point off the
+  // half-pixel grid is exact, but the fold cannot mirror that axis
+  // (can_fold_columns, can_fold_rows).
+  static Camera from_matrix(const Matrix4& camera_to_world, const Intrinsics& intrinsics, int width, int height,
+                            CameraConvention convention);
+
+  int width() const;
+  int height() const;
+  // The pose, camera axes in the convention asked for.
+  Matrix4 camera_to_world(CameraConvention convention = CameraConvention::opengl) const;
+  Matrix4 world_to_camera(CameraConvention convention = CameraConvention::opengl) const;
+  Intrinsics intrinsics() const;
+  Vec3 eye() const;
+  double vfov_degrees() const;
+  // Pixel (x, y)'s ray in world space, unit length: a hit at depth d lies at
+  // eye() + d * ray_direction(x, y).
+  Vec3 ray_direction(int x, int y) const;
+  // Whether the fold can pair columns (fold y) and rows (fold x): the
+  // principal point lies on the half-pixel grid in that axis.
+  bool can_fold_columns() const;
+  bool can_fold_rows() const;
+
+  const core::Camera& core() const { return *impl_; }
+
+ private:
+  explicit Camera(std::shared_ptr<const core::Camera> impl) : impl_(std::move(impl)) {}
+  std::shared_ptr<const core::Camera> impl_;
+};
+
+}  // namespace rayfold

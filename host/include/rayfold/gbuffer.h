@@ -1,0 +1,44 @@
+// The G-buffer of one render: eight channels per pixel in planes, rows from
+// the top.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "rayfold/types.h"
+
+namespace rayfold {
+
+// How the screen is folded: y mirrors about the camera's vertical plane
+// (pairs columns), x about the horizontal plane (pairs rows), xy both. The
+// output is bit for bit the same in every mode; only the work differs.
+enum class Fold { none, y, x, xy };
+
+struct GBuffer {
+  int width = 0, height = 0;
+  // Distance from the eye along the pixel's ray (Camera::ray_direction), in
+  // world units; +inf on a miss. height * width.
+  std::vector<float> depth;
+  // World-space geometric normal, unit length, on the side the triangle's
+  // winding makes its front (the file's, also under mirroring transforms);
+  // 0 on a miss. height * width * 3.
+  std::vector<float> normal;
+  // Barycentric weights of the triangle's second and third vertex; 0 on a
+  // miss. height * width * 2.
+  std::vector<float> uv;
+  std::vector<uint32_t> instance_id;   // Scene instance index, kMiss on a miss
+  std::vector<uint32_t> primitive_id;  // triangle index within the mesh, kMiss on a miss
+
+  Fold fold = Fold::none;  // the fold traced (one the camera allows; Camera::can_fold_columns)
+  size_t rays = 0;         // rays traced
+  size_t hits = 0;         // pixels that hit
+  double trace_ms = 0.0;   // on the device
+  double frame_ms = 0.0;   // culling, top-level build, upload, ray list, trace, readback
+  // What this render may have lost, in words (docs/exactness.md); empty
+  // within rayfold's exact range.
+  std::vector<std::string> warnings;
+};
+
+}  // namespace rayfold

@@ -1,0 +1,58 @@
+// Renders G-buffers of a scene: the bottom-level trees and kernels once,
+// then per render culling, the top-level tree and the trace.
+#pragma once
+
+#include <memory>
+#include <string>
+
+#include "rayfold/camera.h"
+#include "rayfold/gbuffer.h"
+#include "rayfold/scene.h"
+
+namespace rayfold {
+
+enum class Backend {
+  opencl,  // the OpenCL kernels, on the device RendererOptions::device names
+  cpu,     // the CPU reference tracer: the same algorithm, the same bits
+};
+
+// Which OpenCL kernel traces; both give the same bits.
+enum class Kernel {
+  automatic,  // tile on CPU devices, measured on the first render elsewhere
+  tile,       // 16x16 ray tiles in vector lanes (fastest on CPUs)
+  single,     // one ray per work-item (fastest on GPUs)
+};
+
+struct RendererOptions {
+  Backend backend = Backend::opencl;
+  std::string device;  // the first OpenCL device whose platform or name contains this; "" the first one
+  Kernel kernel = Kernel::automatic;
+  unsigned threads = 0;  // host threads for tree builds and the CPU backend; 0: all cores
+};
+
+class Renderer {
+ public:
+  // Builds every mesh's tree and, for OpenCL, the kernels. Throws
+  // RuntimeFailure when no OpenCL device matches or a kernel does not build,
+  // InputError when the scene reaches beyond world coordinates of 2^126.
+  explicit Renderer(const Scene& scene, const RendererOptions& options = {});
+  ~Renderer();
+  Renderer(Renderer&&) noexcept;
+  Renderer& operator=(Renderer&&) noexcept;
+
+  // Traces one view. Instances moved since the last render (Scene::
+  // set_transform) are placed anew; meshes or instances added rebuild the
+  // trees. Not safe to call from two threads at once.
+  GBuffer render(const Camera& camera, Fold fold = Fold::none);
+  // The same into `out`, reusing its planes when the size matches.
+  void render_into(GBuffer& out, const Camera& camera, Fold fold = Fold::none);
+
+  std::string device_name() const;  // "cpu reference" for the CPU backend
+  std::string kernel() const;       // "tile", "single" or "cpu reference"
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace rayfold

@@ -1,0 +1,79 @@
+// A scene: meshes (positions and triangles) and instances placing them in
+// the world. From a glTF 2.0 file or built in memory; instances can move
+// between renders.
+#pragma once
+
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "rayfold/camera.h"
+#include "rayfold/types.h"
+
+namespace rayfold {
+namespace detail {
+struct SceneState;
+}
+
+struct LoadOptions {
+  int scene = -1;     // the file's scene to show; -1: its default scene, else scene 0
+  int camera = -1;    // the file's camera to use (index into camera_names()); -1: the first perspective one
+  double time = NAN;  // seconds: every node animation posed at this time; NaN: the rest pose
+};
+
+// A handle: copies share one scene, and a Renderer keeps it alive. Not safe
+// to change while a render of it runs.
+class Scene {
+ public:
+  Scene();  // empty, to be filled with add_mesh and add_instance
+
+  // Loads a .gltf or .glb file. Throws InputError naming the file and what is
+  // wrong; non-fatal oddities (points and lines skipped) go to warnings().
+  static Scene load(const std::string& path, const LoadOptions& options = {});
+
+  // Adds a mesh: positions x, y, z per vertex (object space), three vertex
+  // indices per triangle; returns its index. Throws InputError for indices
+  // out of range, a count not a multiple of 3, or positions not finite.
+  uint32_t add_mesh(const float* positions, size_t vertex_count, const uint32_t* indices, size_t index_count,
+                    const std::string& name = "");
+  uint32_t add_mesh(const std::vector<float>& positions, const std::vector<uint32_t>& indices,
+                    const std::string& name = "");
+  // Places a mesh in the world; returns the instance's index, the
+  // instance_id of its pixels. Throws InputError for a bad mesh index or a
+  // matrix that is not finite and affine.
+  uint32_t add_instance(uint32_t mesh, const Matrix4& world_from_object, const std::string& name = "");
+  // Moves an instance: the next render shows it there, without rebuilding
+  // its mesh's tree. Throws InputError as add_instance does, and for world
+  // coordinates beyond 2^126.
+  void set_transform(uint32_t instance, const Matrix4& world_from_object);
+  Matrix4 transform(uint32_t instance) const;
+
+  size_t mesh_count() const;
+  size_t instance_count() const;
+  size_t triangle_count() const;  // over instances, as rendered
+  uint32_t instance_mesh(uint32_t instance) const;
+  // The node name of each instance (glTF: the node's name, "node N" when
+  // unnamed, "<node>[i]" for GPU instances), indexed by instance_id.
+  std::vector<std::string> instance_names() const;
+  const std::string& path() const;  // the file loaded; empty for a scene built in memory
+  const std::vector<std::string>& warnings() const;
+
+  // The file's cameras by node name, in node order (LoadOptions::camera
+  // indexes them; orthographic ones are listed but cannot be chosen).
+  std::vector<std::string> camera_names() const;
+  // The chosen file camera (LoadOptions::camera) at this image size, or, for a
+  // file without one and a scene built in memory, a view of the whole scene.
+  Camera default_camera(int width, int height) const;
+  // World-space bounds of the instances at rest: min x, y, z and max x, y, z.
+  std::array<double, 6> bounds() const;
+
+  const std::shared_ptr<detail::SceneState>& state() const { return state_; }
+
+ private:
+  std::shared_ptr<detail::SceneState> state_;
+};
+
+}  // namespace rayfold

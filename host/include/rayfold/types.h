@@ -1,0 +1,19 @@
+// The plain value types of rayfold's public API: no GLM, no OpenCL.
+#pragma once
+
+#include <array>
+#include <cstdint>
+
+namespace rayfold {
+
+using Vec3 = std::array<double, 3>;
+
+// A 4x4 affine transform, row-major (m[4 * row + column]); the last row is
+// 0 0 0 1. Transforms are named destination-from-source: world_from_object
+// takes object-space points to world space.
+using Matrix4 = std::array<double, 16>;
+
+// instance_id and primitive_id of a pixel that hits nothing.
+inline constexpr uint32_t kMiss = 0xFFFFFFFFu;
+
+}  // namespace rayfold

@@ -1,0 +1,388 @@
+// The Python module rayfold._core: the public C++ API (rayfold/rayfold.h)
+// with numpy arrays in and out. Arrays out own their C++ buffers (no copy);
+// renders release the GIL; one render of a scene runs at a time.
+#include <nanobind/nanobind.h>
+#include <nanobind/ndarray.h>
+#include <nanobind/stl/array.h>
+#include <nanobind/stl/filesystem.h>
+#include <nanobind/stl/optional.h>
+#include <nanobind/stl/shared_ptr.h>
+#include <nanobind/stl/string.h>
+#include <nanobind/stl/tuple.h>
+#include <nanobind/stl/vector.h>
+
+#include <cmath>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <sstream>
+
+#include "rayfold/rayfold.h"
+
+namespace nb = nanobind;
+using namespace nb::literals;
+
+namespace {
+
+template <class T>
+using InArray = nb::ndarray<const T, nb::c_contig, nb::device::cpu>;
+
+std::string shape_text(size_t ndim, const size_t* shape) {
+  std::ostringstream s;
+  s << "(";
+  for (size_t i = 0; i < ndim; ++i) s << (i ? ", " : "") << shape[i];
+  s << (ndim == 1 ? ",)" : ")");
+  return s.str();
+}
+
+// Any array-like as a contiguous numpy array of dtype; an InputError naming
+// `what` when numpy cannot make one.
+template <class T>
+InArray<T> as_array(nb::handle obj, const char* dtype, const std::string& what) {
+  nb::object np = nb::module_::import_("numpy");
+  nb::object arr;
+  try {
+    arr = np.attr("ascontiguousarray")(obj, "dtype"_a = dtype);
+  } catch (nb::python_error&) {
+    throw rayfold::InputError("", what + " is not an array of numbers");
+  }
+  return nb::cast<InArray<T>>(arr);
+}
+
+rayfold::Matrix4 as_matrix4(nb::handle obj, const std::string& what) {
+  const InArray<double> a = as_array<double>(obj, "float64", what);
+  std::vector<size_t> shape(a.ndim());
+  for (size_t i = 0; i < a.ndim(); ++i) shape[i] = a.shape(i);
+  if (a.ndim() != 2 || a.shape(0) != 4 || a.shape(1) != 4)
+    throw rayfold::InputError("", what + " must be a 4x4 matrix, not of shape " + shape_text(shape.size(), shape.data()));
+  rayfold::Matrix4 m;
+  for (int i = 0; i < 16; ++i) m[i] = a.data()[i];
+  return m;
+}
+
+rayfold::Vec3 as_vec3(nb::handle obj, const std::string& what) {
+  const InArray<double> a = as_array<double>(obj, "float64", what);
+  if (a.size() != 3) throw rayfold::InputError("", what + " must have 3 numbers, not " + std::to_string(a.size()));
+  return {a.data()[0], a.data()[1], a.data()[2]};
+}
+
+// A numpy array that owns the vector's buffer: moved, not copied.
+template <class T>
+nb::object to_numpy(std::vector<T>&& v, std::initializer_list<size_t> shape) {
+  auto* heap = new std::vector<T>(std::move(v));
+  nb::capsule owner(heap, [](void* p) noexcept { delete static_cast<std::vector<T>*>(p); });
+  return nb::cast(nb::ndarray<nb::numpy, T>(heap->data(), shape, owner));
+}
+
+nb::object matrix_to_numpy(const rayfold::Matrix4& m) {
+  return to_numpy(std::vector<double>(m.begin(), m.end()), {4, 4});
+}
+
+rayfold::Fold parse_fold(const std::string& s) {
+  if (s == "none") return rayfold::Fold::none;
+  if (s == "y") return rayfold::Fold::y;
+  if (s == "x") return rayfold::Fold::x;
+  if (s == "xy" || s == "yx") return rayfold::Fold::xy;
+  throw rayfold::InputError("", "fold must be 'none', 'y', 'x' or 'xy', not '" + s + "'");
+}
+
+const char* fold_name(rayfold::Fold f) {
+  switch (f) {
+    case rayfold::Fold::y:
+      return "y";
+    case rayfold::Fold::x:
+      return "x";
+    case rayfold::Fold::xy:
+      return "xy";
+    default:
+      return "none";
+  }
+}
+
+rayfold::CameraConvention parse_convention(const std::string& s) {
+  if (s == "opencv" || s == "colmap") return rayfold::CameraConvention::opencv;
+  if (s == "opengl" || s == "blender" || s == "nerf") return rayfold::CameraConvention::opengl;
+  throw rayfold::InputError("",
+                            "convention must be 'opencv' (+z forward, +y down; also 'colmap') or 'opengl' "
+                            "(-z forward, +y up; also 'blender', 'nerf'), not '" +
+                                s + "'");
+}
+
+rayfold::RendererOptions renderer_options(const std::string& backend, const std::string& device,
+                                          const std::string& kernel, unsigned threads) {
+  rayfold::RendererOptions o;
+  if (backend == "opencl")
+    o.backend = rayfold::Backend::opencl;
+  else if (backend == "cpu")
+    o.backend = rayfold::Backend::cpu;
+  else
+    throw rayfold::InputError("", "backend must be 'opencl' or 'cpu', not '" + backend + "'");
+  if (kernel == "auto")
+    o.kernel = rayfold::Kernel::automatic;
+  else if (kernel == "tile")
+    o.kernel = rayfold::Kernel::tile;
+  else if (kernel == "single")
+    o.kernel = rayfold::Kernel::single;
+  else
+    throw rayfold::InputError("", "kernel must be 'auto', 'tile' or 'single', not '" + kernel + "'");
+  o.device = device;
+  o.threads = threads;
+  return o;
+}
+
+// The G-buffer as Python sees it: numpy planes and the camera it was
+// rendered with.
+struct PyGBuffer {
+  nb::object depth, normal, uv, instance_id, primitive_id;
+  int width = 0, height = 0;
+  std::string fold;
+  size_t rays = 0, hits = 0;
+  double trace_ms = 0.0, frame_ms = 0.0;
+  std::vector<std::string> warnings;
+  rayfold::Camera camera;
+};
+
+PyGBuffer to_python(rayfold::GBuffer&& g, const rayfold::Camera& camera) {
+  const size_t h = g.height, w = g.width;
+  PyGBuffer p{to_numpy(std::move(g.depth), {h, w}),
+              to_numpy(std::move(g.normal), {h, w, 3}),
+              to_numpy(std::move(g.uv), {h, w, 2}),
+              to_numpy(std::move(g.instance_id), {h, w}),
+              to_numpy(std::move(g.primitive_id), {h, w}),
+              g.width,
+              g.height,
+              fold_name(g.fold),
+              g.rays,
+              g.hits,
+              g.trace_ms,
+              g.frame_ms,
+              std::move(g.warnings),
+              camera};
+  return p;
+}
+
+// A scene and what renders it: renderers by options, reused across calls;
+// a mutex so that a render (which drops the GIL) never overlaps a change.
+struct PyScene {
+  rayfold::Scene scene;
+  std::mutex mutex;
+  std::map<std::string, std::unique_ptr<rayfold::Renderer>> renderers;
+};
+
+struct PyRenderer {
+  std::shared_ptr<PyScene> scene;
+  std::unique_ptr<rayfold::Renderer> renderer;
+};
+
+PyGBuffer render_locked(PyScene& s, rayfold::Renderer* r, const rayfold::RendererOptions* make,
+                        const std::string& key, const rayfold::Camera& camera, rayfold::Fold fold) {
+  rayfold::GBuffer g;
+  {
+    nb::gil_scoped_release release;
+    std::lock_guard<std::mutex> lock(s.mutex);
+    if (!r) {
+      std::unique_ptr<rayfold::Renderer>& cached = s.renderers[key];
+      if (!cached) cached = std::make_unique<rayfold::Renderer>(s.scene, *make);
+      r = cached.get();
+    }
+    g = r->render(camera, fold);
+  }
+  return to_python(std::move(g), camera);
+}
+
+template <class F>
+auto locked(PyScene& s, F&& f) {
+  nb::gil_scoped_release release;
+  std::lock_guard<std::mutex> lock(s.mutex);
+  return f();
+}
+
+}  // namespace
+
+NB_MODULE(_core, m) {
+  m.doc() = "rayfold's C++ core; use the rayfold package.";
+  m.attr("__version__") = RAYFOLD_VERSION_STRING;
+  m.attr("MISS") = rayfold::kMiss;
+  nb::exception<rayfold::InputError>(m, "InputError", PyExc_ValueError);
+  nb::exception<rayfold::RuntimeFailure>(m, "RuntimeFailure", PyExc_RuntimeError);
+
+  nb::class_<rayfold::Camera>(m, "Camera",
+                              "A pinhole camera. Pixel (x, y) has its centre at (x + 0.5, y + 0.5) from the top-left "
+                              "corner, rows going down; depth is the distance along ray_directions().")
+      .def_static(
+          "look_at",
+          [](nb::handle eye, nb::handle target, nb::handle up, double vfov_deg, int width, int height) {
+            return rayfold::Camera::look_at(as_vec3(eye, "eye"), as_vec3(target, "target"), as_vec3(up, "up"),
+                                            vfov_deg, width, height);
+          },
+          "eye"_a, "target"_a, "up"_a, "vfov_deg"_a, "width"_a, "height"_a,
+          "A camera at eye looking at target, image +y along up, vertical field of view in degrees, square pixels.")
+      .def_static(
+          "from_matrix",
+          [](nb::handle camera_to_world, double fx, double fy, double cx, double cy, int width, int height,
+             const std::string& convention) {
+            return rayfold::Camera::from_matrix(as_matrix4(camera_to_world, "camera_to_world"), {fx, fy, cx, cy},
+                                                width, height, parse_convention(convention));
+          },
+          "camera_to_world"_a, "fx"_a, "fy"_a, "cx"_a, "cy"_a, "width"_a, "height"_a, nb::kw_only(), "convention"_a,
+          "A camera from a rigid 4x4 camera-to-world matrix and pinhole intrinsics in pixels (pixel centres at "
+          "+0.5). convention: 'opencv' (+x right, +y down, +z forward; COLMAP) or 'opengl' (+y up, -z forward; "
+          "Blender, NeRF).")
+      .def_prop_ro("width", &rayfold::Camera::width)
+      .def_prop_ro("height", &rayfold::Camera::height)
+      .def_prop_ro(
+          "camera_to_world", [](const rayfold::Camera& c) { return matrix_to_numpy(c.camera_to_world()); },
+          "4x4 float64, OpenGL axes (+y up, -z forward); camera_to_world_in('opencv') for OpenCV's.")
+      .def(
+          "camera_to_world_in",
+          [](const rayfold::Camera& c, const std::string& convention) {
+            return matrix_to_numpy(c.camera_to_world(parse_convention(convention)));
+          },
+          "convention"_a)
+      .def_prop_ro("world_to_camera", [](const rayfold::Camera& c) { return matrix_to_numpy(c.world_to_camera()); })
+      .def_prop_ro(
+          "intrinsics",
+          [](const rayfold::Camera& c) {
+            const rayfold::Intrinsics k = c.intrinsics();
+            return std::make_tuple(k.fx, k.fy, k.cx, k.cy);
+          },
+          "(fx, fy, cx, cy) in pixels, pixel centres at +0.5.")
+      .def_prop_ro("eye", [](const rayfold::Camera& c) { return c.eye(); })
+      .def_prop_ro("vfov_deg", &rayfold::Camera::vfov_degrees)
+      .def_prop_ro("can_fold_columns", &rayfold::Camera::can_fold_columns)
+      .def_prop_ro("can_fold_rows", &rayfold::Camera::can_fold_rows)
+      .def(
+          "ray_directions",
+          [](const rayfold::Camera& c) {
+            const size_t w = c.width(), h = c.height();
+            std::vector<double> d(3 * w * h);
+            for (size_t y = 0; y < h; ++y)
+              for (size_t x = 0; x < w; ++x) {
+                const rayfold::Vec3 r = c.ray_direction(static_cast<int>(x), static_cast<int>(y));
+                std::copy(r.begin(), r.end(), d.begin() + 3 * (y * w + x));
+              }
+            return to_numpy(std::move(d), {h, w, 3});
+          },
+          "(H, W, 3) float64 unit world-space ray directions: a hit lies at eye + depth * direction.")
+      .def("__repr__", [](const rayfold::Camera& c) {
+        const rayfold::Vec3 e = c.eye();
+        std::ostringstream s;
+        s << "rayfold.Camera(" << c.width() << "x" << c.height() << ", eye=(" << e[0] << ", " << e[1] << ", " << e[2]
+          << "), vfov_deg=" << c.vfov_degrees() << ")";
+        return s.str();
+      });
+
+  nb::class_<PyGBuffer>(m, "GBuffer", "One render's hit info: numpy planes, rows from the top.")
+      .def_ro("depth", &PyGBuffer::depth, "(H, W) float32: distance from the eye along the pixel's ray; inf on a miss")
+      .def_ro("normal", &PyGBuffer::normal, "(H, W, 3) float32: world-space unit geometric normal; 0 on a miss")
+      .def_ro("uv", &PyGBuffer::uv, "(H, W, 2) float32: barycentrics of the triangle's 2nd and 3rd vertex")
+      .def_ro("instance_id", &PyGBuffer::instance_id, "(H, W) uint32: index into Scene.instance_names; MISS")
+      .def_ro("primitive_id", &PyGBuffer::primitive_id, "(H, W) uint32: triangle index within the mesh; MISS")
+      .def_ro("width", &PyGBuffer::width)
+      .def_ro("height", &PyGBuffer::height)
+      .def_ro("fold", &PyGBuffer::fold, "the fold traced ('none', 'y', 'x', 'xy'): the one asked for, less what the "
+                                        "camera's principal point cannot mirror")
+      .def_ro("rays", &PyGBuffer::rays)
+      .def_ro("hits", &PyGBuffer::hits)
+      .def_ro("trace_ms", &PyGBuffer::trace_ms)
+      .def_ro("frame_ms", &PyGBuffer::frame_ms)
+      .def_ro("warnings", &PyGBuffer::warnings)
+      .def_ro("camera", &PyGBuffer::camera);
+
+  nb::class_<PyScene>(m, "Scene", "Meshes and instances, from a glTF 2.0 file or built in memory.")
+      .def(
+          "__init__",
+          [](PyScene* self, std::optional<std::filesystem::path> path, int scene, int camera,
+             std::optional<double> time) {
+            new (self) PyScene();
+            if (path) {
+              rayfold::LoadOptions o;
+              o.scene = scene;
+              o.camera = camera;
+              o.time = time ? *time : NAN;
+              nb::gil_scoped_release release;
+              self->scene = rayfold::Scene::load(path->string(), o);
+            }
+          },
+          "path"_a = nb::none(), "scene"_a = -1, "camera"_a = -1, "time"_a = nb::none(),
+          "Loads a .gltf or .glb file (scene, camera: the file's indices; time: seconds into its animations), or "
+          "makes an empty scene without a path.")
+      .def(
+          "add_mesh",
+          [](PyScene& s, nb::handle positions, nb::handle indices, const std::string& name) {
+            const InArray<float> p = as_array<float>(positions, "float32", "positions");
+            if (p.ndim() != 2 || p.shape(1) != 3)
+              throw rayfold::InputError("", "positions must have shape (N, 3)");
+            const InArray<int64_t> i = as_array<int64_t>(indices, "int64", "indices");
+            std::vector<uint32_t> idx(i.size());
+            for (size_t k = 0; k < idx.size(); ++k) {
+              if (i.data()[k] < 0 || i.data()[k] > 0xFFFFFFFEll)
+                throw rayfold::InputError("", "index " + std::to_string(k) + " is " + std::to_string(i.data()[k]) +
+                                                  ", not a vertex index");
+              idx[k] = static_cast<uint32_t>(i.data()[k]);
+            }
+            return locked(s, [&] { return s.scene.add_mesh(p.data(), p.shape(0), idx.data(), idx.size(), name); });
+          },
+          "positions"_a, "indices"_a, "name"_a = "",
+          "Adds a mesh: positions (N, 3), indices (M, 3) or (3M,); returns its index.")
+      .def(
+          "add_instance",
+          [](PyScene& s, uint32_t mesh, nb::handle world_from_object, const std::string& name) {
+            const rayfold::Matrix4 m4 = as_matrix4(world_from_object, "world_from_object");
+            return locked(s, [&] { return s.scene.add_instance(mesh, m4, name); });
+          },
+          "mesh"_a, "world_from_object"_a, "name"_a = "", "Places a mesh (4x4 matrix); returns the instance id.")
+      .def(
+          "set_transform",
+          [](PyScene& s, uint32_t instance, nb::handle world_from_object) {
+            const rayfold::Matrix4 m4 = as_matrix4(world_from_object, "world_from_object");
+            locked(s, [&] { s.scene.set_transform(instance, m4); });
+          },
+          "instance"_a, "world_from_object"_a, "Moves an instance; the next render shows it there.")
+      .def(
+          "transform", [](PyScene& s, uint32_t instance) { return matrix_to_numpy(s.scene.transform(instance)); },
+          "instance"_a)
+      .def_prop_ro("instance_names", [](PyScene& s) { return s.scene.instance_names(); })
+      .def_prop_ro("camera_names", [](PyScene& s) { return s.scene.camera_names(); })
+      .def_prop_ro("warnings", [](PyScene& s) { return s.scene.warnings(); })
+      .def_prop_ro("path", [](PyScene& s) { return s.scene.path(); })
+      .def_prop_ro("mesh_count", [](PyScene& s) { return s.scene.mesh_count(); })
+      .def_prop_ro("instance_count", [](PyScene& s) { return s.scene.instance_count(); })
+      .def_prop_ro("triangle_count", [](PyScene& s) { return s.scene.triangle_count(); })
+      .def_prop_ro("bounds", [](PyScene& s) { return s.scene.bounds(); }, "(min x, y, z, max x, y, z) at rest")
+      .def(
+          "default_camera", [](PyScene& s, int width, int height) { return s.scene.default_camera(width, height); },
+          "width"_a, "height"_a, "The file's camera at this size, or a view of the whole scene.")
+      .def(
+          "render",
+          [](PyScene& s, const rayfold::Camera& camera, const std::string& fold, const std::string& backend,
+             const std::string& device, const std::string& kernel, unsigned threads) {
+            const rayfold::RendererOptions o = renderer_options(backend, device, kernel, threads);
+            const std::string key = backend + "|" + device + "|" + kernel + "|" + std::to_string(threads);
+            return render_locked(s, nullptr, &o, key, camera, parse_fold(fold));
+          },
+          "camera"_a, "fold"_a = "none", "backend"_a = "opencl", "device"_a = "", "kernel"_a = "auto",
+          "threads"_a = 0,
+          "Renders a G-buffer. The trees and kernels for these options are built on first use and kept. Releases "
+          "the GIL.");
+
+  nb::class_<PyRenderer>(m, "Renderer", "A renderer of one scene with fixed options (Scene.render keeps these).")
+      .def(
+          "__init__",
+          [](PyRenderer* self, std::shared_ptr<PyScene> scene, const std::string& backend, const std::string& device,
+             const std::string& kernel, unsigned threads) {
+            new (self) PyRenderer();
+            self->scene = scene;
+            const rayfold::RendererOptions o = renderer_options(backend, device, kernel, threads);
+            self->renderer = locked(*scene, [&] { return std::make_unique<rayfold::Renderer>(scene->scene, o); });
+          },
+          "scene"_a, "backend"_a = "opencl", "device"_a = "", "kernel"_a = "auto", "threads"_a = 0)
+      .def(
+          "render",
+          [](PyRenderer& r, const rayfold::Camera& camera, const std::string& fold) {
+            return render_locked(*r.scene, r.renderer.get(), nullptr, "", camera, parse_fold(fold));
+          },
+          "camera"_a, "fold"_a = "none")
+      .def_prop_ro("device_name", [](PyRenderer& r) { return r.renderer->device_name(); })
+      .def_prop_ro("kernel", [](PyRenderer& r) { return r.renderer->kernel(); });
+}
