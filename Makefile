@@ -5,13 +5,13 @@ CMAKE_FLAGS ?=
 
 FUZZ_SECONDS ?= 60
 
-.PHONY: deps configure build demo test test-asan fuzz bench clean
+.PHONY: deps configure build demo test python-env test-asan fuzz bench clean
 
 deps:
 	@tools/install-deps.sh
 
 configure: deps
-	@cmake -S . -B $(BUILD_DIR) -DCMAKE_BUILD_TYPE=Release $(CMAKE_FLAGS) >/dev/null
+	@cmake -S . -B $(BUILD_DIR) -DCMAKE_BUILD_TYPE=Release $(PYTHON_FLAGS) $(CMAKE_FLAGS) >/dev/null
 
 build: configure
 	@cmake --build $(BUILD_DIR) -j $(JOBS)
@@ -23,8 +23,13 @@ demo: build
 	$(BUILD_DIR)/rayfold render --size 1280x720 --frames 5 --compare --fold xy \
 	    -o out/demo.exr --png out/demo.png --stats out/demo.json
 
-test: build
+# The tests build the Python module too, in a venv under the build folder.
+test: PYTHON_FLAGS = -DRAYFOLD_PYTHON=ON -DPython_EXECUTABLE=$(CURDIR)/$(BUILD_DIR)/venv/bin/python
+test: python-env build
 	@cd $(BUILD_DIR) && ctest --output-on-failure -j 2
+
+python-env: deps
+	@tools/python-env.sh $(BUILD_DIR)/venv
 
 # Fold tables, speed against accuracy with Embree, and charts for the bundled
 # scene and every scene in ../shared/scenes, into out/bench/. Long (about

@@ -10,6 +10,7 @@ packages=(
   libglm-dev libtinygltf-dev nlohmann-json3-dev libstb-dev
   libopenexr-dev googletest libgtest-dev
   libembree-dev
+  python3-venv python3-dev
 )
 # Extra packages some targets ask for (for example the benchmark's peers).
 if [ "$#" -gt 0 ]; then packages+=("$@"); fi

@@ -35,6 +35,19 @@
 namespace rayfold::core {
 namespace {
 
+// The bundled scene: in the source tree for a build, beside the binary
+// (../share/rayfold) once installed.
+std::string default_scene() {
+  std::error_code ec;
+  if (std::filesystem::exists(RAYFOLD_DEFAULT_SCENE, ec)) return RAYFOLD_DEFAULT_SCENE;
+  const std::filesystem::path exe = std::filesystem::read_symlink("/proc/self/exe", ec);
+  if (!ec) {
+    const std::filesystem::path installed = exe.parent_path().parent_path() / "share" / "rayfold" / "atrium.glb";
+    if (std::filesystem::exists(installed, ec)) return installed.string();
+  }
+  return RAYFOLD_DEFAULT_SCENE;
+}
+
 const char* kUsage =
     "usage: rayfold <command> [options]\n"
     "\n"
@@ -85,7 +98,8 @@ const char* kRenderUsage =
     "  -o, --output F.exr     OpenEXR hit info: Z N.X N.Y N.Z U V InstanceID PrimitiveID;\n"
     "                         a frame field (out/frame_%04d.exr) writes every frame\n"
     "  --png F.png            normal-shaded preview, misses black\n"
-    "  --stats F.json         phase times and device buffer sizes\n"
+    "  --stats F.json         the camera, options, hit and miss counts, phase times, device buffers\n"
+    "  --ids F.json           the id manifest: InstanceID -> the file's node name and mesh\n"
     "  -q, --quiet            print nothing but errors (and no progress)\n"
     "  -v, --verbose          also the time of every stage, and of every frame\n"
     "Each output's extension must match its kind (.exr, .png, .json), so no two\n"
@@ -111,10 +125,12 @@ const char* kBenchUsage =
     "  --json F.json  --md F.md   also write the report\n"
     "exit code 3 when a folded image differs from the unfolded one\n";
 
-const char* kInfoUsage = "usage: rayfold info SCENE\n\nprints meshes, instances, triangles and bounds\n";
+const char* kInfoUsage =
+    "usage: rayfold info SCENE\n\nprints meshes, instances, triangles, bounds, the file's scenes and cameras, and\n"
+    "every instance id with its mesh and node name\n";
 
 struct RenderArgs {
-  std::string scene = RAYFOLD_DEFAULT_SCENE;
+  std::string scene = default_scene();
   int width = 1280, height = 720;
   std::optional<glm::dvec3> eye, look_at, up;
   std::optional<double> vfov;
@@ -122,7 +138,7 @@ struct RenderArgs {
   RendererOptions renderer;
   FrameOptions frame;
   int frames = 1;
-  std::string exr, png, stats;
+  std::string exr, png, stats, ids;
   bool quiet = false;
   bool verbose = false;
   bool compare = false;
@@ -264,6 +280,8 @@ RenderArgs parse_render(cli::Args& args) {
       r.png = args.value(a);
     } else if (a == "--stats") {
       r.stats = args.value(a);
+    } else if (a == "--ids") {
+      r.ids = args.value(a);
     } else if (a == "-q" || a == "--quiet") {
       r.quiet = true;
     } else if (a == "-v" || a == "--verbose") {
@@ -278,15 +296,64 @@ RenderArgs parse_render(cli::Args& args) {
     }
   }
   if (r.eye.has_value() != r.look_at.has_value()) throw UsageError("--eye and --look-at go together");
-  check_outputs({{"-o", &r.exr, ".exr"}, {"--png", &r.png, ".png"}, {"--stats", &r.stats, ".json"}});
+  check_outputs({{"-o", &r.exr, ".exr"}, {"--png", &r.png, ".png"}, {"--stats", &r.stats, ".json"},
+                 {"--ids", &r.ids, ".json"}});
   if (r.compare && r.frame.fold == FoldMode::none) r.frame.fold = FoldMode::xy;
   check_renderer_options(r.renderer);
   return r;
 }
 
-void write_stats(const std::string& path, const RenderArgs& args, const Scene& scene, const Renderer& renderer,
-                 const RenderResult& result, double load_ms) {
+// The EXR's record of the view and the instances (image_output.h).
+ExrMetadata exr_metadata(const Camera& camera, const Scene& scene, const RenderArgs& args) {
+  ExrMetadata m;
+  const Intrinsics k = intrinsics(camera);
+  m.view = ExrMetadata::View{camera.world_from_camera, k.fx, k.fy, k.cx, k.cy};
+  for (const Instance& i : scene.instances) m.instance_names.push_back(i.name);
+  m.strings = {{"version", RAYFOLD_VERSION},
+               {"scene", args.scene},
+               {"fold", fold_name(args.frame.fold)},
+               {"depth", "Z is the distance from the eye along the pixel's ray (not camera-space z); +inf on a miss"},
+               {"miss", "InstanceID and PrimitiveID are 4294967295 on a miss"}};
+  return m;
+}
+
+// The view as --stats and --ids record it: pose (OpenGL axes, row-major),
+// intrinsics, eye.
+nlohmann::json camera_json(const Camera& camera) {
+  const Intrinsics k = intrinsics(camera);
+  nlohmann::json m = nlohmann::json::array();
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c) m.push_back(camera.world_from_camera[c][r]);
+  const glm::dvec3 eye(camera.world_from_camera[3]);
+  return {{"width", camera.width},
+          {"height", camera.height},
+          {"eye", {eye.x, eye.y, eye.z}},
+          {"camera_to_world", m},
+          {"convention", "opengl: +x right, +y up, looking down -z; row-major"},
+          {"intrinsics", {{"fx", k.fx}, {"fy", k.fy}, {"cx", k.cx}, {"cy", k.cy}}},
+          {"pixel_centres", "at (x + 0.5, y + 0.5) from the top-left corner, y down"},
+          {"vfov_degrees", camera.vfov_degrees}};
+}
+
+// --ids: what each InstanceID of the outputs is in the file.
+void write_ids(const std::string& path, const RenderArgs& args, const Scene& scene) {
+  nlohmann::json instances = nlohmann::json::array();
+  for (size_t i = 0; i < scene.instances.size(); ++i) {
+    const Instance& inst = scene.instances[i];
+    instances.push_back(
+        {{"id", i}, {"name", inst.name}, {"mesh", inst.mesh}, {"mesh_name", scene.meshes[inst.mesh].name}});
+  }
+  const nlohmann::json j = {{"scene", args.scene},
+                            {"miss", RF_INVALID},
+                            {"note", "InstanceID indexes instances; PrimitiveID is the triangle within the mesh"},
+                            {"instances", instances}};
+  write_text_file(path, j.dump(2) + "\n");
+}
+
+void write_stats(const std::string& path, const RenderArgs& args, const Scene& scene, const Camera& camera,
+                 const Renderer& renderer, const RenderResult& result, double load_ms) {
   nlohmann::json j;
+  j["rayfold_version"] = RAYFOLD_VERSION;
   j["scene"] = args.scene;
   j["width"] = args.width;
   j["height"] = args.height;
@@ -299,7 +366,17 @@ void write_stats(const std::string& path, const RenderArgs& args, const Scene& s
   j["meshes"] = scene.meshes.size();
   j["triangles"] = scene.triangle_count();
   j["rays"] = result.rays;
-  j["fold"] = fold_name(args.frame.fold);
+  j["fold"] = fold_name(result.fold);
+  j["fold_requested"] = fold_name(args.frame.fold);
+  j["camera"] = camera_json(camera);
+  j["options"] = {{"cull", args.frame.cull},
+                  {"animate", args.frame.animate_frame >= 0},
+                  {"braid", args.renderer.braid.enabled ? args.renderer.braid.items_per_instance : 0},
+                  {"threads", args.renderer.threads},
+                  {"precision", args.renderer.precision == KernelPrecision::exact ? "exact" : "fast"}};
+  size_t hit = 0;
+  for (const rf_pixel_hit& h : result.hits) hit += h.instance != RF_INVALID;
+  j["pixels"] = {{"hit", hit}, {"miss", result.hits.size() - hit}};
   j["instances_after_culling"] = result.frame_stats.kept;
   j["instances_out_of_range"] = result.frame_stats.out_of_range;
   j["warnings"] = result.warnings;
@@ -383,7 +460,7 @@ int run_render(cli::Args& args) {
   }
   if (sequence && r.compare) throw UsageError("--compare: compares one frame; write a sequence without it");
   // Fail on unwritable outputs before any expensive work.
-  for (const std::string* out : {&r.exr, &r.png, &r.stats})
+  for (const std::string* out : {&r.exr, &r.png, &r.stats, &r.ids})
     if (!out->empty()) check_writable(frame_name("output", *out, 0, nullptr));
 
   // Progress on a terminal only; the table and warnings come after it.
@@ -418,10 +495,11 @@ int run_render(cli::Args& args) {
   }
   RenderResult result;
   std::vector<std::string> written;
+  const ExrMetadata metadata = exr_metadata(camera, scene, r);
   if (!sequence) {
     result = renderer.render(camera, r.frames, r.frame);
     progress.stage("writing");
-    if (!r.exr.empty()) write_exr(r.exr, result.hits, r.width, r.height);
+    if (!r.exr.empty()) write_exr(r.exr, result.hits, r.width, r.height, &metadata);
     if (!r.png.empty()) write_png(r.png, result.hits, r.width, r.height);
     for (const std::string* out : {&r.exr, &r.png})
       if (!out->empty()) written.push_back(*out);
@@ -432,10 +510,9 @@ int run_render(cli::Args& args) {
       if (o.animate_frame >= 0) o.animate_frame += f;
       renderer.render_into(result, camera, 1, o);
       times.push_back(result.frames.front());
-      for (auto [out, write] : {std::pair{&r.exr, &write_exr}, {&r.png, &write_png}}) {
-        if (out->empty()) continue;
-        write(frame_name("output", *out, f, nullptr), result.hits, r.width, r.height);
-      }
+      if (!r.exr.empty())
+        write_exr(frame_name("output", r.exr, f, nullptr), result.hits, r.width, r.height, &metadata);
+      if (!r.png.empty()) write_png(frame_name("output", r.png, f, nullptr), result.hits, r.width, r.height);
       progress.update(static_cast<size_t>(f + 1));
     }
     for (const std::string* out : {&r.exr, &r.png})
@@ -449,7 +526,8 @@ int run_render(cli::Args& args) {
   progress.clear();
   for (const std::string& w : result.warnings) std::fprintf(stderr, "warning: %s (docs/exactness.md)\n", w.c_str());
 
-  if (!r.stats.empty()) write_stats(r.stats, r, scene, renderer, result, load_ms);
+  if (!r.stats.empty()) write_stats(r.stats, r, scene, camera, renderer, result, load_ms);
+  if (!r.ids.empty()) write_ids(r.ids, r, scene);
 
   if (!r.quiet) {
     const FrameTimes& m = result.median;
@@ -485,7 +563,8 @@ int run_render(cli::Args& args) {
     }
     for (const std::string& w : written) std::printf("  wrote %s\n", w.c_str());
     if (!r.stats.empty()) std::printf("  wrote %s\n", r.stats.c_str());
-    if (r.exr.empty() && r.png.empty() && r.stats.empty())
+    if (!r.ids.empty()) std::printf("  wrote %s\n", r.ids.c_str());
+    if (r.exr.empty() && r.png.empty() && r.stats.empty() && r.ids.empty())
       std::printf("  nothing written (-o F.exr, --png F.png or --stats F.json write the results)\n");
   }
   if (unfolded && count_differing_pixels(unfolded->hits, result.hits) != 0) {
@@ -531,12 +610,16 @@ int run_info(cli::Args& args) {
     else
       std::printf("  camera %-4zu node %d '%s': orthographic (not rendered)\n", i, c.node, c.name.c_str());
   }
+  // The ids the G-buffer's InstanceID channel holds (render --ids writes them as JSON).
+  std::printf("  instance ids (InstanceID, mesh, node name):\n");
+  for (size_t i = 0; i < scene.instances.size(); ++i)
+    std::printf("    %-6zu mesh %-5u %s\n", i, scene.instances[i].mesh, scene.instances[i].name.c_str());
   return 0;
 }
 
 int run_bench_command(cli::Args& args) {
   BenchOptions opt;
-  opt.scene = RAYFOLD_DEFAULT_SCENE;
+  opt.scene = default_scene();
   std::string json, md;
   bool have_scene = false;
   while (!args.done()) {

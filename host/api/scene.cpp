@@ -27,6 +27,12 @@ void check_instance(const detail::SceneState& s, uint32_t instance) {
                                  std::to_string(s.scene.instances.size()) + ")");
 }
 
+void check_mesh(const detail::SceneState& s, uint32_t mesh) {
+  if (mesh >= s.scene.meshes.size())
+    throw InputError(s.path, "mesh " + std::to_string(mesh) + " does not exist (the scene has " +
+                                 std::to_string(s.scene.meshes.size()) + ")");
+}
+
 }  // namespace
 
 Scene::Scene() : state_(std::make_shared<detail::SceneState>()) {}
@@ -79,9 +85,7 @@ uint32_t Scene::add_mesh(const std::vector<float>& positions, const std::vector<
 }
 
 uint32_t Scene::add_instance(uint32_t mesh, const Matrix4& world_from_object, const std::string& name) {
-  if (mesh >= state_->scene.meshes.size())
-    throw InputError("", "instance '" + name + "': mesh " + std::to_string(mesh) + " does not exist (the scene has " +
-                             std::to_string(state_->scene.meshes.size()) + ")");
+  check_mesh(*state_, mesh);
   detail::check_affine(world_from_object, "instance '" + name + "': world_from_object");
   core::Instance inst;
   inst.mesh = mesh;
@@ -124,6 +128,19 @@ size_t Scene::triangle_count() const { return state_->scene.triangle_count(); }
 uint32_t Scene::instance_mesh(uint32_t instance) const {
   check_instance(*state_, instance);
   return state_->scene.instances[instance].mesh;
+}
+
+std::vector<float> Scene::mesh_positions(uint32_t mesh) const {
+  check_mesh(*state_, mesh);
+  std::vector<float> out;
+  out.reserve(3 * state_->scene.meshes[mesh].positions.size());
+  for (const glm::vec3& p : state_->scene.meshes[mesh].positions) out.insert(out.end(), {p.x, p.y, p.z});
+  return out;
+}
+
+std::vector<uint32_t> Scene::mesh_indices(uint32_t mesh) const {
+  check_mesh(*state_, mesh);
+  return state_->scene.meshes[mesh].indices;
 }
 
 std::vector<std::string> Scene::instance_names() const {

@@ -294,15 +294,19 @@ NB_MODULE(_core, m) {
           "__init__",
           [](PyScene* self, std::optional<std::filesystem::path> path, int scene, int camera,
              std::optional<double> time) {
-            new (self) PyScene();
+            // Constructed only once loading succeeded: a throwing __init__
+            // leaves nothing behind to destroy.
+            rayfold::Scene loaded;
             if (path) {
               rayfold::LoadOptions o;
               o.scene = scene;
               o.camera = camera;
               o.time = time ? *time : NAN;
               nb::gil_scoped_release release;
-              self->scene = rayfold::Scene::load(path->string(), o);
+              loaded = rayfold::Scene::load(path->string(), o);
             }
+            new (self) PyScene();
+            self->scene = std::move(loaded);
           },
           "path"_a = nb::none(), "scene"_a = -1, "camera"_a = -1, "time"_a = nb::none(),
           "Loads a .gltf or .glb file (scene, camera: the file's indices; time: seconds into its animations), or "
@@ -342,6 +346,24 @@ NB_MODULE(_core, m) {
       .def(
           "transform", [](PyScene& s, uint32_t instance) { return matrix_to_numpy(s.scene.transform(instance)); },
           "instance"_a)
+      .def(
+          "instance_mesh", [](PyScene& s, uint32_t instance) { return s.scene.instance_mesh(instance); }, "instance"_a)
+      .def(
+          "mesh_positions",
+          [](PyScene& s, uint32_t mesh) {
+            std::vector<float> p = s.scene.mesh_positions(mesh);
+            const size_t n = p.size() / 3;
+            return to_numpy(std::move(p), {n, 3});
+          },
+          "mesh"_a, "(N, 3) float32 object-space positions")
+      .def(
+          "mesh_triangles",
+          [](PyScene& s, uint32_t mesh) {
+            std::vector<uint32_t> i = s.scene.mesh_indices(mesh);
+            const size_t n = i.size() / 3;
+            return to_numpy(std::move(i), {n, 3});
+          },
+          "mesh"_a, "(M, 3) uint32 vertex indices; primitive_id indexes the rows")
       .def_prop_ro("instance_names", [](PyScene& s) { return s.scene.instance_names(); })
       .def_prop_ro("camera_names", [](PyScene& s) { return s.scene.camera_names(); })
       .def_prop_ro("warnings", [](PyScene& s) { return s.scene.warnings(); })
@@ -371,10 +393,9 @@ NB_MODULE(_core, m) {
           "__init__",
           [](PyRenderer* self, std::shared_ptr<PyScene> scene, const std::string& backend, const std::string& device,
              const std::string& kernel, unsigned threads) {
-            new (self) PyRenderer();
-            self->scene = scene;
             const rayfold::RendererOptions o = renderer_options(backend, device, kernel, threads);
-            self->renderer = locked(*scene, [&] { return std::make_unique<rayfold::Renderer>(scene->scene, o); });
+            auto renderer = locked(*scene, [&] { return std::make_unique<rayfold::Renderer>(scene->scene, o); });
+            new (self) PyRenderer{std::move(scene), std::move(renderer)};
           },
           "scene"_a, "backend"_a = "opencl", "device"_a = "", "kernel"_a = "auto", "threads"_a = 0)
       .def(

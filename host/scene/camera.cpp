@@ -96,8 +96,9 @@ Camera make_camera(const Xform& world_from_camera, const Intrinsics& k, int widt
     if (!(std::fabs(eye[i]) <= kMaxWorldCoordinate))
       throw InputError("", "eye must lie within world coordinates of +-8.5e37 (2^126)");
   // Datasets store rotations rounded to float: accept what is rigid to 1e-5
-  // and make it exactly orthonormal (Gram-Schmidt from the view axis), so that
-  // depths are distances.
+  // and make it orthonormal (Gram-Schmidt from the view axis), so that depths
+  // are distances. A rotation orthonormal to double rounding (a pose this
+  // library wrote) is kept bit for bit: the same view renders the same bits.
   glm::dvec3 axis[3] = {glm::dvec3(world_from_camera[0]), glm::dvec3(world_from_camera[1]),
                         glm::dvec3(world_from_camera[2])};
   double worst = 0.0;
@@ -111,9 +112,12 @@ Camera make_camera(const Xform& world_from_camera, const Intrinsics& k, int widt
   }
   if (glm::dot(glm::cross(axis[0], axis[1]), axis[2]) < 0.0)
     throw InputError("", "camera-to-world rotation is a mirror (determinant -1)");
-  const glm::dvec3 w = glm::normalize(axis[2]);
-  const glm::dvec3 u = glm::normalize(axis[0] - glm::dot(axis[0], w) * w);
-  const glm::dvec3 v = glm::cross(w, u);
+  glm::dvec3 u = axis[0], v = axis[1], w = axis[2];
+  if (worst > 1e-14) {
+    w = glm::normalize(axis[2]);
+    u = glm::normalize(axis[0] - glm::dot(axis[0], w) * w);
+    v = glm::cross(w, u);
+  }
 
   Camera cam;
   cam.width = width;

@@ -5,7 +5,14 @@
 #include <cstdint>
 #include <thread>
 
+#include <glm/matrix.hpp>
+
 #include <ImfChannelList.h>
+#include <ImfDoubleAttribute.h>
+#include <ImfMatrixAttribute.h>
+#include <ImfStandardAttributes.h>
+#include <ImfStringAttribute.h>
+#include <ImfStringVectorAttribute.h>
 #include <ImfFrameBuffer.h>
 #include <ImfHeader.h>
 #include <ImfInputFile.h>
@@ -44,9 +51,48 @@ Imf::FrameBuffer frame_buffer(const rf_pixel_hit* base, int width) {
   return fb;
 }
 
+// A column-vector transform as Imath's row-vector matrix (the transpose).
+template <class M, class T>
+M imath_matrix(const glm::dmat4& m) {
+  M out;
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c) out[c][r] = static_cast<T>(m[c][r]);
+  return out;
+}
+
+void add_metadata(Imf::Header& header, const ExrMetadata& meta, int width, int height) {
+  if (meta.view) {
+    const ExrMetadata::View& v = *meta.view;
+    // RenderMan's camera space is OpenGL's with z negated.
+    glm::dmat4 flip_z(1.0);
+    flip_z[2][2] = -1.0;
+    const glm::dmat4 camera_from_world = flip_z * glm::inverse(v.world_from_camera);
+    // (x, y, z) in camera space -> pixel (fx x / z + cx, cy - fy y / z) over
+    // the image size; z_ndc = 1 / z keeps the matrix invertible.
+    glm::dmat4 ndc_from_camera(0.0);
+    ndc_from_camera[0][0] = v.fx / width;
+    ndc_from_camera[2][0] = v.cx / width;
+    ndc_from_camera[1][1] = -v.fy / height;
+    ndc_from_camera[2][1] = v.cy / height;
+    ndc_from_camera[3][2] = 1.0;
+    ndc_from_camera[2][3] = 1.0;
+    Imf::addWorldToCamera(header, imath_matrix<Imath::M44f, float>(camera_from_world));
+    Imf::addWorldToNDC(header, imath_matrix<Imath::M44f, float>(ndc_from_camera * camera_from_world));
+    header.insert("rayfold:cameraToWorld", Imf::M44dAttribute(imath_matrix<Imath::M44d, double>(v.world_from_camera)));
+    header.insert("rayfold:fx", Imf::DoubleAttribute(v.fx));
+    header.insert("rayfold:fy", Imf::DoubleAttribute(v.fy));
+    header.insert("rayfold:cx", Imf::DoubleAttribute(v.cx));
+    header.insert("rayfold:cy", Imf::DoubleAttribute(v.cy));
+  }
+  if (!meta.instance_names.empty())
+    header.insert("rayfold:instanceNames", Imf::StringVectorAttribute(meta.instance_names));
+  for (const auto& [name, value] : meta.strings) header.insert("rayfold:" + name, Imf::StringAttribute(value));
+}
+
 }  // namespace
 
-void write_exr(const std::string& path, const std::vector<rf_pixel_hit>& hits, int width, int height) {
+void write_exr(const std::string& path, const std::vector<rf_pixel_hit>& hits, int width, int height,
+               const ExrMetadata* metadata) {
   RF_CHECK(hits.size() == static_cast<size_t>(width) * height, "hit buffer does not match the image size");
   // ZIP compression of a 1280x720 G-buffer takes ten times the trace on one
   // thread; OpenEXR compresses blocks in parallel on its global pool
@@ -61,6 +107,7 @@ void write_exr(const std::string& path, const std::vector<rf_pixel_hit>& hits, i
     Imf::Header header(width, height);
     header.compression() = Imf::ZIP_COMPRESSION;
     for (const Channel& c : kChannels) header.channels().insert(c.name, Imf::Channel(c.type));
+    if (metadata) add_metadata(header, *metadata, width, height);
     Imf::OutputFile out(file.temp_path().c_str(), header);
     out.setFrameBuffer(frame_buffer(hits.data(), width));
     out.writePixels(height);

@@ -1,17 +1,44 @@
 // Writing hit info: the OpenEXR G-buffer and a PNG preview of the normals.
 #pragma once
 
+#include <optional>
 #include <string>
+#include <utility>
 #include <vector>
+
+#include <glm/mat4x4.hpp>
 
 #include "device_layout.h"
 
 namespace rayfold::core {
 
+// What an EXR records besides the pixels, so that depth can be turned back
+// into positions and ids into the file's nodes.
+struct ExrMetadata {
+  struct View {
+    glm::dmat4 world_from_camera{1.0};  // rigid; camera +x right, +y up, looking down -z
+    double fx = 0.0, fy = 0.0, cx = 0.0, cy = 0.0;  // pixels, pixel centres at +0.5
+  };
+  std::optional<View> view;
+  std::vector<std::string> instance_names;                   // by InstanceID
+  std::vector<std::pair<std::string, std::string>> strings;  // more string attributes, named "rayfold:<first>"
+};
+
 // One part, channels Z, N.X, N.Y, N.Z, U, V (FLOAT), InstanceID, PrimitiveID
-// (UINT). Throws InputError naming the file on failure; never leaves a
-// partial file.
-void write_exr(const std::string& path, const std::vector<rf_pixel_hit>& hits, int width, int height);
+// (UINT). With metadata, the header also carries:
+//   worldToCamera, worldToNDC   OpenEXR's standard attributes (M44f, Imath's
+//                               row vectors: p' = p * M). Camera space is
+//                               RenderMan's, as OpenEXR specifies: +x right,
+//                               +y up, +z forward; NDC x and y run 0..1 from
+//                               the image's top-left corner, NDC z is 1 / z.
+//   rayfold:cameraToWorld       M44d, the same pose in double, OpenGL axes
+//                               (-z forward), row vectors
+//   rayfold:fx, fy, cx, cy      double, the intrinsics in pixels
+//   rayfold:instanceNames       string vector indexed by InstanceID
+//   rayfold:<name>              each of metadata.strings
+// Throws InputError naming the file on failure; never leaves a partial file.
+void write_exr(const std::string& path, const std::vector<rf_pixel_hit>& hits, int width, int height,
+               const ExrMetadata* metadata = nullptr);
 
 // Normals mapped to colour ((n + 1) / 2), misses black.
 void write_png(const std::string& path, const std::vector<rf_pixel_hit>& hits, int width, int height);

@@ -55,6 +55,11 @@ class Scene {
   size_t instance_count() const;
   size_t triangle_count() const;  // over instances, as rendered
   uint32_t instance_mesh(uint32_t instance) const;
+  // A mesh's object-space positions (x, y, z per vertex) and triangles (three
+  // indices each, primitive_id indexing triangles), as stored: to look a hit
+  // up. Throws InputError for a bad index.
+  std::vector<float> mesh_positions(uint32_t mesh) const;
+  std::vector<uint32_t> mesh_indices(uint32_t mesh) const;
   // The node name of each instance (glTF: the node's name, "node N" when
   // unnamed, "<node>[i]" for GPU instances), indexed by instance_id.
   std::vector<std::string> instance_names() const;

@@ -1,0 +1,232 @@
+"""The Python module against the CLI, against the scene's own triangles, and
+against itself written another way; and its errors."""
+import subprocess
+import threading
+import time
+
+import numpy as np
+import pytest
+
+import rayfold
+
+PLANES = ["depth", "normal", "uv", "instance_id", "primitive_id"]
+
+
+def bits(a):
+    """An array's bits, so that NaN, -0 and inf compare exactly."""
+    return a.view(np.uint32) if a.dtype == np.float32 else a
+
+
+def assert_same_bits(a, b):
+    for name in PLANES:
+        x, y = bits(getattr(a, name)), bits(getattr(b, name))
+        differ = np.argwhere(x != y)
+        assert differ.size == 0, f"{name}: {len(differ)} values differ, first at {differ[0].tolist()}"
+
+
+@pytest.fixture(scope="module")
+def atrium(atrium_path):
+    return rayfold.Scene(atrium_path)
+
+
+def test_arrays_have_the_documented_shapes_and_types(atrium):
+    camera = atrium.default_camera(64, 36)
+    g = atrium.render(camera, fold="xy")
+    assert g.depth.shape == (36, 64) and g.depth.dtype == np.float32
+    assert g.normal.shape == (36, 64, 3) and g.normal.dtype == np.float32
+    assert g.uv.shape == (36, 64, 2) and g.uv.dtype == np.float32
+    assert g.instance_id.shape == (36, 64) and g.instance_id.dtype == np.uint32
+    assert g.primitive_id.shape == (36, 64) and g.primitive_id.dtype == np.uint32
+    # The planes wrap the C++ buffers (no copy): numpy does not own them.
+    for name in PLANES:
+        a = getattr(g, name)
+        assert a.flags.c_contiguous and not a.flags.owndata, name
+    miss = g.instance_id == rayfold.MISS
+    assert 0 < miss.sum() < miss.size
+    assert np.all(np.isinf(g.depth[miss])) and np.all(np.isfinite(g.depth[~miss]))
+    assert np.all(g.primitive_id[miss] == rayfold.MISS)
+    assert g.hits == int((~miss).sum())
+    assert len(atrium.instance_names) == atrium.instance_count
+    assert int(g.instance_id[~miss].max()) < atrium.instance_count
+
+
+def test_every_fold_backend_and_kernel_gives_the_same_bits(atrium):
+    camera = atrium.default_camera(48, 30)
+    ref = atrium.render(camera, backend="cpu")
+    for backend, kernel in [("cpu", "auto"), ("opencl", "tile"), ("opencl", "single")]:
+        for fold in ["none", "y", "x", "xy"]:
+            g = atrium.render(camera, fold=fold, backend=backend, kernel=kernel)
+            assert g.fold == fold
+            assert_same_bits(ref, g)
+
+
+def test_python_equals_the_cli_exr_bit_for_bit(atrium_path, cli, tmp_path):
+    openexr = pytest.importorskip("OpenEXR")
+    out = tmp_path / "cli.exr"
+    subprocess.run([cli, "render", atrium_path, "--size", "80x45", "--fold", "xy", "-o", str(out), "-q"], check=True)
+    scene = rayfold.Scene(atrium_path)
+    g = scene.render(scene.default_camera(80, 45), fold="xy")
+    exr = openexr.File(str(out))
+    ch = {name: c.pixels for name, c in exr.channels().items()}
+    np.testing.assert_array_equal(bits(ch["Z"]), bits(g.depth))
+    for k, name in enumerate(["N.X", "N.Y", "N.Z"]):
+        np.testing.assert_array_equal(bits(ch[name]), bits(np.ascontiguousarray(g.normal[..., k])))
+    np.testing.assert_array_equal(bits(ch["U"]), bits(np.ascontiguousarray(g.uv[..., 0])))
+    np.testing.assert_array_equal(bits(ch["V"]), bits(np.ascontiguousarray(g.uv[..., 1])))
+    np.testing.assert_array_equal(ch["InstanceID"], g.instance_id)
+    np.testing.assert_array_equal(ch["PrimitiveID"], g.primitive_id)
+    # The header's camera is the one Python used, and its names are the scene's.
+    h = exr.header()
+    cam = g.camera
+    np.testing.assert_allclose(h["rayfold:cameraToWorld"].T, cam.camera_to_world, rtol=0, atol=1e-12)
+    fx, fy, cx, cy = cam.intrinsics
+    assert [np.ravel(h["rayfold:" + k])[0] for k in ["fx", "fy", "cx", "cy"]] == [fx, fy, cx, cy]
+    assert list(h["rayfold:instanceNames"]) == scene.instance_names
+    # worldToNDC (row vectors) takes each hit to its own pixel centre.
+    hit = np.argwhere(g.instance_id != rayfold.MISS)[::97]
+    dirs = cam.ray_directions()
+    for y, x in hit:
+        p = np.asarray(cam.eye) + g.depth[y, x] * dirs[y, x]
+        ndc = np.append(p, 1.0) @ h["worldToNDC"].astype(np.float64)
+        assert abs(ndc[0] / ndc[3] * 80 - (x + 0.5)) < 1e-2 and abs(ndc[1] / ndc[3] * 45 - (y + 0.5)) < 1e-2
+
+
+def test_depth_reprojected_with_the_camera_lands_on_the_hit_triangle(atrium):
+    camera = rayfold.Camera.look_at(eye=(-12.0, 4.0, 6.0), target=(3.0, 1.5, -2.0), up=(0, 1, 0), vfov_deg=55,
+                                    width=120, height=70)
+    g = atrium.render(camera, fold="xy")
+    dirs = camera.ray_directions()
+    eye = np.asarray(camera.eye)
+    ys, xs = np.nonzero(g.instance_id != rayfold.MISS)
+    assert len(ys) > 1000
+    worst = 0.0
+    for y, x in zip(ys[::7], xs[::7]):
+        i, t = int(g.instance_id[y, x]), int(g.primitive_id[y, x])
+        mesh = atrium.instance_mesh(i)
+        verts = atrium.mesh_positions(mesh)[atrium.mesh_triangles(mesh)[t]].astype(np.float64)
+        world = (atrium.transform(i) @ np.c_[verts, np.ones(3)].T).T[:, :3]
+        u, v = g.uv[y, x]
+        on_triangle = (1 - u - v) * world[0] + u * world[1] + v * world[2]
+        from_depth = eye + g.depth[y, x] * dirs[y, x]
+        worst = max(worst, np.linalg.norm(on_triangle - from_depth) / g.depth[y, x])
+        # The normal is the triangle's, unit length.
+        n = np.cross(world[1] - world[0], world[2] - world[0])
+        assert abs(abs(np.dot(n / np.linalg.norm(n), g.normal[y, x])) - 1) < 1e-4
+    assert worst < 1e-4, worst
+
+
+def test_matrix_cameras_in_both_conventions_equal_the_look_at_camera(atrium):
+    a = atrium.default_camera(64, 40)
+    g = atrium.render(a, fold="xy")
+    fx, fy, cx, cy = a.intrinsics
+    for convention in ["opencv", "opengl"]:
+        b = rayfold.Camera.from_matrix(a.camera_to_world_in(convention), fx, fy, cx, cy, 64, 40,
+                                       convention=convention)
+        np.testing.assert_array_equal(b.camera_to_world, a.camera_to_world)
+        assert_same_bits(g, atrium.render(b, fold="xy"))
+    cv, gl = a.camera_to_world_in("opencv"), a.camera_to_world
+    np.testing.assert_array_equal(cv[:, 1:3], -gl[:, 1:3])
+    np.testing.assert_allclose(a.world_to_camera @ a.camera_to_world, np.eye(4), rtol=0, atol=1e-15)
+
+
+def test_off_grid_principal_point_keeps_its_rays_and_drops_only_that_fold(atrium):
+    base = atrium.default_camera(64, 40)
+    c = rayfold.Camera.from_matrix(base.camera_to_world_in("opencv"), 70.0, 65.0, 30.3, 20.0, 64, 40,
+                                   convention="opencv")
+    assert not c.can_fold_columns and c.can_fold_rows
+    g = atrium.render(c, fold="xy")
+    assert g.fold == "x"
+    assert_same_bits(atrium.render(c, backend="cpu"), g)
+    # Pixel (x, y)'s ray is OpenCV's pinhole ray through (x + 0.5, y + 0.5).
+    m = c.camera_to_world_in("opencv")
+    for x, y in [(0, 0), (63, 39), (17, 5)]:
+        d = m[:3, :3] @ np.array([(x + 0.5 - 30.3) / 70.0, (y + 0.5 - 20.0) / 65.0, 1.0])
+        np.testing.assert_allclose(c.ray_directions()[y, x], d / np.linalg.norm(d), atol=1e-12)
+
+
+def triangle_scene():
+    s = rayfold.Scene()
+    quad = s.add_mesh(np.array([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]], np.float32), [[0, 1, 2], [0, 2, 3]],
+                      name="quad")
+    s.add_instance(quad, np.eye(4), name="back")
+    front = np.eye(4)
+    front[:3, 3] = (0.5, 0.0, 1.0)
+    s.add_instance(quad, np.diag([0.5, 0.5, 1.0, 1.0]) @ np.eye(4) + (front - np.eye(4)), name="front")
+    return s
+
+
+def test_moving_an_instance_equals_a_scene_built_with_it_there():
+    camera = rayfold.Camera.look_at((0.3, 0.2, 5.0), (0, 0, 0), (0, 1, 0), 45, 50, 40)
+    moving = triangle_scene()
+    renderer = rayfold.Renderer(moving, backend="opencl")
+    first = renderer.render(camera, "xy")
+    assert set(np.unique(first.instance_id)) == {0, 1, rayfold.MISS}
+    for step in range(3):
+        m = moving.transform(1)
+        m[:3, 3] += (-0.3, 0.1 * step, 0.2)
+        moving.set_transform(1, m)
+        fresh = triangle_scene()
+        fresh.set_transform(1, m)
+        assert_same_bits(rayfold.Renderer(fresh, backend="cpu").render(camera, "xy"), renderer.render(camera, "xy"))
+
+
+def test_bad_input_raises_with_the_file_and_the_reason(tmp_path, atrium):
+    with pytest.raises(rayfold.InputError, match="no_such.glb"):
+        rayfold.Scene(tmp_path / "no_such.glb")
+    broken = tmp_path / "broken.gltf"
+    broken.write_text('{"asset": {"version": "2.0"}, "meshes": {"not": "an array"}}')
+    with pytest.raises(ValueError, match="broken.gltf"):
+        rayfold.Scene(str(broken))
+    camera = atrium.default_camera(8, 8)
+    with pytest.raises(rayfold.InputError, match="fold must be"):
+        atrium.render(camera, fold="z")
+    with pytest.raises(rayfold.InputError, match="backend must be"):
+        atrium.render(camera, backend="gpu")
+    with pytest.raises(rayfold.InputError, match="4x4"):
+        rayfold.Camera.from_matrix(np.eye(3), 10, 10, 4, 4, 8, 8, convention="opencv")
+    with pytest.raises(rayfold.InputError, match="convention must be"):
+        rayfold.Camera.from_matrix(np.eye(4), 10, 10, 4, 4, 8, 8, convention="directx")
+    with pytest.raises(TypeError):
+        rayfold.Camera.from_matrix(np.eye(4), 10, 10, 4, 4, 8, 8)  # the convention must be named
+    with pytest.raises(rayfold.InputError, match="orthonormal"):
+        rayfold.Camera.from_matrix(np.diag([2.0, 1, 1, 1]), 10, 10, 4, 4, 8, 8, convention="opencv")
+    with pytest.raises(rayfold.InputError, match="distinct"):
+        rayfold.Camera.look_at((0, 0, 0), (0, 0, 0), (0, 1, 0), 60, 8, 8)
+    with pytest.raises(rayfold.InputError, match="out of range"):
+        rayfold.Camera.look_at((0, 0, 1), (0, 0, 0), (0, 1, 0), 60, 0, 8)
+    s = rayfold.Scene()
+    with pytest.raises(rayfold.InputError, match="shape"):
+        s.add_mesh(np.zeros((4, 2)), [0, 1, 2])
+    with pytest.raises(rayfold.InputError, match="4 vertices"):
+        s.add_mesh(np.zeros((4, 3)), [0, 1, 4])
+    with pytest.raises(rayfold.InputError, match="not a vertex index"):
+        s.add_mesh(np.zeros((4, 3)), [0, 1, -1])
+    with pytest.raises(rayfold.InputError, match="not an array of numbers"):
+        s.add_mesh("abc", [0, 1, 2])
+    with pytest.raises(rayfold.InputError, match="does not exist"):
+        s.add_instance(5, np.eye(4))
+    with pytest.raises(rayfold.RuntimeFailure, match="no OpenCL device matches"):
+        rayfold.Renderer(atrium, device="no such device")
+    assert issubclass(rayfold.InputError, ValueError) and issubclass(rayfold.RuntimeFailure, RuntimeError)
+
+
+def test_rendering_releases_the_gil(atrium):
+    camera = atrium.default_camera(1280, 720)
+    atrium.render(camera, backend="cpu", threads=1)  # trees built before timing
+    done = threading.Event()
+
+    def work():
+        for _ in range(3):
+            atrium.render(camera, backend="cpu", threads=1)
+        done.set()
+
+    t = threading.Thread(target=work)
+    start = time.perf_counter()
+    t.start()
+    spins = 0
+    while not done.is_set():
+        spins += 1
+    t.join()
+    # With the GIL held for the renders, this loop would get a few turns
+    # between them; released, it runs the whole time.
+    assert spins > 10000, (spins, time.perf_counter() - start)

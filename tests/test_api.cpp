@@ -1,0 +1,268 @@
+// The public API (rayfold/rayfold.h) against the core it wraps: scenes built
+// in memory against the same geometry traced by brute force, cameras given
+// as matrices and intrinsics against the same view given by look-at, moved
+// instances against a scene built with them in place, and its errors.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+
+#include "rayfold/rayfold.h"
+#include "test_util.h"
+
+namespace rayfold {
+namespace {
+
+using core::testing::compare_hits;
+
+// The core scene rebuilt through the public API, mesh for mesh and instance
+// for instance.
+Scene to_public(const core::Scene& s) {
+  Scene out;
+  for (const core::Mesh& m : s.meshes) {
+    std::vector<float> p;
+    for (const glm::vec3& v : m.positions) p.insert(p.end(), {v.x, v.y, v.z});
+    out.add_mesh(p, m.indices, m.name);
+  }
+  for (const core::Instance& i : s.instances) {
+    Matrix4 m;
+    for (int r = 0; r < 4; ++r)
+      for (int c = 0; c < 4; ++c) m[4 * r + c] = i.world_from_object[c][r];
+    out.add_instance(i.mesh, m, i.name);
+  }
+  return out;
+}
+
+// The G-buffer's planes back in the device's pixel layout.
+std::vector<rf_pixel_hit> to_hits(const GBuffer& g) {
+  std::vector<rf_pixel_hit> h(g.depth.size());
+  for (size_t i = 0; i < h.size(); ++i)
+    h[i] = rf_pixel_hit{g.depth[i],  g.normal[3 * i], g.normal[3 * i + 1], g.normal[3 * i + 2],
+                        g.uv[2 * i], g.uv[2 * i + 1], g.instance_id[i],    g.primitive_id[i]};
+  return h;
+}
+
+std::vector<rf_pixel_hit> brute(const core::Scene& s, const Camera& camera) {
+  const core::SceneData data = core::prepare_scene(s);
+  return core::testing::brute_force(s, data, camera.core());
+}
+
+const Fold kFolds[] = {Fold::none, Fold::y, Fold::x, Fold::xy};
+
+TEST(Api, InMemorySceneMatchesBruteForceInEveryBackendKernelAndFold) {
+  core::testing::Rng rng(7);
+  const core::Scene soup = core::testing::random_scene(rng, 3, 7, 40);
+  const Scene scene = to_public(soup);
+  ASSERT_EQ(scene.instance_count(), soup.instances.size());
+  for (int view = 0; view < 3; ++view) {
+    const core::CameraSpec spec = core::testing::random_camera(rng, soup.world_bounds());
+    const Camera camera = Camera::look_at({spec.eye.x, spec.eye.y, spec.eye.z},
+                                          {spec.look_at.x, spec.look_at.y, spec.look_at.z},
+                                          {spec.up.x, spec.up.y, spec.up.z}, spec.vfov_degrees, 37, 23);
+    const std::vector<rf_pixel_hit> expected = brute(soup, camera);
+    for (Backend backend : {Backend::cpu, Backend::opencl})
+      for (Kernel kernel : {Kernel::tile, Kernel::single}) {
+        if (backend == Backend::cpu && kernel == Kernel::single) continue;
+        RendererOptions o;
+        o.backend = backend;
+        o.kernel = kernel;
+        Renderer renderer(scene, o);
+        for (Fold f : kFolds) {
+          const GBuffer g = renderer.render(camera, f);
+          EXPECT_EQ(g.fold, f);
+          EXPECT_EQ(compare_hits(expected, to_hits(g), 37), "")
+              << "view " << view << " backend " << int(backend) << " kernel " << int(kernel) << " fold " << int(f);
+        }
+      }
+  }
+}
+
+TEST(Api, MatrixCameraInEitherConventionEqualsTheLookAtCamera) {
+  const Scene scene = Scene::load(RAYFOLD_SOURCE_DIR "/scenes/atrium.glb");
+  const Camera a = scene.default_camera(64, 36);
+  Renderer renderer(scene);
+  const GBuffer ga = renderer.render(a, Fold::xy);
+  for (CameraConvention c : {CameraConvention::opengl, CameraConvention::opencv}) {
+    const Camera b = Camera::from_matrix(a.camera_to_world(c), a.intrinsics(), 64, 36, c);
+    const Intrinsics ka = a.intrinsics(), kb = b.intrinsics();
+    EXPECT_EQ(ka.fx, kb.fx);
+    EXPECT_EQ(ka.cx, 32.0);
+    EXPECT_EQ(ka.cy, 18.0);
+    EXPECT_EQ(kb.cx, ka.cx);
+    EXPECT_EQ(kb.cy, ka.cy);
+    EXPECT_TRUE(b.can_fold_columns() && b.can_fold_rows());
+    const GBuffer gb = renderer.render(b, Fold::xy);
+    // The matrix went through double unchanged, so the rays are the same floats.
+    EXPECT_EQ(compare_hits(to_hits(ga), to_hits(gb), 64), "") << "convention " << int(c);
+  }
+  // OpenCV's axes are OpenGL's with y and z negated.
+  const Matrix4 gl = a.camera_to_world(CameraConvention::opengl), cv = a.camera_to_world(CameraConvention::opencv);
+  for (int r = 0; r < 3; ++r) {
+    EXPECT_EQ(cv[4 * r], gl[4 * r]);
+    EXPECT_EQ(cv[4 * r + 1], -gl[4 * r + 1]);
+    EXPECT_EQ(cv[4 * r + 2], -gl[4 * r + 2]);
+    EXPECT_EQ(cv[4 * r + 3], gl[4 * r + 3]);
+  }
+}
+
+TEST(Api, OffGridPrincipalPointIsExactAndFoldsOnlyTheAxisThatAllows) {
+  core::testing::Rng rng(11);
+  const core::Scene soup = core::testing::random_scene(rng, 2, 5, 60);
+  const Scene scene = to_public(soup);
+  const core::CameraSpec spec = core::testing::random_camera(rng, soup.world_bounds());
+  const Camera look = Camera::look_at({spec.eye.x, spec.eye.y, spec.eye.z},
+                                      {spec.look_at.x, spec.look_at.y, spec.look_at.z}, {spec.up.x, spec.up.y, spec.up.z},
+                                      spec.vfov_degrees, 41, 29);
+  // fx != fy, cx off the half-pixel grid, cy on it (one pixel off centre).
+  const Intrinsics k{31.7, 29.3, 20.5 + 0.3, 14.5 + 1.0};
+  const Camera camera = Camera::from_matrix(look.camera_to_world(), k, 41, 29, CameraConvention::opengl);
+  EXPECT_FALSE(camera.can_fold_columns());
+  EXPECT_TRUE(camera.can_fold_rows());
+  const Intrinsics back = camera.intrinsics();
+  EXPECT_NEAR(back.fx, k.fx, 1e-12);
+  EXPECT_NEAR(back.fy, k.fy, 1e-12);
+  EXPECT_NEAR(back.cx, k.cx, 1e-12);
+  EXPECT_NEAR(back.cy, k.cy, 1e-12);
+  const std::vector<rf_pixel_hit> expected = brute(soup, camera);
+  size_t hits = 0;
+  for (const rf_pixel_hit& h : expected) hits += h.instance != RF_INVALID;
+  EXPECT_GT(hits, 0u);
+  for (Backend backend : {Backend::cpu, Backend::opencl}) {
+    RendererOptions o;
+    o.backend = backend;
+    Renderer renderer(scene, o);
+    for (Fold f : kFolds) {
+      const GBuffer g = renderer.render(camera, f);
+      EXPECT_EQ(g.fold, f == Fold::xy || f == Fold::x ? Fold::x : Fold::none);
+      EXPECT_EQ(compare_hits(expected, to_hits(g), 41), "") << "backend " << int(backend) << " fold " << int(f);
+    }
+  }
+  // The ray of pixel (x, y) is the pinhole model's, in world space.
+  const Matrix4 m = camera.camera_to_world(CameraConvention::opencv);
+  for (int y : {0, 13, 28})
+    for (int x : {0, 17, 40}) {
+      const double c[3] = {(x + 0.5 - k.cx) / k.fx, (y + 0.5 - k.cy) / k.fy, 1.0};
+      double w[3], len = 0.0;
+      for (int r = 0; r < 3; ++r) {
+        w[r] = m[4 * r] * c[0] + m[4 * r + 1] * c[1] + m[4 * r + 2] * c[2];
+        len += w[r] * w[r];
+      }
+      const Vec3 d = camera.ray_direction(x, y);
+      for (int r = 0; r < 3; ++r) EXPECT_NEAR(d[r], w[r] / std::sqrt(len), 1e-12) << x << "," << y;
+    }
+}
+
+TEST(Api, MovedInstancesEqualASceneBuiltWithThemInPlace) {
+  core::testing::Rng rng(5);
+  core::Scene soup = core::testing::random_scene(rng, 3, 8, 50);
+  Scene moving = to_public(soup);
+  const core::CameraSpec spec = core::testing::random_camera(rng, soup.world_bounds());
+  const Camera camera = Camera::look_at({spec.eye.x, spec.eye.y, spec.eye.z},
+                                        {spec.look_at.x, spec.look_at.y, spec.look_at.z},
+                                        {spec.up.x, spec.up.y, spec.up.z}, spec.vfov_degrees, 33, 27);
+  for (Backend backend : {Backend::cpu, Backend::opencl}) {
+    RendererOptions o;
+    o.backend = backend;
+    Renderer renderer(moving, o);
+    for (int frame = 0; frame < 3; ++frame) {
+      // Move every other instance: shift it and turn it about its own x.
+      for (uint32_t i = frame % 2; i < soup.instances.size(); i += 2) {
+        const double a = 0.4 * (frame + 1) + i;
+        core::Xform turn(1.0);
+        turn[1][1] = std::cos(a);
+        turn[1][2] = std::sin(a);
+        turn[2][1] = -std::sin(a);
+        turn[2][2] = std::cos(a);
+        turn[3] = glm::dvec4(0.1 * frame, -0.05 * i, 0.02, 1.0);
+        soup.instances[i].world_from_object = turn * soup.instances[i].world_from_object;
+        Matrix4 m;
+        for (int r = 0; r < 4; ++r)
+          for (int c = 0; c < 4; ++c) m[4 * r + c] = soup.instances[i].world_from_object[c][r];
+        moving.set_transform(i, m);
+      }
+      const Scene rebuilt = to_public(soup);
+      Renderer fresh(rebuilt, o);
+      for (Fold f : {Fold::none, Fold::xy})
+        EXPECT_EQ(compare_hits(to_hits(fresh.render(camera, f)), to_hits(renderer.render(camera, f)), 33), "")
+            << "backend " << int(backend) << " frame " << frame << " fold " << int(f);
+    }
+  }
+}
+
+TEST(Api, AddingGeometryAfterARenderRebuildsTheTrees) {
+  Scene scene;
+  const uint32_t tri = scene.add_mesh({-1, -1, 0, 1, -1, 0, 0, 1, 0}, {0, 1, 2}, "triangle");
+  const Matrix4 id = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+  scene.add_instance(tri, id, "first");
+  const Camera camera = Camera::look_at({0, 0, 5}, {0, 0, 0}, {0, 1, 0}, 40.0, 16, 16);
+  RendererOptions o;
+  o.backend = Backend::cpu;
+  Renderer renderer(scene, o);
+  const GBuffer one = renderer.render(camera);
+  EXPECT_EQ(one.instance_id[8 * 16 + 8], 0u);
+  Matrix4 nearer = id;
+  nearer[11] = 1.0;  // z + 1: in front of the first
+  scene.add_instance(tri, nearer, "second");
+  const GBuffer two = renderer.render(camera);
+  EXPECT_EQ(two.instance_id[8 * 16 + 8], 1u);
+  // Along the same ray, the plane at distance 4 instead of 5 from the eye.
+  EXPECT_NEAR(two.depth[8 * 16 + 8], one.depth[8 * 16 + 8] * 0.8f, 1e-5f);
+  EXPECT_EQ(scene.instance_names(), (std::vector<std::string>{"first", "second"}));
+  EXPECT_EQ(two.instance_id[0], kMiss);
+  EXPECT_TRUE(std::isinf(two.depth[0]));
+}
+
+template <class E>
+std::string message_of(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const E& e) {
+    return e.what();
+  }
+  return "(nothing thrown)";
+}
+
+TEST(Api, BadInputsThrowWithTheReason) {
+  const std::string missing = message_of<InputError>([] { Scene::load("/no/such/file.glb"); });
+  EXPECT_NE(missing.find("/no/such/file.glb"), std::string::npos) << missing;
+  Scene s;
+  EXPECT_NE(message_of<InputError>([&] { s.add_mesh({0, 0, 0, 1, 0, 0, 0, 1, 0}, {0, 1, 3}); }).find("3 vertices"),
+            std::string::npos);
+  EXPECT_NE(message_of<InputError>([&] { s.add_mesh({0, 0, 0}, {0, 0}); }).find("whole number of triangles"),
+            std::string::npos);
+  EXPECT_NE(message_of<InputError>([&] { s.add_mesh({0, 0, NAN}, {}); }).find("not finite"), std::string::npos);
+  const Matrix4 id = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+  EXPECT_NE(message_of<InputError>([&] { s.add_instance(3, id); }).find("mesh 3 does not exist"), std::string::npos);
+  const uint32_t m = s.add_mesh({0, 0, 0, 1, 0, 0, 0, 1, 0}, {0, 1, 2});
+  Matrix4 projective = id;
+  projective[14] = 1.0;
+  EXPECT_NE(message_of<InputError>([&] { s.add_instance(m, projective); }).find("not affine"), std::string::npos);
+  const uint32_t i = s.add_instance(m, id);
+  Matrix4 far = id;
+  far[3] = 1e38;
+  EXPECT_NE(message_of<InputError>([&] { s.set_transform(i, far); }).find("2^126"), std::string::npos);
+  EXPECT_NE(message_of<InputError>([&] { s.set_transform(i + 1, id); }).find("does not exist"), std::string::npos);
+
+  const Intrinsics k{50, 50, 16, 16};
+  Matrix4 scaled = id;
+  scaled[0] = 2.0;
+  EXPECT_NE(message_of<InputError>([&] { Camera::from_matrix(scaled, k, 32, 32, CameraConvention::opencv); })
+                .find("not orthonormal"),
+            std::string::npos);
+  Matrix4 mirrored = id;
+  mirrored[0] = -1.0;
+  EXPECT_NE(message_of<InputError>([&] { Camera::from_matrix(mirrored, k, 32, 32, CameraConvention::opencv); })
+                .find("mirror"),
+            std::string::npos);
+  EXPECT_NE(message_of<InputError>([&] { Camera::from_matrix(id, {0, 50, 16, 16}, 32, 32, CameraConvention::opencv); })
+                .find("focal lengths"),
+            std::string::npos);
+  EXPECT_NE(message_of<InputError>([] { Camera::look_at({0, 0, 0}, {0, 0, 0}, {0, 1, 0}, 60, 8, 8); }).find("distinct"),
+            std::string::npos);
+  RendererOptions o;
+  o.device = "no device is called this";
+  EXPECT_NE(message_of<RuntimeFailure>([&] { Renderer r(s, o); }).find("no device is called this"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace rayfold
