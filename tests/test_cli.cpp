@@ -8,6 +8,8 @@
 #include <filesystem>
 #include <fstream>
 
+#include <nlohmann/json.hpp>
+
 #include "gltf_fixture.h"
 #include "test_util.h"
 #include "util/image_output.h"
@@ -202,6 +204,39 @@ TEST(Cli, InfoDescribesTheDefaultScene) {
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.out.find("instances"), std::string::npos);
   EXPECT_NE(r.out.find("bounds"), std::string::npos);
+}
+
+TEST(Cli, IdsManifestAndStatsRecordTheViewAndTheNodes) {
+  const fs::path d = work_dir();
+  const std::string ids = (d / "ids.json").string(), stats = (d / "view.json").string();
+  const CliRun r = rayfold("render --size 40x30 --eye 0,3,12 --look-at 0,2,0 --fold xy --ids " + ids + " --stats " +
+                           stats);
+  ASSERT_EQ(r.code, 0) << r.err;
+  const nlohmann::json m = nlohmann::json::parse(std::ifstream(ids));
+  const Scene scene = load_gltf(RAYFOLD_SOURCE_DIR "/scenes/atrium.glb");
+  ASSERT_EQ(m["instances"].size(), scene.instances.size());
+  for (size_t i = 0; i < scene.instances.size(); ++i) {
+    EXPECT_EQ(m["instances"][i]["id"], i);
+    EXPECT_EQ(m["instances"][i]["name"], scene.instances[i].name);
+    EXPECT_EQ(m["instances"][i]["mesh_name"], scene.meshes[scene.instances[i].mesh].name);
+  }
+  EXPECT_EQ(m["miss"], 4294967295u);
+  const nlohmann::json s = nlohmann::json::parse(std::ifstream(stats));
+  EXPECT_EQ(s["camera"]["eye"], nlohmann::json({0.0, 3.0, 12.0}));
+  EXPECT_EQ(s["camera"]["intrinsics"]["cx"], 20.0);
+  EXPECT_EQ(s["camera"]["intrinsics"]["cy"], 15.0);
+  EXPECT_EQ(s["camera"]["camera_to_world"].size(), 16u);
+  EXPECT_EQ(s["pixels"]["hit"].get<int>() + s["pixels"]["miss"].get<int>(), 40 * 30);
+  EXPECT_GT(s["pixels"]["hit"].get<int>(), 0);
+  EXPECT_EQ(s["fold"], "xy");
+  EXPECT_EQ(s["options"]["cull"], true);
+  // info lists every id with its node name.
+  const CliRun info = rayfold("info");
+  ASSERT_EQ(info.code, 2);  // info needs a scene
+  const CliRun listed = rayfold(std::string("info ") + RAYFOLD_SOURCE_DIR "/scenes/atrium.glb");
+  ASSERT_EQ(listed.code, 0) << listed.err;
+  EXPECT_NE(listed.out.find("instance ids"), std::string::npos) << listed.out;
+  EXPECT_NE(listed.out.find("    0      mesh 0     floor\n"), std::string::npos) << listed.out;
 }
 
 TEST(Cli, OutputExtensionsMustMatchTheirKind) {
