@@ -11,6 +11,7 @@ packages=(
   libopenexr-dev googletest libgtest-dev
   libembree-dev
   python3-venv python3-dev
+  libmeshoptimizer-dev libdraco-dev gltfpack draco
 )
 # Extra packages some targets ask for (for example the benchmark's peers).
 if [ "$#" -gt 0 ]; then packages+=("$@"); fi

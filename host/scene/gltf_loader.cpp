@@ -17,6 +17,7 @@
 #include <glm/gtc/type_ptr.hpp>
 #include <nlohmann/json.hpp>
 
+#include "scene/gltf_decompress.h"
 #include "util/errors.h"
 
 namespace rayfold::core {
@@ -47,7 +48,9 @@ bool geometry_neutral(const std::string& ext) {
     if (ext.rfind(p, 0) == 0) return true;
   // Read: integer positions are converted as glTF says; GPU instances become
   // instances.
-  return ext == "KHR_mesh_quantization" || ext == "EXT_mesh_gpu_instancing";
+  // Decoded (gltf_decompress.h): meshopt buffer views and Draco primitives.
+  return ext == "KHR_mesh_quantization" || ext == "EXT_mesh_gpu_instancing" || ext == "EXT_meshopt_compression" ||
+         ext == "KHR_meshopt_compression" || ext == "KHR_draco_mesh_compression";
 }
 
 class Loader {
@@ -248,7 +251,9 @@ class Loader {
 
   // What tinygltf does not check: the GLB header's version and length, and
   // nodes that carry both a matrix and TRS (tinygltf silently drops the TRS).
-  void check_raw(const std::string& bytes) const {
+  // Returns the parsed JSON (discarded when it does not parse) and, for a
+  // GLB, sets *bin_offset to where the chunks after the JSON start.
+  nlohmann::json check_raw(const std::string& bytes, size_t* bin_offset) const {
     std::string json_text = bytes;
     if (binary_) {
       if (bytes.size() < 20) fail("the GLB header is truncated");
@@ -264,18 +269,20 @@ class Loader {
       if (chunk_type != 0x4E4F534Au) fail("the first GLB chunk is not of type JSON");
       if (chunk_length > bytes.size() - 20) fail("the GLB JSON chunk runs past the end of the file");
       json_text = bytes.substr(20, chunk_length);
+      *bin_offset = 20 + static_cast<size_t>(chunk_length);
     }
-    const nlohmann::json j = nlohmann::json::parse(json_text, nullptr, false);
-    if (j.is_discarded() || !j.is_object()) return;  // tinygltf reports these
+    nlohmann::json j = nlohmann::json::parse(json_text, nullptr, false);
+    if (j.is_discarded() || !j.is_object()) return j;  // tinygltf reports these
     check_schema_types(j);
     const auto nodes = j.find("nodes");
-    if (nodes == j.end() || !nodes->is_array()) return;
+    if (nodes == j.end() || !nodes->is_array()) return j;
     for (size_t i = 0; i < nodes->size(); ++i) {
       const nlohmann::json& n = (*nodes)[i];
       if (n.is_object() && n.contains("matrix") &&
           (n.contains("translation") || n.contains("rotation") || n.contains("scale")))
         fail("node " + std::to_string(i) + " has both a matrix and translation, rotation or scale (glTF 2.0, 5.25)");
     }
+    return j;
   }
 
   void read_model() {
@@ -292,7 +299,28 @@ class Loader {
       binary_ = bytes.size() >= 4 && std::memcmp(bytes.data(), "glTF", 4) == 0;
       if (!binary_) check_json_start(bytes);
     }
-    check_raw(bytes);
+    size_t bin_offset = bytes.size();
+    nlohmann::json j = check_raw(bytes, &bin_offset);
+    // Compressed files carry JSON tinygltf rejects (gltf_decompress.h): it
+    // then reads the prepared JSON from memory.
+    JsonFixups fixups;
+    std::string prepared;
+    if (!j.is_discarded() && j.is_object()) {
+      fixups = prepare_compressed_json(j);
+      if (fixups.changed()) {
+        std::string text = j.dump();
+        if (binary_) {
+          text.append((4 - text.size() % 4) % 4, ' ');
+          const std::string rest = bytes.substr(bin_offset);
+          const uint32_t chunk = static_cast<uint32_t>(text.size()), total = 20 + chunk + rest.size();
+          prepared.assign("glTF", 4);
+          for (uint32_t word : {2u, total, chunk, 0x4E4F534Au}) prepared.append(reinterpret_cast<const char*>(&word), 4);
+          prepared += text + rest;
+        } else {
+          prepared = std::move(text);
+        }
+      }
+    }
     tinygltf::TinyGLTF gltf;
     gltf.SetImageLoader(skip_image, nullptr);
     gltf.SetFsCallbacks(
@@ -300,8 +328,16 @@ class Loader {
     std::string err, warn;
     bool ok = false;
     try {
-      ok = binary_ ? gltf.LoadBinaryFromFile(&model_, &err, &warn, path_)
-                   : gltf.LoadASCIIFromFile(&model_, &err, &warn, path_);
+      const std::string base_dir = std::filesystem::path(path_).parent_path().string();
+      const auto* data = reinterpret_cast<const unsigned char*>(prepared.data());
+      if (prepared.empty())
+        ok = binary_ ? gltf.LoadBinaryFromFile(&model_, &err, &warn, path_)
+                     : gltf.LoadASCIIFromFile(&model_, &err, &warn, path_);
+      else
+        ok = binary_ ? gltf.LoadBinaryFromMemory(&model_, &err, &warn, data, static_cast<unsigned>(prepared.size()),
+                                                 base_dir)
+                     : gltf.LoadASCIIFromString(&model_, &err, &warn, prepared.data(),
+                                                static_cast<unsigned>(prepared.size()), base_dir);
     } catch (const std::exception& e) {
       fail(std::string("not a readable glTF file: ") + e.what());
     }
@@ -319,6 +355,10 @@ class Loader {
         continue;
       this->warn(line);
     }
+    restore_fixups(model_, fixups);
+    fallback_buffers_ = fixups.fallback_buffers;
+    decode_meshopt_views(model_, fixups, path_);
+    decoded_ = decode_draco_primitives(model_, path_);
   }
 
   void check_extensions() const {
@@ -772,11 +812,6 @@ class Loader {
       }
       if (mode != TINYGLTF_MODE_TRIANGLES && mode != TINYGLTF_MODE_TRIANGLE_STRIP && mode != TINYGLTF_MODE_TRIANGLE_FAN)
         fail(where + " has an unknown primitive mode " + std::to_string(mode));
-      // Compressed geometry the loader cannot decode is refused by name even
-      // when the file marks it optional: its fallback accessors may be
-      // empty or placeholders, which would render as a different scene.
-      if (prim.extensions.count("KHR_draco_mesh_compression"))
-        fail(where + " is Draco-compressed (KHR_draco_mesh_compression), which rayfold does not decode");
       const auto pos = prim.attributes.find("POSITION");
       if (pos == prim.attributes.end()) fail(where + " has no POSITION attribute");
       const uint32_t base = static_cast<uint32_t>(mesh.positions.size());
@@ -885,8 +920,8 @@ class Loader {
     if (vi < 0 || static_cast<size_t>(vi) >= model_.bufferViews.size())
       fail(acc + " refers to a buffer view that does not exist");
     const tinygltf::BufferView& v = model_.bufferViews[vi];
-    if (v.extensions.count("EXT_meshopt_compression"))
-      fail(acc + ": its buffer view is meshopt-compressed (EXT_meshopt_compression), which rayfold does not decode");
+    if (std::find(fallback_buffers_.begin(), fallback_buffers_.end(), v.buffer) != fallback_buffers_.end())
+      fail(acc + ": its buffer view reads a meshopt fallback buffer, which holds no data");
     if (v.buffer < 0 || static_cast<size_t>(v.buffer) >= model_.buffers.size())
       fail(acc + ": its buffer view refers to a buffer that does not exist");
     const std::vector<unsigned char>& data = model_.buffers[v.buffer].data;
@@ -923,6 +958,13 @@ class Loader {
     const size_t cb = component_bytes(a.componentType);
     if (cb == 0) fail(acc + " has an unknown component type " + std::to_string(a.componentType));
     const size_t element = cb * static_cast<size_t>(components);
+    const auto decoded = decoded_.find(ai);
+    if (decoded != decoded_.end()) {
+      if (decoded->second.size() != a.count * static_cast<size_t>(components))
+        fail(acc + " has " + std::to_string(components) + " components per element; its Draco attribute has " +
+             std::to_string(decoded->second.size() / std::max<size_t>(a.count, 1)));
+      return decoded->second;
+    }
     std::vector<double> out;
     if (a.count > (size_t(1) << 31)) fail(acc + " has " + std::to_string(a.count) + " elements, too many");
     out.assign(a.count * static_cast<size_t>(components), 0.0);
@@ -1018,6 +1060,8 @@ class Loader {
   std::vector<Warning> pending_;
   bool binary_ = false;
   tinygltf::Model model_;
+  std::vector<int> fallback_buffers_;               // meshopt fallback buffers: no data to read
+  std::map<int, std::vector<double>> decoded_;      // accessors decoded from Draco primitives
   Scene scene_;
   struct MeshKey {
     int mesh;
