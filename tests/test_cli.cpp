@@ -239,6 +239,49 @@ TEST(Cli, IdsManifestAndStatsRecordTheViewAndTheNodes) {
   EXPECT_NE(listed.out.find("    0      mesh 0     floor\n"), std::string::npos) << listed.out;
 }
 
+TEST(Cli, AnimateFramesEqualTheFilePosedAtTheirTimes) {
+  // Two triangles: one turning about y, one moving up and across, over 2 s.
+  const fs::path d = work_dir();
+  testing::GltfFile f;
+  f.one_triangle();
+  f.j["nodes"][0]["translation"] = {0.0, 0.0, -3.0};
+  f.j["nodes"][0]["scale"] = {4.0, 4.0, 4.0};
+  f.j["nodes"].push_back({{"mesh", 0}, {"translation", {3.0, 0.0, -5.0}}, {"scale", {3.0, 3.0, 3.0}}});
+  const float times[3] = {0, 1, 2};
+  const float turn[12] = {0, 0, 0, 1, 0, 0.70710678f, 0, 0.70710678f, 0, 1, 0, 0};
+  const float move[9] = {3, 0, -5, 0, 2, -5, -3, 0, -5};
+  const int tin = f.accessor(f.view(times, 12), 5126, "SCALAR", 3);
+  f.j["accessors"][tin]["min"] = {0};
+  f.j["accessors"][tin]["max"] = {2};
+  const int tv = f.accessor(f.view(turn, 48), 5126, "VEC4", 3), mv = f.accessor(f.view(move, 36), 5126, "VEC3", 3);
+  f.j["animations"] = {{{"samplers", {{{"input", tin}, {"output", tv}}, {{"input", tin}, {"output", mv}}}},
+                        {"channels",
+                         {{{"sampler", 0}, {"target", {{"node", 0}, {"path", "rotation"}}}},
+                          {{"sampler", 1}, {"target", {{"node", 1}, {"path", "translation"}}}}}}}};
+  f.j["scenes"] = {{{"nodes", {0, 1}}}};
+  const std::string path = f.write("cli_animated");
+  const std::string view = " --size 48x36 --eye 0,1,6 --look-at 0,1,-4 --fold xy ";
+  const CliRun played =
+      rayfold("render " + path + view + "--animate --fps 2 --frames 5 -o " + (d / "play_%d.exr").string());
+  ASSERT_EQ(played.code, 0) << played.err;
+  EXPECT_NE(played.err.find("playing the file's animation: 5 frames from 0 s at 2 fps"), std::string::npos)
+      << played.err;
+  for (int k = 0; k < 5; ++k) {
+    const std::string single = (d / ("at_" + std::to_string(k) + ".exr")).string();
+    const CliRun posed = rayfold("render " + path + view + "--time " + std::to_string(0.5 * k) + " -o " + single);
+    ASSERT_EQ(posed.code, 0) << posed.err;
+    int w = 0, h = 0;
+    const auto a = read_exr((d / ("play_" + std::to_string(k) + ".exr")).string(), &w, &h);
+    const auto b = read_exr(single, &w, &h);
+    EXPECT_EQ(testing::compare_hits(b, a, w), "") << "frame " << k;
+    if (k == 1) {
+      int hits = 0;
+      for (const rf_pixel_hit& p : a) hits += p.instance != RF_INVALID;
+      EXPECT_GT(hits, 50);
+    }
+  }
+}
+
 TEST(Cli, OutputExtensionsMustMatchTheirKind) {
   const fs::path d = work_dir();
   for (const std::string& args : {"-o " + (d / "x.png").string(), "--png " + (d / "x.exr").string(),

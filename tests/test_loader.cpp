@@ -500,10 +500,43 @@ TEST(Loader, AnimationsSampledAtATime) {
   EXPECT_NEAR(mid.instances[1].world_from_object[3][1], 3.0, 1e-12);
   EXPECT_NEAR(late.instances[0].world_from_object[3][0], 4.0, 1e-12) << "after the last key: its value";
   EXPECT_EQ(late.instances[1].world_from_object[0][0], 3.0);
+  // One file read once, posed at any time: the same scenes as loading it at
+  // each time, meshes shared (only transforms move).
+  rayfold::core::GltfFile file(path);
+  EXPECT_TRUE(file.animated());
+  EXPECT_EQ(file.animation_end(), 2.0);
+  for (double t : {0.5, 1.0, 9.0, 0.5}) {
+    const Scene posed = file.scene_at(t), loaded = at(t);
+    ASSERT_EQ(posed.instances.size(), loaded.instances.size());
+    for (size_t i = 0; i < posed.instances.size(); ++i)
+      EXPECT_EQ(posed.instances[i].world_from_object, loaded.instances[i].world_from_object) << t;
+    EXPECT_TRUE(same_geometry(posed, rest)) << t;
+  }
+  EXPECT_EQ(file.scene_at(NAN).instances[0].world_from_object, Xform(1.0)) << "back to rest after a pose";
   f.j["animations"][0]["channels"][0]["target"]["path"] = "color";
   LoadOptions o;
   o.time = 1.0;
   testing::expect_error_with(f.write("animated_bad_path"), o, "animates 'color'");
+}
+
+TEST(Loader, AnimatedMorphWeightsChangeTheGeometry) {
+  testing::GltfFile f;
+  f.one_triangle();
+  const int t0 = f.positions({{2, 0, 0}, {2, 0, 0}, {2, 0, 0}});
+  f.j["meshes"][0]["primitives"][0]["targets"] = {{{"POSITION", t0}}};
+  f.j["meshes"][0]["weights"] = {0.0};
+  const float times[2] = {0, 1}, weights[2] = {0, 1};
+  const int tin = f.accessor(f.view(times, 8), 5126, "SCALAR", 2);
+  f.j["accessors"][tin]["min"] = {0};
+  f.j["accessors"][tin]["max"] = {1};
+  const int wv = f.accessor(f.view(weights, 8), 5126, "SCALAR", 2);
+  f.j["animations"] = {{{"samplers", {{{"input", tin}, {"output", wv}}}},
+                        {"channels", {{{"sampler", 0}, {"target", {{"node", 0}, {"path", "weights"}}}}}}}};
+  rayfold::core::GltfFile file(f.write("animated_morph"));
+  const Scene a = file.scene_at(0.0), b = file.scene_at(0.5), c = file.scene_at(0.5);
+  EXPECT_FALSE(same_geometry(a, b));
+  EXPECT_TRUE(same_geometry(b, c));
+  EXPECT_EQ(b.meshes[0].positions[0].x - a.meshes[0].positions[0].x, 1.0f);
 }
 
 }  // namespace

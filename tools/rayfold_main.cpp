@@ -86,7 +86,10 @@ const char* kRenderUsage =
     "                         rays, each answering its mirror pixels (default none)\n"
     "  --shift SX,SY          off-centre image window, in half image widths/heights;\n"
     "                         only its symmetric part folds\n"
-    "  --animate              move a fixed subset of instances every frame\n"
+    "  --animate              play the file's animations over --frames (frame f at\n"
+    "                         --time + f / --fps); a file without any: move every\n"
+    "                         fourth instance every frame\n"
+    "  --fps F                frames per second of --animate (default 30)\n"
     "  --compare              also render unfolded, check the two agree bit for bit\n"
     "                         and print them side by side (--fold defaults to xy)\n"
     "  --braid N              top level opens the instances' trees into about N items\n"
@@ -138,6 +141,7 @@ struct RenderArgs {
   RendererOptions renderer;
   FrameOptions frame;
   int frames = 1;
+  double fps = 30.0;  // --animate on an animated file: frame f at --time + f / fps
   std::string exr, png, stats, ids;
   bool quiet = false;
   bool verbose = false;
@@ -272,6 +276,9 @@ RenderArgs parse_render(cli::Args& args) {
       r.compare = true;
     } else if (a == "--no-cull") {
       r.frame.cull = false;
+    } else if (a == "--fps") {
+      r.fps = cli::parse_double(a, args.value(a));
+      if (!(r.fps > 0.0 && r.fps <= 1e6)) throw UsageError("--fps: must be in (0, 1e6] frames per second");
     } else if (a == "--frames") {
       r.frames = cli::parse_int(a, args.value(a), 1, 100000);
     } else if (a == "-o" || a == "--output") {
@@ -467,8 +474,17 @@ int run_render(cli::Args& args) {
   Progress progress(!r.quiet);
   progress.stage("loading " + r.scene);
   auto t0 = Clock::now();
-  const Scene scene = load_scene(r.scene, r.quiet, r.load);
+  GltfFile file(r.scene, r.load);
+  if (!r.quiet)
+    for (const std::string& w : file.warnings()) std::fprintf(stderr, "warning: %s\n", w.c_str());
+  Scene scene = file.scene_at(r.load.time);
   const double load_ms = ms_since(t0);
+  // --animate plays the file's own animations when it has any (frame f at
+  // --time + f / --fps); other files get the synthetic motion (animation.h).
+  const bool play = r.frame.animate_frame >= 0 && file.animated();
+  FrameOptions frame_options = r.frame;
+  if (play) frame_options.animate_frame = -1;
+  const double start_time = std::isnan(r.load.time) ? 0.0 : r.load.time;
 
   CameraSpec spec = scene.camera ? *scene.camera : frame_bounds(scene.world_bounds());
   const bool auto_framed = !scene.camera && !r.eye;
@@ -484,20 +500,43 @@ int run_render(cli::Args& args) {
 
   progress.stage("building the bottom-level trees and the kernels");
   t0 = Clock::now();
-  Renderer renderer(scene, r.renderer);
+  auto renderer_ptr = std::make_unique<Renderer>(scene, r.renderer);
+  std::vector<Xform> built_pose;  // instance transforms the renderer's trees were built with
+  for (const Instance& i : scene.instances) built_pose.push_back(i.world_from_object);
   const double setup_ms = ms_since(t0);
-  progress.stage("tracing", sequence ? static_cast<size_t>(r.frames) : 0);
+  // The file's pose for frame f: instances that moved since the trees were
+  // built go to FrameOptions::moved; changed meshes (morph weights, skins)
+  // rebuild the trees.
+  size_t rebuilds = 0;
+  auto pose_frame = [&](int f, FrameOptions& o) {
+    Scene next = file.scene_at(start_time + f / r.fps);
+    o.moved.clear();
+    if (!same_geometry(scene, next)) {
+      scene = std::move(next);
+      renderer_ptr = std::make_unique<Renderer>(scene, r.renderer);
+      built_pose.clear();
+      for (const Instance& i : scene.instances) built_pose.push_back(i.world_from_object);
+      ++rebuilds;
+      return;
+    }
+    for (size_t i = 0; i < scene.instances.size(); ++i) {
+      scene.instances[i].world_from_object = next.instances[i].world_from_object;
+      if (scene.instances[i].world_from_object != built_pose[i]) o.moved.push_back(static_cast<uint32_t>(i));
+    }
+  };
+  progress.stage("tracing", sequence || play ? static_cast<size_t>(r.frames) : 0);
   std::optional<RenderResult> unfolded;
-  if (r.compare) {
-    FrameOptions none = r.frame;
+  if (r.compare && !play) {
+    FrameOptions none = frame_options;
     none.fold = FoldMode::none;
-    unfolded = renderer.render(camera, r.frames, none);
+    unfolded = renderer_ptr->render(camera, r.frames, none);
   }
   RenderResult result;
   std::vector<std::string> written;
   const ExrMetadata metadata = exr_metadata(camera, scene, r);
-  if (!sequence) {
-    result = renderer.render(camera, r.frames, r.frame);
+  if (!sequence && !play) {
+    Renderer& renderer = *renderer_ptr;
+    result = renderer.render(camera, r.frames, frame_options);
     progress.stage("writing");
     if (!r.exr.empty()) write_exr(r.exr, result.hits, r.width, r.height, &metadata);
     if (!r.png.empty()) write_png(r.png, result.hits, r.width, r.height);
@@ -505,24 +544,43 @@ int run_render(cli::Args& args) {
       if (!out->empty()) written.push_back(*out);
   } else {
     std::vector<FrameTimes> times;
+    FrameOptions o = frame_options;
     for (int f = 0; f < r.frames; ++f) {
-      FrameOptions o = r.frame;
-      if (o.animate_frame >= 0) o.animate_frame += f;
-      renderer.render_into(result, camera, 1, o);
+      if (play)
+        pose_frame(f, o);
+      else if (frame_options.animate_frame >= 0)
+        o.animate_frame = frame_options.animate_frame + f;
+      renderer_ptr->render_into(result, camera, 1, o);
       times.push_back(result.frames.front());
-      if (!r.exr.empty())
-        write_exr(frame_name("output", r.exr, f, nullptr), result.hits, r.width, r.height, &metadata);
-      if (!r.png.empty()) write_png(frame_name("output", r.png, f, nullptr), result.hits, r.width, r.height);
+      const bool last = f + 1 == r.frames;
+      if (sequence || last) {
+        if (!r.exr.empty())
+          write_exr(frame_name("output", r.exr, f, nullptr), result.hits, r.width, r.height, &metadata);
+        if (!r.png.empty()) write_png(frame_name("output", r.png, f, nullptr), result.hits, r.width, r.height);
+      }
       progress.update(static_cast<size_t>(f + 1));
+    }
+    if (r.compare) {
+      // The last frame's pose, unfolded.
+      FrameOptions none = o;
+      none.fold = FoldMode::none;
+      unfolded = renderer_ptr->render(camera, 1, none);
     }
     for (const std::string* out : {&r.exr, &r.png})
       if (!out->empty())
-        written.push_back(frame_name("output", *out, 0, nullptr) + " .. " +
-                          frame_name("output", *out, r.frames - 1, nullptr) + " (" + std::to_string(r.frames) +
-                          " frames)");
+        written.push_back(sequence ? frame_name("output", *out, 0, nullptr) + " .. " +
+                                         frame_name("output", *out, r.frames - 1, nullptr) + " (" +
+                                         std::to_string(r.frames) + " frames)"
+                                   : *out);
     result.frames = times;
     result.median = median_times(times);
   }
+  Renderer& renderer = *renderer_ptr;
+  if (play && !r.quiet)
+    std::fprintf(stderr, "playing the file's animation: %d frames from %g s at %g fps (it ends at %g s)%s\n",
+                 r.frames, start_time, r.fps, file.animation_end(),
+                 rebuilds ? (", trees rebuilt for " + std::to_string(rebuilds) + " frames whose meshes changed").c_str()
+                          : "");
   progress.clear();
   for (const std::string& w : result.warnings) std::fprintf(stderr, "warning: %s (docs/exactness.md)\n", w.c_str());
 

@@ -43,7 +43,9 @@ Scene Scene::load(const std::string& path, const LoadOptions& options) {
   lo.scene = options.scene;
   lo.camera = options.camera;
   lo.time = options.time;
-  s.state_->scene = core::load_gltf(path, &s.state_->warnings, lo);
+  s.state_->file = std::make_shared<core::GltfFile>(path, lo);
+  s.state_->scene = s.state_->file->scene_at(options.time);
+  s.state_->warnings = s.state_->file->warnings();
   s.state_->path = path;
   s.state_->moved_at.assign(s.state_->scene.instances.size(), 0);
   return s;
@@ -115,6 +117,26 @@ void Scene::set_transform(uint32_t instance, const Matrix4& world_from_object) {
   inst.world_from_object = m;
   state_->moved_at[instance] = ++state_->clock;
 }
+
+void Scene::set_time(double seconds) {
+  detail::SceneState& s = *state_;
+  if (!s.file) throw InputError("", "set_time: the scene was not loaded from a file, so it has no animations");
+  core::Scene posed = s.file->scene_at(seconds);
+  if (!core::same_geometry(s.scene, posed)) {
+    s.scene = std::move(posed);
+    s.moved_at.assign(s.scene.instances.size(), 0);
+    s.structure_version++;
+    return;
+  }
+  for (size_t i = 0; i < posed.instances.size(); ++i)
+    if (posed.instances[i].world_from_object != s.scene.instances[i].world_from_object) {
+      s.scene.instances[i].world_from_object = posed.instances[i].world_from_object;
+      s.moved_at[i] = ++s.clock;
+    }
+}
+
+bool Scene::animated() const { return state_->file && state_->file->animated(); }
+double Scene::animation_end() const { return state_->file ? state_->file->animation_end() : 0.0; }
 
 Matrix4 Scene::transform(uint32_t instance) const {
   check_instance(*state_, instance);

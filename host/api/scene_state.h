@@ -3,9 +3,11 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
+#include "scene/gltf_loader.h"
 #include "scene/scene.h"
 
 namespace rayfold::detail {
@@ -13,6 +15,7 @@ namespace rayfold::detail {
 struct SceneState {
   core::Scene scene;
   std::string path;
+  std::shared_ptr<core::GltfFile> file;  // the file read once, for set_time
   std::vector<std::string> warnings;
   // Bumped when meshes or instances are added: a renderer rebuilds its trees.
   uint64_t structure_version = 0;

@@ -347,6 +347,11 @@ NB_MODULE(_core, m) {
           "transform", [](PyScene& s, uint32_t instance) { return matrix_to_numpy(s.scene.transform(instance)); },
           "instance"_a)
       .def(
+          "set_time", [](PyScene& s, double seconds) { locked(s, [&] { s.scene.set_time(seconds); }); }, "seconds"_a,
+          "Poses the file's animations at this time (nan: rest); the next render shows the pose.")
+      .def_prop_ro("animated", [](PyScene& s) { return s.scene.animated(); })
+      .def_prop_ro("animation_end", [](PyScene& s) { return s.scene.animation_end(); })
+      .def(
           "instance_mesh", [](PyScene& s, uint32_t instance) { return s.scene.instance_mesh(instance); }, "instance"_a)
       .def(
           "mesh_positions",

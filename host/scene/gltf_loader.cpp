@@ -58,10 +58,22 @@ class Loader {
   Loader(const std::string& path, std::vector<std::string>* warnings, const LoadOptions& options)
       : path_(path), warnings_(warnings), options_(options) {}
 
-  Scene run() {
+  // Reads and checks the file: once.
+  void open() {
     read_model();
     check_extensions();
-    if (!std::isnan(options_.time)) pose_at(options_.time);
+    rest_nodes_ = model_.nodes;
+  }
+
+  // The scene posed at `time` (NaN: at rest); any number of times. Warnings
+  // are reported for the first only.
+  Scene build(double time) {
+    scene_ = Scene{};
+    pending_.clear();
+    mesh_slot_.clear();
+    parent_.clear();
+    model_.nodes = rest_nodes_;
+    if (!std::isnan(time)) pose_at(time);
     std::vector<int> roots = root_nodes();
     // Depth-first over the hierarchy with an explicit stack; `on_path` finds
     // cycles, `visited` nodes reachable twice (a DAG is not a tree either).
@@ -101,7 +113,23 @@ class Loader {
     choose_camera();
     if (scene_.triangle_count() == 0) warn("the scene has no triangles; every pixel will miss");
     flush_warnings();
+    warnings_ = nullptr;
     return std::move(scene_);
+  }
+
+  // The last keyframe time over the node animations; NaN without any.
+  double animation_end() const {
+    double end = NAN;
+    for (size_t ai = 0; ai < model_.animations.size(); ++ai)
+      for (const tinygltf::AnimationChannel& ch : model_.animations[ai].channels) {
+        if (ch.target_node < 0 || ch.sampler < 0 ||
+            static_cast<size_t>(ch.sampler) >= model_.animations[ai].samplers.size())
+          continue;
+        const std::vector<double> keys = read_elements(model_.animations[ai].samplers[ch.sampler].input,
+                                                       "animation " + std::to_string(ai) + " input", 1, false);
+        if (!keys.empty()) end = std::isnan(end) ? keys.back() : std::max(end, keys.back());
+      }
+    return end;
   }
 
  private:
@@ -1063,6 +1091,7 @@ class Loader {
   std::vector<int> fallback_buffers_;               // meshopt fallback buffers: no data to read
   std::map<int, std::vector<double>> decoded_;      // accessors decoded from Draco primitives
   Scene scene_;
+  std::vector<tinygltf::Node> rest_nodes_;  // the file's nodes, before any pose
   struct MeshKey {
     int mesh;
     std::vector<double> weights;
@@ -1079,10 +1108,45 @@ class Loader {
 
 }  // namespace
 
-Scene load_gltf(const std::string& path, std::vector<std::string>* warnings, const LoadOptions& options) {
-  Scene scene = Loader(path, warnings, options).run();
-  check_world_range(scene, path);
+struct GltfFile::Impl {
+  std::vector<std::string> warnings;
+  Loader loader;
+  double end = NAN;
+  Impl(const std::string& path, const LoadOptions& options) : loader(path, &warnings, options) {}
+};
+
+GltfFile::GltfFile(const std::string& path, const LoadOptions& options)
+    : impl_(std::make_unique<Impl>(path, options)), path_(path) {
+  impl_->loader.open();
+  impl_->end = impl_->loader.animation_end();
+}
+
+GltfFile::~GltfFile() = default;
+
+Scene GltfFile::scene_at(double time) {
+  Scene scene = impl_->loader.build(time);
+  check_world_range(scene, path_);
   return scene;
+}
+
+bool GltfFile::animated() const { return !std::isnan(impl_->end); }
+double GltfFile::animation_end() const { return std::isnan(impl_->end) ? 0.0 : impl_->end; }
+const std::vector<std::string>& GltfFile::warnings() const { return impl_->warnings; }
+
+Scene load_gltf(const std::string& path, std::vector<std::string>* warnings, const LoadOptions& options) {
+  GltfFile file(path, options);
+  Scene scene = file.scene_at(options.time);
+  if (warnings) warnings->insert(warnings->end(), file.warnings().begin(), file.warnings().end());
+  return scene;
+}
+
+bool same_geometry(const Scene& a, const Scene& b) {
+  if (a.meshes.size() != b.meshes.size() || a.instances.size() != b.instances.size()) return false;
+  for (size_t i = 0; i < a.instances.size(); ++i)
+    if (a.instances[i].mesh != b.instances[i].mesh) return false;
+  for (size_t m = 0; m < a.meshes.size(); ++m)
+    if (a.meshes[m].positions != b.meshes[m].positions || a.meshes[m].indices != b.meshes[m].indices) return false;
+  return true;
 }
 
 }  // namespace rayfold::core

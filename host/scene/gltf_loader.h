@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cmath>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -18,6 +19,31 @@ struct LoadOptions {
   // with slerp for rotations, and cubic spline). NaN: the file's rest pose.
   double time = NAN;
 };
+
+// A glTF file read once and posed at any time: each frame of its
+// animations without reading the file again.
+class GltfFile {
+ public:
+  // Reads and checks the file; throws InputError as load_gltf does.
+  GltfFile(const std::string& path, const LoadOptions& options = {});
+  ~GltfFile();
+  // The scene posed at `time` seconds (NaN: the rest pose; options.time is
+  // not used here). Throws InputError for animation data that is broken.
+  Scene scene_at(double time);
+  bool animated() const;         // the file animates nodes (transforms or morph weights)
+  double animation_end() const;  // the last keyframe, seconds; 0 when not animated
+  // Non-fatal oddities of the first scene_at, one line per kind.
+  const std::vector<std::string>& warnings() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+  std::string path_;
+};
+
+// Whether two poses of one file share their meshes (only instance transforms
+// differ): then a renderer moves instances instead of rebuilding trees.
+bool same_geometry(const Scene& a, const Scene& b);
 
 // Throws InputError naming the file and what is wrong (also for a scene or
 // camera index the file does not have). Non-fatal oddities (points and

@@ -230,3 +230,22 @@ def test_rendering_releases_the_gil(atrium):
     # With the GIL held for the renders, this loop would get a few turns
     # between them; released, it runs the whole time.
     assert spins > 10000, (spins, time.perf_counter() - start)
+
+
+def test_set_time_plays_the_file_animation_as_loading_at_that_time(atrium_path):
+    import pathlib
+
+    path = pathlib.Path(__file__).resolve().parents[1] / "fuzz" / "corpus" / "animated.gltf"
+    scene = rayfold.Scene(path)
+    assert scene.animated and scene.animation_end > 0
+    camera = scene.default_camera(40, 30)
+    renderer = rayfold.Renderer(scene, backend="opencl")
+    depths = []
+    for t in [0.0, 0.3 * scene.animation_end, scene.animation_end, 0.1]:
+        scene.set_time(t)
+        g = renderer.render(camera, "xy")
+        assert_same_bits(rayfold.Scene(path, time=t).render(camera, fold="xy", backend="cpu"), g)
+        depths.append(g.depth)
+    assert not np.array_equal(depths[0], depths[2]), "the animation moves something in view" 
+    with pytest.raises(rayfold.InputError, match="not loaded from a file"):
+        rayfold.Scene().set_time(1.0)

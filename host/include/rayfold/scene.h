@@ -50,6 +50,14 @@ class Scene {
   // coordinates beyond 2^126.
   void set_transform(uint32_t instance, const Matrix4& world_from_object);
   Matrix4 transform(uint32_t instance) const;
+  // Poses a loaded file's animations at `seconds` (NaN: the rest pose), as
+  // LoadOptions::time does at load: moved nodes move their instances (as
+  // set_transform does); animated morph weights or skins replace the meshes,
+  // and the next render rebuilds the trees. Throws InputError for a scene not
+  // loaded from a file, or animation data that is broken.
+  void set_time(double seconds);
+  bool animated() const;         // the file animates nodes
+  double animation_end() const;  // its last keyframe, seconds; 0 when not animated
 
   size_t mesh_count() const;
   size_t instance_count() const;
