@@ -77,7 +77,8 @@ class Renderer {
   std::string device_name() const;
   // The OpenCL kernel that traces (KernelChoice resolved for the device;
   // before the first frame of a measured choice, the tile kernel);
-  // meaningless for the CPU backend.
+  // meaningless for the CPU backend. Orthographic cameras always trace with
+  // the single-ray kernel.
   KernelKind kernel() const { return kernel_; }
   // "tile" or "single" (OpenCL), "cpu reference" (CPU backend).
   std::string kernel_label() const;

@@ -5,10 +5,10 @@
 
 #define RF_CAMERA_ARGS \
   float scale_x, float scale_y, int kx0, int ky0, int width, int height, int xpair, int ypair, float depth_scale, \
-      float frac_x, float frac_y
+      float frac_x, float frac_y, int ortho
 
 RF_INLINE rf_camera rf_make_camera(float scale_x, float scale_y, int kx0, int ky0, int width, int height, int xpair,
-                                   int ypair, float depth_scale, float frac_x, float frac_y) {
+                                   int ypair, float depth_scale, float frac_x, float frac_y, int ortho) {
   rf_camera cam;
   cam.scale_x = scale_x;
   cam.scale_y = scale_y;
@@ -21,6 +21,7 @@ RF_INLINE rf_camera rf_make_camera(float scale_x, float scale_y, int kx0, int ky
   cam.depth_scale = depth_scale;
   cam.frac_x = frac_x;
   cam.frac_y = frac_y;
+  cam.ortho = ortho;
   return cam;
 }
 
@@ -31,7 +32,7 @@ __kernel void rf_trace_primary(__global const rf_node* nodes, __global const rf_
                                __global rf_pixel_hit* out) {
   const uint i = get_global_id(0);
   if (i >= ray_count) return;
-  const rf_camera cam = rf_make_camera(scale_x, scale_y, kx0, ky0, width, height, xpair, ypair, depth_scale, frac_x, frac_y);
+  const rf_camera cam = rf_make_camera(scale_x, scale_y, kx0, ky0, width, height, xpair, ypair, depth_scale, frac_x, frac_y, ortho);
   rf_trace_entry(rays[i], &cam, nodes, tris, instances, normal_xforms, tlas_root, out);
 }
 
@@ -49,7 +50,7 @@ __kernel void rf_trace_tiles(__global const rf_node* nodes, __global const rf_tr
 ) {
   const uint t = get_global_id(0);
   if (t >= tile_count) return;
-  const rf_camera cam = rf_make_camera(scale_x, scale_y, kx0, ky0, width, height, xpair, ypair, depth_scale, frac_x, frac_y);
+  const rf_camera cam = rf_make_camera(scale_x, scale_y, kx0, ky0, width, height, xpair, ypair, depth_scale, frac_x, frac_y, ortho);
   const uint begin = tiles[t];
 #ifdef RF_TILE_STATS
   uint stats[RF_TILE_STAT_COUNT];

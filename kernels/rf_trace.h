@@ -120,16 +120,17 @@ RF_INLINE float rf_group_bound(rf_u32 meta, rf_u32 ray_groups, const rf_hit* hit
   return bound;
 }
 
-/* Closest hit per group of one camera-space ray from the eye through the
- * top-level tree. ray_groups: bit g set when the ray answers group g. */
+/* Closest hit per group of one camera-space ray through the top-level tree:
+ * from the eye along (dx, dy, dz), or, orthographic, from (ox, oy, 0).
+ * ray_groups: bit g set when the ray answers group g. */
 RF_INLINE void rf_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_tri* tris,
-                             const RF_GLOBAL rf_instance* instances, rf_u32 tlas_root, float dx, float dy, float dz,
-                             rf_u32 ray_groups, rf_hit* hits) {
+                             const RF_GLOBAL rf_instance* instances, rf_u32 tlas_root, rf_i32 ortho, float ox,
+                             float oy, float dx, float dy, float dz, rf_u32 ray_groups, rf_hit* hits) {
   rf_u32 stack_node[RF_STACK_SIZE];
   float stack_t[RF_STACK_SIZE];
   int sp = 0;
   rf_ray r;
-  rf_ray_init(&r, 0.0f, 0.0f, 0.0f, dx, dy, dz);
+  rf_ray_init(&r, ox, oy, 0.0f, dx, dy, dz);
   /* With re-braiding, one instance enters the top level as several subtrees
    * that a ray meets at different times; a small direct-mapped cache keeps
    * the object-space rays of recent (instance, group) pairs. Reuse gives the
@@ -154,7 +155,10 @@ RF_INLINE void rf_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_
         const rf_u32 slot = key & (rf_u32)(RF_RAY_CACHE - 1);
         if (ro_key[slot] != key) {
           RF_STAT(setups);
-          rf_ray_to_object(&ro_cache[slot], inst->tree_from_trace, dx, dy, dz);
+          if (ortho)
+            rf_ray_to_object_from(&ro_cache[slot], inst->tree_from_trace, ox, oy, dx, dy, dz);
+          else
+            rf_ray_to_object(&ro_cache[slot], inst->tree_from_trace, dx, dy, dz);
           ro_key[slot] = key;
         }
         rf_trace_blas(nodes, tris, inst->blas_root, &ro_cache[slot], inst->instance_id, &hits[g]);
@@ -215,7 +219,8 @@ RF_INLINE void rf_write_pixel(RF_GLOBAL rf_pixel_hit* px, const rf_hit* h, float
 
 /* One entry of the compacted ray list, decoded: its pixel, the transform
  * groups it answers (bit g: group g) and its camera-space direction (the eye
- * is the origin, dz = -1). Every kernel generates rays through this. */
+ * is the origin, dz = -1), or for an orthographic camera (dx, dy) its origin
+ * on the image plane. Every kernel generates rays through this. */
 typedef struct {
   rf_i32 x, y;
   rf_u32 groups;
@@ -240,7 +245,7 @@ RF_INLINE void rf_write_answers(const rf_camera_ray* ray, const rf_hit* hits, co
                                 const RF_GLOBAL rf_tri* tris, const RF_GLOBAL rf_normal_xform* normal_xforms,
                                 RF_GLOBAL rf_pixel_hit* out) {
   const float dz = -1.0f;
-  const float len_d = RF_SQRT(ray->dx * ray->dx + ray->dy * ray->dy + dz * dz);
+  const float len_d = cam->ortho ? 1.0f : RF_SQRT(ray->dx * ray->dx + ray->dy * ray->dy + dz * dz);
   for (int g = 0; g < RF_MAX_GROUPS; ++g) {
     if (((ray->groups >> g) & 1u) == 0u) continue;
     const rf_i32 px = (g & 1) ? cam->xpair - ray->x : ray->x;
@@ -259,7 +264,9 @@ RF_INLINE void rf_trace_entry(rf_u32 entry, const rf_camera* cam, const RF_GLOBA
   rf_hit hits[RF_MAX_GROUPS];
   for (int g = 0; g < RF_MAX_GROUPS; ++g) rf_hit_reset(&hits[g]);
   if (tlas_root != RF_INVALID)
-    rf_trace_tlas(nodes, tris, instances, tlas_root, ray.dx, ray.dy, -1.0f, ray.groups, hits);
+    rf_trace_tlas(nodes, tris, instances, tlas_root, cam->ortho, cam->ortho ? ray.dx : 0.0f,
+                  cam->ortho ? ray.dy : 0.0f, cam->ortho ? 0.0f : ray.dx, cam->ortho ? 0.0f : ray.dy, -1.0f, ray.groups,
+                  hits);
   rf_write_answers(&ray, hits, cam, tris, normal_xforms, out);
 }
 

@@ -144,7 +144,10 @@ typedef struct {
  * ky0 = H - 1, xpair = W - 1, ypair = H - 1. frac_x and frac_y, in half
  * pixels and within (-1, 1), place a principal point off the half-pixel grid
  * (a calibrated camera's); they are 0 for every camera that can fold, and
- * adding 0 leaves the integer's float unchanged. */
+ * adding 0 leaves the integer's float unchanged.
+ * An orthographic camera (ortho = 1) sends pixel (x, y) from o = (dx, dy, 0)
+ * along (0, 0, -1) instead; a hit at t is at depth t * depth_scale from the
+ * image plane. Mirror partners keep exactly negated origins. */
 typedef struct {
   float scale_x, scale_y;
   rf_i32 kx0, ky0;
@@ -152,6 +155,7 @@ typedef struct {
   rf_i32 xpair, ypair;
   float depth_scale; /* 2^c of the frame's trace space; 1 until a frame sets it */
   float frac_x, frac_y;
+  rf_i32 ortho;
 } rf_camera;
 
 #endif /* RF_TYPES_H */

@@ -141,7 +141,8 @@ TEST(Cli, UsageErrorsExitTwoWithAMessage) {
   for (const char* args : {"render --size 0x10", "render --size -5x10", "render --size 10", "render --bogus",
                            "render --eye 0,0,0", "render --eye 0,0,0 --look-at 0,1,0 --up 0,2,0", "render --vfov 180",
                            "render --frames 0", "frobnicate", "info", "render --fold z", "render --shift 1",
-                           "render --shift 1e9,0", "bench --views 0", "bench --bogus", "render --time x"}) {
+                           "render --shift 1e9,0", "bench --views 0", "bench --bogus", "render --time x",
+                           "render --ortho 2 --vfov 30", "render --ortho 0", "render --fps 0"}) {
     const CliRun r = rayfold(args);
     EXPECT_EQ(r.code, 2) << args << "\n" << r.err;
     EXPECT_EQ(r.err.rfind("error: ", 0), 0u) << args << ": " << r.err;

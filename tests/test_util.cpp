@@ -57,15 +57,19 @@ std::vector<rf_pixel_hit> brute_force(const Scene& scene, const SceneData& data,
   std::vector<rf_pixel_hit> out(static_cast<size_t>(cam.width) * cam.height);
   for (int y = 0; y < cam.height; ++y)
     for (int x = 0; x < cam.width; ++x) {
-      const float dx = cam.scale_x * (static_cast<float>(2 * x + cam.kx0) + cam.frac_x);
-      const float dy = cam.scale_y * (static_cast<float>(cam.ky0 - 2 * y) + cam.frac_y);
-      const float dz = -1.0f;
+      // Orthographic: (px, py) is the ray's origin on the image plane.
+      const float px = cam.scale_x * (static_cast<float>(2 * x + cam.kx0) + cam.frac_x);
+      const float py = cam.scale_y * (static_cast<float>(cam.ky0 - 2 * y) + cam.frac_y);
+      const float dx = cam.ortho ? 0.0f : px, dy = cam.ortho ? 0.0f : py, dz = -1.0f;
       rf_hit best;
       rf_hit_reset(&best);
       const rf_tri* best_tri = nullptr;
       for (const rf_instance& inst : insts) {
         rf_ray r;
-        rf_ray_to_object(&r, inst.tree_from_trace, dx, dy, dz);
+        if (cam.ortho)
+          rf_ray_to_object_from(&r, inst.tree_from_trace, px, py, dx, dy, dz);
+        else
+          rf_ray_to_object(&r, inst.tree_from_trace, dx, dy, dz);
         for (const rf_tri& tri : mesh_tris[scene.instances[inst.instance_id].mesh]) {
           float t, u, v;
           if (rf_intersect_triangle(&tri, &r, &t, &u, &v) && t > 0.0f &&
@@ -79,7 +83,7 @@ std::vector<rf_pixel_hit> brute_force(const Scene& scene, const SceneData& data,
           }
         }
       }
-      const float len_d = RF_SQRT(dx * dx + dy * dy + dz * dz);
+      const float len_d = cam.ortho ? 1.0f : RF_SQRT(dx * dx + dy * dy + dz * dz);
       // rf_write_pixel finds the triangle through an index; hand it this one.
       best.tri = 0;
       rf_write_pixel(&out[static_cast<size_t>(y) * cam.width + x], &best, len_d, 1.0f, best_tri ? best_tri : nullptr,

@@ -70,7 +70,9 @@ const char* kRenderUsage =
     "  --look-at X,Y,Z        point looked at         } camera, else a view that\n"
     "  --up X,Y,Z             up direction (0,1,0)    } frames the whole scene\n"
     "                         (--up alone turns the file's camera)\n"
-    "  --vfov DEG             vertical field of view (default: the file's, else 60)\n"
+    "  --vfov DEG             vertical field of view (default: the file's, else 60); a\n"
+    "                         perspective view also where the file's camera is orthographic\n"
+    "  --ortho YMAG           an orthographic view, YMAG world units above and below the axis\n"
     "  --scene N              the file's scene N (default: its `scene`, else 0)\n"
     "  --camera N             the scene's camera N (default: its first perspective\n"
     "                         camera); `rayfold info` lists both\n"
@@ -136,7 +138,7 @@ struct RenderArgs {
   std::string scene = default_scene();
   int width = 1280, height = 720;
   std::optional<glm::dvec3> eye, look_at, up;
-  std::optional<double> vfov;
+  std::optional<double> vfov, ortho;
   double shift_x = 0.0, shift_y = 0.0;
   RendererOptions renderer;
   FrameOptions frame;
@@ -253,6 +255,8 @@ RenderArgs parse_render(cli::Args& args) {
       r.look_at = cli::parse_vec3(a, args.value(a));
     } else if (a == "--up") {
       r.up = cli::parse_vec3(a, args.value(a));
+    } else if (a == "--ortho") {
+      r.ortho = cli::parse_double(a, args.value(a));
     } else if (a == "--vfov") {
       r.vfov = cli::parse_double(a, args.value(a));
     } else if (a == "--scene") {
@@ -303,6 +307,7 @@ RenderArgs parse_render(cli::Args& args) {
     }
   }
   if (r.eye.has_value() != r.look_at.has_value()) throw UsageError("--eye and --look-at go together");
+  if (r.vfov && r.ortho) throw UsageError("--vfov and --ortho: a view is perspective or orthographic, not both");
   check_outputs({{"-o", &r.exr, ".exr"}, {"--png", &r.png, ".png"}, {"--stats", &r.stats, ".json"},
                  {"--ids", &r.ids, ".json"}});
   if (r.compare && r.frame.fold == FoldMode::none) r.frame.fold = FoldMode::xy;
@@ -314,7 +319,7 @@ RenderArgs parse_render(cli::Args& args) {
 ExrMetadata exr_metadata(const Camera& camera, const Scene& scene, const RenderArgs& args) {
   ExrMetadata m;
   const Intrinsics k = intrinsics(camera);
-  m.view = ExrMetadata::View{camera.world_from_camera, k.fx, k.fy, k.cx, k.cy};
+  m.view = ExrMetadata::View{camera.world_from_camera, k.fx, k.fy, k.cx, k.cy, is_orthographic(camera)};
   for (const Instance& i : scene.instances) m.instance_names.push_back(i.name);
   m.strings = {{"version", RAYFOLD_VERSION},
                {"scene", args.scene},
@@ -337,7 +342,9 @@ nlohmann::json camera_json(const Camera& camera) {
           {"eye", {eye.x, eye.y, eye.z}},
           {"camera_to_world", m},
           {"convention", "opengl: +x right, +y up, looking down -z; row-major"},
+          {"projection", is_orthographic(camera) ? "orthographic" : "perspective"},
           {"intrinsics", {{"fx", k.fx}, {"fy", k.fy}, {"cx", k.cx}, {"cy", k.cy}}},
+          {"intrinsics_units", is_orthographic(camera) ? "pixels per world unit; cx, cy pixels" : "pixels"},
           {"pixel_centres", "at (x + 0.5, y + 0.5) from the top-left corner, y down"},
           {"vfov_degrees", camera.vfov_degrees}};
 }
@@ -475,9 +482,9 @@ int run_render(cli::Args& args) {
   progress.stage("loading " + r.scene);
   auto t0 = Clock::now();
   GltfFile file(r.scene, r.load);
+  Scene scene = file.scene_at(r.load.time);
   if (!r.quiet)
     for (const std::string& w : file.warnings()) std::fprintf(stderr, "warning: %s\n", w.c_str());
-  Scene scene = file.scene_at(r.load.time);
   const double load_ms = ms_since(t0);
   // --animate plays the file's own animations when it has any (frame f at
   // --time + f / --fps); other files get the synthetic motion (animation.h).
@@ -495,7 +502,14 @@ int run_render(cli::Args& args) {
     spec.up = glm::dvec3(0.0, 1.0, 0.0);
   }
   if (r.up) spec.up = *r.up;
-  if (r.vfov) spec.vfov_degrees = *r.vfov;
+  if (r.vfov) {
+    spec.vfov_degrees = *r.vfov;
+    spec.orthographic = false;
+  }
+  if (r.ortho) {
+    spec.orthographic = true;
+    spec.ymag = *r.ortho;
+  }
   const Camera camera = make_camera(spec, r.width, r.height, r.shift_x, r.shift_y);
 
   progress.stage("building the bottom-level trees and the kernels");
@@ -605,9 +619,9 @@ int run_render(cli::Args& args) {
     std::printf("  %-12s %9.2f   (%zu rays for %zu pixels: %.2f Mpixels/s)\n", "Mrays/s", mrays, result.rays,
                 result.hits.size(), result.hits.size() / (m.trace_ms * 1e3));
     if (auto_framed)
-      std::printf("  %-12s --eye %.17g,%.17g,%.17g --look-at %.17g,%.17g,%.17g --up 0,1,0 --vfov %.17g\n",
+      std::printf("  %-12s --eye %.17g,%.17g,%.17g --look-at %.17g,%.17g,%.17g --up 0,1,0 %s %.17g\n",
                   "auto-framed", spec.eye.x, spec.eye.y, spec.eye.z, spec.look_at.x, spec.look_at.y, spec.look_at.z,
-                  spec.vfov_degrees);
+                  spec.orthographic ? "--ortho" : "--vfov", spec.orthographic ? spec.ymag : spec.vfov_degrees);
     if (unfolded) print_comparison(*unfolded, result, r.frame.fold);
     if (r.verbose) {
       std::printf("  %-12s load %.2f ms, trees and kernels %.2f ms (BLAS %.2f ms)\n", "stages", load_ms, setup_ms,
@@ -666,7 +680,9 @@ int run_info(cli::Args& args) {
                   c.name.c_str(), c.spec.eye.x, c.spec.eye.y, c.spec.eye.z, c.spec.look_at.x, c.spec.look_at.y,
                   c.spec.look_at.z, c.spec.vfov_degrees);
     else
-      std::printf("  camera %-4zu node %d '%s': orthographic (not rendered)\n", i, c.node, c.name.c_str());
+      std::printf("  camera %-4zu node %d '%s': eye (%g, %g, %g), looking at (%g, %g, %g), orthographic, ymag %g\n", i,
+                  c.node, c.name.c_str(), c.spec.eye.x, c.spec.eye.y, c.spec.eye.z, c.spec.look_at.x,
+                  c.spec.look_at.y, c.spec.look_at.z, c.spec.ymag);
   }
   // The ids the G-buffer's InstanceID channel holds (render --ids writes them as JSON).
   std::printf("  instance ids (InstanceID, mesh, node name):\n");

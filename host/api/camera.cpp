@@ -29,6 +29,17 @@ Camera Camera::look_at(const Vec3& eye, const Vec3& target, const Vec3& up, doub
   return Camera(std::make_shared<core::Camera>(core::make_camera(spec, width, height)));
 }
 
+Camera Camera::orthographic(const Vec3& eye, const Vec3& target, const Vec3& up, double half_height, int width,
+                           int height) {
+  core::CameraSpec spec;
+  spec.eye = glm::dvec3(eye[0], eye[1], eye[2]);
+  spec.look_at = glm::dvec3(target[0], target[1], target[2]);
+  spec.up = glm::dvec3(up[0], up[1], up[2]);
+  spec.orthographic = true;
+  spec.ymag = half_height;
+  return Camera(std::make_shared<core::Camera>(core::make_camera(spec, width, height)));
+}
+
 Camera Camera::from_matrix(const Matrix4& camera_to_world, const Intrinsics& k, int width, int height,
                            CameraConvention convention) {
   detail::check_affine(camera_to_world, "camera-to-world matrix");
@@ -68,6 +79,13 @@ Vec3 Camera::ray_direction(int x, int y) const {
       glm::normalize(glm::dvec3(impl_->world_from_camera * glm::dvec4(core::exact_direction(*impl_, x, y), 0.0)));
   return {d.x, d.y, d.z};
 }
+
+Vec3 Camera::ray_origin(int x, int y) const {
+  const glm::dvec3 o = core::transform_point(impl_->world_from_camera, core::exact_origin(*impl_, x, y));
+  return {o.x, o.y, o.z};
+}
+
+bool Camera::is_orthographic() const { return core::is_orthographic(*impl_); }
 
 bool Camera::can_fold_columns() const { return core::can_fold_columns(*impl_); }
 bool Camera::can_fold_rows() const { return core::can_fold_rows(*impl_); }

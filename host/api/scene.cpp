@@ -184,6 +184,9 @@ std::vector<std::string> Scene::camera_names() const {
 Camera Scene::default_camera(int width, int height) const {
   const core::Scene& s = state_->scene;
   const core::CameraSpec spec = s.camera ? *s.camera : core::frame_bounds(s.world_bounds());
+  if (spec.orthographic)
+    return Camera::orthographic({spec.eye.x, spec.eye.y, spec.eye.z}, {spec.look_at.x, spec.look_at.y, spec.look_at.z},
+                                {spec.up.x, spec.up.y, spec.up.z}, spec.ymag, width, height);
   return Camera::look_at({spec.eye.x, spec.eye.y, spec.eye.z}, {spec.look_at.x, spec.look_at.y, spec.look_at.z},
                          {spec.up.x, spec.up.y, spec.up.z}, spec.vfov_degrees, width, height);
 }

@@ -15,8 +15,10 @@ struct TracedRegion {
   int kx_min = 0, kx_max = 0, ky_min = 0, ky_max = 0;
 };
 
-// Planes through the eye bounding every ray of a region, plus the plane
-// z = 0 behind which no ray (t > 0, dz = -1) goes.
+// Planes through the eye bounding every ray of a region (orthographic:
+// parallel to the view axis, through the region's edges), plus the plane
+// z = 0 behind which no ray (t > 0, dz = -1) goes. In the space the camera's
+// rays are generated in (trace space, frame_camera).
 class Frustum {
  public:
   Frustum(const rf_camera& cam, const TracedRegion& region);
@@ -24,7 +26,7 @@ class Frustum {
   bool may_see(const Aabb& camera_box) const;
 
  private:
-  double planes_[5][3];
+  double planes_[5][4];  // a x + b y + c z + d >= 0 inside
 };
 
 }  // namespace rayfold::core

@@ -15,6 +15,12 @@ namespace rayfold::core {
 rf_camera frame_camera(const Camera& camera, const Frame& frame) {
   rf_camera params = camera.params;
   params.depth_scale = frame.depth_scale;
+  // Orthographic rays start on the image plane at trace-space positions:
+  // the pixel spacing in trace units (a power of two apart, exact).
+  if (params.ortho) {
+    params.scale_x = std::ldexp(params.scale_x, -frame.trace_exponent);
+    params.scale_y = std::ldexp(params.scale_y, -frame.trace_exponent);
+  }
   return params;
 }
 
@@ -66,8 +72,18 @@ Frame build_frame(const Scene& scene, const SceneData& data, const Camera& camer
   const Xform trace_from_world = uniform_scale(-frame.trace_exponent) * camera.camera_from_world;
 
   auto t0 = Clock::now();
+  const rf_camera traced = frame_camera(camera, frame);
   std::vector<Frustum> frusta;
-  for (int g = 0; g < RF_MAX_GROUPS; ++g) frusta.emplace_back(camera.params, rays.regions[g]);
+  for (int g = 0; g < RF_MAX_GROUPS; ++g) frusta.emplace_back(traced, rays.regions[g]);
+  // The largest trace-space ray origin: 0 from the eye; orthographic, the
+  // image plane's farthest pixel.
+  double plane_x = 0.0, plane_y = 0.0;
+  if (traced.ortho) {
+    const int kx_far = std::max(std::abs(traced.kx0), std::abs(2 * (traced.width - 1) + traced.kx0));
+    const int ky_far = std::max(std::abs(traced.ky0), std::abs(traced.ky0 - 2 * (traced.height - 1)));
+    plane_x = std::fabs(double(traced.scale_x)) * (kx_far + 1.0);
+    plane_y = std::fabs(double(traced.scale_y)) * (ky_far + 1.0);
+  }
   const bool animate = options.animate_frame >= 0;
   std::vector<char> moved;
   if (!options.moved.empty()) {
@@ -111,7 +127,11 @@ Frame build_frame(const Scene& scene, const SceneData& data, const Camera& camer
     // origin, docs/exactness.md).
     double origin = 0.0, stretch = 0.0;
     for (int r = 0; r < 3; ++r) {
-      origin = std::max(origin, static_cast<double>(std::fabs(base.tree_from_trace[4 * r + 3])));
+      // Orthographic origins go through the transform too (the rounding of
+      // m0 * ox + m1 * oy + m3 is within 2^-22 of its terms' sum).
+      origin = std::max(origin, std::fabs(double(base.tree_from_trace[4 * r + 3])) +
+                                    std::fabs(double(base.tree_from_trace[4 * r])) * plane_x +
+                                    std::fabs(double(base.tree_from_trace[4 * r + 1])) * plane_y);
       stretch = std::max(stretch, std::fabs(trace_from_tree[0][r]) + std::fabs(trace_from_tree[1][r]) +
                                       std::fabs(trace_from_tree[2][r]));
     }

@@ -180,6 +180,7 @@ double ClTracer::trace(const rf_camera& cam, KernelKind kind) {
     kernel.setArg(a++, cam.depth_scale);
     kernel.setArg(a++, cam.frac_x);
     kernel.setArg(a++, cam.frac_y);
+    kernel.setArg(a++, cam.ortho);
     kernel.setArg(a++, host_out_ ? host_hits_ : hits_);
     if (kind == KernelKind::tile && tile_stats_) {
       stats_ = cl::Buffer(device_.context(), CL_MEM_WRITE_ONLY,

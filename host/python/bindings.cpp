@@ -218,6 +218,15 @@ NB_MODULE(_core, m) {
           "eye"_a, "target"_a, "up"_a, "vfov_deg"_a, "width"_a, "height"_a,
           "A camera at eye looking at target, image +y along up, vertical field of view in degrees, square pixels.")
       .def_static(
+          "orthographic",
+          [](nb::handle eye, nb::handle target, nb::handle up, double half_height, int width, int height) {
+            return rayfold::Camera::orthographic(as_vec3(eye, "eye"), as_vec3(target, "target"), as_vec3(up, "up"),
+                                                 half_height, width, height);
+          },
+          "eye"_a, "target"_a, "up"_a, "half_height"_a, "width"_a, "height"_a,
+          "Parallel rays along the view direction from the plane through eye; the image half_height world units "
+          "above and below the axis. Depth is the distance from that plane.")
+      .def_static(
           "from_matrix",
           [](nb::handle camera_to_world, double fx, double fy, double cx, double cy, int width, int height,
              const std::string& convention) {
@@ -249,6 +258,21 @@ NB_MODULE(_core, m) {
           "(fx, fy, cx, cy) in pixels, pixel centres at +0.5.")
       .def_prop_ro("eye", [](const rayfold::Camera& c) { return c.eye(); })
       .def_prop_ro("vfov_deg", &rayfold::Camera::vfov_degrees)
+      .def_prop_ro("is_orthographic", &rayfold::Camera::is_orthographic)
+      .def(
+          "ray_origins",
+          [](const rayfold::Camera& c) {
+            const size_t w = c.width(), h = c.height();
+            std::vector<double> o(3 * w * h);
+            for (size_t y = 0; y < h; ++y)
+              for (size_t x = 0; x < w; ++x) {
+                const rayfold::Vec3 r = c.ray_origin(static_cast<int>(x), static_cast<int>(y));
+                std::copy(r.begin(), r.end(), o.begin() + 3 * (y * w + x));
+              }
+            return to_numpy(std::move(o), {h, w, 3});
+          },
+          "(H, W, 3) float64 world-space ray origins (the eye, or an orthographic camera's plane): a hit lies at "
+          "origin + depth * direction.")
       .def_prop_ro("can_fold_columns", &rayfold::Camera::can_fold_columns)
       .def_prop_ro("can_fold_rows", &rayfold::Camera::can_fold_rows)
       .def(

@@ -134,13 +134,14 @@ std::vector<ReferenceHit> trace_double_reference(const Scene& scene, const Scene
     const int y = static_cast<int>(row);
     for (int x = 0; x < w; ++x) {
       const glm::dvec3 d = exact_direction(camera, x, y);  // exact, unlike the float rays
-      const Ray cam_ray = make_ray(glm::dvec3(0.0), d);
+      const glm::dvec3 origin = exact_origin(camera, x, y) * std::ldexp(1.0, -frame.trace_exponent);
+      const Ray cam_ray = make_ray(origin, d);
       Best best;
       if (brute_force) {
         for (size_t i = 0; i < scene.instances.size(); ++i) {
           if (!data.renderable[i]) continue;
           const Xform& m = tree_from_trace[i];
-          const Ray r = make_ray(glm::dvec3(m[3]), glm::dvec3(m * glm::dvec4(d, 0.0)));
+          const Ray r = make_ray(glm::dvec3(m * glm::dvec4(origin, 1.0)), glm::dvec3(m * glm::dvec4(d, 0.0)));
           trace_blas(nodes, data.blas.tris, data.blas.roots[scene.instances[i].mesh], r, static_cast<uint32_t>(i), best,
                      true);
         }
@@ -148,7 +149,7 @@ std::vector<ReferenceHit> trace_double_reference(const Scene& scene, const Scene
         walk_tree(nodes, frame.tlas_root, cam_ray, best, false, [&](uint32_t i) {
           const rf_instance& inst = frame.instances[i];
           const Xform& m = tree_from_trace[inst.instance_id];
-          const Ray r = make_ray(glm::dvec3(m[3]), glm::dvec3(m * glm::dvec4(d, 0.0)));
+          const Ray r = make_ray(glm::dvec3(m * glm::dvec4(origin, 1.0)), glm::dvec3(m * glm::dvec4(d, 0.0)));
           trace_blas(nodes, data.blas.tris, inst.blas_root, r, inst.instance_id, best, false);
         });
       }

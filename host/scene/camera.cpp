@@ -49,8 +49,10 @@ Camera make_camera(const CameraSpec& spec, int width, int height, double shift_x
   if (!(std::fabs(shift_x) <= 100.0 && std::fabs(shift_y) <= 100.0))
     throw InputError("",
                      "lens shift must be finite and at most 100 half-images (ray coordinates must stay exact floats)");
-  if (!(spec.vfov_degrees > 0.0 && spec.vfov_degrees < 180.0))
+  if (!spec.orthographic && !(spec.vfov_degrees > 0.0 && spec.vfov_degrees < 180.0))
     throw InputError("", "vertical field of view must be in (0, 180) degrees");
+  if (spec.orthographic && !(spec.ymag > 0.0 && spec.ymag <= kMaxWorldCoordinate))
+    throw InputError("", "an orthographic camera's ymag must be positive and at most 2^126");
   const glm::dvec3 forward = spec.look_at - spec.eye;
   const double flen = glm::length(forward);
   if (!(flen > 0.0) || !std::isfinite(flen)) throw InputError("", "eye and look-at must be distinct finite points");
@@ -72,10 +74,16 @@ Camera make_camera(const CameraSpec& spec, int width, int height, double shift_x
   cam.world_from_camera = Xform(glm::dvec4(u, 0.0), glm::dvec4(v, 0.0), glm::dvec4(w, 0.0), glm::dvec4(spec.eye, 1.0));
   cam.camera_from_world = glm::affineInverse(cam.world_from_camera);
   // Square pixels: pixel column x sits at (2x + kx0) / H * tan(vfov / 2),
-  // in units of half a pixel from the optical axis.
-  const double scale = std::tan(spec.vfov_degrees * M_PI / 360.0) / height;
+  // in units of half a pixel from the optical axis; orthographic, at
+  // (2x + kx0) / H * ymag world units.
+  const double scale =
+      spec.orthographic ? spec.ymag / height : std::tan(spec.vfov_degrees * M_PI / 360.0) / height;
   set_rays(cam, scale, scale, 1 - width + static_cast<int>(std::lround(shift_x * width)),
            height - 1 + static_cast<int>(std::lround(shift_y * height)), 0.0, 0.0);
+  if (spec.orthographic) {
+    cam.vfov_degrees = 0.0;
+    cam.params.ortho = 1;
+  }
   return cam;
 }
 
@@ -143,8 +151,15 @@ Intrinsics intrinsics(const Camera& c) {
 }
 
 glm::dvec3 exact_direction(const Camera& c, int x, int y) {
+  if (c.params.ortho) return glm::dvec3(0.0, 0.0, -1.0);
   return glm::dvec3(c.scale_x * ((2 * x + c.params.kx0) + c.frac_x), c.scale_y * ((c.params.ky0 - 2 * y) + c.frac_y),
                     -1.0);
+}
+
+glm::dvec3 exact_origin(const Camera& c, int x, int y) {
+  if (!c.params.ortho) return glm::dvec3(0.0);
+  return glm::dvec3(c.scale_x * ((2 * x + c.params.kx0) + c.frac_x), c.scale_y * ((c.params.ky0 - 2 * y) + c.frac_y),
+                    0.0);
 }
 
 double pixel_angle(const Camera& camera) { return 2.0 * static_cast<double>(camera.params.scale_x); }

@@ -49,9 +49,12 @@ inline bool can_fold_rows(const Camera& c) { return c.params.frac_y == 0.0f; }
 // The camera's intrinsics (whatever made it), pixel centres at +0.5.
 Intrinsics intrinsics(const Camera& camera);
 
-// Pixel (x, y)'s camera-space ray direction in double, the exact value the
-// device's float direction rounds.
+// Pixel (x, y)'s camera-space ray direction and origin in double, the exact
+// values the device's floats round: from the eye (the origin) for a
+// perspective camera, from the image plane along -z for an orthographic one.
 glm::dvec3 exact_direction(const Camera& camera, int x, int y);
+glm::dvec3 exact_origin(const Camera& camera, int x, int y);
+inline bool is_orthographic(const Camera& c) { return c.params.ortho != 0; }
 
 // The angle between neighbouring pixels' rays at the image centre, radians.
 double pixel_angle(const Camera& camera);

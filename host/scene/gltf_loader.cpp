@@ -69,7 +69,6 @@ class Loader {
   // are reported for the first only.
   Scene build(double time) {
     scene_ = Scene{};
-    pending_.clear();
     mesh_slot_.clear();
     parent_.clear();
     model_.nodes = rest_nodes_;
@@ -114,6 +113,7 @@ class Loader {
     if (scene_.triangle_count() == 0) warn("the scene has no triangles; every pixel will miss");
     flush_warnings();
     warnings_ = nullptr;
+    pending_.clear();
     return std::move(scene_);
   }
 
@@ -526,30 +526,34 @@ class Loader {
         warn("camera " + std::to_string(ci) + " has a vertical field of view outside (0, 180) degrees; ignored");
         return;
       }
+    } else if (c.type == "orthographic") {
+      // ymag: half the view's height in world units (square pixels set the
+      // width from the image's; xmag is not needed).
+      fc.spec.orthographic = true;
+      fc.spec.ymag = std::fabs(c.orthographic.ymag);
+      if (!(fc.spec.ymag > 0.0 && std::isfinite(fc.spec.ymag))) {
+        warn("camera " + std::to_string(ci) + " has an orthographic ymag that is not positive; ignored");
+        return;
+      }
+    } else {
+      warn("camera " + std::to_string(ci) + " has the unknown type '" + c.type + "'; ignored");
+      return;
     }
     scene_.cameras.push_back(fc);
   }
 
   // The camera the scene is rendered with: the one asked for, else the
-  // first perspective camera. Orthographic cameras are listed, not used.
+  // file's first (as glTF viewers start with).
   void choose_camera() {
     const int asked = options_.camera;
     if (asked >= 0) {
       if (static_cast<size_t>(asked) >= scene_.cameras.size())
         fail("camera " + std::to_string(asked) + " does not exist (the scene shows " +
              std::to_string(scene_.cameras.size()) + " cameras)");
-      if (!scene_.cameras[asked].perspective)
-        fail("camera " + std::to_string(asked) + " is orthographic; rayfold renders perspective views only");
       scene_.camera = scene_.cameras[asked].spec;
       return;
     }
-    for (size_t i = 0; i < scene_.cameras.size(); ++i) {
-      if (scene_.cameras[i].perspective) {
-        scene_.camera = scene_.cameras[i].spec;
-        return;
-      }
-      warn("camera " + std::to_string(i) + " is orthographic, which rayfold does not render; it is skipped");
-    }
+    if (!scene_.cameras.empty()) scene_.camera = scene_.cameras.front().spec;
   }
 
   void add_instance(int ni, const Xform& world_from_node) {

@@ -28,12 +28,17 @@ struct Instance {
   std::string name;
 };
 
-// A perspective camera; +y of the image is `up` projected onto the view plane.
+// A camera; +y of the image is `up` projected onto the view plane.
+// Perspective from the eye with a vertical field of view, or orthographic:
+// parallel rays from the plane through the eye, the image ymag world units
+// above and below the axis (square pixels set the width).
 struct CameraSpec {
   glm::dvec3 eye{0.0, 0.0, 0.0};
   glm::dvec3 look_at{0.0, 0.0, -1.0};
   glm::dvec3 up{0.0, 1.0, 0.0};
   double vfov_degrees = 60.0;
+  bool orthographic = false;
+  double ymag = 1.0;  // orthographic: half the view's height, world units
 };
 
 // The largest world-space coordinate rayfold accepts (2^126, about 8.5e37):
@@ -44,14 +49,14 @@ constexpr double kMaxWorldCoordinate = 0x1p126;
 struct Scene {
   std::vector<Mesh> meshes;
   std::vector<Instance> instances;
-  std::optional<CameraSpec> camera;  // the chosen camera (LoadOptions), by default the first perspective one
+  std::optional<CameraSpec> camera;  // the chosen camera (LoadOptions), by default the file's first
 
   // What the file holds besides the scene shown, for `rayfold info`.
   struct FileCamera {
     std::string name;        // the node's name
     int node = -1;           // the node that places it
-    bool perspective = true; // orthographic cameras are listed but not rendered
-    CameraSpec spec;         // eye, look-at, up and vertical field of view (perspective)
+    bool perspective = true; // false: orthographic (spec.orthographic)
+    CameraSpec spec;         // eye, look-at, up; vertical field of view or ymag
   };
   std::vector<FileCamera> cameras;       // every camera node of the shown scene, in node order
   std::vector<std::string> scene_names;  // every scene of the file ("" when unnamed)

@@ -71,11 +71,19 @@ void add_metadata(Imf::Header& header, const ExrMetadata& meta, int width, int h
     // the image size; z_ndc = 1 / z keeps the matrix invertible.
     glm::dmat4 ndc_from_camera(0.0);
     ndc_from_camera[0][0] = v.fx / width;
-    ndc_from_camera[2][0] = v.cx / width;
     ndc_from_camera[1][1] = -v.fy / height;
-    ndc_from_camera[2][1] = v.cy / height;
-    ndc_from_camera[3][2] = 1.0;
-    ndc_from_camera[2][3] = 1.0;
+    if (v.orthographic) {
+      // (x, y, z) -> ((fx x + cx) / W, (cy - fy y) / H, z): no divide.
+      ndc_from_camera[3][0] = v.cx / width;
+      ndc_from_camera[3][1] = v.cy / height;
+      ndc_from_camera[2][2] = 1.0;
+      ndc_from_camera[3][3] = 1.0;
+    } else {
+      ndc_from_camera[2][0] = v.cx / width;
+      ndc_from_camera[2][1] = v.cy / height;
+      ndc_from_camera[3][2] = 1.0;
+      ndc_from_camera[2][3] = 1.0;
+    }
     Imf::addWorldToCamera(header, imath_matrix<Imath::M44f, float>(camera_from_world));
     Imf::addWorldToNDC(header, imath_matrix<Imath::M44f, float>(ndc_from_camera * camera_from_world));
     header.insert("rayfold:cameraToWorld", Imf::M44dAttribute(imath_matrix<Imath::M44d, double>(v.world_from_camera)));
@@ -83,6 +91,7 @@ void add_metadata(Imf::Header& header, const ExrMetadata& meta, int width, int h
     header.insert("rayfold:fy", Imf::DoubleAttribute(v.fy));
     header.insert("rayfold:cx", Imf::DoubleAttribute(v.cx));
     header.insert("rayfold:cy", Imf::DoubleAttribute(v.cy));
+    header.insert("rayfold:projection", Imf::StringAttribute(v.orthographic ? "orthographic" : "perspective"));
   }
   if (!meta.instance_names.empty())
     header.insert("rayfold:instanceNames", Imf::StringVectorAttribute(meta.instance_names));

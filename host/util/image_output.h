@@ -18,6 +18,9 @@ struct ExrMetadata {
   struct View {
     glm::dmat4 world_from_camera{1.0};  // rigid; camera +x right, +y up, looking down -z
     double fx = 0.0, fy = 0.0, cx = 0.0, cy = 0.0;  // pixels, pixel centres at +0.5
+    // Parallel rays along -z from the plane through the eye; fx, fy are then
+    // pixels per world unit.
+    bool orthographic = false;
   };
   std::optional<View> view;
   std::vector<std::string> instance_names;                   // by InstanceID
@@ -30,10 +33,13 @@ struct ExrMetadata {
 //                               row vectors: p' = p * M). Camera space is
 //                               RenderMan's, as OpenEXR specifies: +x right,
 //                               +y up, +z forward; NDC x and y run 0..1 from
-//                               the image's top-left corner, NDC z is 1 / z.
+//                               the image's top-left corner, NDC z is 1 / z
+//                               (orthographic: NDC z is z).
 //   rayfold:cameraToWorld       M44d, the same pose in double, OpenGL axes
 //                               (-z forward), row vectors
-//   rayfold:fx, fy, cx, cy      double, the intrinsics in pixels
+//   rayfold:fx, fy, cx, cy      double, the intrinsics in pixels (per world
+//                               unit for an orthographic camera)
+//   rayfold:projection          "perspective" or "orthographic"
 //   rayfold:instanceNames       string vector indexed by InstanceID
 //   rayfold:<name>              each of metadata.strings
 // Throws InputError naming the file on failure; never leaves a partial file.

@@ -249,3 +249,36 @@ def test_set_time_plays_the_file_animation_as_loading_at_that_time(atrium_path):
     assert not np.array_equal(depths[0], depths[2]), "the animation moves something in view" 
     with pytest.raises(rayfold.InputError, match="not loaded from a file"):
         rayfold.Scene().set_time(1.0)
+
+
+def test_orthographic_camera_reprojects_folds_losslessly_and_matches_the_cli(atrium, atrium_path, cli, tmp_path):
+    openexr = pytest.importorskip("OpenEXR")
+    camera = rayfold.Camera.orthographic(eye=(-25.0, 20.0, 15.0), target=(0, 0, 0), up=(0, 1, 0), half_height=12.0,
+                                         width=72, height=48)
+    assert camera.is_orthographic
+    g = atrium.render(camera, fold="xy")
+    assert g.fold == "xy"
+    assert_same_bits(atrium.render(camera, backend="cpu"), g)
+    dirs, origins = camera.ray_directions(), camera.ray_origins()
+    np.testing.assert_allclose(dirs - dirs[0, 0], 0, atol=1e-15)  # parallel rays
+    ys, xs = np.nonzero(g.instance_id != rayfold.MISS)
+    assert len(ys) > 500
+    for y, x in zip(ys[::11], xs[::11]):
+        i, t = int(g.instance_id[y, x]), int(g.primitive_id[y, x])
+        mesh = atrium.instance_mesh(i)
+        verts = atrium.mesh_positions(mesh)[atrium.mesh_triangles(mesh)[t]].astype(np.float64)
+        world = (atrium.transform(i) @ np.c_[verts, np.ones(3)].T).T[:, :3]
+        u, v = g.uv[y, x]
+        on_triangle = (1 - u - v) * world[0] + u * world[1] + v * world[2]
+        assert np.linalg.norm(on_triangle - (origins[y, x] + g.depth[y, x] * dirs[y, x])) < 1e-4 * 60
+    out = tmp_path / "ortho.exr"
+    subprocess.run([cli, "render", atrium_path, "--size", "72x48", "--eye", "-25,20,15", "--look-at", "0,0,0",
+                    "--ortho", "12", "--fold", "xy", "-o", str(out), "-q"], check=True)
+    exr = openexr.File(str(out))
+    np.testing.assert_array_equal(bits(exr.channels()["Z"].pixels), bits(g.depth))
+    h = exr.header()
+    assert h["rayfold:projection"] == "orthographic"
+    for y, x in zip(ys[::97], xs[::97]):
+        p = origins[y, x] + g.depth[y, x] * dirs[y, x]
+        ndc = np.append(p, 1.0) @ h["worldToNDC"].astype(np.float64)
+        assert abs(ndc[0] / ndc[3] * 72 - (x + 0.5)) < 1e-2 and abs(ndc[1] / ndc[3] * 48 - (y + 0.5)) < 1e-2

@@ -33,6 +33,11 @@ class Camera {
   // Throws InputError for a degenerate view.
   static Camera look_at(const Vec3& eye, const Vec3& target, const Vec3& up, double vfov_degrees, int width,
                         int height);
+  // An orthographic view: parallel rays along the view direction from the
+  // plane through eye, the image `half_height` world units above and below
+  // the axis (square pixels). Depth is the distance from that plane.
+  static Camera orthographic(const Vec3& eye, const Vec3& target, const Vec3& up, double half_height, int width,
+                             int height);
   // From a rigid camera-to-world matrix in the named convention (rotations
   // rounded to float are accepted to 1e-5 and made orthonormal; scale, shear
   // and mirrors are InputErrors) and intrinsics. A principal point off the
@@ -49,9 +54,12 @@ class Camera {
   Intrinsics intrinsics() const;
   Vec3 eye() const;
   double vfov_degrees() const;
-  // Pixel (x, y)'s ray in world space, unit length: a hit at depth d lies at
-  // eye() + d * ray_direction(x, y).
+  // Pixel (x, y)'s ray in world space: a hit at depth d lies at
+  // ray_origin(x, y) + d * ray_direction(x, y) (unit length). The origin is
+  // the eye, or for an orthographic camera the pixel's point on its plane.
   Vec3 ray_direction(int x, int y) const;
+  Vec3 ray_origin(int x, int y) const;
+  bool is_orthographic() const;
   // Whether the fold can pair columns (fold y) and rows (fold x): the
   // principal point lies on the half-pixel grid in that axis.
   bool can_fold_columns() const;
