@@ -46,8 +46,15 @@ std::string string_member(const tinygltf::Value& v, const char* key, const std::
 
 }  // namespace
 
-JsonFixups prepare_compressed_json(nlohmann::json& j) {
+JsonFixups prepare_json(nlohmann::json& j) {
   JsonFixups fix;
+  const auto images = j.find("images");
+  if (images != j.end() && images->is_array())
+    for (nlohmann::json& im : *images)
+      if (im.is_object() && !im.contains("uri") && !im.contains("bufferView")) {
+        im["uri"] = "data:application/octet-stream;base64,AAAA";
+        ++fix.placeholder_images;
+      }
   const auto buffers = j.find("buffers");
   if (buffers != j.end() && buffers->is_array())
     for (size_t i = 0; i < buffers->size(); ++i) {

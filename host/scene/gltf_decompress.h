@@ -25,11 +25,15 @@ struct JsonFixups {
   // meshopt fallback buffers (byteLength, no data) given a 4-byte placeholder
   // tinygltf can load; their views must be decoded, never read.
   std::vector<int> fallback_buffers;
-  bool changed() const { return placeholder_view >= 0 || !fallback_buffers.empty(); }
+  // Images with neither a uri nor a buffer view (gltfpack writes such when
+  // it cannot find a texture) were given a placeholder: tinygltf refuses
+  // them, and rayfold never decodes images.
+  size_t placeholder_images = 0;
+  bool changed() const { return placeholder_view >= 0 || !fallback_buffers.empty() || placeholder_images > 0; }
 };
 
 // Prepares the JSON for tinygltf; returns what it changed.
-JsonFixups prepare_compressed_json(nlohmann::json& gltf);
+JsonFixups prepare_json(nlohmann::json& gltf);
 
 // Undoes the placeholder views on the loaded model.
 void restore_fixups(tinygltf::Model& model, const JsonFixups& fixups);

@@ -334,7 +334,7 @@ class Loader {
     JsonFixups fixups;
     std::string prepared;
     if (!j.is_discarded() && j.is_object()) {
-      fixups = prepare_compressed_json(j);
+      fixups = prepare_json(j);
       if (fixups.changed()) {
         std::string text = j.dump();
         if (binary_) {
