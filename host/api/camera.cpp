@@ -17,24 +17,26 @@ core::Xform flip_yz() {
   return f;
 }
 
-}  // namespace
-
-Camera Camera::look_at(const Vec3& eye, const Vec3& target, const Vec3& up, double vfov_degrees, int width,
-                       int height) {
+core::CameraSpec pose(const Vec3& eye, const Vec3& target, const Vec3& up) {
   core::CameraSpec spec;
   spec.eye = glm::dvec3(eye[0], eye[1], eye[2]);
   spec.look_at = glm::dvec3(target[0], target[1], target[2]);
   spec.up = glm::dvec3(up[0], up[1], up[2]);
+  return spec;
+}
+
+}  // namespace
+
+Camera Camera::look_at(const Vec3& eye, const Vec3& target, const Vec3& up, double vfov_degrees, int width,
+                       int height) {
+  core::CameraSpec spec = pose(eye, target, up);
   spec.vfov_degrees = vfov_degrees;
   return Camera(std::make_shared<core::Camera>(core::make_camera(spec, width, height)));
 }
 
 Camera Camera::orthographic(const Vec3& eye, const Vec3& target, const Vec3& up, double half_height, int width,
                            int height) {
-  core::CameraSpec spec;
-  spec.eye = glm::dvec3(eye[0], eye[1], eye[2]);
-  spec.look_at = glm::dvec3(target[0], target[1], target[2]);
-  spec.up = glm::dvec3(up[0], up[1], up[2]);
+  core::CameraSpec spec = pose(eye, target, up);
   spec.orthographic = true;
   spec.ymag = half_height;
   return Camera(std::make_shared<core::Camera>(core::make_camera(spec, width, height)));

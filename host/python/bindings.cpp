@@ -74,6 +74,18 @@ nb::object to_numpy(std::vector<T>&& v, std::initializer_list<size_t> shape) {
   return nb::cast(nb::ndarray<nb::numpy, T>(heap->data(), shape, owner));
 }
 
+// A camera's per-pixel vector (ray_direction, ray_origin) as (H, W, 3).
+nb::object per_pixel(const rayfold::Camera& c, rayfold::Vec3 (rayfold::Camera::*f)(int, int) const) {
+  const size_t w = c.width(), h = c.height();
+  std::vector<double> out(3 * w * h);
+  for (size_t y = 0; y < h; ++y)
+    for (size_t x = 0; x < w; ++x) {
+      const rayfold::Vec3 r = (c.*f)(static_cast<int>(x), static_cast<int>(y));
+      std::copy(r.begin(), r.end(), out.begin() + 3 * (y * w + x));
+    }
+  return to_numpy(std::move(out), {h, w, 3});
+}
+
 nb::object matrix_to_numpy(const rayfold::Matrix4& m) {
   return to_numpy(std::vector<double>(m.begin(), m.end()), {4, 4});
 }
@@ -260,33 +272,13 @@ NB_MODULE(_core, m) {
       .def_prop_ro("vfov_deg", &rayfold::Camera::vfov_degrees)
       .def_prop_ro("is_orthographic", &rayfold::Camera::is_orthographic)
       .def(
-          "ray_origins",
-          [](const rayfold::Camera& c) {
-            const size_t w = c.width(), h = c.height();
-            std::vector<double> o(3 * w * h);
-            for (size_t y = 0; y < h; ++y)
-              for (size_t x = 0; x < w; ++x) {
-                const rayfold::Vec3 r = c.ray_origin(static_cast<int>(x), static_cast<int>(y));
-                std::copy(r.begin(), r.end(), o.begin() + 3 * (y * w + x));
-              }
-            return to_numpy(std::move(o), {h, w, 3});
-          },
+          "ray_origins", [](const rayfold::Camera& c) { return per_pixel(c, &rayfold::Camera::ray_origin); },
           "(H, W, 3) float64 world-space ray origins (the eye, or an orthographic camera's plane): a hit lies at "
           "origin + depth * direction.")
       .def_prop_ro("can_fold_columns", &rayfold::Camera::can_fold_columns)
       .def_prop_ro("can_fold_rows", &rayfold::Camera::can_fold_rows)
       .def(
-          "ray_directions",
-          [](const rayfold::Camera& c) {
-            const size_t w = c.width(), h = c.height();
-            std::vector<double> d(3 * w * h);
-            for (size_t y = 0; y < h; ++y)
-              for (size_t x = 0; x < w; ++x) {
-                const rayfold::Vec3 r = c.ray_direction(static_cast<int>(x), static_cast<int>(y));
-                std::copy(r.begin(), r.end(), d.begin() + 3 * (y * w + x));
-              }
-            return to_numpy(std::move(d), {h, w, 3});
-          },
+          "ray_directions", [](const rayfold::Camera& c) { return per_pixel(c, &rayfold::Camera::ray_direction); },
           "(H, W, 3) float64 unit world-space ray directions: a hit lies at eye + depth * direction.")
       .def("__repr__", [](const rayfold::Camera& c) {
         const rayfold::Vec3 e = c.eye();
