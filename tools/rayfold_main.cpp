@@ -14,6 +14,7 @@
 #include <nlohmann/json.hpp>
 
 #include "bench.h"
+#include "camera_list.h"
 #include "cli_args.h"
 #include "progress.h"
 #include "reference/hit_compare.h"
@@ -106,6 +107,10 @@ const char* kRenderUsage =
     "  --png F.png            normal-shaded preview, misses black\n"
     "  --stats F.json         the camera, options, hit and miss counts, phase times, device buffers\n"
     "  --ids F.json           the id manifest: InstanceID -> the file's node name and mesh\n"
+    "  --cameras F.json       render every view of a camera list, one output per view\n"
+    "                         (-o out/view_%04d.exr); see the README for the format\n"
+    "  --stereo B             a parallel-axis stereo pair around the camera, eyes B apart\n"
+    "                         along its right vector (outputs NAME-left.exr, NAME-right.exr)\n"
     "  -q, --quiet            print nothing but errors (and no progress)\n"
     "  -v, --verbose          also the time of every stage, and of every frame\n"
     "Each output's extension must match its kind (.exr, .png, .json), so no two\n"
@@ -140,6 +145,9 @@ struct RenderArgs {
   int width = 1280, height = 720;
   std::optional<glm::dvec3> eye, look_at, up;
   std::optional<double> vfov, ortho;
+  bool size_given = false;
+  std::string cameras;          // --cameras FILE.json: one render per view
+  std::optional<double> stereo;  // --stereo B: a left and a right view
   double shift_x = 0.0, shift_y = 0.0;
   RendererOptions renderer;
   FrameOptions frame;
@@ -250,6 +258,12 @@ RenderArgs parse_render(cli::Args& args) {
       std::exit(0);
     } else if (a == "--size") {
       cli::parse_size(a, args.value(a), &r.width, &r.height);
+      r.size_given = true;
+    } else if (a == "--cameras") {
+      r.cameras = args.value(a);
+    } else if (a == "--stereo") {
+      r.stereo = cli::parse_double(a, args.value(a));
+      if (!(*r.stereo > 0.0)) throw UsageError("--stereo: the baseline must be positive (world units)");
     } else if (a == "--eye") {
       r.eye = cli::parse_vec3(a, args.value(a));
     } else if (a == "--look-at") {
@@ -309,6 +323,17 @@ RenderArgs parse_render(cli::Args& args) {
   }
   if (r.eye.has_value() != r.look_at.has_value()) throw UsageError("--eye and --look-at go together");
   if (r.vfov && r.ortho) throw UsageError("--vfov and --ortho: a view is perspective or orthographic, not both");
+  if (!r.cameras.empty() || r.stereo) {
+    const char* what = !r.cameras.empty() ? "--cameras" : "--stereo";
+    if (!r.cameras.empty() && r.stereo) throw UsageError("--cameras and --stereo: one list of views at a time");
+    if (r.compare || r.frame.animate_frame >= 0 || r.frames != 1 || r.shift_x != 0.0 || r.shift_y != 0.0)
+      throw UsageError(std::string(what) + ": renders each view once; --compare, --animate, --frames and --shift "
+                                           "do not combine with it");
+    if (!r.cameras.empty() && (r.size_given || r.eye || r.vfov || r.ortho || r.up))
+      throw UsageError("--cameras: the file gives the size and every camera; --size, --eye, --look-at, --up, "
+                       "--vfov and --ortho do not combine with it");
+    if (r.ortho) throw UsageError("--stereo: a stereo pair is two perspective views");
+  }
   check_outputs({{"-o", &r.exr, ".exr"}, {"--png", &r.png, ".png"}, {"--stats", &r.stats, ".json"},
                  {"--ids", &r.ids, ".json"}});
   if (r.compare && r.frame.fold == FoldMode::none) r.frame.fold = FoldMode::xy;
@@ -463,6 +488,61 @@ std::string frame_name(const std::string& option, const std::string& name, int f
   return out;
 }
 
+// The output name of one view: the view's index in a frame field for a
+// camera list (required when it has several views), "-left"/"-right" before
+// the extension for a stereo pair.
+std::string view_output(const std::string& option, const std::string& name, const cli::View& v, bool stereo,
+                        size_t views) {
+  if (name.empty()) return name;
+  if (stereo) {
+    if (name.find('%') != std::string::npos)
+      throw UsageError(option + ": '" + name + "': a stereo pair is named NAME-left and NAME-right, without a field");
+    const size_t dot = name.rfind('.');
+    return name.substr(0, dot) + "-" + v.label + name.substr(dot);
+  }
+  bool field = false;
+  const std::string out = frame_name(option, name, std::stoi(v.label), &field);
+  if (!field && views > 1)
+    throw UsageError(option + ": '" + name + "' needs a view field such as %04d for " + std::to_string(views) +
+                     " views");
+  return out;
+}
+
+// --cameras and --stereo: each view traced on its own, its outputs written.
+int render_views(const RenderArgs& r, const Scene& scene, const std::vector<cli::View>& views, Progress& progress) {
+  const bool stereo = r.stereo.has_value();
+  for (const cli::View& v : views)
+    for (auto [option, out] : {std::pair{"-o", &r.exr}, {"--png", &r.png}, {"--stats", &r.stats}})
+      if (!out->empty()) check_writable(view_output(option, *out, v, stereo, views.size()));
+  progress.stage("building the bottom-level trees and the kernels");
+  Renderer renderer(scene, r.renderer);
+  progress.stage("tracing", views.size());
+  RenderResult result;
+  size_t done = 0;
+  if (!r.quiet)
+    std::printf("rayfold render  %s  %zu views  fold %s\n", r.scene.c_str(), views.size(), fold_name(r.frame.fold));
+  for (const cli::View& v : views) {
+    renderer.render_into(result, v.camera, 1, r.frame);
+    const ExrMetadata metadata = exr_metadata(v.camera, scene, r);
+    const int w = v.camera.width, h = v.camera.height;
+    if (!r.exr.empty()) write_exr(view_output("-o", r.exr, v, stereo, views.size()), result.hits, w, h, &metadata);
+    if (!r.png.empty()) write_png(view_output("--png", r.png, v, stereo, views.size()), result.hits, w, h);
+    if (!r.stats.empty())
+      write_stats(view_output("--stats", r.stats, v, stereo, views.size()), r, scene, v.camera, renderer, result, 0.0);
+    progress.update(++done);
+    if (!r.quiet) {
+      const glm::dvec3 eye(v.camera.world_from_camera[3]);
+      std::printf("  view %-6s %dx%d  eye (%g, %g, %g)  trace %.2f ms\n", v.label.c_str(), w, h, eye.x, eye.y,
+                  eye.z, result.median.trace_ms);
+    }
+  }
+  progress.clear();
+  if (!r.ids.empty()) write_ids(r.ids, r, scene);
+  if (!r.quiet && r.exr.empty() && r.png.empty() && r.stats.empty() && r.ids.empty())
+    std::printf("  nothing written (-o F_%%04d.exr, --png, --stats or --ids write the results)\n");
+  return 0;
+}
+
 int run_render(cli::Args& args) {
   const RenderArgs r = parse_render(args);
   // Frame sequences: with a frame field in -o or --png, every frame is
@@ -510,6 +590,11 @@ int run_render(cli::Args& args) {
   if (r.ortho) {
     spec.orthographic = true;
     spec.ymag = *r.ortho;
+  }
+  if (!r.cameras.empty() || r.stereo) {
+    std::vector<cli::View> views = !r.cameras.empty() ? cli::read_camera_list(r.cameras)
+                                                      : cli::stereo_pair(spec, *r.stereo, r.width, r.height);
+    return render_views(r, scene, views, progress);
   }
   const Camera camera = make_camera(spec, r.width, r.height, r.shift_x, r.shift_y);
 
