@@ -281,3 +281,9 @@ def test_orthographic_camera_reprojects_folds_losslessly_and_matches_the_cli(atr
         p = origins[y, x] + g.depth[y, x] * dirs[y, x]
         ndc = np.append(p, 1.0) @ h["worldToNDC"].astype(np.float64)
         assert abs(ndc[0] / ndc[3] * 72 - (x + 0.5)) < 1e-2 and abs(ndc[1] / ndc[3] * 48 - (y + 0.5)) < 1e-2
+
+
+def test_the_readme_python_lines_run_as_written():
+    import run_readme
+
+    run_readme.run()
