@@ -601,28 +601,23 @@ int run_render(cli::Args& args) {
   progress.stage("building the bottom-level trees and the kernels");
   t0 = Clock::now();
   auto renderer_ptr = std::make_unique<Renderer>(scene, r.renderer);
-  std::vector<Xform> built_pose;  // instance transforms the renderer's trees were built with
-  for (const Instance& i : scene.instances) built_pose.push_back(i.world_from_object);
+  std::vector<char> moved_since_build(scene.instances.size(), 0);  // since the renderer's trees were built
   const double setup_ms = ms_since(t0);
   // The file's pose for frame f: instances that moved since the trees were
   // built go to FrameOptions::moved; changed meshes (morph weights, skins)
   // rebuild the trees.
   size_t rebuilds = 0;
   auto pose_frame = [&](int f, FrameOptions& o) {
-    Scene next = file.scene_at(start_time + f / r.fps);
-    o.moved.clear();
-    if (!same_geometry(scene, next)) {
-      scene = std::move(next);
+    std::vector<uint32_t> changed;
+    if (apply_pose(scene, file.scene_at(start_time + f / r.fps), &changed)) {
       renderer_ptr = std::make_unique<Renderer>(scene, r.renderer);
-      built_pose.clear();
-      for (const Instance& i : scene.instances) built_pose.push_back(i.world_from_object);
+      moved_since_build.assign(scene.instances.size(), 0);
       ++rebuilds;
-      return;
     }
-    for (size_t i = 0; i < scene.instances.size(); ++i) {
-      scene.instances[i].world_from_object = next.instances[i].world_from_object;
-      if (scene.instances[i].world_from_object != built_pose[i]) o.moved.push_back(static_cast<uint32_t>(i));
-    }
+    for (uint32_t i : changed) moved_since_build[i] = 1;
+    o.moved.clear();
+    for (size_t i = 0; i < moved_since_build.size(); ++i)
+      if (moved_since_build[i]) o.moved.push_back(static_cast<uint32_t>(i));
   };
   progress.stage("tracing", sequence || play ? static_cast<size_t>(r.frames) : 0);
   std::optional<RenderResult> unfolded;

@@ -121,18 +121,13 @@ void Scene::set_transform(uint32_t instance, const Matrix4& world_from_object) {
 void Scene::set_time(double seconds) {
   detail::SceneState& s = *state_;
   if (!s.file) throw InputError("", "set_time: the scene was not loaded from a file, so it has no animations");
-  core::Scene posed = s.file->scene_at(seconds);
-  if (!core::same_geometry(s.scene, posed)) {
-    s.scene = std::move(posed);
+  std::vector<uint32_t> moved;
+  if (core::apply_pose(s.scene, s.file->scene_at(seconds), &moved)) {
     s.moved_at.assign(s.scene.instances.size(), 0);
     s.structure_version++;
     return;
   }
-  for (size_t i = 0; i < posed.instances.size(); ++i)
-    if (posed.instances[i].world_from_object != s.scene.instances[i].world_from_object) {
-      s.scene.instances[i].world_from_object = posed.instances[i].world_from_object;
-      s.moved_at[i] = ++s.clock;
-    }
+  for (uint32_t i : moved) s.moved_at[i] = ++s.clock;
 }
 
 bool Scene::animated() const { return state_->file && state_->file->animated(); }

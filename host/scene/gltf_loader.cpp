@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <optional>
 #include <set>
 #include <sstream>
 #include <tuple>
@@ -116,6 +117,8 @@ class Loader {
     pending_.clear();
     return std::move(scene_);
   }
+
+  void cache_meshes(bool on) { cache_meshes_ = on; }
 
   // The last keyframe time over the node animations; NaN without any.
   double animation_end() const {
@@ -569,7 +572,7 @@ class Loader {
       fail("node " + std::to_string(ni) + " refers to skin " + std::to_string(skin) + ", which does not exist");
     const MeshKey key{mi, weights, skin};
     auto found = mesh_slot_.find(key);
-    if (found == mesh_slot_.end()) found = mesh_slot_.emplace(key, convert_mesh(mi, weights, skin)).first;
+    if (found == mesh_slot_.end()) found = mesh_slot_.emplace(key, mesh_for(mi, weights, skin)).first;
     const std::vector<Xform> gpu = gpu_instances(ni);
     if (found->second < 0) return;  // a mesh without triangles
     // A skinned mesh's vertices are placed by its joints, in world space;
@@ -828,6 +831,25 @@ class Loader {
 
   // Converts a glTF mesh (all its triangle primitives) into one Mesh; returns
   // its index in scene_.meshes, or -1 when it has no triangles.
+  // This build's scene mesh. In an animated file a mesh without skin and
+  // morph weights does not depend on the pose: it is converted once and
+  // copied into later poses (GltfFile::scene_at per frame). Skinned meshes
+  // follow their joints and weighted ones their (maybe animated) weights:
+  // converted every time, so that no cache grows frame by frame.
+  int mesh_for(int mi, const std::vector<double>& weights, int skin) {
+    if (!cache_meshes_ || skin >= 0 || !weights.empty()) return convert_mesh(mi, weights, skin);
+    const MeshKey key{mi, weights, skin};
+    const auto cached = converted_.find(key);
+    if (cached == converted_.end()) {
+      const int slot = convert_mesh(mi, weights, skin);
+      converted_.emplace(key, slot < 0 ? std::optional<Mesh>() : std::optional<Mesh>(scene_.meshes[slot]));
+      return slot;
+    }
+    if (!cached->second) return -1;
+    scene_.meshes.push_back(*cached->second);
+    return static_cast<int>(scene_.meshes.size()) - 1;
+  }
+
   int convert_mesh(int mi, const std::vector<double>& weights, int skin) {
     const std::vector<Xform> joints = skin >= 0 ? joint_matrices(skin) : std::vector<Xform>{};
     const tinygltf::Mesh& gm = model_.meshes[mi];
@@ -1105,6 +1127,8 @@ class Loader {
     }
   };
   std::map<MeshKey, int> mesh_slot_;  // glTF mesh, morph weights and skin -> scene mesh (or -1)
+  bool cache_meshes_ = false;                        // animated: poses reuse unskinned meshes (mesh_for)
+  std::map<MeshKey, std::optional<Mesh>> converted_;  // static meshes of earlier poses; none: no triangles
   std::vector<int> parent_;
   std::vector<Xform> world_;
   std::vector<char> world_known_;
@@ -1123,6 +1147,7 @@ GltfFile::GltfFile(const std::string& path, const LoadOptions& options)
     : impl_(std::make_unique<Impl>(path, options)), path_(path) {
   impl_->loader.open();
   impl_->end = impl_->loader.animation_end();
+  impl_->loader.cache_meshes(!std::isnan(impl_->end));
 }
 
 GltfFile::~GltfFile() = default;
@@ -1142,6 +1167,19 @@ Scene load_gltf(const std::string& path, std::vector<std::string>* warnings, con
   Scene scene = file.scene_at(options.time);
   if (warnings) warnings->insert(warnings->end(), file.warnings().begin(), file.warnings().end());
   return scene;
+}
+
+bool apply_pose(Scene& scene, Scene&& posed, std::vector<uint32_t>* moved) {
+  if (!same_geometry(scene, posed)) {
+    scene = std::move(posed);
+    return true;
+  }
+  for (size_t i = 0; i < scene.instances.size(); ++i)
+    if (posed.instances[i].world_from_object != scene.instances[i].world_from_object) {
+      scene.instances[i].world_from_object = posed.instances[i].world_from_object;
+      moved->push_back(static_cast<uint32_t>(i));
+    }
+  return false;
 }
 
 bool same_geometry(const Scene& a, const Scene& b) {

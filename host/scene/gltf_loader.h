@@ -45,6 +45,13 @@ class GltfFile {
 // differ): then a renderer moves instances instead of rebuilding trees.
 bool same_geometry(const Scene& a, const Scene& b);
 
+// Puts a new pose of the same file (GltfFile::scene_at) into `scene`. With
+// the same meshes only instance transforms change: the instances whose
+// transform changed are appended to `moved`, and the result is false. With
+// other meshes (animated morph weights or skins) the scene is replaced and
+// the result is true: a renderer's trees must be built again.
+bool apply_pose(Scene& scene, Scene&& posed, std::vector<uint32_t>* moved);
+
 // Throws InputError naming the file and what is wrong (also for a scene or
 // camera index the file does not have). Non-fatal oddities (points and
 // lines skipped) are appended to warnings, one line per kind.
