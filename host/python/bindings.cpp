@@ -186,27 +186,18 @@ struct PyRenderer {
   std::unique_ptr<rayfold::Renderer> renderer;
 };
 
-PyGBuffer render_locked(PyScene& s, rayfold::Renderer* r, const rayfold::RendererOptions* make,
-                        const std::string& key, const rayfold::Camera& camera, rayfold::Fold fold) {
-  rayfold::GBuffer g;
-  {
-    nb::gil_scoped_release release;
-    std::lock_guard<std::mutex> lock(s.mutex);
-    if (!r) {
-      std::unique_ptr<rayfold::Renderer>& cached = s.renderers[key];
-      if (!cached) cached = std::make_unique<rayfold::Renderer>(s.scene, *make);
-      r = cached.get();
-    }
-    g = r->render(camera, fold);
-  }
-  return to_python(std::move(g), camera);
-}
-
 template <class F>
 auto locked(PyScene& s, F&& f) {
   nb::gil_scoped_release release;
   std::lock_guard<std::mutex> lock(s.mutex);
   return f();
+}
+
+// Renders with the renderer `pick` returns (called under the scene's lock).
+template <class Pick>
+PyGBuffer render_locked(PyScene& s, Pick&& pick, const rayfold::Camera& camera, rayfold::Fold fold) {
+  rayfold::GBuffer g = locked(s, [&] { return pick().render(camera, fold); });
+  return to_python(std::move(g), camera);
 }
 
 }  // namespace
@@ -402,7 +393,12 @@ NB_MODULE(_core, m) {
              const std::string& device, const std::string& kernel, unsigned threads) {
             const rayfold::RendererOptions o = renderer_options(backend, device, kernel, threads);
             const std::string key = backend + "|" + device + "|" + kernel + "|" + std::to_string(threads);
-            return render_locked(s, nullptr, &o, key, camera, parse_fold(fold));
+            auto cached = [&]() -> rayfold::Renderer& {
+              std::unique_ptr<rayfold::Renderer>& r = s.renderers[key];
+              if (!r) r = std::make_unique<rayfold::Renderer>(s.scene, o);
+              return *r;
+            };
+            return render_locked(s, cached, camera, parse_fold(fold));
           },
           "camera"_a, "fold"_a = "none", "backend"_a = "opencl", "device"_a = "", "kernel"_a = "auto",
           "threads"_a = 0,
@@ -422,7 +418,8 @@ NB_MODULE(_core, m) {
       .def(
           "render",
           [](PyRenderer& r, const rayfold::Camera& camera, const std::string& fold) {
-            return render_locked(*r.scene, r.renderer.get(), nullptr, "", camera, parse_fold(fold));
+            return render_locked(
+                *r.scene, [&]() -> rayfold::Renderer& { return *r.renderer; }, camera, parse_fold(fold));
           },
           "camera"_a, "fold"_a = "none")
       .def_prop_ro("device_name", [](PyRenderer& r) { return r.renderer->device_name(); })
