@@ -66,10 +66,13 @@ std::vector<BufferInfo> Renderer::device_buffers() const {
   return tracer_ ? tracer_->buffers() : std::vector<BufferInfo>{};
 }
 
-void Renderer::ensure_capacity(size_t pixels) {
-  if (!tracer_ || pixels <= pixel_capacity_) return;
-  tracer_->upload_scene(data_, max_tlas_nodes(data_), max_tlas_items(data_), pixels, pixels);
+void Renderer::ensure_capacity(size_t pixels, int groups) {
+  if (!tracer_ || (pixels <= pixel_capacity_ && groups <= group_capacity_)) return;
+  pixels = std::max(pixels, pixel_capacity_);
+  groups = std::max({groups, group_capacity_, RF_MIRRORS});
+  tracer_->upload_scene(data_, max_tlas_nodes(data_, groups), max_tlas_items(data_, groups), pixels, pixels);
   pixel_capacity_ = pixels;
+  group_capacity_ = groups;
   for (CachedRays& r : rays_) r.uploaded = false;  // the new buffers hold no rays yet
 }
 
@@ -105,13 +108,24 @@ RenderResult Renderer::render(const Camera& camera, int frames, const FrameOptio
 }
 
 void Renderer::render_into(RenderResult& result, const Camera& camera, int frames, const FrameOptions& frame_options) {
-  const size_t pixels = static_cast<size_t>(camera.width) * camera.height;
+  render_views_into(result, std::vector<Camera>{camera}, frames, frame_options);
+}
+
+void Renderer::render_views_into(RenderResult& result, const std::vector<Camera>& cameras, int frames,
+                                 const FrameOptions& frame_options) {
+  RF_CHECK(!cameras.empty(), "nothing to render");
+  const Camera& camera = cameras[0];
+  const size_t view_pixels = static_cast<size_t>(camera.width) * camera.height;
+  const size_t pixels = view_pixels * cameras.size();
+  result.fold = restrict_fold(frame_options.fold, can_fold_columns(camera), can_fold_rows(camera));
+  const int groups = pass_groups(static_cast<int>(cameras.size()), result.fold);
+  RF_CHECK(groups <= RF_GROUP_LIMIT, "more views than one pass holds");
   check_host_memory(pixels);
-  ensure_capacity(pixels);
+  ensure_capacity(pixels, groups);
+  if (tracer_) tracer_->prepare_groups(groups);  // a kernel build is not trace time
   if (result.hits.size() != pixels) result.hits.assign(pixels, rf_pixel_hit{});
   result.frames.clear();
   frames = std::max(frames, 1);
-  result.fold = restrict_fold(frame_options.fold, can_fold_columns(camera), can_fold_rows(camera));
   for (int f = 0; f < frames; ++f) {
     FrameTimes times;
     FrameOptions options = frame_options;
@@ -121,12 +135,13 @@ void Renderer::render_into(RenderResult& result, const Camera& camera, int frame
     const RayList& rays = ray_list(camera.params, options.fold);
     times.ray_list_ms = ms_since(t0);
     result.rays = rays.entries.size();
-    const Frame frame = build_frame(scene_, data_, camera, rays, options);
+    const Frame frame = build_frame(scene_, data_, cameras, rays, options);
     times.cull_ms = frame.stats.cull_ms;
     times.tlas_ms = frame.stats.tlas_ms;
     result.frame_stats = frame.stats;
     result.tlas_nodes = frame.tlas_nodes.size();
     result.instances = frame.instances.size();
+    result.views = frame.views;
     if (tracer_) {
       CachedRays& cached = rays_[static_cast<int>(options.fold)];
       if (!cached.uploaded) {
@@ -173,30 +188,38 @@ void Renderer::render_into(RenderResult& result, const Camera& camera, int frame
       in.normal_xform_count = normals.size();
       in.tlas_root = frame.tlas_root;
       t0 = Clock::now();
-      trace_cpu(in, rays, frame_camera(camera, frame), result.hits.data(), options_.threads);
+      const std::vector<float> depth_scales = frame.depth_scales();
+      trace_cpu(in, rays, frame_camera(camera, frame), depth_scales.data(), result.hits.data(), options_.threads);
       times.trace_ms = ms_since(t0);
     }
     result.frames.push_back(times);
   }
+  result.view_warnings.assign(cameras.size(), {});
   result.warnings.clear();
-  if (result.frame_stats.out_of_range != 0)
-    result.warnings.push_back(std::to_string(result.frame_stats.out_of_range) +
-                              " instances not rendered: at this view their size and the scene's extent are more "
-                              "than the float range apart");
-  if (data_.blas.unresolvable_triangles != 0)
-    result.warnings.push_back(std::to_string(data_.blas.unresolvable_triangles) +
-                              " triangles are smaller than 2^-60 of their mesh's extent, below what the triangle test "
-                              "resolves: they may be missed");
-  if (result.frame_stats.trace_exponent < -125)
-    result.warnings.push_back("the view's distances are below 2^-125 world units: depths are subnormal floats with "
-                              "fewer bits, or 0 (ids, barycentrics and normals are unaffected)");
-  if (pixel_angle(camera) < kFinestPixelAngle) {
-    char what[200];
-    std::snprintf(what, sizeof what,
-                  "pixels %.2g radians apart are finer than float positions resolve (about 2^-24 of the distance): "
-                  "hits may be misplaced or lost",
-                  pixel_angle(camera));
-    result.warnings.push_back(what);
+  for (size_t v = 0; v < cameras.size(); ++v) {
+    std::vector<std::string>& w = result.view_warnings[v];
+    if (result.views[v].out_of_range != 0)
+      w.push_back(std::to_string(result.views[v].out_of_range) +
+                  " instances not rendered: at this view their size and the scene's extent are more than the float "
+                  "range apart");
+    if (data_.blas.unresolvable_triangles != 0)
+      w.push_back(std::to_string(data_.blas.unresolvable_triangles) +
+                  " triangles are smaller than 2^-60 of their mesh's extent, below what the triangle test resolves: "
+                  "they may be missed");
+    if (result.views[v].trace_exponent < -125)
+      w.push_back(
+          "the view's distances are below 2^-125 world units: depths are subnormal floats with fewer bits, "
+          "or 0 (ids, barycentrics and normals are unaffected)");
+    if (pixel_angle(cameras[v]) < kFinestPixelAngle) {
+      char what[200];
+      std::snprintf(what, sizeof what,
+                    "pixels %.2g radians apart are finer than float positions resolve (about 2^-24 of the distance): "
+                    "hits may be misplaced or lost",
+                    pixel_angle(cameras[v]));
+      w.push_back(what);
+    }
+    for (const std::string& text : w)
+      result.warnings.push_back(cameras.size() == 1 ? text : "view " + std::to_string(v) + ": " + text);
   }
   result.median = median_times(result.frames);
 }

@@ -45,19 +45,24 @@ struct FrameTimes {
 };
 
 struct RenderResult {
-  std::vector<rf_pixel_hit> hits;  // width * height, row-major, row 0 at the top
+  // width * height per view, row-major, row 0 at the top; view after view.
+  std::vector<rf_pixel_hit> hits;
   FrameTimes median;
   std::vector<FrameTimes> frames;
-  FrameStats frame_stats;  // of the last frame
-  size_t rays = 0;         // rays traced per frame
-  size_t tlas_nodes = 0;   // of the last frame
-  size_t instances = 0;    // traced instances (mirrored copies included) of the last frame
+  FrameStats frame_stats;        // of the last frame
+  size_t rays = 0;               // rays traced per frame
+  size_t tlas_nodes = 0;         // of the last frame
+  size_t instances = 0;          // traced instances (copies per view and mirror included) of the last frame
+  std::vector<FrameView> views;  // each view's trace space and losses, of the last frame
   // The fold traced: the one asked for, less an axis the camera's principal
   // point cannot mirror exactly (camera.h, can_fold_columns).
   FoldMode fold = FoldMode::none;
   // What this render may have lost, in words: instances beyond the float
   // range at this view, pixels finer than float positions resolve. Empty
   // when the render is within rayfold's exact range (docs/exactness.md).
+  // Per view; `warnings` is view 0's for one view, else every view's with
+  // "view k: " in front.
+  std::vector<std::vector<std::string>> view_warnings;
   std::vector<std::string> warnings;
 };
 
@@ -72,6 +77,11 @@ class Renderer {
   // The same into `result`, reusing its hit buffer when it already has the
   // image's size (every pixel is overwritten): no allocation per frame.
   void render_into(RenderResult& result, const Camera& camera, int frames = 1, const FrameOptions& frame_options = {});
+  // Views that share their rays (can_align), traced together: one ray list
+  // and one top-level tree over every view's copies, each view's hits the
+  // bits of that view rendered alone. At most max_pass_views(fold) views.
+  void render_views_into(RenderResult& result, const std::vector<Camera>& cameras, int frames = 1,
+                         const FrameOptions& frame_options = {});
 
   const SceneData& scene_data() const { return data_; }
   std::string device_name() const;
@@ -89,7 +99,8 @@ class Renderer {
   double blas_build_ms() const { return data_.blas.build_ms; }
 
  private:
-  void ensure_capacity(size_t pixels);
+  // Device buffers for this many pixels (every view's) and top-level groups.
+  void ensure_capacity(size_t pixels, int groups);
   // The ray list for these intrinsics and fold: it does not depend on the
   // camera's pose, so one per fold mode (and its upload) is kept while the
   // intrinsics stay the same.
@@ -105,6 +116,7 @@ class Renderer {
   bool measure_kernel_ = false;  // time both kernels on the next traced frame
   std::string kernel_reason_;
   size_t pixel_capacity_ = 0;
+  int group_capacity_ = 0;
   struct CachedRays {
     RayList list;
     rf_camera camera{};

@@ -3,12 +3,16 @@
  * rf_lanes.h and rf_tile.h (host/opencl/kernel_sources.h), so this file holds only
  * the entry points. */
 
-#define RF_CAMERA_ARGS \
-  float scale_x, float scale_y, int kx0, int ky0, int width, int height, int xpair, int ypair, float depth_scale, \
-      float frac_x, float frac_y, int ortho
+/* The camera and pass (rf_camera) as kernel arguments, field by field, then
+ * one depth scale per view of the pass. */
+#define RF_CAMERA_ARGS                                                                                            \
+  float scale_x, float scale_y, int kx0, int ky0, int width, int height, int xpair, int ypair, float frac_x,      \
+      float frac_y, int ortho, uint views, uint group_shift, uint slot_mirrors, uint view_rep,                   \
+      __global const float *depth_scales
 
 RF_INLINE rf_camera rf_make_camera(float scale_x, float scale_y, int kx0, int ky0, int width, int height, int xpair,
-                                   int ypair, float depth_scale, float frac_x, float frac_y, int ortho) {
+                                   int ypair, float frac_x, float frac_y, int ortho, uint views, uint group_shift,
+                                   uint slot_mirrors, uint view_rep) {
   rf_camera cam;
   cam.scale_x = scale_x;
   cam.scale_y = scale_y;
@@ -18,12 +22,19 @@ RF_INLINE rf_camera rf_make_camera(float scale_x, float scale_y, int kx0, int ky
   cam.height = height;
   cam.xpair = xpair;
   cam.ypair = ypair;
-  cam.depth_scale = depth_scale;
   cam.frac_x = frac_x;
   cam.frac_y = frac_y;
   cam.ortho = ortho;
+  cam.views = views;
+  cam.group_shift = group_shift;
+  cam.slot_mirrors = slot_mirrors;
+  cam.view_rep = view_rep;
   return cam;
 }
+
+#define RF_MAKE_CAMERA()                                                                                           \
+  rf_make_camera(scale_x, scale_y, kx0, ky0, width, height, xpair, ypair, frac_x, frac_y, ortho, views, group_shift, \
+                 slot_mirrors, view_rep)
 
 /* The single-ray kernel: one work-item per ray-list entry. */
 __kernel void rf_trace_primary(__global const rf_node* nodes, __global const rf_tri* tris,
@@ -32,8 +43,8 @@ __kernel void rf_trace_primary(__global const rf_node* nodes, __global const rf_
                                __global rf_pixel_hit* out) {
   const uint i = get_global_id(0);
   if (i >= ray_count) return;
-  const rf_camera cam = rf_make_camera(scale_x, scale_y, kx0, ky0, width, height, xpair, ypair, depth_scale, frac_x, frac_y, ortho);
-  rf_trace_entry(rays[i], &cam, nodes, tris, instances, normal_xforms, tlas_root, out);
+  const rf_camera cam = RF_MAKE_CAMERA();
+  rf_trace_entry(rays[i], &cam, depth_scales, nodes, tris, instances, normal_xforms, tlas_root, out);
 }
 
 /* The tile kernel (rf_tile.h): one work-item per tile of the ray list; tile t
@@ -50,13 +61,13 @@ __kernel void rf_trace_tiles(__global const rf_node* nodes, __global const rf_tr
 ) {
   const uint t = get_global_id(0);
   if (t >= tile_count) return;
-  const rf_camera cam = rf_make_camera(scale_x, scale_y, kx0, ky0, width, height, xpair, ypair, depth_scale, frac_x, frac_y, ortho);
+  const rf_camera cam = RF_MAKE_CAMERA();
   const uint begin = tiles[t];
 #ifdef RF_TILE_STATS
   uint stats[RF_TILE_STAT_COUNT];
   for (int k = 0; k < RF_TILE_STAT_COUNT; ++k) stats[k] = 0u;
 #endif
-  rf_trace_tile(rays, begin, tiles[t + 1] - begin, &cam, nodes, tris, instances, normal_xforms, tlas_root,
+  rf_trace_tile(rays, begin, tiles[t + 1] - begin, &cam, depth_scales, nodes, tris, instances, normal_xforms, tlas_root,
                 out RF_TSTAT_ARG);
 #ifdef RF_TILE_STATS
   for (int k = 0; k < RF_TILE_STAT_COUNT; ++k) tile_stats[t * RF_TILE_STAT_COUNT + k] = stats[k];

@@ -30,6 +30,7 @@ typedef int rf_i32;
 #define RF_INF INFINITY
 #else
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
 typedef uint32_t rf_u32;
 typedef int32_t rf_i32;

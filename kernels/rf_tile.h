@@ -246,9 +246,7 @@ RF_INLINE int rf_tile_push_children(rf_u32* stack_node, float* stack_t, rf_u32* 
 RF_INLINE rf_vi rf_tile_lane_box(const float c0[3], const float c1[3], const rf_vf* ix, const rf_vf* iy,
                                  const rf_vf* iz, const rf_tile_hits* hits, rf_u32 groups, int j) {
   rf_vf bound = (rf_vf)(-1.0f);
-  for (int g = 0; g < RF_MAX_GROUPS; ++g) {
-    if ((groups >> g) & 1u) bound = rf_lanes_max(bound, hits[g].t[j]);
-  }
+  RF_FOR_EACH_GROUP(g, groups) { bound = rf_lanes_max(bound, hits[g].t[j]); }
   return rf_lanes_box(c0, c1, ix[j], iy[j], iz ? iz[j] : (rf_vf)(-1.0f), bound);
 }
 
@@ -343,20 +341,25 @@ RF_INLINE void rf_tile_trace_blas(const RF_GLOBAL rf_node* nodes, const RF_GLOBA
 }
 
 /* The skipping bound of a top-level node for the tile: the largest tmax of
- * the groups below it (rf_group_bound over the whole tile). */
-RF_INLINE float rf_tile_group_bound(rf_u32 meta, const rf_tile_hits* hits) {
-  const rf_u32 groups = meta >> RF_NODE_GROUP_SHIFT;
+ * the groups below it that the tile answers (rf_group_bound over the whole
+ * tile). */
+RF_INLINE float rf_tile_group_bound(rf_u32 groups, const rf_tile_hits* hits) {
   float bound = -1.0f;
-  for (int g = 0; g < RF_MAX_GROUPS; ++g) {
-    if ((groups >> g) & 1u) bound = rf_maxf(bound, hits[g].tmax);
-  }
+  RF_FOR_EACH_GROUP(g, groups) { bound = rf_maxf(bound, hits[g].tmax); }
   return bound;
 }
 
-/* Closest hit per group of every lane through the top-level tree. */
+/* Object-space set-ups kept per tile (rf_tile_to_object), one per mirror
+ * slot: the mirrored copies of an instance have transforms of their own and
+ * would evict each other; the copies of other views are visited elsewhere. */
+#define RF_TILE_SETUPS (RF_MAX_GROUPS < 4 ? RF_MAX_GROUPS : 4)
+
+/* Closest hit per group of every lane through the top-level tree;
+ * tile_groups: the groups some lane answers (the others' hits are not
+ * set). */
 RF_INLINE void rf_tile_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_tri* tris,
                                   const RF_GLOBAL rf_instance* instances, rf_u32 tlas_root, const rf_tile_camera* cam,
-                                  rf_tile_ray* ro, rf_tile_hits* hits RF_TSTAT_PARAM) {
+                                  rf_u32 tile_groups, rf_tile_ray* ro, rf_tile_hits* hits RF_TSTAT_PARAM) {
   rf_u32 stack_node[RF_STACK_SIZE];
   float stack_t[RF_STACK_SIZE];
   rf_u32 stack_range[RF_STACK_SIZE];
@@ -365,7 +368,7 @@ RF_INLINE void rf_tile_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBA
     const RF_GLOBAL rf_node* n = &nodes[tlas_root];
     const float c0[3] = {n->bmin[0] - 0.0f, n->bmin[1] - 0.0f, n->bmin[2] - 0.0f};
     const float c1[3] = {n->bmax[0] - 0.0f, n->bmax[1] - 0.0f, n->bmax[2] - 0.0f};
-    const float tn = rf_interval_box(c0, c1, cam->lo, cam->hi, rf_tile_group_bound(n->meta, hits));
+    const float tn = rf_interval_box(c0, c1, cam->lo, cam->hi, rf_tile_group_bound(n->meta & tile_groups, hits));
     if (tn == RF_FAR) return;
     stack_node[0] = tlas_root;
     stack_t[0] = tn;
@@ -375,10 +378,11 @@ RF_INLINE void rf_tile_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBA
   while (sp > 0) {
     --sp;
     const RF_GLOBAL rf_node* n = &nodes[stack_node[sp]];
-    if (stack_t[sp] > rf_tile_group_bound(n->meta, hits)) continue;
+    const rf_u32 groups = n->meta & tile_groups;
+    if (stack_t[sp] > rf_tile_group_bound(groups, hits)) continue;
     RF_TSTAT(RF_TILE_STAT_TLAS_NODES, 1);
-    const rf_u32 count = n->meta & RF_NODE_COUNT_MASK;
-    const rf_u32 groups = n->meta >> RF_NODE_GROUP_SHIFT;
+    const rf_u32 count = n->first >> RF_TLAS_COUNT_SHIFT;
+    const rf_u32 first_item = n->first & RF_TLAS_INDEX_MASK;
     const float c0[3] = {n->bmin[0] - 0.0f, n->bmin[1] - 0.0f, n->bmin[2] - 0.0f};
     const float c1[3] = {n->bmax[0] - 0.0f, n->bmax[1] - 0.0f, n->bmax[2] - 0.0f};
     int first = RF_RANGE_FIRST(stack_range[sp]), last = RF_RANGE_LAST(stack_range[sp]);
@@ -393,26 +397,25 @@ RF_INLINE void rf_tile_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBA
       for (int j = first; j <= last; ++j) entered[j] = rf_tile_lane_box(c0, c1, cam->ix, cam->iy, 0, hits, groups, j);
       RF_TSTAT(RF_TILE_STAT_TLAS_LANE_BOXES, last - first + 1);
       for (rf_u32 k = 0; k < count; ++k) {
-        const RF_GLOBAL rf_instance* inst = &instances[n->first + k];
+        const RF_GLOBAL rf_instance* inst = &instances[first_item + k];
         const rf_u32 g = inst->group;
+        if (((tile_groups >> g) & 1u) == 0u) continue;
         rf_tile_hits* h = &hits[g];
         if (h->tmax < 0.0f) continue; /* no lane answers this group */
         RF_TSTAT(RF_TILE_STAT_INSTANCES, 1);
-        /* One cached set-up per group: the mirrored copies of an instance
-         * have transforms of their own and would evict each other. */
-        rf_tile_ray* r = &ro[g];
+        rf_tile_ray* r = &ro[g & (RF_TILE_SETUPS - 1)];
         rf_tile_to_object(r, inst->tree_from_trace, cam RF_TSTAT_ARG);
         rf_tile_trace_blas(nodes, tris, inst->blas_root, r, inst->instance_id, entered, range, h RF_TSTAT_ARG);
       }
       continue;
     }
-    const rf_u32 c = n->first;
+    const rf_u32 c = first_item;
     float tc[2];
     for (int s = 0; s < 2; ++s) {
       const RF_GLOBAL rf_node* ch = &nodes[c + s];
       const float d0[3] = {ch->bmin[0] - 0.0f, ch->bmin[1] - 0.0f, ch->bmin[2] - 0.0f};
       const float d1[3] = {ch->bmax[0] - 0.0f, ch->bmax[1] - 0.0f, ch->bmax[2] - 0.0f};
-      tc[s] = rf_interval_box(d0, d1, cam->lo, cam->hi, rf_tile_group_bound(ch->meta, hits));
+      tc[s] = rf_interval_box(d0, d1, cam->lo, cam->hi, rf_tile_group_bound(ch->meta & tile_groups, hits));
     }
     sp = rf_tile_push_children(stack_node, stack_t, stack_range, sp, c, tc, range);
   }
@@ -424,8 +427,9 @@ RF_INLINE void rf_tile_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBA
  * per-pixel normal, with its divisions and square root, costs as much as
  * the traversal when done one pixel at a time. */
 RF_INLINE void rf_tile_write_group(const RF_GLOBAL rf_u32* rays, rf_u32 begin, rf_u32 count, const rf_camera* cam,
-                                   const rf_tile_camera* tc, const rf_tile_hits* h, int g, const RF_GLOBAL rf_tri* tris,
-                                   const RF_GLOBAL rf_normal_xform* normal_xforms, RF_GLOBAL rf_pixel_hit* out) {
+                                   const rf_tile_camera* tc, const rf_tile_hits* h, rf_u32 g, float depth_scale,
+                                   const RF_GLOBAL rf_tri* tris, const RF_GLOBAL rf_normal_xform* normal_xforms,
+                                   RF_GLOBAL rf_pixel_hit* out) {
   rf_vf z[RF_LANE_GROUPS], nx[RF_LANE_GROUPS], ny[RF_LANE_GROUPS], nz[RF_LANE_GROUPS];
   for (int j = 0; j < RF_LANE_GROUPS; ++j) {
     const rf_vi hit = h->instance[j] != (rf_vu)(RF_INVALID);
@@ -485,7 +489,7 @@ RF_INLINE void rf_tile_write_group(const RF_GLOBAL rf_u32* rays, rf_u32 begin, r
     nz[j] = select(wz / len, (rf_vf)(0.0f), zero);
     const rf_vf dz = (rf_vf)(-1.0f);
     const rf_vf len_d = sqrt(tc->dx[j] * tc->dx[j] + tc->dy[j] * tc->dy[j] + dz * dz);
-    z[j] = select((rf_vf)(RF_INF), (h->t[j] * len_d) * cam->depth_scale, hit);
+    z[j] = select((rf_vf)(RF_INF), (h->t[j] * len_d) * depth_scale, hit);
   }
   const float* zs = (const float*)z;
   const float* xs = (const float*)nx;
@@ -499,38 +503,42 @@ RF_INLINE void rf_tile_write_group(const RF_GLOBAL rf_u32* rays, rf_u32 begin, r
     const rf_u32 entry = rays[begin + l];
     const rf_camera_ray ray = rf_decode_entry(entry, cam);
     if (((ray.groups >> g) & 1u) == 0u) continue;
-    const rf_i32 px = (g & 1) ? cam->xpair - ray.x : ray.x;
-    const rf_i32 py = (g & 2) ? cam->ypair - ray.y : ray.y;
+    const size_t at = rf_group_pixel_index(ray.x, ray.y, g, cam);
     const int hit = is[l] != RF_INVALID;
     /* One 32-byte store per pixel (rf_pixel_hit's layout), as integers so
      * that the ids, NaN patterns as floats, never pass a float register. */
     const uint8 px_hit =
         (uint8)(as_uint(zs[l]), as_uint(xs[l]), as_uint(ys[l]), as_uint(ws[l]), as_uint(hit ? us[l] : 0.0f),
                 as_uint(hit ? vs[l] : 0.0f), is[l], hit ? ps[l] : RF_INVALID);
-    vstore8(px_hit, 0, (RF_GLOBAL rf_u32*)&out[py * cam->width + px]);
+    vstore8(px_hit, 0, (RF_GLOBAL rf_u32*)&out[at]);
   }
 }
 
 /* Traces tile `tile` of the ray list: rays[begin .. begin + count), count at
  * most RF_TILE_RAYS, and writes every pixel its rays answer. */
 RF_INLINE void rf_trace_tile(const RF_GLOBAL rf_u32* rays, rf_u32 begin, rf_u32 count, const rf_camera* cam,
-                             const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_tri* tris,
+                             const RF_GLOBAL float* depth_scales, const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_tri* tris,
                              const RF_GLOBAL rf_instance* instances, const RF_GLOBAL rf_normal_xform* normal_xforms,
                              rf_u32 tlas_root, RF_GLOBAL rf_pixel_hit* out RF_TSTAT_PARAM) {
   rf_tile_camera tc;
   rf_tile_hits hits[RF_MAX_GROUPS];
-  rf_tile_ray ro[RF_MAX_GROUPS];
-  for (int g = 0; g < RF_MAX_GROUPS; ++g) ro[g].valid = 0;
+  rf_tile_ray ro[RF_TILE_SETUPS];
+  for (int s = 0; s < RF_TILE_SETUPS; ++s) ro[s].valid = 0;
   float* dx = (float*)tc.dx;
   float* dy = (float*)tc.dy;
+  /* Only the groups some ray answers get hit records; the traversal masks
+   * the others out. */
   rf_u32 tile_groups = 0u;
+  for (int l = 0; l < RF_TILE_RAYS; ++l) {
+    const rf_u32 i = (rf_u32)l < count ? (rf_u32)l : count - 1u;
+    tile_groups |= rf_decode_entry(rays[begin + i], cam).groups;
+  }
   for (int l = 0; l < RF_TILE_RAYS; ++l) {
     const rf_u32 i = (rf_u32)l < count ? (rf_u32)l : count - 1u;
     const rf_camera_ray ray = rf_decode_entry(rays[begin + i], cam);
     dx[l] = ray.dx;
     dy[l] = ray.dy;
-    for (int g = 0; g < RF_MAX_GROUPS; ++g) ((float*)hits[g].t)[l] = ((ray.groups >> g) & 1u) ? RF_FAR : -1.0f;
-    tile_groups |= ray.groups;
+    RF_FOR_EACH_GROUP(g, tile_groups) { ((float*)hits[g].t)[l] = ((ray.groups >> g) & 1u) ? RF_FAR : -1.0f; }
   }
   rf_vf lo0 = (rf_vf)(RF_FAR), lo1 = lo0, hi0 = (rf_vf)(-RF_FAR), hi1 = hi0;
   for (int j = 0; j < RF_LANE_GROUPS; ++j) {
@@ -540,7 +548,7 @@ RF_INLINE void rf_trace_tile(const RF_GLOBAL rf_u32* rays, rf_u32 begin, rf_u32 
     lo1 = fmin(lo1, tc.iy[j]);
     hi0 = fmax(hi0, tc.ix[j]);
     hi1 = fmax(hi1, tc.iy[j]);
-    for (int g = 0; g < RF_MAX_GROUPS; ++g) {
+    RF_FOR_EACH_GROUP(g, tile_groups) {
       hits[g].u[j] = (rf_vf)(0.0f);
       hits[g].v[j] = (rf_vf)(0.0f);
       hits[g].instance[j] = (rf_vu)(RF_INVALID);
@@ -556,11 +564,12 @@ RF_INLINE void rf_trace_tile(const RF_GLOBAL rf_u32* rays, rf_u32 begin, rf_u32 
   tc.hi[2] = -1.0f;
   for (int g = 0; g < RF_MAX_GROUPS; ++g) hits[g].tmax = ((tile_groups >> g) & 1u) ? RF_FAR : -1.0f;
 
-  if (tlas_root != RF_INVALID) rf_tile_trace_tlas(nodes, tris, instances, tlas_root, &tc, ro, hits RF_TSTAT_ARG);
+  if (tlas_root != RF_INVALID)
+    rf_tile_trace_tlas(nodes, tris, instances, tlas_root, &tc, tile_groups, ro, hits RF_TSTAT_ARG);
 
-  for (int g = 0; g < RF_MAX_GROUPS; ++g) {
-    if ((tile_groups >> g) & 1u)
-      rf_tile_write_group(rays, begin, count, cam, &tc, &hits[g], g, tris, normal_xforms, out);
+  RF_FOR_EACH_GROUP(g, tile_groups) {
+    rf_tile_write_group(rays, begin, count, cam, &tc, &hits[g], g, depth_scales[g >> cam->group_shift], tris,
+                        normal_xforms, out);
   }
 }
 

@@ -109,14 +109,12 @@ RF_INLINE void rf_trace_blas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_
 }
 
 /* Pruning bound of a top-level node: the farthest current hit among the
- * groups that both lie below the node and are traced by this ray. A node is
- * skipped only when it cannot improve any of them; -1 when none applies. */
+ * groups that both lie below the node (its meta) and are traced by this ray.
+ * A node is skipped only when it cannot improve any of them; -1 when none
+ * applies. */
 RF_INLINE float rf_group_bound(rf_u32 meta, rf_u32 ray_groups, const rf_hit* hits) {
-  const rf_u32 groups = (meta >> RF_NODE_GROUP_SHIFT) & ray_groups;
   float bound = -1.0f;
-  for (int g = 0; g < RF_MAX_GROUPS; ++g) {
-    if ((groups >> g) & 1u) bound = rf_maxf(bound, hits[g].t);
-  }
+  RF_FOR_EACH_GROUP(g, meta & ray_groups) { bound = rf_maxf(bound, hits[g].t); }
   return bound;
 }
 
@@ -143,14 +141,17 @@ RF_INLINE void rf_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_
   rf_u32 ni = tlas_root;
   for (;;) {
     const RF_GLOBAL rf_node* n = &nodes[ni];
-    const rf_u32 count = n->meta & RF_NODE_COUNT_MASK;
+    const rf_u32 count = n->first >> RF_TLAS_COUNT_SHIFT;
+    const rf_u32 first = n->first & RF_TLAS_INDEX_MASK;
     RF_STAT(tlas_nodes);
     if (count != 0) {
       for (rf_u32 k = 0; k < count; ++k) {
-        const RF_GLOBAL rf_instance* inst = &instances[n->first + k];
+        const RF_GLOBAL rf_instance* inst = &instances[first + k];
         const rf_u32 g = inst->group;
         if (((ray_groups >> g) & 1u) == 0u) continue;
         RF_STAT(instances);
+        /* Unique while instance ids stay below 2^32 / RF_GROUP_LIMIT
+         * (prepare_scene checks). */
         const rf_u32 key = inst->instance_id * (rf_u32)RF_MAX_GROUPS + g;
         const rf_u32 slot = key & (rf_u32)(RF_RAY_CACHE - 1);
         if (ro_key[slot] != key) {
@@ -164,7 +165,7 @@ RF_INLINE void rf_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_
         rf_trace_blas(nodes, tris, inst->blas_root, &ro_cache[slot], inst->instance_id, &hits[g]);
       }
     } else {
-      const rf_u32 c = n->first;
+      const rf_u32 c = first;
       const float t0 = rf_intersect_box(&nodes[c], &r, rf_group_bound(nodes[c].meta, ray_groups, hits));
       const float t1 = rf_intersect_box(&nodes[c + 1], &r, rf_group_bound(nodes[c + 1].meta, ray_groups, hits));
       if (t0 != RF_FAR || t1 != RF_FAR) {
@@ -218,9 +219,10 @@ RF_INLINE void rf_write_pixel(RF_GLOBAL rf_pixel_hit* px, const rf_hit* h, float
 }
 
 /* One entry of the compacted ray list, decoded: its pixel, the transform
- * groups it answers (bit g: group g) and its camera-space direction (the eye
- * is the origin, dz = -1), or for an orthographic camera (dx, dy) its origin
- * on the image plane. Every kernel generates rays through this. */
+ * groups it answers (bit g: group g, in every view of the pass) and its
+ * camera-space direction (the eye is the origin, dz = -1), or for an
+ * orthographic camera (dx, dy) its origin on the image plane. Every kernel
+ * generates rays through this. */
 typedef struct {
   rf_i32 x, y;
   rf_u32 groups;
@@ -231,43 +233,60 @@ RF_INLINE rf_camera_ray rf_decode_entry(rf_u32 entry, const rf_camera* cam) {
   rf_camera_ray r;
   r.x = (rf_i32)(entry & RF_RAY_COORD_MASK);
   r.y = (rf_i32)((entry >> RF_RAY_COORD_BITS) & RF_RAY_COORD_MASK);
-  const rf_u32 mirror_x = (entry & RF_RAY_MIRROR_X) != 0u;
-  const rf_u32 mirror_y = (entry & RF_RAY_MIRROR_Y) != 0u;
-  r.groups = 1u | (mirror_x << 1) | (mirror_y << 2) | ((mirror_x & mirror_y) << 3);
+  /* Mirror m is answered when its bits are among the entry's. */
+  const rf_u32 mirrors = ((entry & RF_RAY_MIRROR_X) != 0u ? 1u : 0u) | ((entry & RF_RAY_MIRROR_Y) != 0u ? 2u : 0u);
+  rf_u32 slots = 0u;
+  const rf_u32 slot_count = 1u << cam->group_shift;
+  for (rf_u32 s = 0; s < slot_count; ++s) {
+    const rf_u32 m = (cam->slot_mirrors >> (2u * s)) & 3u;
+    if ((m & ~mirrors) == 0u) slots |= 1u << s;
+  }
+  r.groups = slots * cam->view_rep;
   r.dx = cam->scale_x * ((float)(2 * r.x + cam->kx0) + cam->frac_x);
   r.dy = cam->scale_y * ((float)(cam->ky0 - 2 * r.y) + cam->frac_y);
   return r;
 }
 
+/* Where group g's hit of the ray from pixel (x, y) goes in the output of
+ * the pass (view after view, each width * height pixels row-major): into
+ * g's view, at the pixel mirrored as g's slot says. */
+RF_INLINE size_t rf_group_pixel_index(rf_i32 x, rf_i32 y, rf_u32 g, const rf_camera* cam) {
+  const rf_u32 view = g >> cam->group_shift;
+  const rf_u32 m = (cam->slot_mirrors >> (2u * (g & ((1u << cam->group_shift) - 1u)))) & 3u;
+  const rf_i32 px = (m & 1u) ? cam->xpair - x : x;
+  const rf_i32 py = (m & 2u) ? cam->ypair - y : y;
+  return ((size_t)view * (size_t)cam->height + (size_t)py) * (size_t)cam->width + (size_t)px;
+}
+
 /* Writes the hit info of every pixel a ray answers: group g's hit goes to
- * the pixel mirrored as g says. */
+ * its view's image, at the pixel mirrored as g says. depth_scales: one per
+ * view. */
 RF_INLINE void rf_write_answers(const rf_camera_ray* ray, const rf_hit* hits, const rf_camera* cam,
-                                const RF_GLOBAL rf_tri* tris, const RF_GLOBAL rf_normal_xform* normal_xforms,
-                                RF_GLOBAL rf_pixel_hit* out) {
+                                const RF_GLOBAL float* depth_scales, const RF_GLOBAL rf_tri* tris,
+                                const RF_GLOBAL rf_normal_xform* normal_xforms, RF_GLOBAL rf_pixel_hit* out) {
   const float dz = -1.0f;
   const float len_d = cam->ortho ? 1.0f : RF_SQRT(ray->dx * ray->dx + ray->dy * ray->dy + dz * dz);
-  for (int g = 0; g < RF_MAX_GROUPS; ++g) {
-    if (((ray->groups >> g) & 1u) == 0u) continue;
-    const rf_i32 px = (g & 1) ? cam->xpair - ray->x : ray->x;
-    const rf_i32 py = (g & 2) ? cam->ypair - ray->y : ray->y;
-    rf_write_pixel(&out[py * cam->width + px], &hits[g], len_d, cam->depth_scale, tris, normal_xforms);
+  RF_FOR_EACH_GROUP(g, ray->groups) {
+    const rf_u32 view = g >> cam->group_shift;
+    const size_t at = rf_group_pixel_index(ray->x, ray->y, g, cam);
+    rf_write_pixel(&out[at], &hits[g], len_d, depth_scales[view], tris, normal_xforms);
   }
 }
 
 /* Traces one entry of the compacted ray list and writes the hit info of every
- * pixel it answers (1, 2 or 4). */
-RF_INLINE void rf_trace_entry(rf_u32 entry, const rf_camera* cam, const RF_GLOBAL rf_node* nodes,
-                              const RF_GLOBAL rf_tri* tris, const RF_GLOBAL rf_instance* instances,
-                              const RF_GLOBAL rf_normal_xform* normal_xforms, rf_u32 tlas_root,
-                              RF_GLOBAL rf_pixel_hit* out) {
+ * pixel it answers (1, 2 or 4 per view). */
+RF_INLINE void rf_trace_entry(rf_u32 entry, const rf_camera* cam, const RF_GLOBAL float* depth_scales,
+                              const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_tri* tris,
+                              const RF_GLOBAL rf_instance* instances, const RF_GLOBAL rf_normal_xform* normal_xforms,
+                              rf_u32 tlas_root, RF_GLOBAL rf_pixel_hit* out) {
   const rf_camera_ray ray = rf_decode_entry(entry, cam);
   rf_hit hits[RF_MAX_GROUPS];
-  for (int g = 0; g < RF_MAX_GROUPS; ++g) rf_hit_reset(&hits[g]);
+  RF_FOR_EACH_GROUP(g, ray.groups) { rf_hit_reset(&hits[g]); }
   if (tlas_root != RF_INVALID)
     rf_trace_tlas(nodes, tris, instances, tlas_root, cam->ortho, cam->ortho ? ray.dx : 0.0f,
                   cam->ortho ? ray.dy : 0.0f, cam->ortho ? 0.0f : ray.dx, cam->ortho ? 0.0f : ray.dy, -1.0f, ray.groups,
                   hits);
-  rf_write_answers(&ray, hits, cam, tris, normal_xforms, out);
+  rf_write_answers(&ray, hits, cam, depth_scales, tris, normal_xforms, out);
 }
 
 #endif /* RF_TRACE_H */

@@ -30,12 +30,15 @@
  * traversal tests them together.
  *   bytes  0..11  bmin   box minimum (tree space for BLAS nodes, trace
  *                        space for TLAS nodes)
- *   bytes 12..15  first  interior: index of the left child;
- *                        leaf: first triangle (BLAS) or first instance (TLAS)
+ *   bytes 12..15  first  BLAS: interior, index of the left child; leaf, first
+ *                        triangle.
+ *                        TLAS: bits 0..27 the left child or first instance,
+ *                        bits 28..31 the leaf's instance count (0: interior)
  *   bytes 16..27  bmax   box maximum
- *   bytes 28..31  meta   bits 0..23: leaf item count, 0 for an interior node;
- *                        bits 24..27: TLAS only, the transform groups that
- *                        occur below this node (bit g = group g) */
+ *   bytes 28..31  meta   BLAS: the leaf's triangle count, 0 for an interior
+ *                        node.
+ *                        TLAS: the transform groups that occur below this
+ *                        node (bit g = group g; up to RF_GROUP_LIMIT) */
 typedef struct {
   float bmin[3];
   rf_u32 first;
@@ -48,8 +51,43 @@ typedef struct {
 #define RF_STACK_SIZE 64
 
 #define RF_NODE_COUNT_MASK 0x00FFFFFFu
-#define RF_NODE_GROUP_SHIFT 24u
-#define RF_MAX_GROUPS 4
+#define RF_TLAS_COUNT_SHIFT 28u
+#define RF_TLAS_INDEX_MASK 0x0FFFFFFFu
+#define RF_TLAS_MAX_LEAF 15u
+
+/* Transform groups. A trace answers up to RF_GROUP_LIMIT (view, mirror)
+ * pairs at once: group g = view * S + slot, where S (1, 2 or 4, a power of
+ * two: rf_camera.group_shift = log2 S) is the number of mirrors the fold
+ * uses and slot s stands for mirror (rf_camera.slot_mirrors >> 2s) & 3
+ * (bit 0: camera x negated, bit 1: camera y). One view unfolded is group 0
+ * alone. RF_MAX_GROUPS is how many one build of the traversal holds: the
+ * host's reference all of them, the device programs as many as the pass
+ * needs (4 unless views are aligned; host/opencl/cl_tracer.h). */
+#define RF_GROUP_LIMIT 32
+#define RF_MIRRORS 4
+#ifndef RF_MAX_GROUPS
+#define RF_MAX_GROUPS RF_GROUP_LIMIT
+#endif
+
+/* Count-trailing-zeros of a nonzero mask, through clz (OpenCL C 1.2). */
+#ifdef __OPENCL_C_VERSION__
+#define RF_CTZ(m) (31u - clz((m) & (0u - (m))))
+#else
+#define RF_CTZ(m) ((rf_u32)__builtin_ctz(m))
+#endif
+
+/* for each set bit g of mask (an rf_u32 expression), lowest first: a fixed
+ * loop for the 4 groups of one view (unrolled, as before views existed),
+ * else a walk over the set bits. */
+#if RF_MAX_GROUPS <= 4
+#define RF_FOR_EACH_GROUP(g, mask) \
+  for (rf_u32 g = 0, rf_gm_ = (mask); g < (rf_u32)RF_MAX_GROUPS; ++g) \
+    if ((rf_gm_ >> g) & 1u)
+#else
+#define RF_FOR_EACH_GROUP(g, mask) \
+  for (rf_u32 rf_gm_ = (mask), g = rf_gm_ ? RF_CTZ(rf_gm_) : 0u; rf_gm_ != 0u; \
+       rf_gm_ &= rf_gm_ - 1u, g = rf_gm_ ? RF_CTZ(rf_gm_) : 0u)
+#endif
 
 /* One triangle in BVH leaf order, 40 bytes.
  *   bytes  0..35  v0, v1, v2   tree-space vertices, in the file's winding
@@ -70,7 +108,8 @@ typedef struct {
  *   bytes 48..51  blas_root    node index of the mesh's bottom-level root
  *   bytes 52..55  instance_id  index of the scene instance; mirrored copies
  *                              keep the id of the instance they mirror
- *   bytes 56..59  group        transform group 0..3 (0 = not mirrored)
+ *   bytes 56..59  group        transform group (see above; 0 = view 0
+ *                              not mirrored)
  *   bytes 60..63  pad */
 typedef struct {
   float tree_from_trace[12];
@@ -105,10 +144,11 @@ typedef struct {
  *   bits  0..14  pixel column x of the traced ray
  *   bits 15..29  pixel row y
  *   bit  30      the ray also answers the pixel mirrored in x (column
- *                xpair - x), through the group-1 instances
+ *                xpair - x), through the instances mirrored in camera x
  *   bit  31      the ray also answers the pixel mirrored in y (row
- *                ypair - y), through the group-2 instances; with both bits
- *                it answers a fourth pixel through group 3 */
+ *                ypair - y), through those mirrored in camera y; with both
+ *                bits it answers a fourth pixel through those mirrored in both
+ * In a pass of several views the ray answers these pixels in every view. */
 #define RF_RAY_COORD_BITS 15u
 #define RF_RAY_COORD_MASK 0x7FFFu
 #define RF_RAY_MIRROR_X (1u << 30)
@@ -138,7 +178,8 @@ typedef struct {
 
 /* How pixel (x, y) becomes a trace-space ray, origin at the eye:
  *   d = (scale_x * ((float)(2x + kx0) + frac_x), scale_y * ((float)(ky0 - 2y) + frac_y), -1)
- * and a hit at parameter t a depth: (t * |d|) * depth_scale.
+ * and a hit at parameter t of view v a depth: (t * |d|) * depth_scales[v],
+ * the power of two of that view's trace space.
  * The integer offsets keep mirror partners exact: the column xpair - x gives
  * exactly the negated float. A centred W x H image has kx0 = 1 - W,
  * ky0 = H - 1, xpair = W - 1, ypair = H - 1. frac_x and frac_y, in half
@@ -146,16 +187,23 @@ typedef struct {
  * (a calibrated camera's); they are 0 for every camera that can fold, and
  * adding 0 leaves the integer's float unchanged.
  * An orthographic camera (ortho = 1) sends pixel (x, y) from o = (dx, dy, 0)
- * along (0, 0, -1) instead; a hit at t is at depth t * depth_scale from the
- * image plane. Mirror partners keep exactly negated origins. */
+ * along (0, 0, -1) instead; a hit at t is at depth t * depth_scales[v] from
+ * the image plane. Mirror partners keep exactly negated origins.
+ * The last four fields describe the pass, not the camera: views traced
+ * together (all with these rays; their instances differ) and the group
+ * layout above. view_rep has bit v * S set for every view v, so a ray's
+ * groups are its slot mask times view_rep. One view, unfolded: 1, 0, 0, 1. */
 typedef struct {
   float scale_x, scale_y;
   rf_i32 kx0, ky0;
   rf_i32 width, height;
   rf_i32 xpair, ypair;
-  float depth_scale; /* 2^c of the frame's trace space; 1 until a frame sets it */
   float frac_x, frac_y;
   rf_i32 ortho;
+  rf_u32 views;
+  rf_u32 group_shift;
+  rf_u32 slot_mirrors;
+  rf_u32 view_rep;
 } rf_camera;
 
 #endif /* RF_TYPES_H */

@@ -110,8 +110,8 @@ TEST(Scale, TracedFloatsDoNotDependOnAPowerOfTwoScale) {
       EXPECT_TRUE(same_bytes(d0.normal_xforms, d.normal_xforms)) << w << " k " << k << ": normal matrices";
       EXPECT_TRUE(same_bytes(f0.instances, f.instances)) << w << " k " << k << ": instances";
       EXPECT_TRUE(same_bytes(f0.tlas_nodes, f.tlas_nodes)) << w << " k " << k << ": top-level nodes";
-      EXPECT_EQ(f.trace_exponent, f0.trace_exponent + k) << w;
-      EXPECT_EQ(f.depth_scale, std::ldexp(f0.depth_scale, k)) << w;
+      EXPECT_EQ(f.views.at(0).trace_exponent, f0.views.at(0).trace_exponent + k) << w;
+      EXPECT_EQ(f.views.at(0).depth_scale, std::ldexp(f0.views.at(0).depth_scale, k)) << w;
     }
 }
 
@@ -273,7 +273,7 @@ TEST(Scale, MixedScalesInOneScene) {
   EXPECT_GT(per_instance[1], 0u) << "the tiny object is lost";
   EXPECT_EQ(per_instance[0] + per_instance[1], hits.size()) << "the eye is inside the background cube";
   EXPECT_EQ(r.differences(cam), "");
-  EXPECT_EQ(r.cpu->render(cam).frame_stats.out_of_range, 0u);
+  EXPECT_EQ(r.cpu->render(cam).views.at(0).out_of_range, 0u);
 }
 
 TEST(Scale, BeyondTheFloatRangeIsRefusedOrReported) {
@@ -301,7 +301,7 @@ TEST(Scale, BeyondTheFloatRangeIsRefusedOrReported) {
   RendererOptions cpu;
   cpu.backend = Backend::cpu;
   const RenderResult r = Renderer(mixed, cpu).render(make_camera(spec, 16, 16));
-  EXPECT_EQ(r.frame_stats.out_of_range, 1u) << "2^260 apart: the small one cannot share a trace space";
+  EXPECT_EQ(r.views.at(0).out_of_range, 1u) << "2^260 apart: the small one cannot share a trace space";
   for (const rf_pixel_hit& h : r.hits) EXPECT_EQ(h.instance, 0u);
   ASSERT_EQ(r.warnings.size(), 1u);
   EXPECT_NE(r.warnings[0].find("1 instances not rendered"), std::string::npos) << r.warnings[0];

@@ -418,7 +418,7 @@ void write_stats(const std::string& path, const RenderArgs& args, const Scene& s
   for (const rf_pixel_hit& h : result.hits) hit += h.instance != RF_INVALID;
   j["pixels"] = {{"hit", hit}, {"miss", result.hits.size() - hit}};
   j["instances_after_culling"] = result.frame_stats.kept;
-  j["instances_out_of_range"] = result.frame_stats.out_of_range;
+  j["instances_out_of_range"] = result.views.empty() ? 0 : result.views[0].out_of_range;
   j["warnings"] = result.warnings;
   j["times_ms"] = {{"load", load_ms},
                    {"blas_build", renderer.blas_build_ms()},

@@ -67,8 +67,9 @@ int main(int argc, char** argv) {
     std::vector<rf_node> nodes = data.blas.nodes;
     nodes.insert(nodes.end(), frame.tlas_nodes.begin(), frame.tlas_nodes.end());
     std::vector<rf_pixel_hit> out(static_cast<size_t>(w) * h);
+    const std::vector<float> depth_scales = frame.depth_scales();
     for (uint32_t e : rays.entries)
-      rf_trace_entry(e, &traced, nodes.data(), data.blas.tris.data(), frame.instances.data(), data.normal_xforms.data(),
+      rf_trace_entry(e, &traced, depth_scales.data(), nodes.data(), data.blas.tris.data(), frame.instances.data(), data.normal_xforms.data(),
                      frame.tlas_root, out.data());
     const double n = static_cast<double>(rays.entries.size());
     const double px = static_cast<double>(rays.pixels);

@@ -25,8 +25,9 @@ uint32_t flatten_bvh(const BuildTree& tree, uint32_t item_base, const std::vecto
   RF_CHECK(tree.depth <= RF_STACK_SIZE, "tree deeper than the traversal stack");
 
   // Group masks bottom-up: children always follow their parent in tree.nodes.
+  const bool tlas = item_groups != nullptr;
   std::vector<uint32_t> groups(tree.nodes.size(), 0);
-  if (item_groups) {
+  if (tlas) {
     for (size_t i = tree.nodes.size(); i-- > 0;) {
       const BuildNode& b = tree.nodes[i];
       if (b.is_leaf()) {
@@ -46,18 +47,25 @@ uint32_t flatten_bvh(const BuildTree& tree, uint32_t item_base, const std::vecto
     const auto [bi, fi] = queue.front();
     queue.pop_front();
     const BuildNode& b = tree.nodes[bi];
-    const uint32_t meta_groups = groups[bi] << RF_NODE_GROUP_SHIFT;
     if (b.is_leaf()) {
-      RF_CHECK(b.count <= RF_NODE_COUNT_MASK, "leaf too large for the node layout");
-      out[fi].first = item_base + b.first;
-      out[fi].meta = b.count | meta_groups;
+      if (tlas) {
+        RF_CHECK(b.count <= RF_TLAS_MAX_LEAF && item_base + b.first <= RF_TLAS_INDEX_MASK,
+                 "top-level leaf too large for the node layout");
+        out[fi].first = (item_base + b.first) | (b.count << RF_TLAS_COUNT_SHIFT);
+        out[fi].meta = groups[bi];
+      } else {
+        RF_CHECK(b.count <= RF_NODE_COUNT_MASK, "leaf too large for the node layout");
+        out[fi].first = item_base + b.first;
+        out[fi].meta = b.count;
+      }
       continue;
     }
     const uint32_t pair = static_cast<uint32_t>(out.size());
     out.push_back(make_node(tree.nodes[b.left]));
     out.push_back(make_node(tree.nodes[b.right]));
+    RF_CHECK(!tlas || index_base + pair <= RF_TLAS_INDEX_MASK, "too many nodes for the top-level node layout");
     out[fi].first = index_base + pair;
-    out[fi].meta = meta_groups;
+    out[fi].meta = groups[bi];
     queue.push_back({b.left, pair});
     queue.push_back({b.right, pair + 1});
   }

@@ -100,7 +100,9 @@ SceneData prepare_scene(const Scene& scene, unsigned threads, const BraidOptions
   return data;
 }
 
-size_t max_tlas_items(const SceneData& data) { return RF_MAX_GROUPS * data.braid_nodes.size(); }
-size_t max_tlas_nodes(const SceneData& data) { return 2 * max_tlas_items(data) + 2; }
+size_t max_tlas_items(const SceneData& data, int groups) {
+  return static_cast<size_t>(groups) * data.braid_nodes.size();
+}
+size_t max_tlas_nodes(const SceneData& data, int groups) { return 2 * max_tlas_items(data, groups) + 2; }
 
 }  // namespace rayfold::core

@@ -47,9 +47,10 @@ struct SceneData {
 
 SceneData prepare_scene(const Scene& scene, unsigned threads = 0, const BraidOptions& braid = {});
 
-// The most top-level items (instances and their mirrored copies) and nodes a
-// frame of this scene can need; device buffers are sized by them once.
-size_t max_tlas_items(const SceneData& data);
-size_t max_tlas_nodes(const SceneData& data);
+// The most top-level items (instances and their copies per view and mirror)
+// and nodes a frame of this scene with `groups` transform groups can need;
+// device buffers are sized by them.
+size_t max_tlas_items(const SceneData& data, int groups = RF_MIRRORS);
+size_t max_tlas_nodes(const SceneData& data, int groups = RF_MIRRORS);
 
 }  // namespace rayfold::core

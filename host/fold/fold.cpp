@@ -12,23 +12,23 @@ const char* fold_name(FoldMode m) {
   return "?";
 }
 
-Aabb mirror_box(const Aabb& b, int group) {
+Aabb mirror_box(const Aabb& b, int mirror) {
   Aabb m = b;
-  if (group_mirrors_x(group)) {
+  if (mirror_negates_x(mirror)) {
     m.lo.x = -b.hi.x;
     m.hi.x = -b.lo.x;
   }
-  if (group_mirrors_y(group)) {
+  if (mirror_negates_y(mirror)) {
     m.lo.y = -b.hi.y;
     m.hi.y = -b.lo.y;
   }
   return m;
 }
 
-void mirror_columns(float rows[12], int group) {
+void mirror_columns(float rows[12], int mirror) {
   for (int r = 0; r < 3; ++r) {
-    if (group_mirrors_x(group)) rows[4 * r + 0] = -rows[4 * r + 0];
-    if (group_mirrors_y(group)) rows[4 * r + 1] = -rows[4 * r + 1];
+    if (mirror_negates_x(mirror)) rows[4 * r + 0] = -rows[4 * r + 0];
+    if (mirror_negates_y(mirror)) rows[4 * r + 1] = -rows[4 * r + 1];
   }
 }
 

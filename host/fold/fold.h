@@ -1,12 +1,14 @@
 // Fold modes of affine-transformed ray alignment. In camera space a mirror is
 // a sign flip of one coordinate, exact in IEEE floats:
 //   y  mirrors about the camera's vertical plane (negates x): column x pairs
-//      with xpair - x, the left half is traced, group 1 holds the mirrored
+//      with xpair - x, the left half is traced, mirror 1 holds the mirrored
 //      instances;
 //   x  mirrors about the horizontal plane (negates y): row y pairs with
-//      ypair - y, the top half is traced, group 2;
-//   xy both: the top-left quadrant is traced, groups 1, 2 and 3 (both flips).
+//      ypair - y, the top half is traced, mirror 2;
+//   xy both: the top-left quadrant is traced, mirrors 1, 2 and 3 (both flips).
 #pragma once
+
+#include <cstdint>
 
 #include "scene/aabb.h"
 
@@ -27,18 +29,29 @@ inline FoldMode restrict_fold(FoldMode m, bool columns_ok, bool rows_ok) {
 // "none", "y", "x" or "xy".
 const char* fold_name(FoldMode m);
 
-// Transform group g mirrors camera x when bit 0 is set, camera y for bit 1.
-inline bool group_mirrors_x(int g) { return (g & 1) != 0; }
-inline bool group_mirrors_y(int g) { return (g & 2) != 0; }
+// The mirrors a fold traces, as slots of each view's transform groups
+// (kernels/rf_types.h): none {0}, y {0, 1}, x {0, 2}, xy {0, 1, 2, 3}.
+inline int mirror_slots(FoldMode m) { return m == FoldMode::none ? 1 : m == FoldMode::xy ? 4 : 2; }
+inline int slot_mirror(FoldMode m, int slot) { return m == FoldMode::x && slot == 1 ? 2 : slot; }
+// rf_camera::group_shift and slot_mirrors for the fold.
+inline uint32_t fold_group_shift(FoldMode m) { return m == FoldMode::none ? 0u : m == FoldMode::xy ? 2u : 1u; }
+inline uint32_t fold_slot_mirrors(FoldMode m) {
+  uint32_t bits = 0;
+  for (int s = 0; s < mirror_slots(m); ++s) bits |= static_cast<uint32_t>(slot_mirror(m, s)) << (2 * s);
+  return bits;
+}
 
-// A camera-space (or trace-space) box as group g's mirror sees it: x and/or
-// y negated, ends swapped. Exact in floats.
-Aabb mirror_box(const Aabb& b, int group);
+// Mirror m negates camera x when bit 0 is set, camera y for bit 1.
+inline bool mirror_negates_x(int m) { return (m & 1) != 0; }
+inline bool mirror_negates_y(int m) { return (m & 2) != 0; }
 
-// tree_from_trace (row-major 3x4) of group g's mirrored copy: the original
-// times the mirror, i.e. the x and/or y column negated. A traced ray then
-// reaches tree space bit-identical to the partner pixel's ray through the
-// original.
-void mirror_columns(float rows[12], int group);
+// A camera-space (or trace-space) box as mirror m sees it: x and/or y
+// negated, ends swapped. Exact in floats.
+Aabb mirror_box(const Aabb& b, int mirror);
+
+// tree_from_trace (row-major 3x4) of mirror m's copy: the original times
+// the mirror, i.e. the x and/or y column negated. A traced ray then reaches
+// tree space bit-identical to the partner pixel's ray through the original.
+void mirror_columns(float rows[12], int mirror);
 
 }  // namespace rayfold::core

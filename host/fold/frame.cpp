@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <climits>
 #include <cmath>
+#include <cstring>
 
 #include "bvh/bvh_flatten.h"
 #include "fold/fold.h"
@@ -11,18 +12,6 @@
 #include "util/timer.h"
 
 namespace rayfold::core {
-
-rf_camera frame_camera(const Camera& camera, const Frame& frame) {
-  rf_camera params = camera.params;
-  params.depth_scale = frame.depth_scale;
-  // Orthographic rays start on the image plane at trace-space positions:
-  // the pixel spacing in trace units (a power of two apart, exact).
-  if (params.ortho) {
-    params.scale_x = std::ldexp(params.scale_x, -frame.trace_exponent);
-    params.scale_y = std::ldexp(params.scale_y, -frame.trace_exponent);
-  }
-  return params;
-}
 
 namespace {
 
@@ -60,21 +49,71 @@ bool traceable(const float m[12]) {
 
 }  // namespace
 
+int trace_exponent(const SceneData& data, const Camera& camera) {
+  return choose_trace_exponent(data, glm::dvec3(camera.world_from_camera[3]));
+}
+
+bool can_align(const SceneData& data, const Camera& a, const Camera& b) {
+  if (std::memcmp(&a.params, &b.params, sizeof a.params) != 0) return false;
+  return !a.params.ortho || trace_exponent(data, a) == trace_exponent(data, b);
+}
+
+int pass_groups(int views, FoldMode fold) { return views * mirror_slots(fold); }
+int max_pass_views(FoldMode fold) { return RF_GROUP_LIMIT / mirror_slots(fold); }
+
+std::vector<float> Frame::depth_scales() const {
+  std::vector<float> out;
+  for (const FrameView& v : views) out.push_back(v.depth_scale);
+  return out;
+}
+
+rf_camera frame_camera(const Camera& camera, const Frame& frame) {
+  rf_camera params = camera.params;
+  // Orthographic rays start on the image plane at trace-space positions:
+  // the pixel spacing in trace units (a power of two apart, exact; the
+  // views of a pass share the exponent, can_align).
+  if (params.ortho && !frame.views.empty()) {
+    params.scale_x = std::ldexp(params.scale_x, -frame.views[0].trace_exponent);
+    params.scale_y = std::ldexp(params.scale_y, -frame.views[0].trace_exponent);
+  }
+  params.views = static_cast<uint32_t>(std::max<size_t>(frame.views.size(), 1));
+  params.group_shift = fold_group_shift(frame.fold);
+  params.slot_mirrors = fold_slot_mirrors(frame.fold);
+  params.view_rep = 0;
+  for (uint32_t v = 0; v < params.views; ++v) params.view_rep |= 1u << (v << params.group_shift);
+  return params;
+}
+
 Frame build_frame(const Scene& scene, const SceneData& data, const Camera& camera, const RayList& rays,
                   const FrameOptions& options) {
+  return build_frame(scene, data, std::vector<Camera>{camera}, rays, options);
+}
+
+Frame build_frame(const Scene& scene, const SceneData& data, const std::vector<Camera>& cameras, const RayList& rays,
+                  const FrameOptions& options) {
+  RF_CHECK(!cameras.empty(), "a frame needs a view");
+  RF_CHECK(pass_groups(static_cast<int>(cameras.size()), options.fold) <= RF_GROUP_LIMIT,
+           "more (view, mirror) groups than one pass holds");
   Frame frame;
+  frame.fold = options.fold;
   frame.node_base = static_cast<uint32_t>(data.blas.nodes.size());
-  frame.trace_exponent = choose_trace_exponent(data, glm::dvec3(camera.world_from_camera[3]));
-  frame.camera_from_trace = uniform_scale(frame.trace_exponent);
-  frame.depth_scale = static_cast<float>(std::ldexp(1.0, frame.trace_exponent));
-  frame.stats.trace_exponent = frame.trace_exponent;
-  const Xform world_from_trace = camera.world_from_camera * frame.camera_from_trace;
-  const Xform trace_from_world = uniform_scale(-frame.trace_exponent) * camera.camera_from_world;
+  std::vector<Xform> world_from_trace, trace_from_world;
+  for (const Camera& camera : cameras) {
+    RF_CHECK(can_align(data, cameras[0], camera), "views of one pass must share their rays");
+    FrameView view;
+    view.trace_exponent = trace_exponent(data, camera);
+    view.camera_from_trace = uniform_scale(view.trace_exponent);
+    view.depth_scale = static_cast<float>(std::ldexp(1.0, view.trace_exponent));
+    world_from_trace.push_back(camera.world_from_camera * view.camera_from_trace);
+    trace_from_world.push_back(uniform_scale(-view.trace_exponent) * camera.camera_from_world);
+    frame.views.push_back(view);
+  }
 
   auto t0 = Clock::now();
-  const rf_camera traced = frame_camera(camera, frame);
+  const rf_camera traced = frame_camera(cameras[0], frame);
   std::vector<Frustum> frusta;
-  for (int g = 0; g < RF_MAX_GROUPS; ++g) frusta.emplace_back(traced, rays.regions[g]);
+  for (int m = 0; m < RF_MIRRORS; ++m) frusta.emplace_back(traced, rays.regions[m]);
+  const int slots = mirror_slots(options.fold);
   // The largest trace-space ray origin: 0 from the eye; orthographic, the
   // image plane's farthest pixel.
   double plane_x = 0.0, plane_y = 0.0;
@@ -96,28 +135,15 @@ Frame build_frame(const Scene& scene, const SceneData& data, const Camera& camer
   if (animate || !moved.empty()) frame.normal_xforms = data.normal_xforms;
   std::vector<Aabb> boxes;
   std::vector<rf_instance> candidates;
-  for (size_t i = 0; i < scene.instances.size(); ++i) {
-    if (!data.renderable[i]) continue;
-    frame.stats.candidates++;
-    const Instance& inst = scene.instances[i];
-    Xform world_from_tree = inst.world_from_object * object_from_tree(data.blas, inst.mesh);
-    Xform tree_from_world = data.tree_from_world[i];
-    if (animate && is_animated(i)) {
-      world_from_tree = animated_world_from_object(inst, data.blas.bounds[inst.mesh], i, options.animate_frame) *
-                        object_from_tree(data.blas, inst.mesh);
-      const bool ok = affine_inverse(world_from_tree, &tree_from_world);
-      RF_CHECK(ok, "animation made a transform singular");
-      normal_matrix_rows3x3(world_from_tree, frame.normal_xforms[i].m);
-    } else if (!moved.empty() && moved[i]) {
-      if (!affine_inverse(world_from_tree, &tree_from_world)) continue;
-      normal_matrix_rows3x3(world_from_tree, frame.normal_xforms[i].m);
-    }
-    const Xform trace_from_tree = trace_from_world * world_from_tree;
+  // Instance i's copies for view v: one per mirror the fold traces, per cut
+  // node of its tree, each culled against the rays that can meet it.
+  auto add_copies = [&](size_t i, const Xform& tree_from_world, const Xform& world_from_tree, uint32_t v) {
+    const Xform trace_from_tree = trace_from_world[v] * world_from_tree;
     rf_instance base{};
-    to_rows3x4(tree_from_world * world_from_trace, base.tree_from_trace);
+    to_rows3x4(tree_from_world * world_from_trace[v], base.tree_from_trace);
     if (!traceable(base.tree_from_trace)) {
-      frame.stats.out_of_range++;
-      continue;
+      frame.views[v].out_of_range++;
+      return;
     }
     // The object-space ray starts at the float-rounded eye (the translation
     // column), up to half an ulp of its coordinates beside the exact one;
@@ -144,17 +170,36 @@ Frame build_frame(const Scene& scene, const SceneData& data, const Camera& camer
       tree_box.grow(glm::vec3(node.bmax[0], node.bmax[1], node.bmax[2]));
       const Aabb box = transform_bounds_conservative(trace_from_tree, tree_box, origin_pad);
       base.blas_root = data.braid_nodes[c];
-      for (int g = 0; g < RF_MAX_GROUPS; ++g) {
-        if (!rays.group_used[g]) continue;
-        const Aabb mirrored = mirror_box(box, g);
-        if (options.cull && !frusta[g].may_see(mirrored)) continue;
+      for (int slot = 0; slot < slots; ++slot) {
+        const int m = slot_mirror(options.fold, slot);
+        if (!rays.group_used[m]) continue;
+        const Aabb mirrored = mirror_box(box, m);
+        if (options.cull && !frusta[m].may_see(mirrored)) continue;
         rf_instance out = base;
-        mirror_columns(out.tree_from_trace, g);
-        out.group = static_cast<uint32_t>(g);
+        mirror_columns(out.tree_from_trace, m);
+        out.group = v * static_cast<uint32_t>(slots) + static_cast<uint32_t>(slot);
         candidates.push_back(out);
         boxes.push_back(mirrored);
       }
     }
+  };
+  for (size_t i = 0; i < scene.instances.size(); ++i) {
+    if (!data.renderable[i]) continue;
+    frame.stats.candidates++;
+    const Instance& inst = scene.instances[i];
+    Xform world_from_tree = inst.world_from_object * object_from_tree(data.blas, inst.mesh);
+    Xform tree_from_world = data.tree_from_world[i];
+    if (animate && is_animated(i)) {
+      world_from_tree = animated_world_from_object(inst, data.blas.bounds[inst.mesh], i, options.animate_frame) *
+                        object_from_tree(data.blas, inst.mesh);
+      const bool ok = affine_inverse(world_from_tree, &tree_from_world);
+      RF_CHECK(ok, "animation made a transform singular");
+      normal_matrix_rows3x3(world_from_tree, frame.normal_xforms[i].m);
+    } else if (!moved.empty() && moved[i]) {
+      if (!affine_inverse(world_from_tree, &tree_from_world)) continue;
+      normal_matrix_rows3x3(world_from_tree, frame.normal_xforms[i].m);
+    }
+    for (uint32_t v = 0; v < cameras.size(); ++v) add_copies(i, tree_from_world, world_from_tree, v);
   }
   frame.stats.kept = candidates.size();
   frame.stats.cull_ms = ms_since(t0);

@@ -10,6 +10,7 @@
 #include "bvh/scene_data.h"
 #include "device_layout.h"
 #include "fold/culling.h"
+#include "fold/fold.h"
 #include "fold/ray_list.h"
 #include "scene/camera.h"
 #include "scene/scene.h"
@@ -28,27 +29,34 @@ struct FrameOptions {
 
 struct FrameStats {
   size_t candidates = 0;  // renderable scene instances
-  size_t kept = 0;        // instances (mirrored copies included) in the top-level tree
+  size_t kept = 0;        // instances (copies per view and mirror included) in the top-level tree
   double cull_ms = 0.0;
   double tlas_ms = 0.0;
   double tlas_sah = 0.0;
   int tlas_depth = 0;
+};
+
+// One view's trace space. Trace space is camera space in units of
+// 2^trace_exponent: the power of two that brings the eye's largest distance
+// to the scene's bounds into [1, 2), lowered (by up to 2^60) where the
+// smallest instance would otherwise be more than 2^100 of its tree units per
+// trace unit. Both move exactly with the scene, so a scene scaled by 2^k
+// traces the same floats. Each view of a pass keeps the space it has when
+// traced alone, so its copies carry exactly the transforms (and its hits
+// exactly the bits) of that trace.
+struct FrameView {
+  int trace_exponent = 0;
+  Xform camera_from_trace{1.0};
+  float depth_scale = 1.0f;  // 2^trace_exponent
   // Instances not traced because, at this view, their size relative to the
   // distances in view is beyond the float range (a scene mixing sizes more
   // than about 2^160 apart): their transform into trace space would overflow.
   size_t out_of_range = 0;
-  int trace_exponent = 0;  // Frame::trace_exponent, for the renderer's warnings
 };
 
 struct Frame {
-  // Trace space is camera space in units of 2^trace_exponent: the power of
-  // two that brings the eye's largest distance to the scene's bounds into
-  // [1, 2), lowered (by up to 2^60) where the smallest instance would
-  // otherwise be more than 2^100 of its tree units per trace unit. Both move
-  // exactly with the scene, so a scene scaled by 2^k traces the same floats.
-  int trace_exponent = 0;
-  Xform camera_from_trace{1.0};
-  float depth_scale = 1.0f;            // 2^trace_exponent, rf_camera::depth_scale
+  std::vector<FrameView> views;  // the views traced together, in pass order
+  FoldMode fold = FoldMode::none;
   uint32_t node_base = 0;              // first TLAS node index in the full node array
   uint32_t tlas_root = RF_INVALID;     // RF_INVALID: nothing to trace
   std::vector<rf_node> tlas_nodes;     // to be placed at node_base
@@ -57,15 +65,36 @@ struct Frame {
   // frame; empty when SceneData's still hold.
   std::vector<rf_normal_xform> normal_xforms;
   FrameStats stats;
+
+  // One depth scale per view, as the kernels read them.
+  std::vector<float> depth_scales() const;
 };
 
-// Culls each scene instance, and for a folded ray list each mirrored copy of
-// it, against the frustum of the rays that can meet it, then builds the
-// top-level tree over what is left.
+// Culls each scene instance's copy for every view, and for a folded ray list
+// every mirrored copy, against the frustum of the rays that can meet it,
+// then builds one top-level tree over what is left. The cameras must be
+// alignable (can_align) and the rays made for the first one's parameters;
+// at most RF_GROUP_LIMIT (view, mirror) groups.
+Frame build_frame(const Scene& scene, const SceneData& data, const std::vector<Camera>& cameras, const RayList& rays,
+                  const FrameOptions& options);
+// One view.
 Frame build_frame(const Scene& scene, const SceneData& data, const Camera& camera, const RayList& rays,
                   const FrameOptions& options);
 
-// The camera's ray parameters as a frame traces them: with its depth scale.
+// The view's trace exponent (FrameView) for this scene.
+int trace_exponent(const SceneData& data, const Camera& camera);
+
+// Whether two views can be traced together: the same rays, i.e. the same
+// intrinsics and image (and, orthographic, the same trace exponent, since
+// their rays start at trace-space positions).
+bool can_align(const SceneData& data, const Camera& a, const Camera& b);
+
+// The (view, mirror) groups a pass of `views` views folded by `fold` uses.
+int pass_groups(int views, FoldMode fold);
+// The most views one pass can trace with this fold (RF_GROUP_LIMIT groups).
+int max_pass_views(FoldMode fold);
+
+// The ray parameters and pass layout (rf_camera) as a frame traces them.
 rf_camera frame_camera(const Camera& camera, const Frame& frame);
 
 }  // namespace rayfold::core

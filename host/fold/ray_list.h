@@ -20,10 +20,10 @@ struct RayList {
   // tiles[t + 1]), at most RF_TILE_RAYS of them.
   std::vector<uint32_t> tiles;
   size_t pixels = 0;  // pixels answered: width * height
-  // Per transform group, the bounds of the rays that answer it (for
-  // culling); groups no ray answers are marked unused.
-  std::array<TracedRegion, RF_MAX_GROUPS> regions{};
-  std::array<bool, RF_MAX_GROUPS> group_used{};
+  // Per mirror (fold.h: bit 0 camera x, bit 1 camera y), the bounds of the
+  // rays that answer it (for culling); mirrors no ray answers are unused.
+  std::array<TracedRegion, RF_MIRRORS> regions{};
+  std::array<bool, RF_MIRRORS> group_used{};
 };
 
 inline uint32_t encode_ray(int x, int y, bool mirror_x, bool mirror_y) {

@@ -25,13 +25,29 @@ unsigned tile_lanes(const DeviceInfo& info) {
 const char* kernel_name(KernelKind k) { return k == KernelKind::tile ? "tile" : "single"; }
 
 ClTracer::ClTracer(ClDevice& device, KernelPrecision precision, bool tile_stats)
-    : device_(device), tile_stats_(tile_stats) {
-  std::string defines = "-DRF_LANES=" + std::to_string(tile_lanes(device.info()));
-  if (tile_stats) defines += " -DRF_TILE_STATS";
-  program_ = device_.build(trace_program_source(), precision, defines);
-  single_ = cl::Kernel(program_, "rf_trace_primary");
-  tile_ = cl::Kernel(program_, "rf_trace_tiles");
+    : device_(device), precision_(precision), tile_stats_(tile_stats) {
+  programs_for(RF_MIRRORS);
 }
+
+ClTracer::Programs& ClTracer::programs_for(int groups) {
+  RF_CHECK(groups >= 1 && groups <= RF_GROUP_LIMIT, "transform group count out of range");
+  int size = RF_MIRRORS;
+  while (size < groups) size *= 2;
+  for (Programs& p : programs_)
+    if (p.groups == size) return p;
+  std::string defines =
+      "-DRF_LANES=" + std::to_string(tile_lanes(device_.info())) + " -DRF_MAX_GROUPS=" + std::to_string(size);
+  if (tile_stats_) defines += " -DRF_TILE_STATS";
+  Programs p;
+  p.groups = size;
+  p.program = device_.build(trace_program_source(), precision_, defines);
+  p.single = cl::Kernel(p.program, "rf_trace_primary");
+  p.tile = cl::Kernel(p.program, "rf_trace_tiles");
+  programs_.push_back(p);
+  return programs_.back();
+}
+
+void ClTracer::prepare_groups(int groups) { programs_for(groups); }
 
 void ClTracer::upload_scene(const SceneData& data, size_t max_tlas_nodes, size_t max_instances, size_t max_rays,
                             size_t pixel_count) {
@@ -71,6 +87,7 @@ void ClTracer::upload_scene(const SceneData& data, size_t max_tlas_nodes, size_t
     tris_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, buffer_info_[1].bytes);
     instances_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, buffer_info_[2].bytes);
     normal_xforms_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, buffer_info_[3].bytes);
+    depth_scales_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, RF_GROUP_LIMIT * sizeof(float));
     for (RaySlot& r : slots_) r = RaySlot{};
     slots_[0].rays = cl::Buffer(ctx, CL_MEM_READ_ONLY, buffer_info_[4].bytes);
     slots_[0].rays_capacity = at_least_one(max_rays);
@@ -104,6 +121,9 @@ double ClTracer::upload_frame(const Frame& frame) {
     if (!frame.normal_xforms.empty())
       q.enqueueWriteBuffer(normal_xforms_, CL_FALSE, 0, frame.normal_xforms.size() * sizeof(rf_normal_xform),
                            frame.normal_xforms.data());
+    const std::vector<float> scales = frame.depth_scales();
+    RF_CHECK(scales.size() <= RF_GROUP_LIMIT, "more views than one pass holds");
+    q.enqueueWriteBuffer(depth_scales_, CL_FALSE, 0, scales.size() * sizeof(float), scales.data());
     q.finish();
   } catch (const cl::Error& e) {
     throw RuntimeFailure("cannot upload a frame: " + cl_error_text(e));
@@ -150,12 +170,13 @@ void ClTracer::use_rays(int slot) {
 }
 
 double ClTracer::trace(const rf_camera& cam, KernelKind kind) {
-  RF_CHECK(static_cast<size_t>(cam.width) * cam.height <= pixel_count_, "image larger than the hit buffer");
+  RF_CHECK(static_cast<size_t>(cam.width) * cam.height * cam.views <= pixel_count_, "image larger than the hit buffer");
   const RaySlot& r = slots_[slot_];
   if (r.ray_count == 0) return 0.0;
+  Programs& programs = programs_for(static_cast<int>(cam.views << cam.group_shift));
   const auto t0 = Clock::now();
   try {
-    cl::Kernel& kernel = kind == KernelKind::tile ? tile_ : single_;
+    cl::Kernel& kernel = kind == KernelKind::tile ? programs.tile : programs.single;
     int a = 0;
     kernel.setArg(a++, nodes_);
     kernel.setArg(a++, tris_);
@@ -177,10 +198,14 @@ double ClTracer::trace(const rf_camera& cam, KernelKind kind) {
     kernel.setArg(a++, cam.height);
     kernel.setArg(a++, cam.xpair);
     kernel.setArg(a++, cam.ypair);
-    kernel.setArg(a++, cam.depth_scale);
     kernel.setArg(a++, cam.frac_x);
     kernel.setArg(a++, cam.frac_y);
     kernel.setArg(a++, cam.ortho);
+    kernel.setArg(a++, cam.views);
+    kernel.setArg(a++, cam.group_shift);
+    kernel.setArg(a++, cam.slot_mirrors);
+    kernel.setArg(a++, cam.view_rep);
+    kernel.setArg(a++, depth_scales_);
     kernel.setArg(a++, host_out_ ? host_hits_ : hits_);
     if (kind == KernelKind::tile && tile_stats_) {
       stats_ = cl::Buffer(device_.context(), CL_MEM_WRITE_ONLY,

@@ -42,9 +42,11 @@ class ClTracer {
 
   // Allocates every buffer for this scene and image size, checking the
   // device's memory first (RuntimeFailure when it would not fit).
+  // pixel_count: the hits of every view of the largest pass.
   void upload_scene(const SceneData& data, size_t max_tlas_nodes, size_t max_instances, size_t max_rays,
                     size_t pixel_count);
-  // Returns the upload time in ms.
+  // The frame's top level, normal matrices and per-view depth scales; returns
+  // the upload time in ms.
   double upload_frame(const Frame& frame);
   // Uploads a ray list into one of kRaySlots slots and makes it the one
   // traced; a renderer keeps one slot per fold mode, so that alternating
@@ -54,8 +56,11 @@ class ClTracer {
   // Traces the list already in `slot` from now on.
   void use_rays(int slot);
   // Traces the uploaded rays with the given kernel; ms of kernel time,
-  // measured around a finish().
+  // measured around a finish(). A pass of more than 4 (view, mirror) groups
+  // runs a program built for that many (compiled on first use; prepare_groups
+  // does it ahead, outside any timing).
   double trace(const rf_camera& camera, KernelKind kernel);
+  void prepare_groups(int groups);
   // Where the next trace writes its hits. On CPU devices the kernel writes
   // straight into `out` (a buffer over host memory), and read_hits only
   // synchronises; elsewhere read_hits copies the device buffer into `out`.
@@ -70,10 +75,20 @@ class ClTracer {
   size_t device_bytes() const;
 
  private:
+  // The kernels built for up to `groups` transform groups (RF_MAX_GROUPS):
+  // 4, the one view of a plain render, then 8, 16 and 32 for aligned views.
+  // The hit records they keep per ray grow with it.
+  struct Programs {
+    int groups = 0;
+    cl::Program program;
+    cl::Kernel single, tile;
+  };
+  Programs& programs_for(int groups);
+
   ClDevice& device_;
-  cl::Program program_;
-  cl::Kernel single_, tile_;
-  cl::Buffer nodes_, tris_, instances_, normal_xforms_, hits_;
+  KernelPrecision precision_;
+  std::vector<Programs> programs_;
+  cl::Buffer nodes_, tris_, instances_, normal_xforms_, hits_, depth_scales_;
   // One uploaded ray list and its tile table. Slot 0's rays buffer is made
   // with the scene (its size is checked against the device's memory); the
   // others grow on first use.

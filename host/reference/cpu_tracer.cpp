@@ -5,11 +5,12 @@
 
 namespace rayfold::core {
 
-void trace_cpu(const TraceInputs& in, const RayList& rays, const rf_camera& camera, rf_pixel_hit* out,
-               unsigned threads) {
+void trace_cpu(const TraceInputs& in, const RayList& rays, const rf_camera& camera, const float* depth_scales,
+               rf_pixel_hit* out, unsigned threads) {
   parallel_for(rays.entries.size(), threads, 256, [&](size_t begin, size_t end) {
     for (size_t i = begin; i < end; ++i)
-      rf_trace_entry(rays.entries[i], &camera, in.nodes, in.tris, in.instances, in.normal_xforms, in.tlas_root, out);
+      rf_trace_entry(rays.entries[i], &camera, depth_scales, in.nodes, in.tris, in.instances, in.normal_xforms,
+                     in.tlas_root, out);
   });
 }
 

@@ -8,9 +8,10 @@
 
 namespace rayfold::core {
 
-// out has camera.width * camera.height entries; every pixel the list covers
-// is written. threads = 0: all cores.
-void trace_cpu(const TraceInputs& in, const RayList& rays, const rf_camera& camera, rf_pixel_hit* out,
-               unsigned threads = 0);
+// out has camera.views * camera.width * camera.height entries (view after
+// view); every pixel the list covers is written in every view. depth_scales:
+// one per view. threads = 0: all cores.
+void trace_cpu(const TraceInputs& in, const RayList& rays, const rf_camera& camera, const float* depth_scales,
+               rf_pixel_hit* out, unsigned threads = 0);
 
 }  // namespace rayfold::core

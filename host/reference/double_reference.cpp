@@ -82,26 +82,27 @@ struct Best {
 // Depth-first walk of one tree (either level): every leaf item whose boxes the
 // ray enters before best.t goes to leaf(item); all_nodes skips the boxes.
 template <class Leaf>
-void walk_tree(const std::vector<rf_node>& nodes, uint32_t root, const Ray& r, const Best& best, bool all_nodes,
-               Leaf leaf) {
+void walk_tree(const std::vector<rf_node>& nodes, uint32_t root, bool tlas, const Ray& r, const Best& best,
+               bool all_nodes, Leaf leaf) {
   std::vector<uint32_t> stack{root};
   while (!stack.empty()) {
     const rf_node& n = nodes[stack.back()];
     stack.pop_back();
     if (!all_nodes && box_entry(n, r, best.t) == INFINITY) continue;
-    const uint32_t count = n.meta & RF_NODE_COUNT_MASK;
+    const uint32_t count = tlas ? n.first >> RF_TLAS_COUNT_SHIFT : n.meta & RF_NODE_COUNT_MASK;
+    const uint32_t first = tlas ? n.first & RF_TLAS_INDEX_MASK : n.first;
     if (count == 0) {
-      stack.push_back(n.first);
-      stack.push_back(n.first + 1);
+      stack.push_back(first);
+      stack.push_back(first + 1);
       continue;
     }
-    for (uint32_t k = 0; k < count; ++k) leaf(n.first + k);
+    for (uint32_t k = 0; k < count; ++k) leaf(first + k);
   }
 }
 
 void trace_blas(const std::vector<rf_node>& nodes, const std::vector<rf_tri>& tris, uint32_t root, const Ray& r,
                 uint32_t instance, Best& best, bool all_nodes) {
-  walk_tree(nodes, root, r, best, all_nodes, [&](uint32_t i) {
+  walk_tree(nodes, root, false, r, best, all_nodes, [&](uint32_t i) {
     const rf_tri& tri = tris[i];
     double t;
     if (triangle(tri, r, &t) && t > 0.0 && best.closer(t, instance, tri.prim)) {
@@ -126,7 +127,7 @@ std::vector<ReferenceHit> trace_double_reference(const Scene& scene, const Scene
   nodes.insert(nodes.end(), frame.tlas_nodes.begin(), frame.tlas_nodes.end());
   std::vector<Xform> tree_from_trace(scene.instances.size());
   for (size_t i = 0; i < scene.instances.size(); ++i)
-    tree_from_trace[i] = data.tree_from_world[i] * camera.world_from_camera * frame.camera_from_trace;
+    tree_from_trace[i] = data.tree_from_world[i] * camera.world_from_camera * frame.views[0].camera_from_trace;
 
   const int w = camera.width, h = camera.height;
   std::vector<ReferenceHit> out(static_cast<size_t>(w) * h);
@@ -134,7 +135,7 @@ std::vector<ReferenceHit> trace_double_reference(const Scene& scene, const Scene
     const int y = static_cast<int>(row);
     for (int x = 0; x < w; ++x) {
       const glm::dvec3 d = exact_direction(camera, x, y);  // exact, unlike the float rays
-      const glm::dvec3 origin = exact_origin(camera, x, y) * std::ldexp(1.0, -frame.trace_exponent);
+      const glm::dvec3 origin = exact_origin(camera, x, y) * std::ldexp(1.0, -frame.views[0].trace_exponent);
       const Ray cam_ray = make_ray(origin, d);
       Best best;
       if (brute_force) {
@@ -146,7 +147,7 @@ std::vector<ReferenceHit> trace_double_reference(const Scene& scene, const Scene
                      true);
         }
       } else if (frame.tlas_root != RF_INVALID) {
-        walk_tree(nodes, frame.tlas_root, cam_ray, best, false, [&](uint32_t i) {
+        walk_tree(nodes, frame.tlas_root, true, cam_ray, best, false, [&](uint32_t i) {
           const rf_instance& inst = frame.instances[i];
           const Xform& m = tree_from_trace[inst.instance_id];
           const Ray r = make_ray(glm::dvec3(m * glm::dvec4(origin, 1.0)), glm::dvec3(m * glm::dvec4(d, 0.0)));
@@ -155,7 +156,7 @@ std::vector<ReferenceHit> trace_double_reference(const Scene& scene, const Scene
       }
       ReferenceHit& o = out[static_cast<size_t>(y) * w + x];
       if (best.instance != RF_INVALID) {
-        o.distance = best.t * glm::length(d) * std::ldexp(1.0, frame.trace_exponent);
+        o.distance = best.t * glm::length(d) * std::ldexp(1.0, frame.views[0].trace_exponent);
         o.instance = best.instance;
         o.primitive = best.prim;
       }

@@ -39,7 +39,11 @@ void set_rays(Camera& cam, double scale_x, double scale_y, int kx0, int ky0, dou
   // The partner of column x has coordinate -(2x + kx0), i.e. column -kx0 - x.
   cam.params.xpair = -kx0;
   cam.params.ypair = ky0;
-  cam.params.depth_scale = 1.0f;  // a frame sets its trace space's (frame.h)
+  // One view, unfolded, until a frame says otherwise (frame_camera).
+  cam.params.views = 1;
+  cam.params.group_shift = 0;
+  cam.params.slot_mirrors = 0;
+  cam.params.view_rep = 1;
 }
 
 }  // namespace

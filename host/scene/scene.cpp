@@ -35,6 +35,11 @@ Aabb Scene::world_bounds() const {
 }
 
 void check_world_range(const Scene& scene, const std::string& file) {
+  // The traversal keys its ray cache by instance id and group in 32 bits
+  // (kernels/rf_trace.h).
+  if (scene.instances.size() > kMaxInstances)
+    throw InputError(file, "the scene has " + std::to_string(scene.instances.size()) +
+                               " instances; rayfold traces at most " + std::to_string(kMaxInstances));
   std::vector<Aabb> per_mesh(scene.meshes.size());
   for (uint32_t i = 0; i < scene.meshes.size(); ++i) per_mesh[i] = scene.mesh_bounds(i);
   for (const Instance& inst : scene.instances) {

@@ -68,8 +68,12 @@ struct Scene {
   Aabb world_bounds() const;
 };
 
+// The most instances a scene may have: 2^32 / RF_GROUP_LIMIT.
+constexpr size_t kMaxInstances = size_t{1} << 27;
+
 // Throws InputError(file, ...) naming the first instance whose geometry
-// reaches beyond kMaxWorldCoordinate (or is not finite) in world space.
+// reaches beyond kMaxWorldCoordinate (or is not finite) in world space, or
+// when the scene has more than kMaxInstances instances.
 void check_world_range(const Scene& scene, const std::string& file);
 
 }  // namespace rayfold::core
