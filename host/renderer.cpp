@@ -224,6 +224,24 @@ void Renderer::render_views_into(RenderResult& result, const std::vector<Camera>
   result.median = median_times(result.frames);
 }
 
+RenderResult view_result(const RenderResult& pass, size_t v) {
+  RF_CHECK(v < pass.views.size() && pass.hits.size() % pass.views.size() == 0, "no such view in the pass");
+  RenderResult out;
+  const size_t n = pass.hits.size() / pass.views.size();
+  out.hits.assign(pass.hits.begin() + v * n, pass.hits.begin() + (v + 1) * n);
+  out.median = pass.median;
+  out.frames = pass.frames;
+  out.frame_stats = pass.frame_stats;
+  out.rays = pass.rays;
+  out.tlas_nodes = pass.tlas_nodes;
+  out.instances = pass.instances;
+  out.views = {pass.views[v]};
+  out.fold = pass.fold;
+  out.view_warnings = {pass.view_warnings.at(v)};
+  out.warnings = pass.view_warnings.at(v);
+  return out;
+}
+
 FrameTimes median_times(const std::vector<FrameTimes>& frames) {
   auto pick = [&](double FrameTimes::*field) {
     std::vector<double> v;

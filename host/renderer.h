@@ -125,6 +125,10 @@ class Renderer {
   std::array<CachedRays, 4> rays_;  // by fold mode
 };
 
+// View v of a pass's result: its hits, trace space and warnings; the times
+// and counters stay the pass's.
+RenderResult view_result(const RenderResult& pass, size_t v);
+
 // Median of a list of values (the upper median for even counts).
 double median(std::vector<double> values);
 // Each phase's median over frames.

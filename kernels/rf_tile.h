@@ -427,7 +427,8 @@ RF_INLINE void rf_tile_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBA
  * per-pixel normal, with its divisions and square root, costs as much as
  * the traversal when done one pixel at a time. */
 RF_INLINE void rf_tile_write_group(const RF_GLOBAL rf_u32* rays, rf_u32 begin, rf_u32 count, const rf_camera* cam,
-                                   const rf_tile_camera* tc, const rf_tile_hits* h, rf_u32 g, float depth_scale,
+                                   const rf_u32* lane_groups, const rf_tile_camera* tc, const rf_tile_hits* h,
+                                   rf_u32 g, float depth_scale,
                                    const RF_GLOBAL rf_tri* tris, const RF_GLOBAL rf_normal_xform* normal_xforms,
                                    RF_GLOBAL rf_pixel_hit* out) {
   rf_vf z[RF_LANE_GROUPS], nx[RF_LANE_GROUPS], ny[RF_LANE_GROUPS], nz[RF_LANE_GROUPS];
@@ -499,18 +500,22 @@ RF_INLINE void rf_tile_write_group(const RF_GLOBAL rf_u32* rays, rf_u32 begin, r
   const float* vs = (const float*)h->v;
   const rf_u32* is = (const rf_u32*)h->instance;
   const rf_u32* ps = (const rf_u32*)h->prim;
+  const rf_u32 mirror = rf_group_mirror(g, cam);
+  RF_GLOBAL rf_pixel_hit* view_out = out + rf_group_view_base(g, cam);
   for (rf_u32 l = 0; l < count; ++l) {
+    if (((lane_groups[l] >> g) & 1u) == 0u) continue;
     const rf_u32 entry = rays[begin + l];
-    const rf_camera_ray ray = rf_decode_entry(entry, cam);
-    if (((ray.groups >> g) & 1u) == 0u) continue;
-    const size_t at = rf_group_pixel_index(ray.x, ray.y, g, cam);
+    const rf_i32 x = (rf_i32)(entry & RF_RAY_COORD_MASK);
+    const rf_i32 y = (rf_i32)((entry >> RF_RAY_COORD_BITS) & RF_RAY_COORD_MASK);
+    const rf_i32 px = (mirror & 1u) ? cam->xpair - x : x;
+    const rf_i32 py = (mirror & 2u) ? cam->ypair - y : y;
     const int hit = is[l] != RF_INVALID;
     /* One 32-byte store per pixel (rf_pixel_hit's layout), as integers so
      * that the ids, NaN patterns as floats, never pass a float register. */
     const uint8 px_hit =
         (uint8)(as_uint(zs[l]), as_uint(xs[l]), as_uint(ys[l]), as_uint(ws[l]), as_uint(hit ? us[l] : 0.0f),
                 as_uint(hit ? vs[l] : 0.0f), is[l], hit ? ps[l] : RF_INVALID);
-    vstore8(px_hit, 0, (RF_GLOBAL rf_u32*)&out[at]);
+    vstore8(px_hit, 0, (RF_GLOBAL rf_u32*)&view_out[py * cam->width + px]);
   }
 }
 
@@ -526,19 +531,22 @@ RF_INLINE void rf_trace_tile(const RF_GLOBAL rf_u32* rays, rf_u32 begin, rf_u32 
   for (int s = 0; s < RF_TILE_SETUPS; ++s) ro[s].valid = 0;
   float* dx = (float*)tc.dx;
   float* dy = (float*)tc.dy;
-  /* Only the groups some ray answers get hit records; the traversal masks
-   * the others out. */
+  /* The groups of each lane's ray, by its entry's two mirror bits (a table:
+   * the entries' decoding costs as much as a traversal step otherwise);
+   * the traversal masks out the groups no ray of the tile answers. */
+  rf_u32 by_mirrors[4];
+  for (rf_u32 k = 0; k < 4u; ++k) by_mirrors[k] = rf_entry_groups(k << 30, cam);
+  rf_u32 lane_groups[RF_TILE_RAYS];
   rf_u32 tile_groups = 0u;
   for (int l = 0; l < RF_TILE_RAYS; ++l) {
     const rf_u32 i = (rf_u32)l < count ? (rf_u32)l : count - 1u;
-    tile_groups |= rf_decode_entry(rays[begin + i], cam).groups;
-  }
-  for (int l = 0; l < RF_TILE_RAYS; ++l) {
-    const rf_u32 i = (rf_u32)l < count ? (rf_u32)l : count - 1u;
-    const rf_camera_ray ray = rf_decode_entry(rays[begin + i], cam);
+    const rf_u32 entry = rays[begin + i];
+    const rf_camera_ray ray = rf_decode_entry_groups(entry, cam, by_mirrors[entry >> 30]);
+    lane_groups[l] = ray.groups;
     dx[l] = ray.dx;
     dy[l] = ray.dy;
-    RF_FOR_EACH_GROUP(g, tile_groups) { ((float*)hits[g].t)[l] = ((ray.groups >> g) & 1u) ? RF_FAR : -1.0f; }
+    for (int g = 0; g < RF_MAX_GROUPS; ++g) ((float*)hits[g].t)[l] = ((ray.groups >> g) & 1u) ? RF_FAR : -1.0f;
+    tile_groups |= ray.groups;
   }
   rf_vf lo0 = (rf_vf)(RF_FAR), lo1 = lo0, hi0 = (rf_vf)(-RF_FAR), hi1 = hi0;
   for (int j = 0; j < RF_LANE_GROUPS; ++j) {
@@ -548,7 +556,7 @@ RF_INLINE void rf_trace_tile(const RF_GLOBAL rf_u32* rays, rf_u32 begin, rf_u32 
     lo1 = fmin(lo1, tc.iy[j]);
     hi0 = fmax(hi0, tc.ix[j]);
     hi1 = fmax(hi1, tc.iy[j]);
-    RF_FOR_EACH_GROUP(g, tile_groups) {
+    for (int g = 0; g < RF_MAX_GROUPS; ++g) {
       hits[g].u[j] = (rf_vf)(0.0f);
       hits[g].v[j] = (rf_vf)(0.0f);
       hits[g].instance[j] = (rf_vu)(RF_INVALID);
@@ -568,8 +576,8 @@ RF_INLINE void rf_trace_tile(const RF_GLOBAL rf_u32* rays, rf_u32 begin, rf_u32 
     rf_tile_trace_tlas(nodes, tris, instances, tlas_root, &tc, tile_groups, ro, hits RF_TSTAT_ARG);
 
   RF_FOR_EACH_GROUP(g, tile_groups) {
-    rf_tile_write_group(rays, begin, count, cam, &tc, &hits[g], g, depth_scales[g >> cam->group_shift], tris,
-                        normal_xforms, out);
+    rf_tile_write_group(rays, begin, count, cam, lane_groups, &tc, &hits[g], g, depth_scales[g >> cam->group_shift],
+                        tris, normal_xforms, out);
   }
 }
 

@@ -229,33 +229,56 @@ typedef struct {
   float dx, dy;
 } rf_camera_ray;
 
-RF_INLINE rf_camera_ray rf_decode_entry(rf_u32 entry, const rf_camera* cam) {
+/* The groups a ray answers, from its entry's mirror bits (bit m of
+ * `answered`: mirror m's pixel is answered, its bits being among the
+ * entry's); slot s takes the bit of its mirror, and every view of the pass
+ * has the same slots. */
+RF_INLINE rf_u32 rf_entry_groups(rf_u32 entry, const rf_camera* cam) {
+  const rf_u32 mx = (entry & RF_RAY_MIRROR_X) != 0u ? 1u : 0u;
+  const rf_u32 my = (entry & RF_RAY_MIRROR_Y) != 0u ? 1u : 0u;
+  const rf_u32 answered = 1u | (mx << 1) | (my << 2) | ((mx & my) << 3);
+  const rf_u32 sm = cam->slot_mirrors;
+  rf_u32 slots = (answered >> (sm & 3u)) & 1u;
+  slots |= ((answered >> ((sm >> 2) & 3u)) & 1u) << 1;
+  slots |= ((answered >> ((sm >> 4) & 3u)) & 1u) << 2;
+  slots |= ((answered >> ((sm >> 6) & 3u)) & 1u) << 3;
+  slots &= (1u << (1u << cam->group_shift)) - 1u;
+  return slots * cam->view_rep;
+}
+
+/* The pixel of a ray-list entry and its camera-space ray; groups as
+ * given. */
+RF_INLINE rf_camera_ray rf_decode_entry_groups(rf_u32 entry, const rf_camera* cam, rf_u32 groups) {
   rf_camera_ray r;
   r.x = (rf_i32)(entry & RF_RAY_COORD_MASK);
   r.y = (rf_i32)((entry >> RF_RAY_COORD_BITS) & RF_RAY_COORD_MASK);
-  /* Mirror m is answered when its bits are among the entry's. */
-  const rf_u32 mirrors = ((entry & RF_RAY_MIRROR_X) != 0u ? 1u : 0u) | ((entry & RF_RAY_MIRROR_Y) != 0u ? 2u : 0u);
-  rf_u32 slots = 0u;
-  const rf_u32 slot_count = 1u << cam->group_shift;
-  for (rf_u32 s = 0; s < slot_count; ++s) {
-    const rf_u32 m = (cam->slot_mirrors >> (2u * s)) & 3u;
-    if ((m & ~mirrors) == 0u) slots |= 1u << s;
-  }
-  r.groups = slots * cam->view_rep;
+  r.groups = groups;
   r.dx = cam->scale_x * ((float)(2 * r.x + cam->kx0) + cam->frac_x);
   r.dy = cam->scale_y * ((float)(cam->ky0 - 2 * r.y) + cam->frac_y);
   return r;
+}
+
+RF_INLINE rf_camera_ray rf_decode_entry(rf_u32 entry, const rf_camera* cam) {
+  return rf_decode_entry_groups(entry, cam, rf_entry_groups(entry, cam));
+}
+
+/* Group g's mirror (bit 0: camera x negated, bit 1: y) and the index of
+ * its view's first pixel in the pass's output. */
+RF_INLINE rf_u32 rf_group_mirror(rf_u32 g, const rf_camera* cam) {
+  return (cam->slot_mirrors >> (2u * (g & ((1u << cam->group_shift) - 1u)))) & 3u;
+}
+RF_INLINE size_t rf_group_view_base(rf_u32 g, const rf_camera* cam) {
+  return (size_t)(g >> cam->group_shift) * (size_t)cam->width * (size_t)cam->height;
 }
 
 /* Where group g's hit of the ray from pixel (x, y) goes in the output of
  * the pass (view after view, each width * height pixels row-major): into
  * g's view, at the pixel mirrored as g's slot says. */
 RF_INLINE size_t rf_group_pixel_index(rf_i32 x, rf_i32 y, rf_u32 g, const rf_camera* cam) {
-  const rf_u32 view = g >> cam->group_shift;
-  const rf_u32 m = (cam->slot_mirrors >> (2u * (g & ((1u << cam->group_shift) - 1u)))) & 3u;
+  const rf_u32 m = rf_group_mirror(g, cam);
   const rf_i32 px = (m & 1u) ? cam->xpair - x : x;
   const rf_i32 py = (m & 2u) ? cam->ypair - y : y;
-  return ((size_t)view * (size_t)cam->height + (size_t)py) * (size_t)cam->width + (size_t)px;
+  return rf_group_view_base(g, cam) + (size_t)(py * cam->width + px);
 }
 
 /* Writes the hit info of every pixel a ray answers: group g's hit goes to

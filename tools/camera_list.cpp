@@ -30,8 +30,8 @@ int side(const json& j, const char* key, const std::string& path) {
   if (!j.contains(key)) throw InputError(path, std::string("has no \"") + key + "\" (image size in pixels)");
   const double v = number(j[key], key, path);
   if (v != std::floor(v) || v < 1 || v > RF_MAX_IMAGE_SIDE)
-    throw InputError(path, std::string(key) + " must be a whole number of pixels from 1 to " +
-                               std::to_string(RF_MAX_IMAGE_SIDE));
+    throw InputError(
+        path, std::string(key) + " must be a whole number of pixels from 1 to " + std::to_string(RF_MAX_IMAGE_SIDE));
   return static_cast<int>(v);
 }
 
@@ -70,8 +70,8 @@ std::vector<View> read_camera_list(const std::string& path) {
         }
         if (!(fov > 0.0 && fov < 180.0)) throw InputError(path, where + ": vfov must be in (0, 180) degrees");
         const double f = 0.5 * height / std::tan(fov * M_PI / 360.0);
-        views.push_back({make_camera(x, Intrinsics{f, f, 0.5 * width, 0.5 * height}, width, height),
-                         std::to_string(i)});
+        views.push_back(
+            {make_camera(x, Intrinsics{f, f, 0.5 * width, 0.5 * height}, width, height), std::to_string(i)});
       } else {
         CameraSpec spec;
         if (!c.contains("eye") || !c.contains("look_at"))
@@ -91,16 +91,8 @@ std::vector<View> read_camera_list(const std::string& path) {
 }
 
 std::vector<View> stereo_pair(const CameraSpec& centre, double baseline, int width, int height) {
-  const Camera middle = make_camera(centre, width, height);
-  const glm::dvec3 right(middle.world_from_camera[0]);
-  std::vector<View> views;
-  for (const auto& [sign, label] : {std::pair{-0.5, "left"}, std::pair{0.5, "right"}}) {
-    CameraSpec eye = centre;
-    eye.eye += sign * baseline * right;
-    eye.look_at += sign * baseline * right;
-    views.push_back({make_camera(eye, width, height), label});
-  }
-  return views;
+  const std::array<CameraSpec, 2> eyes = stereo_specs(centre, baseline);
+  return {{make_camera(eyes[0], width, height), "left"}, {make_camera(eyes[1], width, height), "right"}};
 }
 
 }  // namespace rayfold::core::cli

@@ -14,6 +14,8 @@
 #include <nlohmann/json.hpp>
 
 #include "bench.h"
+#include "bench_align.h"
+#include "fold/view_passes.h"
 #include "camera_list.h"
 #include "cli_args.h"
 #include "progress.h"
@@ -111,6 +113,10 @@ const char* kRenderUsage =
     "                         (-o out/view_%04d.exr); see the README for the format\n"
     "  --stereo B             a parallel-axis stereo pair around the camera, eyes B apart\n"
     "                         along its right vector (outputs NAME-left.exr, NAME-right.exr)\n"
+    "  --align N|auto         --cameras, --stereo: trace up to N views together (alignment;\n"
+    "                         1 = each alone; auto, the default: as many as one pass holds,\n"
+    "                         32 / the fold's mirrors); views with other intrinsics go to\n"
+    "                         other passes; every view's bits equal the view alone\n"
     "  -q, --quiet            print nothing but errors (and no progress)\n"
     "  -v, --verbose          also the time of every stage, and of every frame\n"
     "Each output's extension must match its kind (.exr, .png, .json), so no two\n"
@@ -134,7 +140,12 @@ const char* kBenchUsage =
     "  --backend opencl|cpu   (default opencl)   --device NAME   --threads N\n"
     "  --kernel tile|single|measure|auto   OpenCL kernel (default auto: tile on CPU devices)\n"
     "  --json F.json  --md F.md   also write the report\n"
-    "exit code 3 when a folded image differs from the unfolded one\n";
+    "  --align                instead: views rendered alone against the same views traced\n"
+    "                         together, on a stereo pair and on paths of 2, 4, 8 and 16\n"
+    "                         views, unfolded and folded xy, both kernels (docs/results.md)\n"
+    "  --baseline B           --align: the stereo pair's baseline (default 0.0032 of the\n"
+    "                         scene's diagonal: 64 mm in a 20 m scene)\n"
+    "exit code 3 when a folded (or aligned) image differs from the unfolded (or lone) one\n";
 
 const char* kInfoUsage =
     "usage: rayfold info SCENE\n\nprints meshes, instances, triangles, bounds, the file's scenes and cameras, and\n"
@@ -148,6 +159,7 @@ struct RenderArgs {
   bool size_given = false;
   std::string cameras;          // --cameras FILE.json: one render per view
   std::optional<double> stereo;  // --stereo B: a left and a right view
+  int align = 0;                 // --align N: views per pass; 0 = auto
   double shift_x = 0.0, shift_y = 0.0;
   RendererOptions renderer;
   FrameOptions frame;
@@ -261,6 +273,9 @@ RenderArgs parse_render(cli::Args& args) {
       r.size_given = true;
     } else if (a == "--cameras") {
       r.cameras = args.value(a);
+    } else if (a == "--align") {
+      const std::string v = args.value(a);
+      r.align = v == "auto" ? 0 : cli::parse_int(a, v, 1, RF_GROUP_LIMIT);
     } else if (a == "--stereo") {
       r.stereo = cli::parse_double(a, args.value(a));
       if (!(*r.stereo > 0.0)) throw UsageError("--stereo: the baseline must be positive (world units)");
@@ -333,6 +348,8 @@ RenderArgs parse_render(cli::Args& args) {
       throw UsageError("--cameras: the file gives the size and every camera; --size, --eye, --look-at, --up, "
                        "--vfov and --ortho do not combine with it");
     if (r.ortho) throw UsageError("--stereo: a stereo pair is two perspective views");
+  } else if (r.align != 0) {
+    throw UsageError("--align: aligns the views of --cameras or --stereo");
   }
   check_outputs({{"-o", &r.exr, ".exr"}, {"--png", &r.png, ".png"}, {"--stats", &r.stats, ".json"},
                  {"--ids", &r.ids, ".json"}});
@@ -508,7 +525,8 @@ std::string view_output(const std::string& option, const std::string& name, cons
   return out;
 }
 
-// --cameras and --stereo: each view traced on its own, its outputs written.
+// --cameras and --stereo: the views traced in passes of aligned views, each
+// view's outputs written.
 int render_views(const RenderArgs& r, const Scene& scene, const std::vector<cli::View>& views, Progress& progress) {
   const bool stereo = r.stereo.has_value();
   for (const cli::View& v : views)
@@ -516,24 +534,37 @@ int render_views(const RenderArgs& r, const Scene& scene, const std::vector<cli:
       if (!out->empty()) check_writable(view_output(option, *out, v, stereo, views.size()));
   progress.stage("building the bottom-level trees and the kernels");
   Renderer renderer(scene, r.renderer);
+  std::vector<Camera> cameras;
+  for (const cli::View& v : views) cameras.push_back(v.camera);
+  const int align = r.align > 0 ? r.align : RF_GROUP_LIMIT;
+  const std::vector<std::vector<size_t>> passes = plan_passes(renderer.scene_data(), cameras, align, r.frame.fold);
   progress.stage("tracing", views.size());
   RenderResult result;
   size_t done = 0;
   if (!r.quiet)
-    std::printf("rayfold render  %s  %zu views  fold %s\n", r.scene.c_str(), views.size(), fold_name(r.frame.fold));
-  for (const cli::View& v : views) {
-    renderer.render_into(result, v.camera, 1, r.frame);
-    const ExrMetadata metadata = exr_metadata(v.camera, scene, r);
-    const int w = v.camera.width, h = v.camera.height;
-    if (!r.exr.empty()) write_exr(view_output("-o", r.exr, v, stereo, views.size()), result.hits, w, h, &metadata);
-    if (!r.png.empty()) write_png(view_output("--png", r.png, v, stereo, views.size()), result.hits, w, h);
-    if (!r.stats.empty())
-      write_stats(view_output("--stats", r.stats, v, stereo, views.size()), r, scene, v.camera, renderer, result, 0.0);
-    progress.update(++done);
-    if (!r.quiet) {
-      const glm::dvec3 eye(v.camera.world_from_camera[3]);
-      std::printf("  view %-6s %dx%d  eye (%g, %g, %g)  trace %.2f ms\n", v.label.c_str(), w, h, eye.x, eye.y,
-                  eye.z, result.median.trace_ms);
+    std::printf("rayfold render  %s  %zu views in %zu passes (--align %s)  fold %s\n", r.scene.c_str(), views.size(),
+                passes.size(), r.align > 0 ? std::to_string(r.align).c_str() : "auto", fold_name(r.frame.fold));
+  for (const std::vector<size_t>& pass : passes) {
+    std::vector<Camera> pass_cameras;
+    for (size_t i : pass) pass_cameras.push_back(cameras[i]);
+    renderer.render_views_into(result, pass_cameras, 1, r.frame);
+    for (size_t k = 0; k < pass.size(); ++k) {
+      const cli::View& v = views[pass[k]];
+      const RenderResult vr = view_result(result, k);
+      const ExrMetadata metadata = exr_metadata(v.camera, scene, r);
+      const int w = v.camera.width, h = v.camera.height;
+      if (!r.exr.empty()) write_exr(view_output("-o", r.exr, v, stereo, views.size()), vr.hits, w, h, &metadata);
+      if (!r.png.empty()) write_png(view_output("--png", r.png, v, stereo, views.size()), vr.hits, w, h);
+      if (!r.stats.empty())
+        write_stats(view_output("--stats", r.stats, v, stereo, views.size()), r, scene, v.camera, renderer, vr, 0.0);
+      for (const std::string& w : vr.warnings)
+        std::fprintf(stderr, "warning: view %s: %s (docs/exactness.md)\n", v.label.c_str(), w.c_str());
+      progress.update(++done);
+      if (!r.quiet) {
+        const glm::dvec3 eye(v.camera.world_from_camera[3]);
+        std::printf("  view %-6s %dx%d  eye (%g, %g, %g)  pass of %zu views, trace %.2f ms\n", v.label.c_str(), w,
+                    h, eye.x, eye.y, eye.z, pass.size(), result.median.trace_ms);
+      }
     }
   }
   progress.clear();
@@ -776,7 +807,8 @@ int run_bench_command(cli::Args& args) {
   BenchOptions opt;
   opt.scene = default_scene();
   std::string json, md;
-  bool have_scene = false;
+  bool have_scene = false, align = false;
+  double baseline = 0.0;
   while (!args.done()) {
     const std::string a = args.next();
     if (a == "--help" || a == "-h") {
@@ -785,6 +817,11 @@ int run_bench_command(cli::Args& args) {
     } else if (parse_view_path_option(a, args, opt, &have_scene)) {
     } else if (a == "--animate") {
       opt.animate = true;
+    } else if (a == "--align") {
+      align = true;
+    } else if (a == "--baseline") {
+      baseline = cli::parse_double(a, args.value(a));
+      if (!(baseline > 0.0)) throw UsageError("--baseline: must be positive (world units)");
     } else if (parse_renderer_option(a, args, opt.renderer)) {
     } else if (a == "--json") {
       json = args.value(a);
@@ -799,8 +836,30 @@ int run_bench_command(cli::Args& args) {
   check_outputs({{"--json", &json, ".json"}, {"--md", &md, ".md"}});
   for (const std::string* out : {&json, &md})
     if (!out->empty()) check_writable(*out);
+  if (align && opt.animate) throw UsageError("--align measures still views; --animate does not combine with it");
   Progress progress(true);
   bool started = false;
+  if (align) {
+    AlignBenchOptions ao;
+    static_cast<ViewPath&>(ao) = opt;
+    ao.renderer = opt.renderer;
+    ao.baseline = baseline;
+    const AlignReport report = run_align_bench(ao, [&](size_t done, size_t total) {
+      if (!started) progress.stage("bench --align: views x ways x kernels", total);
+      started = true;
+      progress.update(done);
+    });
+    progress.clear();
+    const std::string text = align_markdown(report);
+    std::fputs(text.c_str(), stdout);
+    if (!json.empty()) write_text_file(json, align_json(report));
+    if (!md.empty()) write_text_file(md, text);
+    if (!report.exact()) {
+      std::fprintf(stderr, "error: an aligned view differs from the same view alone; the figures are not valid\n");
+      return 3;
+    }
+    return 0;
+  }
   const BenchReport report = run_bench(opt, [&](size_t done, size_t total) {
     if (!started) progress.stage("bench: views x methods x frames", total);
     started = true;

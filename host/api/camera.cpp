@@ -1,5 +1,7 @@
 #include "rayfold/camera.h"
 
+#include <cmath>
+
 #include <glm/geometric.hpp>
 
 #include "api/convert.h"
@@ -34,8 +36,20 @@ Camera Camera::look_at(const Vec3& eye, const Vec3& target, const Vec3& up, doub
   return Camera(std::make_shared<core::Camera>(core::make_camera(spec, width, height)));
 }
 
+std::array<Camera, 2> Camera::stereo_pair(const Vec3& eye, const Vec3& target, const Vec3& up, double vfov_degrees,
+                                          int width, int height, double baseline) {
+  if (!(baseline > 0.0) || !std::isfinite(baseline))
+    throw InputError("", "a stereo baseline must be positive and finite, not " + std::to_string(baseline));
+  core::CameraSpec spec = pose(eye, target, up);
+  spec.vfov_degrees = vfov_degrees;
+  core::make_camera(spec, width, height);  // the centre view's checks
+  const std::array<core::CameraSpec, 2> eyes = core::stereo_specs(spec, baseline);
+  return {Camera(std::make_shared<core::Camera>(core::make_camera(eyes[0], width, height))),
+          Camera(std::make_shared<core::Camera>(core::make_camera(eyes[1], width, height)))};
+}
+
 Camera Camera::orthographic(const Vec3& eye, const Vec3& target, const Vec3& up, double half_height, int width,
-                           int height) {
+                            int height) {
   core::CameraSpec spec = pose(eye, target, up);
   spec.orthographic = true;
   spec.ymag = half_height;

@@ -3,6 +3,8 @@
 #include <cmath>
 
 #include "api/scene_state.h"
+#include "fold/view_passes.h"
+#include "rayfold/errors.h"
 #include "renderer.h"
 #include "util/timer.h"
 
@@ -11,38 +13,27 @@ namespace {
 
 core::FoldMode to_core(Fold f) {
   switch (f) {
-    case Fold::y:
-      return core::FoldMode::y;
-    case Fold::x:
-      return core::FoldMode::x;
-    case Fold::xy:
-      return core::FoldMode::xy;
-    default:
-      return core::FoldMode::none;
+    case Fold::y: return core::FoldMode::y;
+    case Fold::x: return core::FoldMode::x;
+    case Fold::xy: return core::FoldMode::xy;
+    default: return core::FoldMode::none;
   }
 }
 
 Fold from_core(core::FoldMode f) {
   switch (f) {
-    case core::FoldMode::y:
-      return Fold::y;
-    case core::FoldMode::x:
-      return Fold::x;
-    case core::FoldMode::xy:
-      return Fold::xy;
-    default:
-      return Fold::none;
+    case core::FoldMode::y: return Fold::y;
+    case core::FoldMode::x: return Fold::x;
+    case core::FoldMode::xy: return Fold::xy;
+    default: return Fold::none;
   }
 }
 
 core::KernelChoice to_core(Kernel k) {
   switch (k) {
-    case Kernel::tile:
-      return core::KernelChoice::tile;
-    case Kernel::single:
-      return core::KernelChoice::single;
-    default:
-      return core::KernelChoice::automatic;
+    case Kernel::tile: return core::KernelChoice::tile;
+    case Kernel::single: return core::KernelChoice::single;
+    default: return core::KernelChoice::automatic;
   }
 }
 
@@ -99,17 +90,13 @@ GBuffer Renderer::render(const Camera& camera, Fold fold) {
   return g;
 }
 
-void Renderer::render_into(GBuffer& g, const Camera& camera, Fold fold) {
-  const auto t0 = core::Clock::now();
-  core::FrameOptions frame;
-  frame.fold = to_core(fold);
-  frame.moved = impl_->moved();
-  core::RenderResult& r = impl_->result;
-  impl_->core->render_into(r, camera.core(), 1, frame);
+namespace {
 
+// A core result (one view's) as the public planes.
+void fill_gbuffer(GBuffer& g, const core::RenderResult& r, int width, int height) {
   const size_t n = r.hits.size();
-  g.width = camera.width();
-  g.height = camera.height();
+  g.width = width;
+  g.height = height;
   g.depth.resize(n);
   g.normal.resize(3 * n);
   g.uv.resize(2 * n);
@@ -133,7 +120,50 @@ void Renderer::render_into(GBuffer& g, const Camera& camera, Fold fold) {
   g.rays = r.rays;
   g.trace_ms = r.median.trace_ms;
   g.warnings = r.warnings;
+}
+
+}  // namespace
+
+void Renderer::render_into(GBuffer& g, const Camera& camera, Fold fold) {
+  const auto t0 = core::Clock::now();
+  core::FrameOptions frame;
+  frame.fold = to_core(fold);
+  frame.moved = impl_->moved();
+  core::RenderResult& r = impl_->result;
+  impl_->core->render_into(r, camera.core(), 1, frame);
+  fill_gbuffer(g, r, camera.width(), camera.height());
   g.frame_ms = core::ms_since(t0);
+}
+
+std::vector<GBuffer> Renderer::render_views(const std::vector<Camera>& cameras, Fold fold, int align) {
+  if (align < 0 || align > kMaxAlignedViews)
+    throw InputError("", "align must be 0 (as many as a pass holds) to " + std::to_string(kMaxAlignedViews) + ", not " +
+                             std::to_string(align));
+  std::vector<GBuffer> out(cameras.size());
+  if (cameras.empty()) return out;
+  core::FrameOptions frame;
+  frame.fold = to_core(fold);
+  frame.moved = impl_->moved();
+  std::vector<core::Camera> views;
+  for (const Camera& c : cameras) views.push_back(c.core());
+  const auto passes =
+      core::plan_passes(impl_->core->scene_data(), views, align == 0 ? kMaxAlignedViews : align, frame.fold);
+  core::RenderResult& r = impl_->result;
+  for (const std::vector<size_t>& pass : passes) {
+    const auto t0 = core::Clock::now();
+    std::vector<core::Camera> pass_views;
+    for (size_t i : pass) pass_views.push_back(views[i]);
+    impl_->core->render_views_into(r, pass_views, 1, frame);
+    const double ms = core::ms_since(t0) / static_cast<double>(pass.size());
+    for (size_t k = 0; k < pass.size(); ++k) {
+      GBuffer& g = out[pass[k]];
+      fill_gbuffer(g, core::view_result(r, k), cameras[pass[k]].width(), cameras[pass[k]].height());
+      g.views_in_trace = static_cast<int>(pass.size());
+      g.trace_ms = r.median.trace_ms / static_cast<double>(pass.size());
+      g.frame_ms = ms;
+    }
+  }
+  return out;
 }
 
 std::string Renderer::device_name() const { return impl_->core->device_name(); }

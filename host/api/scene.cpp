@@ -54,8 +54,8 @@ Scene Scene::load(const std::string& path, const LoadOptions& options) {
 uint32_t Scene::add_mesh(const float* positions, size_t vertex_count, const uint32_t* indices, size_t index_count,
                          const std::string& name) {
   if (index_count % 3 != 0)
-    throw InputError("", "mesh '" + name + "': " + std::to_string(index_count) +
-                             " indices is not a whole number of triangles");
+    throw InputError(
+        "", "mesh '" + name + "': " + std::to_string(index_count) + " indices is not a whole number of triangles");
   core::Mesh mesh;
   mesh.name = name;
   mesh.positions.resize(vertex_count);
@@ -111,8 +111,8 @@ void Scene::set_transform(uint32_t instance, const Matrix4& world_from_object) {
       const glm::dvec3 w = core::transform_point(m, p);
       for (int k = 0; k < 3; ++k)
         if (!(std::fabs(w[k]) <= core::kMaxWorldCoordinate))
-          throw InputError(state_->path, "instance '" + inst.name +
-                                             "' would reach beyond world coordinates of +-8.5e37 (2^126)");
+          throw InputError(state_->path,
+                           "instance '" + inst.name + "' would reach beyond world coordinates of +-8.5e37 (2^126)");
     }
   inst.world_from_object = m;
   state_->moved_at[instance] = ++state_->clock;

@@ -6,6 +6,7 @@
 #include <nanobind/stl/array.h>
 #include <nanobind/stl/filesystem.h>
 #include <nanobind/stl/optional.h>
+#include <nanobind/stl/pair.h>
 #include <nanobind/stl/shared_ptr.h>
 #include <nanobind/stl/string.h>
 #include <nanobind/stl/tuple.h>
@@ -54,7 +55,8 @@ rayfold::Matrix4 as_matrix4(nb::handle obj, const std::string& what) {
   std::vector<size_t> shape(a.ndim());
   for (size_t i = 0; i < a.ndim(); ++i) shape[i] = a.shape(i);
   if (a.ndim() != 2 || a.shape(0) != 4 || a.shape(1) != 4)
-    throw rayfold::InputError("", what + " must be a 4x4 matrix, not of shape " + shape_text(shape.size(), shape.data()));
+    throw rayfold::InputError("",
+                              what + " must be a 4x4 matrix, not of shape " + shape_text(shape.size(), shape.data()));
   rayfold::Matrix4 m;
   for (int i = 0; i < 16; ++i) m[i] = a.data()[i];
   return m;
@@ -100,14 +102,10 @@ rayfold::Fold parse_fold(const std::string& s) {
 
 const char* fold_name(rayfold::Fold f) {
   switch (f) {
-    case rayfold::Fold::y:
-      return "y";
-    case rayfold::Fold::x:
-      return "x";
-    case rayfold::Fold::xy:
-      return "xy";
-    default:
-      return "none";
+    case rayfold::Fold::y: return "y";
+    case rayfold::Fold::x: return "x";
+    case rayfold::Fold::xy: return "xy";
+    default: return "none";
   }
 }
 
@@ -152,6 +150,7 @@ struct PyGBuffer {
   double trace_ms = 0.0, frame_ms = 0.0;
   std::vector<std::string> warnings;
   rayfold::Camera camera;
+  int views_in_trace = 1;
 };
 
 PyGBuffer to_python(rayfold::GBuffer&& g, const rayfold::Camera& camera) {
@@ -169,7 +168,8 @@ PyGBuffer to_python(rayfold::GBuffer&& g, const rayfold::Camera& camera) {
               g.trace_ms,
               g.frame_ms,
               std::move(g.warnings),
-              camera};
+              camera,
+              g.views_in_trace};
   return p;
 }
 
@@ -215,11 +215,22 @@ NB_MODULE(_core, m) {
       .def_static(
           "look_at",
           [](nb::handle eye, nb::handle target, nb::handle up, double vfov_deg, int width, int height) {
-            return rayfold::Camera::look_at(as_vec3(eye, "eye"), as_vec3(target, "target"), as_vec3(up, "up"),
-                                            vfov_deg, width, height);
+            return rayfold::Camera::look_at(as_vec3(eye, "eye"), as_vec3(target, "target"), as_vec3(up, "up"), vfov_deg,
+                                            width, height);
           },
           "eye"_a, "target"_a, "up"_a, "vfov_deg"_a, "width"_a, "height"_a,
           "A camera at eye looking at target, image +y along up, vertical field of view in degrees, square pixels.")
+      .def_static(
+          "stereo_pair",
+          [](nb::handle eye, nb::handle target, nb::handle up, double vfov_deg, int width, int height,
+             double baseline) {
+            const auto pair = rayfold::Camera::stereo_pair(as_vec3(eye, "eye"), as_vec3(target, "target"),
+                                                           as_vec3(up, "up"), vfov_deg, width, height, baseline);
+            return std::make_pair(pair[0], pair[1]);
+          },
+          "eye"_a, "target"_a, "up"_a, "vfov_deg"_a, "width"_a, "height"_a, "baseline"_a,
+          "A parallel-axis stereo pair (left, right) around look_at(eye, target, ...): eye and target moved "
+          "baseline / 2 along the camera's right vector each way.")
       .def_static(
           "orthographic",
           [](nb::handle eye, nb::handle target, nb::handle up, double half_height, int width, int height) {
@@ -233,8 +244,8 @@ NB_MODULE(_core, m) {
           "from_matrix",
           [](nb::handle camera_to_world, double fx, double fy, double cx, double cy, int width, int height,
              const std::string& convention) {
-            return rayfold::Camera::from_matrix(as_matrix4(camera_to_world, "camera_to_world"), {fx, fy, cx, cy},
-                                                width, height, parse_convention(convention));
+            return rayfold::Camera::from_matrix(as_matrix4(camera_to_world, "camera_to_world"), {fx, fy, cx, cy}, width,
+                                                height, parse_convention(convention));
           },
           "camera_to_world"_a, "fx"_a, "fy"_a, "cx"_a, "cy"_a, "width"_a, "height"_a, nb::kw_only(), "convention"_a,
           "A camera from a rigid 4x4 camera-to-world matrix and pinhole intrinsics in pixels (pixel centres at "
@@ -287,12 +298,15 @@ NB_MODULE(_core, m) {
       .def_ro("primitive_id", &PyGBuffer::primitive_id, "(H, W) uint32: triangle index within the mesh; MISS")
       .def_ro("width", &PyGBuffer::width)
       .def_ro("height", &PyGBuffer::height)
-      .def_ro("fold", &PyGBuffer::fold, "the fold traced ('none', 'y', 'x', 'xy'): the one asked for, less what the "
-                                        "camera's principal point cannot mirror")
+      .def_ro("fold", &PyGBuffer::fold,
+              "the fold traced ('none', 'y', 'x', 'xy'): the one asked for, less what the "
+              "camera's principal point cannot mirror")
       .def_ro("rays", &PyGBuffer::rays)
       .def_ro("hits", &PyGBuffer::hits)
       .def_ro("trace_ms", &PyGBuffer::trace_ms)
       .def_ro("frame_ms", &PyGBuffer::frame_ms)
+      .def_ro("views_in_trace", &PyGBuffer::views_in_trace,
+              "views traced together with this one, itself included (Scene.render_views)")
       .def_ro("warnings", &PyGBuffer::warnings)
       .def_ro("camera", &PyGBuffer::camera);
 
@@ -322,14 +336,13 @@ NB_MODULE(_core, m) {
           "add_mesh",
           [](PyScene& s, nb::handle positions, nb::handle indices, const std::string& name) {
             const InArray<float> p = as_array<float>(positions, "float32", "positions");
-            if (p.ndim() != 2 || p.shape(1) != 3)
-              throw rayfold::InputError("", "positions must have shape (N, 3)");
+            if (p.ndim() != 2 || p.shape(1) != 3) throw rayfold::InputError("", "positions must have shape (N, 3)");
             const InArray<int64_t> i = as_array<int64_t>(indices, "int64", "indices");
             std::vector<uint32_t> idx(i.size());
             for (size_t k = 0; k < idx.size(); ++k) {
               if (i.data()[k] < 0 || i.data()[k] > 0xFFFFFFFEll)
-                throw rayfold::InputError("", "index " + std::to_string(k) + " is " + std::to_string(i.data()[k]) +
-                                                  ", not a vertex index");
+                throw rayfold::InputError(
+                    "", "index " + std::to_string(k) + " is " + std::to_string(i.data()[k]) + ", not a vertex index");
               idx[k] = static_cast<uint32_t>(i.data()[k]);
             }
             return locked(s, [&] { return s.scene.add_mesh(p.data(), p.shape(0), idx.data(), idx.size(), name); });
@@ -383,7 +396,8 @@ NB_MODULE(_core, m) {
       .def_prop_ro("mesh_count", [](PyScene& s) { return s.scene.mesh_count(); })
       .def_prop_ro("instance_count", [](PyScene& s) { return s.scene.instance_count(); })
       .def_prop_ro("triangle_count", [](PyScene& s) { return s.scene.triangle_count(); })
-      .def_prop_ro("bounds", [](PyScene& s) { return s.scene.bounds(); }, "(min x, y, z, max x, y, z) at rest")
+      .def_prop_ro(
+          "bounds", [](PyScene& s) { return s.scene.bounds(); }, "(min x, y, z, max x, y, z) at rest")
       .def(
           "default_camera", [](PyScene& s, int width, int height) { return s.scene.default_camera(width, height); },
           "width"_a, "height"_a, "The file's camera at this size, or a view of the whole scene.")
@@ -400,10 +414,29 @@ NB_MODULE(_core, m) {
             };
             return render_locked(s, cached, camera, parse_fold(fold));
           },
-          "camera"_a, "fold"_a = "none", "backend"_a = "opencl", "device"_a = "", "kernel"_a = "auto",
-          "threads"_a = 0,
+          "camera"_a, "fold"_a = "none", "backend"_a = "opencl", "device"_a = "", "kernel"_a = "auto", "threads"_a = 0,
           "Renders a G-buffer. The trees and kernels for these options are built on first use and kept. Releases "
-          "the GIL.");
+          "the GIL.")
+      .def(
+          "render_views",
+          [](PyScene& s, const std::vector<rayfold::Camera>& cameras, const std::string& fold, int align,
+             const std::string& backend, const std::string& device, const std::string& kernel, unsigned threads) {
+            const rayfold::RendererOptions o = renderer_options(backend, device, kernel, threads);
+            const std::string key = backend + "|" + device + "|" + kernel + "|" + std::to_string(threads);
+            std::vector<rayfold::GBuffer> gs = locked(s, [&] {
+              std::unique_ptr<rayfold::Renderer>& r = s.renderers[key];
+              if (!r) r = std::make_unique<rayfold::Renderer>(s.scene, o);
+              return r->render_views(cameras, parse_fold(fold), align);
+            });
+            std::vector<PyGBuffer> out;
+            for (size_t i = 0; i < gs.size(); ++i) out.push_back(to_python(std::move(gs[i]), cameras[i]));
+            return out;
+          },
+          "cameras"_a, "fold"_a = "none", "align"_a = 0, "backend"_a = "opencl", "device"_a = "", "kernel"_a = "auto",
+          "threads"_a = 0,
+          "Renders a list of views, one GBuffer each. Views of the same size and intrinsics are traced together, up "
+          "to align per trace (0: as many as one holds; 1: each alone); every view's bits equal render(view). "
+          "Releases the GIL.");
 
   nb::class_<PyRenderer>(m, "Renderer", "A renderer of one scene with fixed options (Scene.render keeps these).")
       .def(

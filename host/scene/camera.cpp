@@ -80,8 +80,7 @@ Camera make_camera(const CameraSpec& spec, int width, int height, double shift_x
   // Square pixels: pixel column x sits at (2x + kx0) / H * tan(vfov / 2),
   // in units of half a pixel from the optical axis; orthographic, at
   // (2x + kx0) / H * ymag world units.
-  const double scale =
-      spec.orthographic ? spec.ymag / height : std::tan(spec.vfov_degrees * M_PI / 360.0) / height;
+  const double scale = spec.orthographic ? spec.ymag / height : std::tan(spec.vfov_degrees * M_PI / 360.0) / height;
   set_rays(cam, scale, scale, 1 - width + static_cast<int>(std::lround(shift_x * width)),
            height - 1 + static_cast<int>(std::lround(shift_y * height)), 0.0, 0.0);
   if (spec.orthographic) {
@@ -184,6 +183,17 @@ CameraSpec frame_bounds(const Aabb& b, double vfov_degrees) {
   spec.look_at = centre;
   spec.up = glm::dvec3(0.0, 1.0, 0.0);
   return spec;
+}
+
+std::array<CameraSpec, 2> stereo_specs(const CameraSpec& centre, double baseline) {
+  const glm::dvec3 right(make_camera(centre, 2, 2).world_from_camera[0]);
+  std::array<CameraSpec, 2> eyes{centre, centre};
+  for (int k = 0; k < 2; ++k) {
+    const double sign = k == 0 ? -0.5 : 0.5;
+    eyes[k].eye += sign * baseline * right;
+    eyes[k].look_at += sign * baseline * right;
+  }
+  return eyes;
 }
 
 }  // namespace rayfold::core

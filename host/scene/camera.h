@@ -2,6 +2,8 @@
 // +x right, +y up. It is a rigid transform of world space, so distances agree.
 #pragma once
 
+#include <array>
+
 #include "device_layout.h"
 #include "scene/scene.h"
 #include "scene/transform.h"
@@ -65,6 +67,11 @@ double pixel_angle(const Camera& camera);
 // such a view is misplaced by a sixteenth of a pixel or more, and from 2^-24
 // on lost altogether (docs/exactness.md, measured by rayfold-limits).
 constexpr double kFinestPixelAngle = 0x1p-20;
+
+// A parallel-axis stereo pair around `centre`: eye and look-at moved
+// baseline / 2 to the left (first) and right along the camera's right
+// vector, so both look the same way. Each eye renders as that spec alone.
+std::array<CameraSpec, 2> stereo_specs(const CameraSpec& centre, double baseline);
 
 // A view of the whole scene from its +z side, slightly above, as a default.
 CameraSpec frame_bounds(const Aabb& world_bounds, double vfov_degrees = 60.0);

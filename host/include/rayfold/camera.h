@@ -3,6 +3,7 @@
 // down. Depths are distances from the eye along each pixel's ray.
 #pragma once
 
+#include <array>
 #include <memory>
 
 #include "rayfold/types.h"
@@ -33,6 +34,12 @@ class Camera {
   // Throws InputError for a degenerate view.
   static Camera look_at(const Vec3& eye, const Vec3& target, const Vec3& up, double vfov_degrees, int width,
                         int height);
+  // A parallel-axis stereo pair (left, right) around look_at(eye, target,
+  // ...): eye and target moved baseline / 2 along the camera's right vector
+  // each way, so both look the same way. InputError as look_at, or for a
+  // baseline that is not positive and finite.
+  static std::array<Camera, 2> stereo_pair(const Vec3& eye, const Vec3& target, const Vec3& up, double vfov_degrees,
+                                           int width, int height, double baseline);
   // An orthographic view: parallel rays along the view direction from the
   // plane through eye, the image `half_height` world units above and below
   // the axis (square pixels). Depth is the distance from that plane.

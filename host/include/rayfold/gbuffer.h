@@ -34,8 +34,9 @@ struct GBuffer {
   Fold fold = Fold::none;  // the fold traced (one the camera allows; Camera::can_fold_columns)
   size_t rays = 0;         // rays traced
   size_t hits = 0;         // pixels that hit
-  double trace_ms = 0.0;   // on the device
-  double frame_ms = 0.0;   // culling, top-level build, upload, ray list, trace, readback
+  double trace_ms = 0.0;   // on the device (a trace of several views: its share)
+  double frame_ms = 0.0;   // culling, top-level build, upload, ray list, trace, readback (likewise)
+  int views_in_trace = 1;  // views traced together with this one, itself included (Renderer::render_views)
   // What this render may have lost, in words (docs/exactness.md); empty
   // within rayfold's exact range.
   std::vector<std::string> warnings;

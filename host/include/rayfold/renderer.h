@@ -4,6 +4,7 @@
 
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "rayfold/camera.h"
 #include "rayfold/gbuffer.h"
@@ -30,6 +31,9 @@ struct RendererOptions {
   unsigned threads = 0;  // host threads for tree builds and the CPU backend; 0: all cores
 };
 
+// The most views one trace answers unfolded (32 transform groups).
+constexpr int kMaxAlignedViews = 32;
+
 class Renderer {
  public:
   // Builds every mesh's tree and, for OpenCL, the kernels. Throws
@@ -46,6 +50,13 @@ class Renderer {
   GBuffer render(const Camera& camera, Fold fold = Fold::none);
   // The same into `out`, reusing its planes when the size matches.
   void render_into(GBuffer& out, const Camera& camera, Fold fold = Fold::none);
+  // Traces several views, one GBuffer each in the same order. Views with the
+  // same image size and intrinsics are traced together, up to `align` per
+  // trace (alignment: one traversal answers every view of it); each view's
+  // bits are those of render(view) alone. align 1 traces each alone, 0 as
+  // many as one trace holds (kMaxAlignedViews, divided by the fold's
+  // mirrors: 2 for y or x, 4 for xy). InputError for another align.
+  std::vector<GBuffer> render_views(const std::vector<Camera>& cameras, Fold fold = Fold::none, int align = 0);
 
   std::string device_name() const;  // "cpu reference" for the CPU backend
   std::string kernel() const;       // "tile", "single" or "cpu reference"
