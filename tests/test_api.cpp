@@ -56,9 +56,9 @@ TEST(Api, InMemorySceneMatchesBruteForceInEveryBackendKernelAndFold) {
   ASSERT_EQ(scene.instance_count(), soup.instances.size());
   for (int view = 0; view < 3; ++view) {
     const core::CameraSpec spec = core::testing::random_camera(rng, soup.world_bounds());
-    const Camera camera = Camera::look_at({spec.eye.x, spec.eye.y, spec.eye.z},
-                                          {spec.look_at.x, spec.look_at.y, spec.look_at.z},
-                                          {spec.up.x, spec.up.y, spec.up.z}, spec.vfov_degrees, 37, 23);
+    const Camera camera =
+        Camera::look_at({spec.eye.x, spec.eye.y, spec.eye.z}, {spec.look_at.x, spec.look_at.y, spec.look_at.z},
+                        {spec.up.x, spec.up.y, spec.up.z}, spec.vfov_degrees, 37, 23);
     const std::vector<rf_pixel_hit> expected = brute(soup, camera);
     for (Backend backend : {Backend::cpu, Backend::opencl})
       for (Kernel kernel : {Kernel::tile, Kernel::single}) {
@@ -110,9 +110,9 @@ TEST(Api, OffGridPrincipalPointIsExactAndFoldsOnlyTheAxisThatAllows) {
   const core::Scene soup = core::testing::random_scene(rng, 2, 5, 60);
   const Scene scene = to_public(soup);
   const core::CameraSpec spec = core::testing::random_camera(rng, soup.world_bounds());
-  const Camera look = Camera::look_at({spec.eye.x, spec.eye.y, spec.eye.z},
-                                      {spec.look_at.x, spec.look_at.y, spec.look_at.z}, {spec.up.x, spec.up.y, spec.up.z},
-                                      spec.vfov_degrees, 41, 29);
+  const Camera look =
+      Camera::look_at({spec.eye.x, spec.eye.y, spec.eye.z}, {spec.look_at.x, spec.look_at.y, spec.look_at.z},
+                      {spec.up.x, spec.up.y, spec.up.z}, spec.vfov_degrees, 41, 29);
   // fx != fy, cx off the half-pixel grid, cy on it (one pixel off centre).
   const Intrinsics k{31.7, 29.3, 20.5 + 0.3, 14.5 + 1.0};
   const Camera camera = Camera::from_matrix(look.camera_to_world(), k, 41, 29, CameraConvention::opengl);
@@ -157,9 +157,9 @@ TEST(Api, MovedInstancesEqualASceneBuiltWithThemInPlace) {
   core::Scene soup = core::testing::random_scene(rng, 3, 8, 50);
   Scene moving = to_public(soup);
   const core::CameraSpec spec = core::testing::random_camera(rng, soup.world_bounds());
-  const Camera camera = Camera::look_at({spec.eye.x, spec.eye.y, spec.eye.z},
-                                        {spec.look_at.x, spec.look_at.y, spec.look_at.z},
-                                        {spec.up.x, spec.up.y, spec.up.z}, spec.vfov_degrees, 33, 27);
+  const Camera camera =
+      Camera::look_at({spec.eye.x, spec.eye.y, spec.eye.z}, {spec.look_at.x, spec.look_at.y, spec.look_at.z},
+                      {spec.up.x, spec.up.y, spec.up.z}, spec.vfov_degrees, 33, 27);
   for (Backend backend : {Backend::cpu, Backend::opencl}) {
     RendererOptions o;
     o.backend = backend;
@@ -222,13 +222,60 @@ std::string message_of(const std::function<void()>& f) {
   return "(nothing thrown)";
 }
 
+TEST(Api, RenderViewsEqualsEachViewAloneWhateverTheAlignment) {
+  const Scene scene = Scene::load(RAYFOLD_SOURCE_DIR "/scenes/atrium.glb");
+  const Camera base = scene.default_camera(48, 30);
+  const Vec3 eye = base.eye();
+  std::vector<Camera> views;
+  for (int k = 0; k < 5; ++k)  // a dolly, then one view of other intrinsics in the middle
+    views.push_back(Camera::look_at({eye[0] + 0.3 * k, eye[1], eye[2] - 0.5 * k}, {0.0, 2.0, 0.0}, {0.0, 1.0, 0.0},
+                                    k == 2 ? 75.0 : 50.0, 48, 30));
+  const auto pair = Camera::stereo_pair(eye, {0.0, 2.0, 0.0}, {0.0, 1.0, 0.0}, 50.0, 48, 30, 0.2);
+  views.push_back(pair[0]);
+  views.push_back(pair[1]);
+  // The pair is the look-at camera moved baseline / 2 along its right vector.
+  const Matrix4 c2w = pair[1].camera_to_world();
+  EXPECT_NEAR(pair[1].eye()[0] - pair[0].eye()[0], 0.2 * c2w[0], 1e-12);
+  EXPECT_NEAR(pair[1].eye()[2] - pair[0].eye()[2], 0.2 * c2w[8], 1e-12);
+  for (Backend backend : {Backend::cpu, Backend::opencl}) {
+    RendererOptions o;
+    o.backend = backend;
+    Renderer renderer(scene, o);
+    for (Fold f : {Fold::none, Fold::xy})
+      for (int align : {0, 1, 2}) {
+        const std::vector<GBuffer> gs = renderer.render_views(views, f, align);
+        ASSERT_EQ(gs.size(), views.size());
+        for (size_t v = 0; v < views.size(); ++v) {
+          const GBuffer alone = renderer.render(views[v], f);
+          EXPECT_EQ(compare_hits(to_hits(alone), to_hits(gs[v]), 48), "")
+              << "backend " << int(backend) << " fold " << int(f) << " align " << align << " view " << v;
+          EXPECT_EQ(gs[v].fold, f);
+        }
+        // align 0: the six 50-degree views in one trace, the other alone.
+        if (align == 0 && f == Fold::none) {
+          EXPECT_EQ(gs[0].views_in_trace, 6);
+          EXPECT_EQ(gs[2].views_in_trace, 1);
+        }
+        if (align == 2) EXPECT_EQ(gs[6].views_in_trace, 2);
+      }
+    EXPECT_THROW(renderer.render_views(views, Fold::none, -1), InputError);
+    EXPECT_THROW(renderer.render_views(views, Fold::none, kMaxAlignedViews + 1), InputError);
+    EXPECT_TRUE(renderer.render_views({}, Fold::none).empty());
+  }
+  EXPECT_THROW(Camera::stereo_pair(eye, {0.0, 2.0, 0.0}, {0.0, 1.0, 0.0}, 50.0, 48, 30, 0.0), InputError);
+}
+
 TEST(Api, BadInputsThrowWithTheReason) {
   const std::string missing = message_of<InputError>([] { Scene::load("/no/such/file.glb"); });
   EXPECT_NE(missing.find("/no/such/file.glb"), std::string::npos) << missing;
   Scene s;
-  EXPECT_NE(message_of<InputError>([&] { s.add_mesh({0, 0, 0, 1, 0, 0, 0, 1, 0}, {0, 1, 3}); }).find("3 vertices"),
+  EXPECT_NE(message_of<InputError>([&] {
+              s.add_mesh({0, 0, 0, 1, 0, 0, 0, 1, 0}, {0, 1, 3});
+            }).find("3 vertices"),
             std::string::npos);
-  EXPECT_NE(message_of<InputError>([&] { s.add_mesh({0, 0, 0}, {0, 0}); }).find("whole number of triangles"),
+  EXPECT_NE(message_of<InputError>([&] {
+              s.add_mesh({0, 0, 0}, {0, 0});
+            }).find("whole number of triangles"),
             std::string::npos);
   EXPECT_NE(message_of<InputError>([&] { s.add_mesh({0, 0, NAN}, {}); }).find("not finite"), std::string::npos);
   const Matrix4 id = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
@@ -246,18 +293,23 @@ TEST(Api, BadInputsThrowWithTheReason) {
   const Intrinsics k{50, 50, 16, 16};
   Matrix4 scaled = id;
   scaled[0] = 2.0;
-  EXPECT_NE(message_of<InputError>([&] { Camera::from_matrix(scaled, k, 32, 32, CameraConvention::opencv); })
-                .find("not orthonormal"),
+  EXPECT_NE(message_of<InputError>([&] {
+              Camera::from_matrix(scaled, k, 32, 32, CameraConvention::opencv);
+            }).find("not orthonormal"),
             std::string::npos);
   Matrix4 mirrored = id;
   mirrored[0] = -1.0;
-  EXPECT_NE(message_of<InputError>([&] { Camera::from_matrix(mirrored, k, 32, 32, CameraConvention::opencv); })
-                .find("mirror"),
+  EXPECT_NE(message_of<InputError>([&] {
+              Camera::from_matrix(mirrored, k, 32, 32, CameraConvention::opencv);
+            }).find("mirror"),
             std::string::npos);
-  EXPECT_NE(message_of<InputError>([&] { Camera::from_matrix(id, {0, 50, 16, 16}, 32, 32, CameraConvention::opencv); })
-                .find("focal lengths"),
+  EXPECT_NE(message_of<InputError>([&] {
+              Camera::from_matrix(id, {0, 50, 16, 16}, 32, 32, CameraConvention::opencv);
+            }).find("focal lengths"),
             std::string::npos);
-  EXPECT_NE(message_of<InputError>([] { Camera::look_at({0, 0, 0}, {0, 0, 0}, {0, 1, 0}, 60, 8, 8); }).find("distinct"),
+  EXPECT_NE(message_of<InputError>([] {
+              Camera::look_at({0, 0, 0}, {0, 0, 0}, {0, 1, 0}, 60, 8, 8);
+            }).find("distinct"),
             std::string::npos);
   RendererOptions o;
   o.device = "no device is called this";

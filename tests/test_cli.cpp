@@ -138,11 +138,11 @@ TEST(Cli, BenchPrintsBothTablesAndWritesReports) {
 }
 
 TEST(Cli, UsageErrorsExitTwoWithAMessage) {
-  for (const char* args : {"render --size 0x10", "render --size -5x10", "render --size 10", "render --bogus",
-                           "render --eye 0,0,0", "render --eye 0,0,0 --look-at 0,1,0 --up 0,2,0", "render --vfov 180",
-                           "render --frames 0", "frobnicate", "info", "render --fold z", "render --shift 1",
-                           "render --shift 1e9,0", "bench --views 0", "bench --bogus", "render --time x",
-                           "render --ortho 2 --vfov 30", "render --ortho 0", "render --fps 0"}) {
+  for (const char* args :
+       {"render --size 0x10", "render --size -5x10", "render --size 10", "render --bogus", "render --eye 0,0,0",
+        "render --eye 0,0,0 --look-at 0,1,0 --up 0,2,0", "render --vfov 180", "render --frames 0", "frobnicate", "info",
+        "render --fold z", "render --shift 1", "render --shift 1e9,0", "bench --views 0", "bench --bogus",
+        "render --time x", "render --ortho 2 --vfov 30", "render --ortho 0", "render --fps 0"}) {
     const CliRun r = rayfold(args);
     EXPECT_EQ(r.code, 2) << args << "\n" << r.err;
     EXPECT_EQ(r.err.rfind("error: ", 0), 0u) << args << ": " << r.err;
@@ -210,8 +210,8 @@ TEST(Cli, InfoDescribesTheDefaultScene) {
 TEST(Cli, IdsManifestAndStatsRecordTheViewAndTheNodes) {
   const fs::path d = work_dir();
   const std::string ids = (d / "ids.json").string(), stats = (d / "view.json").string();
-  const CliRun r = rayfold("render --size 40x30 --eye 0,3,12 --look-at 0,2,0 --fold xy --ids " + ids + " --stats " +
-                           stats);
+  const CliRun r =
+      rayfold("render --size 40x30 --eye 0,3,12 --look-at 0,2,0 --fold xy --ids " + ids + " --stats " + stats);
   ASSERT_EQ(r.code, 0) << r.err;
   const nlohmann::json m = nlohmann::json::parse(std::ifstream(ids));
   const Scene scene = load_gltf(RAYFOLD_SOURCE_DIR "/scenes/atrium.glb");
@@ -293,7 +293,25 @@ TEST(Cli, CameraListsAndStereoPairsRenderEachViewAsAloneBitForBit) {
   CliRun r = rayfold("render --cameras " + list + " --fold xy -o " + (d / "view_%02d.exr").string() + " --stats " +
                      (d / "view_%02d.json").string());
   ASSERT_EQ(r.code, 0) << r.err;
-  EXPECT_NE(r.out.find("3 views"), std::string::npos) << r.out;
+  // Views 0 and 2 share their intrinsics and trace together; view 1's
+  // field of view puts it in a pass of its own.
+  EXPECT_NE(r.out.find("3 views in 2 passes (--align auto)"), std::string::npos) << r.out;
+  // Each view alone (--align 1) writes the same bits as the aligned passes.
+  CliRun one = rayfold("render --cameras " + list + " --fold xy --align 1 -o " + (d / "one_%02d.exr").string());
+  ASSERT_EQ(one.code, 0) << one.err;
+  EXPECT_NE(one.out.find("3 views in 3 passes (--align 1)"), std::string::npos) << one.out;
+  for (int k = 0; k < 3; ++k) {
+    int w = 0, h = 0;
+    EXPECT_EQ(testing::compare_hits(read_exr((d / ("one_0" + std::to_string(k) + ".exr")).string(), &w, &h),
+                                    read_exr((d / ("view_0" + std::to_string(k) + ".exr")).string(), &w, &h), w),
+              "")
+        << "view " << k;
+  }
+  EXPECT_EQ(rayfold("render --cameras " + list + " --align 0").code, 2);
+  EXPECT_EQ(rayfold("render --cameras " + list + " --align 33").code, 2);
+  const CliRun lone = rayfold("render --align 2");
+  EXPECT_EQ(lone.code, 2);
+  EXPECT_NE(lone.err.find("--align: aligns the views of --cameras or --stereo"), std::string::npos) << lone.err;
   const std::string singles[] = {"--eye 0,3,12 --look-at 0,2,0 --vfov 50",
                                  "--eye -8,5,4 --look-at 2,1,-1 --up 0.1,1,0 --vfov 70",
                                  "--eye 0,2,14 --look-at 0,2,13 --vfov 50"};
@@ -356,8 +374,8 @@ TEST(Cli, CameraListsAndStereoPairsRenderEachViewAsAloneBitForBit) {
 TEST(Cli, OutputExtensionsMustMatchTheirKind) {
   const fs::path d = work_dir();
   for (const std::string& args : {"-o " + (d / "x.png").string(), "--png " + (d / "x.exr").string(),
-                                 "-o " + (d / "same.exr").string() + " --stats " + (d / "same.exr").string(),
-                                 "--stats " + (d / "s.txt").string()}) {
+                                  "-o " + (d / "same.exr").string() + " --stats " + (d / "same.exr").string(),
+                                  "--stats " + (d / "s.txt").string()}) {
     const CliRun r = rayfold("render --size 8x8 " + args);
     EXPECT_EQ(r.code, 2) << args;
     EXPECT_NE(r.err.find("must end in"), std::string::npos) << args << ": " << r.err;

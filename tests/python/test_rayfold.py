@@ -50,6 +50,26 @@ def test_arrays_have_the_documented_shapes_and_types(atrium):
     assert int(g.instance_id[~miss].max()) < atrium.instance_count
 
 
+def test_render_views_equals_each_view_alone(atrium):
+    """Views traced together (alignment) give each view's bits alone."""
+    base = atrium.default_camera(40, 24)
+    eye = np.array(base.eye)
+    left, right = rayfold.Camera.stereo_pair(eye, (0, 2, 0), (0, 1, 0), 50.0, 40, 24, baseline=0.3)
+    path = [rayfold.Camera.look_at(eye + (0.4 * k, 0, -0.3 * k), (0, 2, 0), (0, 1, 0), 50.0, 40, 24) for k in range(4)]
+    views = [left, right] + path + [atrium.default_camera(40, 24)]
+    for fold in ["none", "xy"]:
+        for align in [0, 1, 3]:
+            gs = atrium.render_views(views, fold=fold, align=align)
+            assert len(gs) == len(views)
+            for v, g in zip(views, gs):
+                assert_same_bits(atrium.render(v, fold=fold), g)
+        assert atrium.render_views(views, fold=fold)[0].views_in_trace == 6
+    assert np.allclose(np.array(right.eye) - np.array(left.eye),
+                       0.3 * right.camera_to_world[:3, 0])
+    with pytest.raises(rayfold.InputError):
+        atrium.render_views(views, align=-1)
+
+
 def test_every_fold_backend_and_kernel_gives_the_same_bits(atrium):
     camera = atrium.default_camera(48, 30)
     ref = atrium.render(camera, backend="cpu")
