@@ -25,6 +25,26 @@ enum class KernelChoice {
   measure,  // trace the first frame with both, keep the faster
 };
 
+// One way of tracing a list of views: the fold, the OpenCL kernel, and how
+// many views per pass (align 1: each alone).
+struct Choice {
+  FoldMode fold = FoldMode::none;
+  KernelKind kernel = KernelKind::tile;
+  int align = 1;
+};
+std::string choice_name(const Choice& c);  // "xy/tile/align 8"
+
+// A choice's predicted cost per view (docs/cost_model.md): the trace, from
+// a probe over a sample of its tiles, and the update (culling, top-level
+// build, upload) of the probe's frame.
+struct Prediction {
+  Choice choice;
+  double trace_ms = 0.0;   // per view
+  double update_ms = 0.0;  // per view
+  double probe_ms = 0.0;   // what the probe of this choice cost
+  double total_ms() const { return trace_ms + update_ms; }
+};
+
 struct RendererOptions {
   Backend backend = Backend::opencl;
   KernelChoice kernel = KernelChoice::automatic;
@@ -96,6 +116,18 @@ class Renderer {
   // with the times, or, before that frame, "to be measured".
   const std::string& kernel_reason() const { return kernel_reason_; }
   std::vector<BufferInfo> device_buffers() const;  // empty for the CPU backend
+
+  // Predicts each choice's time per view for these views, which must share
+  // their rays (can_align), on this renderer's device, by the cost model of
+  // docs/cost_model.md: every `stride`-th tile of the choice's ray list is
+  // traced (full-resolution tiles keep the render's coherence), the time
+  // less the launch overhead scaled to every tile; a choice that aligns
+  // probes its first pass, one that does not the middle view. The CPU
+  // backend predicts its one tracer (the kernel is ignored).
+  std::vector<Prediction> predict(const std::vector<Camera>& views, const std::vector<Choice>& choices, int stride = 8);
+  // From now on trace with this kernel (a choice made by predict); why: for
+  // kernel_reason().
+  void set_kernel(KernelKind kernel, const std::string& why);
   double blas_build_ms() const { return data_.blas.build_ms; }
 
  private:
@@ -122,12 +154,24 @@ class Renderer {
     rf_camera camera{};
     bool built = false, uploaded = false;
   };
-  std::array<CachedRays, 4> rays_;  // by fold mode
+  std::array<CachedRays, 4> rays_;      // by fold mode
+  static constexpr int kProbeSlot = 4;  // the tracer's ray slot for predict's samples
 };
 
 // View v of a pass's result: its hits, trace space and warnings; the times
 // and counters stay the pass's.
 RenderResult view_result(const RenderResult& pass, size_t v);
+
+// The choice of least predicted time (Renderer::predict) among every
+// combination of the folds, kernels and views per pass given, with every
+// prediction, fastest first, for the report.
+struct AutoChoice {
+  Choice best;
+  std::vector<Prediction> predictions;
+  double probe_ms = 0.0;  // what predicting cost, all choices together
+};
+AutoChoice choose_fastest(Renderer& renderer, const std::vector<Camera>& views, const std::vector<FoldMode>& folds,
+                          const std::vector<KernelKind>& kernels, const std::vector<int>& aligns);
 
 // Median of a list of values (the upper median for even counts).
 double median(std::vector<double> values);

@@ -9,6 +9,7 @@
 #include <cmath>
 
 #include "fold/frame.h"
+#include "fold/ray_list.h"
 #include "renderer.h"
 #include "scene/animation.h"
 #include "test_util.h"
@@ -224,6 +225,59 @@ TEST(Align, SharedScenesStereoAndOrbit) {
         << v.file << " path";
   });
   EXPECT_GT(n, 0);
+}
+
+}  // namespace
+}  // namespace rayfold::core
+
+namespace rayfold::core {
+namespace {
+
+TEST(Align, SampledTilesAreEveryStrideThTileWhole) {
+  const Camera cam = make_camera(look({0, 0, 5}, {0, 0, 0}), 100, 70);
+  for (FoldMode f : {FoldMode::none, FoldMode::xy}) {
+    const RayList rays = make_ray_list(cam.params, f);
+    for (size_t stride : {1, 3, 8}) {
+      const RayList s = sample_tiles(rays, stride, 1);
+      const size_t tiles = rays.tiles.size() - 1;  // sampled from tile 1 on
+      ASSERT_EQ(s.tiles.size() - 1, (tiles - 2) / stride + 1) << stride;
+      for (size_t k = 0; k + 1 < s.tiles.size(); ++k) {
+        const size_t t = 1 + k * stride;
+        ASSERT_EQ(s.tiles[k + 1] - s.tiles[k], rays.tiles[t + 1] - rays.tiles[t]);
+        EXPECT_TRUE(std::equal(rays.entries.begin() + rays.tiles[t], rays.entries.begin() + rays.tiles[t + 1],
+                               s.entries.begin() + s.tiles[k]))
+            << "tile " << t;
+      }
+    }
+  }
+}
+
+TEST(Align, AutomaticChoicesPredictEveryCandidateAndRenderTheSameBits) {
+  const Scene scene = testing::generated_atrium(13, 40, 15000);
+  const Aabb b = scene.world_bounds();
+  const double size = glm::length(glm::dvec3(b.extent()));
+  const std::vector<Camera> views = cameras(orbit(b, 4, 0.3 * size, 0.1 * size), 64, 40);
+  testing::ThreeWays r(scene);
+  for (Renderer* renderer : {r.cpu.get(), r.tile.get()}) {
+    const AutoChoice c = choose_fastest(*renderer, views, {FoldMode::none, FoldMode::xy},
+                                        {KernelKind::tile, KernelKind::single}, {1, RF_GROUP_LIMIT});
+    ASSERT_EQ(c.predictions.size(), 8u);
+    for (size_t k = 0; k < c.predictions.size(); ++k) {
+      const Prediction& p = c.predictions[k];
+      EXPECT_GT(p.trace_ms, 0.0) << choice_name(p.choice);
+      EXPECT_GE(p.update_ms, 0.0);
+      EXPECT_TRUE(p.choice.align == 1 || p.choice.align == 4) << "align is the pass size: " << p.choice.align;
+      if (k > 0) EXPECT_LE(c.predictions[k - 1].total_ms(), p.total_ms()) << "fastest first";
+    }
+    EXPECT_EQ(choice_name(c.best), choice_name(c.predictions[0].choice));
+    // Whatever was picked traces the same bits as each view alone.
+    FrameOptions o;
+    o.fold = c.best.fold;
+    RenderResult res;
+    renderer->render_views_into(res, views, 1, o);
+    for (size_t v = 0; v < views.size(); ++v)
+      EXPECT_EQ(testing::compare_hits(r.reference(views[v]), view_result(res, v).hits, 64), "") << v;
+  }
 }
 
 }  // namespace

@@ -295,7 +295,7 @@ TEST(Cli, CameraListsAndStereoPairsRenderEachViewAsAloneBitForBit) {
   ASSERT_EQ(r.code, 0) << r.err;
   // Views 0 and 2 share their intrinsics and trace together; view 1's
   // field of view puts it in a pass of its own.
-  EXPECT_NE(r.out.find("3 views in 2 passes (--align auto)"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("3 views in 2 passes (--align all)"), std::string::npos) << r.out;
   // Each view alone (--align 1) writes the same bits as the aligned passes.
   CliRun one = rayfold("render --cameras " + list + " --fold xy --align 1 -o " + (d / "one_%02d.exr").string());
   ASSERT_EQ(one.code, 0) << one.err;
@@ -307,7 +307,23 @@ TEST(Cli, CameraListsAndStereoPairsRenderEachViewAsAloneBitForBit) {
               "")
         << "view " << k;
   }
+  // The cost model's choice (--fold auto, --align auto): printed, and the
+  // same bits again.
+  CliRun chosen =
+      rayfold("render --cameras " + list + " --fold auto --align auto -o " + (d / "auto_%02d.exr").string());
+  ASSERT_EQ(chosen.code, 0) << chosen.err;
+  EXPECT_NE(chosen.out.find("auto: "), std::string::npos) << chosen.out;
+  EXPECT_NE(chosen.out.find("ms/view"), std::string::npos) << chosen.out;
+  for (int k = 0; k < 3; ++k) {
+    int w = 0, h = 0;
+    EXPECT_EQ(testing::compare_hits(read_exr((d / ("one_0" + std::to_string(k) + ".exr")).string(), &w, &h),
+                                    read_exr((d / ("auto_0" + std::to_string(k) + ".exr")).string(), &w, &h), w),
+              "")
+        << "view " << k;
+  }
+  EXPECT_EQ(rayfold("render --fold auto --compare").code, 2);
   EXPECT_EQ(rayfold("render --cameras " + list + " --align 0").code, 2);
+  EXPECT_EQ(rayfold("render --fold sideways").code, 2);
   EXPECT_EQ(rayfold("render --cameras " + list + " --align 33").code, 2);
   const CliRun lone = rayfold("render --align 2");
   EXPECT_EQ(lone.code, 2);

@@ -11,16 +11,15 @@
 #include "reference/hit_compare.h"
 #include "scene/gltf_loader.h"
 #include "util/parallel.h"
+#include "util/timer.h"
 
 namespace rayfold::core {
 namespace {
 
-const FoldMode kFolds[] = {FoldMode::none, FoldMode::xy};
-
 // What one way of tracing a list of views costs per frame: every pass's
 // times summed, medians over frames.
 struct Measured {
-  double render_ms = 0.0, update_ms = 0.0;
+  double render_ms = 0.0, trace_ms = 0.0, update_ms = 0.0;
   size_t bytes = 0, instances = 0;
   std::vector<std::vector<rf_pixel_hit>> hits;  // per view, of the last frame
 };
@@ -31,26 +30,57 @@ size_t pass_bytes(const SceneData& data, const RenderResult& r) {
          r.instances * sizeof(rf_instance) + r.rays * sizeof(uint32_t) + r.hits.size() * sizeof(rf_pixel_hit);
 }
 
-Measured measure(Renderer& renderer, const std::vector<Camera>& views, const std::vector<std::vector<size_t>>& passes,
-                 FoldMode fold, int warmup, int frames, const std::function<void()>& tick) {
+// One frame of every pass; the hits kept.
+Measured one_frame(Renderer& renderer, const std::vector<Camera>& views, const std::vector<std::vector<size_t>>& passes,
+                   FoldMode fold, RenderResult& r) {
   Measured m;
   m.hits.resize(views.size());
   FrameOptions fo;
   fo.fold = fold;
-  RenderResult r;
   for (const std::vector<size_t>& pass : passes) {
     std::vector<Camera> cams;
     for (size_t i : pass) cams.push_back(views[i]);
-    if (warmup > 0) renderer.render_views_into(r, cams, warmup, fo);
-    renderer.render_views_into(r, cams, frames, fo);
+    renderer.render_views_into(r, cams, 1, fo);
     m.render_ms += r.median.trace_ms + r.median.readback_ms + r.median.ray_list_ms;
+    m.trace_ms += r.median.trace_ms;
     m.update_ms += r.median.cull_ms + r.median.tlas_ms + r.median.upload_ms;
     m.bytes = std::max(m.bytes, pass_bytes(renderer.scene_data(), r));
     m.instances += r.instances;
     for (size_t k = 0; k < pass.size(); ++k) m.hits[pass[k]] = view_result(r, k).hits;
-    tick();
   }
   return m;
+}
+
+// Alone and aligned frame by frame, alternating, so that a slow spell of a
+// shared machine hits both alike; each figure the median over frames.
+std::pair<Measured, Measured> measure_pair(Renderer& renderer, const std::vector<Camera>& views,
+                                           const std::vector<std::vector<size_t>>& alone,
+                                           const std::vector<std::vector<size_t>>& aligned, FoldMode fold, int warmup,
+                                           int frames) {
+  RenderResult r;
+  for (int f = 0; f < warmup; ++f) {
+    one_frame(renderer, views, alone, fold, r);
+    one_frame(renderer, views, aligned, fold, r);
+  }
+  std::vector<Measured> a, b;
+  for (int f = 0; f < frames; ++f) {
+    a.push_back(one_frame(renderer, views, alone, fold, r));
+    b.push_back(one_frame(renderer, views, aligned, fold, r));
+  }
+  auto med = [](const std::vector<Measured>& ms) {
+    Measured out = ms.back();
+    std::vector<double> render, trace, update;
+    for (const Measured& m : ms) {
+      render.push_back(m.render_ms);
+      trace.push_back(m.trace_ms);
+      update.push_back(m.update_ms);
+    }
+    out.render_ms = median(render);
+    out.trace_ms = median(trace);
+    out.update_ms = median(update);
+    return out;
+  };
+  return {med(a), med(b)};
 }
 
 // The tile kernel's counters over the passes, one stats-built tracer.
@@ -175,14 +205,32 @@ AlignReport run_align_bench(const AlignBenchOptions& opt, const std::function<vo
   }
 
   size_t total = 0, done = 0;
-  for (const Scenario& s : scenarios) total += 2 * ways.size() * std::size(kFolds) * s.views.size();
+  for (const Scenario& s : scenarios) total += 2 * ways.size() * opt.folds.size() * s.views.size();
   auto tick = [&] {
     if (progress) progress(++done, total);
   };
   for (const Scenario& s : scenarios) {
     std::vector<std::vector<size_t>> alone;
     for (size_t i = 0; i < s.views.size(); ++i) alone.push_back({i});
-    for (FoldMode fold : kFolds) {
+    // The model's predictions first, for every choice measured below.
+    std::vector<Choice> choices;
+    for (FoldMode fold : opt.folds)
+      for (const Way& w : ways)
+        for (int align : {1, RF_GROUP_LIMIT})
+          choices.push_back({fold, w.label == "single" ? KernelKind::single : KernelKind::tile, align});
+    const auto p0 = Clock::now();
+    const std::vector<Prediction> predicted = ways[0].renderer->predict(s.views, choices);
+    AutoCheck check;
+    check.scenario = s.name;
+    check.views = static_cast<int>(s.views.size());
+    check.probe_ms = ms_since(p0);
+    size_t pick = 0;
+    for (size_t k = 0; k < predicted.size(); ++k)
+      if (predicted[k].total_ms() < predicted[pick].total_ms()) pick = k;
+    check.picked = choice_name(predicted[pick].choice);
+    double picked_measured = -1.0, best = 1e300;
+    size_t next_prediction = 0;
+    for (FoldMode fold : opt.folds) {
       const std::vector<std::vector<size_t>> aligned = plan_passes(data, s.views, RF_GROUP_LIMIT, fold);
       TileCounters alone_counts, aligned_counts;
       if (stats_tracer) {
@@ -190,9 +238,8 @@ AlignReport run_align_bench(const AlignBenchOptions& opt, const std::function<vo
         aligned_counts = count_tiles(*stats_tracer, scene, data, s.views, aligned, fold);
       }
       for (Way& w : ways) {
-        const Measured a = measure(*w.renderer, s.views, alone, fold, opt.warmup, opt.frames, tick);
-        const Measured b = measure(*w.renderer, s.views, aligned, fold, opt.warmup, opt.frames, tick);
-        for (size_t k = s.views.size() - aligned.size(); k-- > 0;) tick();
+        const auto [a, b] = measure_pair(*w.renderer, s.views, alone, aligned, fold, opt.warmup, opt.frames);
+        for (size_t k = 0; k < 2 * s.views.size(); ++k) tick();
         AlignRow row;
         row.scenario = s.name;
         row.views = static_cast<int>(s.views.size());
@@ -208,6 +255,19 @@ AlignReport run_align_bench(const AlignBenchOptions& opt, const std::function<vo
         row.aligned_bytes = b.bytes;
         row.alone_instances = static_cast<double>(a.instances) / n;
         row.aligned_instances = static_cast<double>(b.instances) / n;
+        row.alone_measured_ms = (a.trace_ms + a.update_ms) / n;
+        row.aligned_measured_ms = (b.trace_ms + b.update_ms) / n;
+        row.alone_predicted_ms = predicted[next_prediction].total_ms();
+        row.aligned_predicted_ms = predicted[next_prediction + 1].total_ms();
+        for (size_t k = 0; k < 2; ++k) {
+          const double measured = k == 0 ? row.alone_measured_ms : row.aligned_measured_ms;
+          if (next_prediction + k == pick) picked_measured = measured;
+          if (measured < best) {
+            best = measured;
+            check.best = choice_name(predicted[next_prediction + k].choice);
+          }
+        }
+        next_prediction += 2;
         if (w.label == "tile") {
           row.alone_counts = alone_counts;
           row.aligned_counts = aligned_counts;
@@ -217,6 +277,9 @@ AlignReport run_align_bench(const AlignBenchOptions& opt, const std::function<vo
         rep.rows.push_back(row);
       }
     }
+    check.picked_ms = picked_measured;
+    check.best_ms = best;
+    rep.autos.push_back(check);
   }
   return rep;
 }
@@ -249,6 +312,25 @@ std::string align_markdown(const AlignReport& r) {
       o << "-";
     o << " | " << row.mismatched_pixels << " |\n";
   }
+  o << "\n## The cost model (docs/cost_model.md): predicted against measured, trace + update ms per view\n\n";
+  o << "| views | fold | kernel | alone predicted / measured | error | aligned predicted / measured | error | "
+       "predicted speed-up / measured |\n|---|---|---|---|---|---|---|---|\n";
+  auto err = [](double p, double m) { return m > 0.0 ? fmt("%+.0f%%", 100.0 * (p - m) / m) : std::string("-"); };
+  for (const AlignRow& row : r.rows) {
+    o << "| " << row.scenario << " " << row.views << " | " << fold_name(row.fold) << " | " << row.kernel << " | "
+      << fmt("%.2f", row.alone_predicted_ms) << " / " << fmt("%.2f", row.alone_measured_ms) << " | "
+      << err(row.alone_predicted_ms, row.alone_measured_ms) << " | " << fmt("%.2f", row.aligned_predicted_ms) << " / "
+      << fmt("%.2f", row.aligned_measured_ms) << " | " << err(row.aligned_predicted_ms, row.aligned_measured_ms)
+      << " | " << fmt("%.2fx", row.alone_predicted_ms / row.aligned_predicted_ms) << " / "
+      << fmt("%.2fx", row.alone_measured_ms / row.aligned_measured_ms) << " |\n";
+  }
+  o << "\n## auto: the choice of least predicted time, measured\n\n";
+  o << "| views | auto picks | its measured ms/view | best measured | its ms/view | auto / best | probe ms |\n"
+       "|---|---|---|---|---|---|---|\n";
+  for (const AutoCheck& a : r.autos)
+    o << "| " << a.scenario << " " << a.views << " | " << a.picked << " | " << fmt("%.2f", a.picked_ms) << " | "
+      << a.best << " | " << fmt("%.2f", a.best_ms) << " | " << fmt("%.2fx", a.picked_ms / a.best_ms) << " | "
+      << fmt("%.1f", a.probe_ms) << " |\n";
   return o.str();
 }
 
@@ -287,7 +369,19 @@ std::string align_json(const AlignReport& r) {
                          {"aligned_tlas_items_per_view", row.aligned_instances},
                          {"alone_tile_counters_per_view", counts(row.alone_counts)},
                          {"aligned_tile_counters_per_view", counts(row.aligned_counts)},
-                         {"mismatched_pixels", row.mismatched_pixels}});
+                         {"mismatched_pixels", row.mismatched_pixels},
+                         {"alone_predicted_ms_per_view", row.alone_predicted_ms},
+                         {"aligned_predicted_ms_per_view", row.aligned_predicted_ms},
+                         {"alone_measured_ms_per_view", row.alone_measured_ms},
+                         {"aligned_measured_ms_per_view", row.aligned_measured_ms}});
+  for (const AutoCheck& a : r.autos)
+    j["auto"].push_back({{"scenario", a.scenario},
+                         {"views", a.views},
+                         {"picked", a.picked},
+                         {"picked_ms_per_view", a.picked_ms},
+                         {"best", a.best},
+                         {"best_ms_per_view", a.best_ms},
+                         {"probe_ms", a.probe_ms}});
   return j.dump(2);
 }
 

@@ -16,6 +16,7 @@ namespace rayfold::core {
 struct AlignBenchOptions : ViewPath {
   RendererOptions renderer;
   std::vector<int> counts{2, 4, 8, 16};  // path lengths
+  std::vector<FoldMode> folds{FoldMode::none, FoldMode::y, FoldMode::x, FoldMode::xy};
   // Stereo baseline in world units; 0: 64 mm for a scene 20 m across,
   // scaled to the scene's diagonal (0.0032 of it).
   double baseline = 0.0;
@@ -41,7 +42,21 @@ struct AlignRow {
   double alone_instances = 0.0, aligned_instances = 0.0;  // top-level items, per view
   TileCounters alone_counts, aligned_counts;              // per view (tile kernel only)
   size_t mismatched_pixels = 0;                           // aligned against alone, over every view
+  // The cost model's prediction (Renderer::predict) of trace + update per
+  // view, made before measuring, against the measured trace + update.
+  double alone_predicted_ms = 0.0, aligned_predicted_ms = 0.0;
+  double alone_measured_ms = 0.0, aligned_measured_ms = 0.0;
   double speedup() const { return aligned_ms > 0.0 ? alone_ms / aligned_ms : 0.0; }
+};
+
+// Per scenario: what `auto` (the choice of least predicted time) picked,
+// and how its measured time compares with the best measured choice.
+struct AutoCheck {
+  std::string scenario;
+  int views = 0;
+  std::string picked, best;
+  double picked_ms = 0.0, best_ms = 0.0;  // measured trace + update per view
+  double probe_ms = 0.0;                  // the prediction's own cost, all choices
 };
 
 struct AlignReport {
@@ -51,6 +66,7 @@ struct AlignReport {
   double baseline = 0.0;
   size_t instances = 0, triangles = 0;
   std::vector<AlignRow> rows;
+  std::vector<AutoCheck> autos;
   bool exact() const;
 };
 

@@ -15,9 +15,9 @@
 
 #include "bench.h"
 #include "bench_align.h"
-#include "fold/view_passes.h"
 #include "camera_list.h"
 #include "cli_args.h"
+#include "fold/view_passes.h"
 #include "progress.h"
 #include "reference/hit_compare.h"
 #include "renderer.h"
@@ -88,8 +88,11 @@ const char* kRenderUsage =
     "                         on CPU devices, measure elsewhere); same bits either way;\n"
     "                         orthographic views always trace one ray per work-item\n"
     "  --fast                 fast-math kernels (not bit-exact with the CPU reference)\n"
-    "  --fold none|y|x|xy     trace a half (y: left, x: top) or a quarter (xy) of the\n"
-    "                         rays, each answering its mirror pixels (default none)\n"
+    "  --fold none|y|x|xy|auto  trace a half (y: left, x: top) or a quarter (xy) of the\n"
+    "                         rays, each answering its mirror pixels (default none);\n"
+    "                         auto: the fold (and, with --kernel auto, the kernel) the\n"
+    "                         cost model predicts fastest from a probe of sampled tiles,\n"
+    "                         printed with the predictions (docs/cost_model.md)\n"
     "  --shift SX,SY          off-centre image window, in half image widths/heights;\n"
     "                         only its symmetric part folds\n"
     "  --animate              play the file's animations over --frames (frame f at\n"
@@ -113,10 +116,11 @@ const char* kRenderUsage =
     "                         (-o out/view_%04d.exr); see the README for the format\n"
     "  --stereo B             a parallel-axis stereo pair around the camera, eyes B apart\n"
     "                         along its right vector (outputs NAME-left.exr, NAME-right.exr)\n"
-    "  --align N|auto         --cameras, --stereo: trace up to N views together (alignment;\n"
-    "                         1 = each alone; auto, the default: as many as one pass holds,\n"
-    "                         32 / the fold's mirrors); views with other intrinsics go to\n"
-    "                         other passes; every view's bits equal the view alone\n"
+    "  --align N|all|auto     --cameras, --stereo: trace up to N views together (alignment;\n"
+    "                         1 = each alone; all, the default: as many as one pass holds,\n"
+    "                         32 / the fold's mirrors; auto: as the cost model predicts\n"
+    "                         fastest); views with other intrinsics go to other passes;\n"
+    "                         every view's bits equal the view alone\n"
     "  -q, --quiet            print nothing but errors (and no progress)\n"
     "  -v, --verbose          also the time of every stage, and of every frame\n"
     "Each output's extension must match its kind (.exr, .png, .json), so no two\n"
@@ -143,6 +147,7 @@ const char* kBenchUsage =
     "  --align                instead: views rendered alone against the same views traced\n"
     "                         together, on a stereo pair and on paths of 2, 4, 8 and 16\n"
     "                         views, unfolded and folded xy, both kernels (docs/results.md)\n"
+    "  --counts N,N,...       --align: the camera paths' lengths (default 2,4,8,16)\n"
     "  --baseline B           --align: the stereo pair's baseline (default 0.0032 of the\n"
     "                         scene's diagonal: 64 mm in a 20 m scene)\n"
     "exit code 3 when a folded (or aligned) image differs from the unfolded (or lone) one\n";
@@ -157,9 +162,10 @@ struct RenderArgs {
   std::optional<glm::dvec3> eye, look_at, up;
   std::optional<double> vfov, ortho;
   bool size_given = false;
-  std::string cameras;          // --cameras FILE.json: one render per view
+  std::string cameras;           // --cameras FILE.json: one render per view
   std::optional<double> stereo;  // --stereo B: a left and a right view
-  int align = 0;                 // --align N: views per pass; 0 = auto
+  int align = 0;                 // --align N: views per pass; 0 = all (as many as a pass holds), -1 = auto
+  bool fold_auto = false;        // --fold auto
   double shift_x = 0.0, shift_y = 0.0;
   RendererOptions renderer;
   FrameOptions frame;
@@ -275,7 +281,7 @@ RenderArgs parse_render(cli::Args& args) {
       r.cameras = args.value(a);
     } else if (a == "--align") {
       const std::string v = args.value(a);
-      r.align = v == "auto" ? 0 : cli::parse_int(a, v, 1, RF_GROUP_LIMIT);
+      r.align = v == "auto" ? -1 : v == "all" ? 0 : cli::parse_int(a, v, 1, RF_GROUP_LIMIT);
     } else if (a == "--stereo") {
       r.stereo = cli::parse_double(a, args.value(a));
       if (!(*r.stereo > 0.0)) throw UsageError("--stereo: the baseline must be positive (world units)");
@@ -297,7 +303,9 @@ RenderArgs parse_render(cli::Args& args) {
       r.load.time = cli::parse_double(a, args.value(a));
     } else if (parse_renderer_option(a, args, r.renderer)) {
     } else if (a == "--fold") {
-      r.frame.fold = cli::parse_fold(a, args.value(a));
+      const std::string v = args.value(a);
+      r.fold_auto = v == "auto";
+      if (!r.fold_auto) r.frame.fold = cli::parse_fold(a, v);
     } else if (a == "--shift") {
       const std::string v = args.value(a);
       const size_t comma = v.find(',');
@@ -342,17 +350,20 @@ RenderArgs parse_render(cli::Args& args) {
     const char* what = !r.cameras.empty() ? "--cameras" : "--stereo";
     if (!r.cameras.empty() && r.stereo) throw UsageError("--cameras and --stereo: one list of views at a time");
     if (r.compare || r.frame.animate_frame >= 0 || r.frames != 1 || r.shift_x != 0.0 || r.shift_y != 0.0)
-      throw UsageError(std::string(what) + ": renders each view once; --compare, --animate, --frames and --shift "
-                                           "do not combine with it");
+      throw UsageError(std::string(what) +
+                       ": renders each view once; --compare, --animate, --frames and --shift "
+                       "do not combine with it");
     if (!r.cameras.empty() && (r.size_given || r.eye || r.vfov || r.ortho || r.up))
-      throw UsageError("--cameras: the file gives the size and every camera; --size, --eye, --look-at, --up, "
-                       "--vfov and --ortho do not combine with it");
+      throw UsageError(
+          "--cameras: the file gives the size and every camera; --size, --eye, --look-at, --up, "
+          "--vfov and --ortho do not combine with it");
     if (r.ortho) throw UsageError("--stereo: a stereo pair is two perspective views");
   } else if (r.align != 0) {
     throw UsageError("--align: aligns the views of --cameras or --stereo");
   }
-  check_outputs({{"-o", &r.exr, ".exr"}, {"--png", &r.png, ".png"}, {"--stats", &r.stats, ".json"},
-                 {"--ids", &r.ids, ".json"}});
+  if (r.fold_auto && r.compare) throw UsageError("--compare: compares a fold with none; name the fold");
+  check_outputs(
+      {{"-o", &r.exr, ".exr"}, {"--png", &r.png, ".png"}, {"--stats", &r.stats, ".json"}, {"--ids", &r.ids, ".json"}});
   if (r.compare && r.frame.fold == FoldMode::none) r.frame.fold = FoldMode::xy;
   check_renderer_options(r.renderer);
   return r;
@@ -525,9 +536,40 @@ std::string view_output(const std::string& option, const std::string& name, cons
   return out;
 }
 
+// --fold auto and --align auto: the choice the cost model predicts fastest
+// for these views (alignable ones: the first view's intrinsics), applied to
+// r and the renderer and printed. The kernel is chosen too unless named.
+void choose_automatically(RenderArgs& r, Renderer& renderer, const std::vector<Camera>& views, bool quiet) {
+  if (!r.fold_auto && r.align >= 0) return;
+  std::vector<Camera> group;
+  for (const Camera& c : views)
+    if (can_align(renderer.scene_data(), views[0], c)) group.push_back(c);
+  std::vector<FoldMode> folds{r.frame.fold};
+  if (r.fold_auto) folds = {FoldMode::none, FoldMode::y, FoldMode::x, FoldMode::xy};
+  std::vector<KernelKind> kernels{renderer.kernel()};
+  const bool kernel_free = r.renderer.backend == Backend::opencl && r.renderer.kernel == KernelChoice::automatic;
+  if (kernel_free) kernels = {KernelKind::tile, KernelKind::single};
+  std::vector<int> aligns{r.align > 0 ? r.align : RF_GROUP_LIMIT};
+  if (r.align < 0 && group.size() > 1) aligns = {1, RF_GROUP_LIMIT};
+  if (group.size() == 1) aligns = {1};
+  const AutoChoice c = choose_fastest(renderer, group, folds, kernels, aligns);
+  r.frame.fold = c.best.fold;
+  if (r.align < 0) r.align = c.best.align;
+  if (kernel_free) {
+    renderer.set_kernel(c.best.kernel, "predicted fastest (docs/cost_model.md)");
+    r.renderer.kernel = c.best.kernel == KernelKind::tile ? KernelChoice::tile : KernelChoice::single;
+  }
+  if (quiet) return;
+  std::printf("auto: %s, predicted %.2f ms per view (trace %.2f + update %.2f); probing %zu choices took %.0f ms:\n",
+              choice_name(c.best).c_str(), c.predictions[0].total_ms(), c.predictions[0].trace_ms,
+              c.predictions[0].update_ms, c.predictions.size(), c.probe_ms);
+  for (const Prediction& p : c.predictions)
+    std::printf("  %-24s %8.2f ms/view\n", choice_name(p.choice).c_str(), p.total_ms());
+}
+
 // --cameras and --stereo: the views traced in passes of aligned views, each
 // view's outputs written.
-int render_views(const RenderArgs& r, const Scene& scene, const std::vector<cli::View>& views, Progress& progress) {
+int render_views(RenderArgs r, const Scene& scene, const std::vector<cli::View>& views, Progress& progress) {
   const bool stereo = r.stereo.has_value();
   for (const cli::View& v : views)
     for (auto [option, out] : {std::pair{"-o", &r.exr}, {"--png", &r.png}, {"--stats", &r.stats}})
@@ -536,6 +578,9 @@ int render_views(const RenderArgs& r, const Scene& scene, const std::vector<cli:
   Renderer renderer(scene, r.renderer);
   std::vector<Camera> cameras;
   for (const cli::View& v : views) cameras.push_back(v.camera);
+  const bool align_auto = r.align < 0;
+  progress.clear();
+  choose_automatically(r, renderer, cameras, r.quiet);
   const int align = r.align > 0 ? r.align : RF_GROUP_LIMIT;
   const std::vector<std::vector<size_t>> passes = plan_passes(renderer.scene_data(), cameras, align, r.frame.fold);
   progress.stage("tracing", views.size());
@@ -543,7 +588,11 @@ int render_views(const RenderArgs& r, const Scene& scene, const std::vector<cli:
   size_t done = 0;
   if (!r.quiet)
     std::printf("rayfold render  %s  %zu views in %zu passes (--align %s)  fold %s\n", r.scene.c_str(), views.size(),
-                passes.size(), r.align > 0 ? std::to_string(r.align).c_str() : "auto", fold_name(r.frame.fold));
+                passes.size(),
+                align_auto    ? ("auto: " + std::to_string(align)).c_str()
+                : r.align > 0 ? std::to_string(r.align).c_str()
+                              : "all",
+                fold_name(r.frame.fold));
   for (const std::vector<size_t>& pass : passes) {
     std::vector<Camera> pass_cameras;
     for (size_t i : pass) pass_cameras.push_back(cameras[i]);
@@ -562,8 +611,8 @@ int render_views(const RenderArgs& r, const Scene& scene, const std::vector<cli:
       progress.update(++done);
       if (!r.quiet) {
         const glm::dvec3 eye(v.camera.world_from_camera[3]);
-        std::printf("  view %-6s %dx%d  eye (%g, %g, %g)  pass of %zu views, trace %.2f ms\n", v.label.c_str(), w,
-                    h, eye.x, eye.y, eye.z, pass.size(), result.median.trace_ms);
+        std::printf("  view %-6s %dx%d  eye (%g, %g, %g)  pass of %zu views, trace %.2f ms\n", v.label.c_str(), w, h,
+                    eye.x, eye.y, eye.z, pass.size(), result.median.trace_ms);
       }
     }
   }
@@ -575,7 +624,7 @@ int render_views(const RenderArgs& r, const Scene& scene, const std::vector<cli:
 }
 
 int run_render(cli::Args& args) {
-  const RenderArgs r = parse_render(args);
+  RenderArgs r = parse_render(args);
   // Frame sequences: with a frame field in -o or --png, every frame is
   // written (animated frames advance with --animate).
   bool sequence = false;
@@ -623,8 +672,8 @@ int run_render(cli::Args& args) {
     spec.ymag = *r.ortho;
   }
   if (!r.cameras.empty() || r.stereo) {
-    std::vector<cli::View> views = !r.cameras.empty() ? cli::read_camera_list(r.cameras)
-                                                      : cli::stereo_pair(spec, *r.stereo, r.width, r.height);
+    std::vector<cli::View> views =
+        !r.cameras.empty() ? cli::read_camera_list(r.cameras) : cli::stereo_pair(spec, *r.stereo, r.width, r.height);
     return render_views(r, scene, views, progress);
   }
   const Camera camera = make_camera(spec, r.width, r.height, r.shift_x, r.shift_y);
@@ -634,6 +683,11 @@ int run_render(cli::Args& args) {
   auto renderer_ptr = std::make_unique<Renderer>(scene, r.renderer);
   std::vector<char> moved_since_build(scene.instances.size(), 0);  // since the renderer's trees were built
   const double setup_ms = ms_since(t0);
+  if (r.fold_auto) {
+    progress.clear();
+    choose_automatically(r, *renderer_ptr, {camera}, r.quiet);
+    frame_options.fold = r.frame.fold;
+  }
   // The file's pose for frame f: instances that moved since the trees were
   // built go to FrameOptions::moved; changed meshes (morph weights, skins)
   // rebuild the trees.
@@ -703,10 +757,10 @@ int run_render(cli::Args& args) {
   }
   Renderer& renderer = *renderer_ptr;
   if (play && !r.quiet)
-    std::fprintf(stderr, "playing the file's animation: %d frames from %g s at %g fps (it ends at %g s)%s\n",
-                 r.frames, start_time, r.fps, file.animation_end(),
-                 rebuilds ? (", trees rebuilt for " + std::to_string(rebuilds) + " frames whose meshes changed").c_str()
-                          : "");
+    std::fprintf(
+        stderr, "playing the file's animation: %d frames from %g s at %g fps (it ends at %g s)%s\n", r.frames,
+        start_time, r.fps, file.animation_end(),
+        rebuilds ? (", trees rebuilt for " + std::to_string(rebuilds) + " frames whose meshes changed").c_str() : "");
   progress.clear();
   for (const std::string& w : result.warnings) std::fprintf(stderr, "warning: %s (docs/exactness.md)\n", w.c_str());
 
@@ -731,8 +785,8 @@ int run_render(cli::Args& args) {
     std::printf("  %-12s %9.2f   (%zu rays for %zu pixels: %.2f Mpixels/s)\n", "Mrays/s", mrays, result.rays,
                 result.hits.size(), result.hits.size() / (m.trace_ms * 1e3));
     if (auto_framed)
-      std::printf("  %-12s --eye %.17g,%.17g,%.17g --look-at %.17g,%.17g,%.17g --up 0,1,0 %s %.17g\n",
-                  "auto-framed", spec.eye.x, spec.eye.y, spec.eye.z, spec.look_at.x, spec.look_at.y, spec.look_at.z,
+      std::printf("  %-12s --eye %.17g,%.17g,%.17g --look-at %.17g,%.17g,%.17g --up 0,1,0 %s %.17g\n", "auto-framed",
+                  spec.eye.x, spec.eye.y, spec.eye.z, spec.look_at.x, spec.look_at.y, spec.look_at.z,
                   spec.orthographic ? "--ortho" : "--vfov", spec.orthographic ? spec.ymag : spec.vfov_degrees);
     if (unfolded) print_comparison(*unfolded, result, r.frame.fold);
     if (r.verbose) {
@@ -793,8 +847,8 @@ int run_info(cli::Args& args) {
                   c.spec.look_at.z, c.spec.vfov_degrees);
     else
       std::printf("  camera %-4zu node %d '%s': eye (%g, %g, %g), looking at (%g, %g, %g), orthographic, ymag %g\n", i,
-                  c.node, c.name.c_str(), c.spec.eye.x, c.spec.eye.y, c.spec.eye.z, c.spec.look_at.x,
-                  c.spec.look_at.y, c.spec.look_at.z, c.spec.ymag);
+                  c.node, c.name.c_str(), c.spec.eye.x, c.spec.eye.y, c.spec.eye.z, c.spec.look_at.x, c.spec.look_at.y,
+                  c.spec.look_at.z, c.spec.ymag);
   }
   // The ids the G-buffer's InstanceID channel holds (render --ids writes them as JSON).
   std::printf("  instance ids (InstanceID, mesh, node name):\n");
@@ -809,6 +863,7 @@ int run_bench_command(cli::Args& args) {
   std::string json, md;
   bool have_scene = false, align = false;
   double baseline = 0.0;
+  std::vector<int> counts{2, 4, 8, 16};
   while (!args.done()) {
     const std::string a = args.next();
     if (a == "--help" || a == "-h") {
@@ -819,6 +874,10 @@ int run_bench_command(cli::Args& args) {
       opt.animate = true;
     } else if (a == "--align") {
       align = true;
+    } else if (a == "--counts") {
+      counts.clear();
+      std::stringstream list(args.value(a));
+      for (std::string item; std::getline(list, item, ',');) counts.push_back(cli::parse_int(a, item, 1, 64));
     } else if (a == "--baseline") {
       baseline = cli::parse_double(a, args.value(a));
       if (!(baseline > 0.0)) throw UsageError("--baseline: must be positive (world units)");
@@ -844,6 +903,7 @@ int run_bench_command(cli::Args& args) {
     static_cast<ViewPath&>(ao) = opt;
     ao.renderer = opt.renderer;
     ao.baseline = baseline;
+    ao.counts = counts;
     const AlignReport report = run_align_bench(ao, [&](size_t done, size_t total) {
       if (!started) progress.stage("bench --align: views x ways x kernels", total);
       started = true;

@@ -80,4 +80,17 @@ RayList make_ray_list(const rf_camera& cam, FoldMode fold) {
   return list;
 }
 
+RayList sample_tiles(const RayList& rays, size_t stride, size_t offset) {
+  RayList out;
+  out.pixels = rays.pixels;
+  out.regions = rays.regions;
+  out.group_used = rays.group_used;
+  out.tiles.push_back(0);
+  for (size_t t = offset; t + 1 < rays.tiles.size(); t += stride) {
+    out.entries.insert(out.entries.end(), rays.entries.begin() + rays.tiles[t], rays.entries.begin() + rays.tiles[t + 1]);
+    out.tiles.push_back(static_cast<uint32_t>(out.entries.size()));
+  }
+  return out;
+}
+
 }  // namespace rayfold::core

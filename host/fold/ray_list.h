@@ -36,4 +36,9 @@ inline uint32_t encode_ray(int x, int y, bool mirror_x, bool mirror_y) {
 // neighbouring work-items of the single-ray kernel trace coherent rays.
 RayList make_ray_list(const rf_camera& camera, FoldMode fold);
 
+// Every stride-th tile of a list (from tile `offset`), with its tile table:
+// a sample that keeps the coherence of the full-resolution rays (the
+// predictor's probe, renderer.h). Regions and pixels stay the full list's.
+RayList sample_tiles(const RayList& rays, size_t stride, size_t offset = 0);
+
 }  // namespace rayfold::core

@@ -50,8 +50,9 @@ class ClTracer {
   double upload_frame(const Frame& frame);
   // Uploads a ray list into one of kRaySlots slots and makes it the one
   // traced; a renderer keeps one slot per fold mode, so that alternating
-  // modes (a comparison, a benchmark) does not upload again.
-  static constexpr int kRaySlots = 4;
+  // modes (a comparison, a benchmark) does not upload again, and one for the
+  // predictor's samples.
+  static constexpr int kRaySlots = 5;
   double upload_rays(const RayList& rays, int slot = 0);
   // Traces the list already in `slot` from now on.
   void use_rays(int slot);

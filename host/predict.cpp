@@ -1,0 +1,142 @@
+// Renderer::predict: the cost model of docs/cost_model.md. A trace of n
+// tiles takes T = o + n * c: o the launch (and finish) overhead, measured
+// on a one-ray trace, c the mean cost of a tile under the choice, measured
+// on every stride-th tile at full resolution. Tiles are the kernels' unit of
+// coherence (the tile kernel's work-item, 4 of the single-ray kernel's
+// work-groups), so a sample of whole tiles costs what they cost in the
+// render; a lower-resolution image would not.
+#include <algorithm>
+#include <cstdio>
+
+#include "reference/cpu_tracer.h"
+#include "renderer.h"
+#include "util/errors.h"
+#include "util/timer.h"
+
+namespace rayfold::core {
+
+std::string choice_name(const Choice& c) {
+  return std::string(fold_name(c.fold)) + "/" + kernel_name(c.kernel) + "/align " + std::to_string(c.align);
+}
+
+std::vector<Prediction> Renderer::predict(const std::vector<Camera>& views, const std::vector<Choice>& choices,
+                                          int stride) {
+  RF_CHECK(!views.empty() && stride >= 1, "nothing to predict");
+  // Five rounds over every choice, each choice's least time kept: noise on
+  // a shared CPU only ever adds time, and a slow spell then hits every
+  // choice alike instead of the ones probed during it (one choice after the
+  // other, medians of three were off by up to 2x on a 2-core machine).
+  constexpr int kRounds = 5;
+  const Camera& first = views[0];
+  const size_t view_pixels = static_cast<size_t>(first.width) * first.height;
+  struct Probe {
+    Prediction p;
+    std::vector<Camera> pass;
+    Frame frame;
+    RayList sample, one;
+    rf_camera cam{};
+    KernelKind kernel = KernelKind::tile;
+    double scale = 1.0, update_ms = 0.0, best = 1e300, overhead = 1e300;
+  };
+  std::vector<Probe> probes(choices.size());
+  for (size_t i = 0; i < choices.size(); ++i) {
+    Probe& pr = probes[i];
+    const Choice& c = choices[i];
+    const FoldMode fold = restrict_fold(c.fold, can_fold_columns(first), can_fold_rows(first));
+    const int per_pass = std::max(1, std::min({c.align, max_pass_views(fold), static_cast<int>(views.size())}));
+    if (per_pass == 1)
+      pr.pass.push_back(views[views.size() / 2]);
+    else
+      pr.pass.assign(views.begin(), views.begin() + per_pass);
+    const int groups = pass_groups(per_pass, fold);
+    ensure_capacity(view_pixels * pr.pass.size(), groups);
+    if (tracer_) tracer_->prepare_groups(groups);
+    const RayList& rays = ray_list(first.params, fold);
+    pr.sample = sample_tiles(rays, static_cast<size_t>(stride));
+    pr.scale = static_cast<double>(rays.tiles.size() - 1) / std::max<size_t>(pr.sample.tiles.size() - 1, 1);
+    pr.one = sample_tiles(rays, rays.tiles.size());
+    pr.one.entries.resize(std::min<size_t>(pr.one.entries.size(), 1));
+    pr.one.tiles = {0, static_cast<uint32_t>(pr.one.entries.size())};
+    FrameOptions fo;
+    fo.fold = fold;
+    const auto t0 = Clock::now();
+    pr.frame = build_frame(scene_, data_, pr.pass, rays, fo);
+    pr.update_ms = ms_since(t0);
+    pr.cam = frame_camera(first, pr.frame);
+    // Parallel rays always trace with the single-ray kernel (render_views_into).
+    pr.kernel = is_orthographic(first) ? KernelKind::single : c.kernel;
+    pr.p.choice = c;
+    pr.p.choice.fold = fold;
+    pr.p.choice.align = per_pass;
+  }
+  std::vector<rf_pixel_hit> scratch;
+  for (int round = 0; round < kRounds; ++round) {
+    for (Probe& pr : probes) {
+      const auto p0 = Clock::now();
+      if (tracer_) {
+        const double upload = tracer_->upload_frame(pr.frame);
+        if (round == 0) pr.update_ms += upload;
+        tracer_->bind_output(nullptr, 0);  // the device's own hit buffer: nothing to keep
+        tracer_->upload_rays(pr.one, kProbeSlot);
+        pr.overhead = std::min(pr.overhead, tracer_->trace(pr.cam, pr.kernel));
+        tracer_->upload_rays(pr.sample, kProbeSlot);
+        pr.best = std::min(pr.best, tracer_->trace(pr.cam, pr.kernel));
+      } else {
+        scratch.resize(view_pixels * pr.pass.size());
+        nodes_.resize(pr.frame.node_base);
+        nodes_.insert(nodes_.end(), pr.frame.tlas_nodes.begin(), pr.frame.tlas_nodes.end());
+        TraceInputs in;
+        in.nodes = nodes_.data();
+        in.node_count = nodes_.size();
+        in.tris = data_.blas.tris.data();
+        in.tri_count = data_.blas.tris.size();
+        in.instances = pr.frame.instances.data();
+        in.instance_count = pr.frame.instances.size();
+        in.normal_xforms = data_.normal_xforms.data();
+        in.normal_xform_count = data_.normal_xforms.size();
+        in.tlas_root = pr.frame.tlas_root;
+        const std::vector<float> depth_scales = pr.frame.depth_scales();
+        const auto s0 = Clock::now();
+        trace_cpu(in, pr.sample, pr.cam, depth_scales.data(), scratch.data(), options_.threads);
+        pr.best = std::min(pr.best, ms_since(s0));
+        pr.overhead = 0.0;
+      }
+      pr.p.probe_ms += ms_since(p0);
+    }
+  }
+  std::vector<Prediction> out;
+  for (Probe& pr : probes) {
+    const double n = static_cast<double>(pr.pass.size());
+    const double work = std::max(pr.best - pr.overhead, 0.0) * pr.scale;
+    pr.p.trace_ms = (pr.overhead + work) / n;
+    pr.p.update_ms = pr.update_ms / n;
+    pr.p.probe_ms += pr.update_ms;
+    out.push_back(pr.p);
+  }
+  return out;
+}
+
+void Renderer::set_kernel(KernelKind kernel, const std::string& why) {
+  kernel_ = kernel;
+  kernel_reason_ = why;
+  measure_kernel_ = false;
+}
+
+AutoChoice choose_fastest(Renderer& renderer, const std::vector<Camera>& views, const std::vector<FoldMode>& folds,
+                          const std::vector<KernelKind>& kernels, const std::vector<int>& aligns) {
+  std::vector<Choice> choices;
+  for (FoldMode f : folds)
+    for (KernelKind k : kernels)
+      for (int a : aligns) choices.push_back({f, k, a});
+  const auto t0 = Clock::now();
+  AutoChoice out;
+  out.predictions = renderer.predict(views, choices);
+  out.probe_ms = ms_since(t0);
+  std::stable_sort(out.predictions.begin(), out.predictions.end(),
+                   [](const Prediction& a, const Prediction& b) { return a.total_ms() < b.total_ms(); });
+  RF_CHECK(!out.predictions.empty(), "no choice to make");
+  out.best = out.predictions.front().choice;
+  return out;
+}
+
+}  // namespace rayfold::core
