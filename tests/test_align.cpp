@@ -261,7 +261,9 @@ TEST(Align, AutomaticChoicesPredictEveryCandidateAndRenderTheSameBits) {
   for (Renderer* renderer : {r.cpu.get(), r.tile.get()}) {
     const AutoChoice c = choose_fastest(*renderer, views, {FoldMode::none, FoldMode::xy},
                                         {KernelKind::tile, KernelKind::single}, {1, RF_GROUP_LIMIT});
-    ASSERT_EQ(c.predictions.size(), 8u);
+    // The kernels are probed first; one predicted more than twice as slow
+    // keeps only that prediction.
+    ASSERT_TRUE(c.predictions.size() == 8u || c.predictions.size() == 5u) << c.predictions.size();
     for (size_t k = 0; k < c.predictions.size(); ++k) {
       const Prediction& p = c.predictions[k];
       EXPECT_GT(p.trace_ms, 0.0) << choice_name(p.choice);

@@ -30,8 +30,8 @@ const Method kMethods[] = {
     {"xy", FoldMode::xy, true},
 };
 
-// Bytes a frame uses on the device: the scene (BLAS nodes, triangles, normal
-// matrices), the frame (TLAS nodes, instances), the ray list and the hits.
+}  // namespace
+
 size_t frame_bytes(const SceneData& data, const RenderResult& r, size_t pixels) {
   return data.blas.nodes.size() * sizeof(rf_node) + data.blas.tris.size() * sizeof(rf_tri) +
          data.normal_xforms.size() * sizeof(rf_normal_xform) + r.tlas_nodes * sizeof(rf_node) +
@@ -43,8 +43,6 @@ std::string fmt(const char* f, double v) {
   std::snprintf(buf, sizeof buf, f, v);
   return buf;
 }
-
-}  // namespace
 
 bool BenchReport::exact() const {
   for (const BenchRow& r : rows)

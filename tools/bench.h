@@ -56,6 +56,13 @@ struct BenchReport {
   bool exact() const;
 };
 
+// printf of one number, for report tables.
+std::string fmt(const char* format, double value);
+// Bytes a frame uses on the device: the scene (BLAS nodes, triangles, normal
+// matrices), the frame (TLAS nodes, instances), the ray list and `pixels`
+// hits (every view's).
+size_t frame_bytes(const SceneData& data, const RenderResult& r, size_t pixels);
+
 // Parses one ViewPath option (--size --views --frames --warmup --eye
 // --look-at) or a positional scene; false when `a` is none of them.
 bool parse_view_path_option(const std::string& a, cli::Args& args, ViewPath& path, bool* have_scene);

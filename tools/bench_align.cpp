@@ -24,17 +24,11 @@ struct Measured {
   std::vector<std::vector<rf_pixel_hit>> hits;  // per view, of the last frame
 };
 
-size_t pass_bytes(const SceneData& data, const RenderResult& r) {
-  return data.blas.nodes.size() * sizeof(rf_node) + data.blas.tris.size() * sizeof(rf_tri) +
-         data.normal_xforms.size() * sizeof(rf_normal_xform) + r.tlas_nodes * sizeof(rf_node) +
-         r.instances * sizeof(rf_instance) + r.rays * sizeof(uint32_t) + r.hits.size() * sizeof(rf_pixel_hit);
-}
-
-// One frame of every pass; the hits kept.
+// One frame of every pass; the hits kept when asked (they are large).
 Measured one_frame(Renderer& renderer, const std::vector<Camera>& views, const std::vector<std::vector<size_t>>& passes,
-                   FoldMode fold, RenderResult& r) {
+                   FoldMode fold, RenderResult& r, bool keep_hits) {
   Measured m;
-  m.hits.resize(views.size());
+  if (keep_hits) m.hits.resize(views.size());
   FrameOptions fo;
   fo.fold = fold;
   for (const std::vector<size_t>& pass : passes) {
@@ -44,43 +38,27 @@ Measured one_frame(Renderer& renderer, const std::vector<Camera>& views, const s
     m.render_ms += r.median.trace_ms + r.median.readback_ms + r.median.ray_list_ms;
     m.trace_ms += r.median.trace_ms;
     m.update_ms += r.median.cull_ms + r.median.tlas_ms + r.median.upload_ms;
-    m.bytes = std::max(m.bytes, pass_bytes(renderer.scene_data(), r));
+    m.bytes = std::max(m.bytes, frame_bytes(renderer.scene_data(), r, r.hits.size()));
     m.instances += r.instances;
-    for (size_t k = 0; k < pass.size(); ++k) m.hits[pass[k]] = view_result(r, k).hits;
+    if (keep_hits)
+      for (size_t k = 0; k < pass.size(); ++k) m.hits[pass[k]] = view_result(r, k).hits;
   }
   return m;
 }
 
-// Alone and aligned frame by frame, alternating, so that a slow spell of a
-// shared machine hits both alike; each figure the median over frames.
-std::pair<Measured, Measured> measure_pair(Renderer& renderer, const std::vector<Camera>& views,
-                                           const std::vector<std::vector<size_t>>& alone,
-                                           const std::vector<std::vector<size_t>>& aligned, FoldMode fold, int warmup,
-                                           int frames) {
-  RenderResult r;
-  for (int f = 0; f < warmup; ++f) {
-    one_frame(renderer, views, alone, fold, r);
-    one_frame(renderer, views, aligned, fold, r);
+// Medians over frames.
+Measured median_of(const std::vector<Measured>& ms) {
+  Measured out = ms.back();
+  std::vector<double> render, trace, update;
+  for (const Measured& m : ms) {
+    render.push_back(m.render_ms);
+    trace.push_back(m.trace_ms);
+    update.push_back(m.update_ms);
   }
-  std::vector<Measured> a, b;
-  for (int f = 0; f < frames; ++f) {
-    a.push_back(one_frame(renderer, views, alone, fold, r));
-    b.push_back(one_frame(renderer, views, aligned, fold, r));
-  }
-  auto med = [](const std::vector<Measured>& ms) {
-    Measured out = ms.back();
-    std::vector<double> render, trace, update;
-    for (const Measured& m : ms) {
-      render.push_back(m.render_ms);
-      trace.push_back(m.trace_ms);
-      update.push_back(m.update_ms);
-    }
-    out.render_ms = median(render);
-    out.trace_ms = median(trace);
-    out.update_ms = median(update);
-    return out;
-  };
-  return {med(a), med(b)};
+  out.render_ms = median(render);
+  out.trace_ms = median(trace);
+  out.update_ms = median(update);
+  return out;
 }
 
 // The tile kernel's counters over the passes, one stats-built tracer.
@@ -123,12 +101,6 @@ TileCounters count_tiles(ClTracer& tracer, const Scene& scene, const SceneData& 
   c.blas_nodes /= n;
   c.tri_lanes /= n;
   return c;
-}
-
-std::string fmt(const char* f, double v) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, f, v);
-  return buf;
 }
 
 }  // namespace
@@ -218,64 +190,99 @@ AlignReport run_align_bench(const AlignBenchOptions& opt, const std::function<vo
       for (const Way& w : ways)
         for (int align : {1, RF_GROUP_LIMIT})
           choices.push_back({fold, w.label == "single" ? KernelKind::single : KernelKind::tile, align});
-    const auto p0 = Clock::now();
     const std::vector<Prediction> predicted = ways[0].renderer->predict(s.views, choices);
+    // What --fold auto --align auto would pick (choose_fastest: the kernels
+    // first, then every fold and alignment of those kept), and its cost.
+    std::vector<KernelKind> kernels;
+    for (const Way& w : ways) kernels.push_back(w.label == "single" ? KernelKind::single : KernelKind::tile);
+    const AutoChoice chosen = choose_fastest(*ways[0].renderer, s.views, opt.folds, kernels, {1, RF_GROUP_LIMIT});
     AutoCheck check;
     check.scenario = s.name;
     check.views = static_cast<int>(s.views.size());
-    check.probe_ms = ms_since(p0);
-    size_t pick = 0;
+    check.probe_ms = chosen.probe_ms;
+    size_t pick = predicted.size();
     for (size_t k = 0; k < predicted.size(); ++k)
-      if (predicted[k].total_ms() < predicted[pick].total_ms()) pick = k;
-    check.picked = choice_name(predicted[pick].choice);
-    double picked_measured = -1.0, best = 1e300;
-    size_t next_prediction = 0;
-    for (FoldMode fold : opt.folds) {
-      const std::vector<std::vector<size_t>> aligned = plan_passes(data, s.views, RF_GROUP_LIMIT, fold);
+      if (choice_name(predicted[k].choice) == choice_name(chosen.best)) pick = k;
+    check.picked = choice_name(chosen.best);
+    // Every choice measured frame by frame in turn (alone and aligned, every
+    // fold and kernel), so that a slow spell of a shared machine hits them
+    // alike; each figure the median over frames.
+    struct Cell {
+      FoldMode fold;
+      Way* way;
+      std::vector<std::vector<size_t>> aligned;
       TileCounters alone_counts, aligned_counts;
+      std::vector<Measured> a, b;
+      size_t mismatched = 0;  // aligned against alone, the last frame, every view
+    };
+    std::vector<Cell> cells;
+    for (FoldMode fold : opt.folds) {
+      Cell base{fold, nullptr, plan_passes(data, s.views, RF_GROUP_LIMIT, fold), {}, {}, {}, {}, 0};
       if (stats_tracer) {
-        alone_counts = count_tiles(*stats_tracer, scene, data, s.views, alone, fold);
-        aligned_counts = count_tiles(*stats_tracer, scene, data, s.views, aligned, fold);
+        base.alone_counts = count_tiles(*stats_tracer, scene, data, s.views, alone, fold);
+        base.aligned_counts = count_tiles(*stats_tracer, scene, data, s.views, base.aligned, fold);
       }
       for (Way& w : ways) {
-        const auto [a, b] = measure_pair(*w.renderer, s.views, alone, aligned, fold, opt.warmup, opt.frames);
-        for (size_t k = 0; k < 2 * s.views.size(); ++k) tick();
-        AlignRow row;
-        row.scenario = s.name;
-        row.views = static_cast<int>(s.views.size());
-        row.fold = fold;
-        row.kernel = w.label;
-        row.passes = static_cast<int>(aligned.size());
-        const double n = static_cast<double>(s.views.size());
-        row.alone_ms = a.render_ms / n;
-        row.aligned_ms = b.render_ms / n;
-        row.alone_update_ms = a.update_ms / n;
-        row.aligned_update_ms = b.update_ms / n;
-        row.alone_bytes = a.bytes;
-        row.aligned_bytes = b.bytes;
-        row.alone_instances = static_cast<double>(a.instances) / n;
-        row.aligned_instances = static_cast<double>(b.instances) / n;
-        row.alone_measured_ms = (a.trace_ms + a.update_ms) / n;
-        row.aligned_measured_ms = (b.trace_ms + b.update_ms) / n;
-        row.alone_predicted_ms = predicted[next_prediction].total_ms();
-        row.aligned_predicted_ms = predicted[next_prediction + 1].total_ms();
-        for (size_t k = 0; k < 2; ++k) {
-          const double measured = k == 0 ? row.alone_measured_ms : row.aligned_measured_ms;
-          if (next_prediction + k == pick) picked_measured = measured;
-          if (measured < best) {
-            best = measured;
-            check.best = choice_name(predicted[next_prediction + k].choice);
-          }
-        }
-        next_prediction += 2;
-        if (w.label == "tile") {
-          row.alone_counts = alone_counts;
-          row.aligned_counts = aligned_counts;
-        }
-        for (size_t v = 0; v < s.views.size(); ++v)
-          row.mismatched_pixels += count_differing_pixels(a.hits[v], b.hits[v]);
-        rep.rows.push_back(row);
+        cells.push_back(base);
+        cells.back().way = &w;
       }
+    }
+    RenderResult scratch;
+    for (int f = 0; f < opt.warmup + opt.frames; ++f) {
+      const bool measured = f >= opt.warmup, last = f + 1 == opt.warmup + opt.frames;
+      for (Cell& c : cells) {
+        Measured a = one_frame(*c.way->renderer, s.views, alone, c.fold, scratch, last);
+        Measured b = one_frame(*c.way->renderer, s.views, c.aligned, c.fold, scratch, last);
+        if (last) {  // compared now: every cell's hits together would not fit in memory
+          for (size_t v = 0; v < s.views.size(); ++v) c.mismatched += count_differing_pixels(a.hits[v], b.hits[v]);
+          a.hits.clear();
+          b.hits.clear();
+        }
+        if (measured) {
+          c.a.push_back(std::move(a));
+          c.b.push_back(std::move(b));
+        }
+      }
+    }
+    double picked_measured = -1.0, best = 1e300;
+    size_t next_prediction = 0;
+    for (Cell& c : cells) {
+      for (size_t k = 0; k < 2 * s.views.size(); ++k) tick();
+      const Measured a = median_of(c.a), b = median_of(c.b);
+      AlignRow row;
+      row.scenario = s.name;
+      row.views = static_cast<int>(s.views.size());
+      row.fold = c.fold;
+      row.kernel = c.way->label;
+      row.passes = static_cast<int>(c.aligned.size());
+      const double n = static_cast<double>(s.views.size());
+      row.alone_ms = a.render_ms / n;
+      row.aligned_ms = b.render_ms / n;
+      row.alone_update_ms = a.update_ms / n;
+      row.aligned_update_ms = b.update_ms / n;
+      row.alone_bytes = a.bytes;
+      row.aligned_bytes = b.bytes;
+      row.alone_instances = static_cast<double>(a.instances) / n;
+      row.aligned_instances = static_cast<double>(b.instances) / n;
+      row.alone_measured_ms = (a.trace_ms + a.update_ms) / n;
+      row.aligned_measured_ms = (b.trace_ms + b.update_ms) / n;
+      row.alone_predicted_ms = predicted[next_prediction].total_ms();
+      row.aligned_predicted_ms = predicted[next_prediction + 1].total_ms();
+      for (size_t k = 0; k < 2; ++k) {
+        const double m = k == 0 ? row.alone_measured_ms : row.aligned_measured_ms;
+        if (next_prediction + k == pick) picked_measured = m;
+        if (m < best) {
+          best = m;
+          check.best = choice_name(predicted[next_prediction + k].choice);
+        }
+      }
+      next_prediction += 2;
+      if (c.way->label == "tile") {
+        row.alone_counts = c.alone_counts;
+        row.aligned_counts = c.aligned_counts;
+      }
+      row.mismatched_pixels = c.mismatched;
+      rep.rows.push_back(row);
     }
     check.picked_ms = picked_measured;
     check.best_ms = best;

@@ -46,12 +46,6 @@ PeerRow make_row(const std::string& variant, const std::string& fold) {
   return r;
 }
 
-std::string fmt(const char* f, double v) {
-  char b[64];
-  std::snprintf(b, sizeof b, f, v);
-  return b;
-}
-
 }  // namespace
 
 PeerReport run_peers(const PeerOptions& opt) {

@@ -857,6 +857,18 @@ int run_info(cli::Args& args) {
   return 0;
 }
 
+// Prints a bench report, writes it where asked; exit code 3 when it is not
+// exact (its figures are then not valid).
+int finish_report(const std::string& text, const std::string& json_text, bool exact, const std::string& json,
+                  const std::string& md, const char* what) {
+  std::fputs(text.c_str(), stdout);
+  if (!json.empty()) write_text_file(json, json_text);
+  if (!md.empty()) write_text_file(md, text);
+  if (exact) return 0;
+  std::fprintf(stderr, "error: %s; the figures are not valid\n", what);
+  return 3;
+}
+
 int run_bench_command(cli::Args& args) {
   BenchOptions opt;
   opt.scene = default_scene();
@@ -910,15 +922,8 @@ int run_bench_command(cli::Args& args) {
       progress.update(done);
     });
     progress.clear();
-    const std::string text = align_markdown(report);
-    std::fputs(text.c_str(), stdout);
-    if (!json.empty()) write_text_file(json, align_json(report));
-    if (!md.empty()) write_text_file(md, text);
-    if (!report.exact()) {
-      std::fprintf(stderr, "error: an aligned view differs from the same view alone; the figures are not valid\n");
-      return 3;
-    }
-    return 0;
+    return finish_report(align_markdown(report), align_json(report), report.exact(), json, md,
+                         "an aligned view differs from the same view alone");
   }
   const BenchReport report = run_bench(opt, [&](size_t done, size_t total) {
     if (!started) progress.stage("bench: views x methods x frames", total);
@@ -926,15 +931,8 @@ int run_bench_command(cli::Args& args) {
     progress.update(done);
   });
   progress.clear();
-  const std::string text = bench_markdown(report);
-  std::fputs(text.c_str(), stdout);
-  if (!json.empty()) write_text_file(json, bench_json(report));
-  if (!md.empty()) write_text_file(md, text);
-  if (!report.exact()) {
-    std::fprintf(stderr, "error: folded output differs from the unfolded output; the figures are not valid\n");
-    return 3;
-  }
-  return 0;
+  return finish_report(bench_markdown(report), bench_json(report), report.exact(), json, md,
+                       "folded output differs from the unfolded output");
 }
 
 int run(int argc, char** argv) {
