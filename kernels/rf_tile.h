@@ -349,10 +349,12 @@ RF_INLINE float rf_tile_group_bound(rf_u32 groups, const rf_tile_hits* hits) {
   return bound;
 }
 
-/* Object-space set-ups kept per tile (rf_tile_to_object), one per mirror
- * slot: the mirrored copies of an instance have transforms of their own and
- * would evict each other; the copies of other views are visited elsewhere. */
-#define RF_TILE_SETUPS (RF_MAX_GROUPS < 4 ? RF_MAX_GROUPS : 4)
+/* Object-space set-ups kept per tile (rf_tile_to_object), one per group:
+ * each view's and mirror's copy of an instance has a transform of its own,
+ * and the copies of one instance are met together (their boxes overlap in
+ * camera space), so sharing slots made them evict each other (3.3x the
+ * set-ups per view on Sponza, 8 views folded xy). 9 KiB each. */
+#define RF_TILE_SETUPS RF_MAX_GROUPS
 
 /* Closest hit per group of every lane through the top-level tree;
  * tile_groups: the groups some lane answers (the others' hits are not
@@ -403,7 +405,7 @@ RF_INLINE void rf_tile_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBA
         rf_tile_hits* h = &hits[g];
         if (h->tmax < 0.0f) continue; /* no lane answers this group */
         RF_TSTAT(RF_TILE_STAT_INSTANCES, 1);
-        rf_tile_ray* r = &ro[g & (RF_TILE_SETUPS - 1)];
+        rf_tile_ray* r = &ro[g];
         rf_tile_to_object(r, inst->tree_from_trace, cam RF_TSTAT_ARG);
         rf_tile_trace_blas(nodes, tris, inst->blas_root, r, inst->instance_id, entered, range, h RF_TSTAT_ARG);
       }

@@ -94,6 +94,22 @@ void check_opencl(const Scene& scene, const SceneData& data, const Camera& camer
       expect_same(what.c_str(), reference, hits);
     }
   }
+  // The same view twice in one aligned pass, folded: 8 transform groups,
+  // each copy the reference's bits.
+  tracer().upload_scene(data, max_tlas_nodes(data, 8), max_tlas_items(data, 8), pixels, 2 * pixels);
+  const RayList rays = make_ray_list(camera.params, FoldMode::xy);
+  FrameOptions options;
+  options.fold = FoldMode::xy;
+  const Frame frame = build_frame(scene, data, std::vector<Camera>{camera, camera}, rays, options);
+  tracer().upload_frame(frame);
+  tracer().upload_rays(rays);
+  std::vector<rf_pixel_hit> hits(2 * pixels);
+  tracer().bind_output(hits.data(), hits.size());
+  tracer().trace(frame_camera(camera, frame), KernelKind::tile);
+  tracer().read_hits(hits.data(), hits.size());
+  for (int v = 0; v < 2; ++v)
+    expect_same("OpenCL tile, two aligned views, differs from the CPU reference", reference,
+                std::vector<rf_pixel_hit>(hits.begin() + v * pixels, hits.begin() + (v + 1) * pixels));
 }
 
 // The largest magnitude among the scene's world bounds and the eye; 0 when
