@@ -87,6 +87,17 @@ std::vector<CameraSpec> orbit(const Aabb& b, int n, double radius, double height
   return out;
 }
 
+// A generated scene's bounds, their diagonal and centre, for placing views.
+struct Placed {
+  Aabb bounds;
+  double size;
+  glm::dvec3 centre;
+  explicit Placed(const Scene& scene)
+      : bounds(scene.world_bounds()),
+        size(glm::length(glm::dvec3(bounds.extent()))),
+        centre((glm::dvec3(bounds.lo) + glm::dvec3(bounds.hi)) * 0.5) {}
+};
+
 TEST(Align, StereoPairsEqualEachEyeAlone) {
   const Scene scene = testing::generated_atrium(7, 60, 20000);
   testing::ThreeWays r(scene);
@@ -103,9 +114,10 @@ TEST(Align, StereoPairsEqualEachEyeAlone) {
 TEST(Align, CameraPathsOrbitDollyAndRoll) {
   const Scene scene = testing::generated_atrium(11, 80, 30000);
   testing::ThreeWays r(scene);
-  const Aabb b = scene.world_bounds();
-  const double size = glm::length(glm::dvec3(b.extent()));
-  const glm::dvec3 c = (glm::dvec3(b.lo) + glm::dvec3(b.hi)) * 0.5;
+  const Placed p(scene);
+  const Aabb& b = p.bounds;
+  const double size = p.size;
+  const glm::dvec3 c = p.centre;
   EXPECT_EQ(aligned_differences(r, cameras(orbit(b, 8, 0.4 * size, 0.1 * size), 48, 36)), "") << "orbit";
   std::vector<CameraSpec> dolly, roll;
   for (int k = 0; k < 8; ++k) {
@@ -122,9 +134,9 @@ TEST(Align, ViewsWithNothingInCommon) {
   // all: their copies share no part of the top level.
   const Scene scene = testing::generated_atrium(3, 50, 20000);
   testing::ThreeWays r(scene);
-  const Aabb b = scene.world_bounds();
-  const double size = glm::length(glm::dvec3(b.extent()));
-  const glm::dvec3 c = (glm::dvec3(b.lo) + glm::dvec3(b.hi)) * 0.5;
+  const Placed p(scene);
+  const double size = p.size;
+  const glm::dvec3 c = p.centre;
   const std::vector<CameraSpec> specs = {
       look(c, c + glm::dvec3(1, 0, 0)), look(c, c - glm::dvec3(1, 0, 0)), look(c + glm::dvec3(0, 0, 10 * size), c),
       look(c + glm::dvec3(0, 0, 3 * size), c + glm::dvec3(0, 0, 4 * size))};  // looking away
@@ -158,8 +170,9 @@ TEST(Align, SixteenViewsAndThirtyTwoGroups) {
   // both (32 groups each); aligned_differences skips what would not fit.
   const Scene scene = testing::generated_atrium(21, 40, 10000);
   testing::ThreeWays r(scene);
-  const Aabb b = scene.world_bounds();
-  const double size = glm::length(glm::dvec3(b.extent()));
+  const Placed p(scene);
+  const Aabb& b = p.bounds;
+  const double size = p.size;
   for (int n : {8, 16, 32})
     EXPECT_EQ(aligned_differences(r, cameras(orbit(b, n, 0.35 * size, 0.05 * size), 24, 16)), "") << n << " views";
   EXPECT_EQ(max_pass_views(FoldMode::none), 32);
@@ -173,8 +186,9 @@ TEST(Align, AnimatedInstances) {
   for (size_t i = 0; i < scene.instances.size(); ++i) animated += is_animated(i);
   ASSERT_GT(animated, 0u);
   testing::ThreeWays r(scene);
-  const Aabb b = scene.world_bounds();
-  const double size = glm::length(glm::dvec3(b.extent()));
+  const Placed p(scene);
+  const Aabb& b = p.bounds;
+  const double size = p.size;
   for (int frame : {0, 5, 17})
     EXPECT_EQ(aligned_differences(r, cameras(orbit(b, 4, 0.3 * size, 0.1 * size), 40, 30), frame), "") << frame;
 }
@@ -182,10 +196,11 @@ TEST(Align, AnimatedInstances) {
 TEST(Align, OrthographicViewsAlignWithinOneTraceExponent) {
   const Scene scene = testing::generated_atrium(4, 40, 15000);
   testing::ThreeWays r(scene);
-  const Aabb b = scene.world_bounds();
-  const double size = glm::length(glm::dvec3(b.extent()));
+  const Placed p(scene);
+  const Aabb& b = p.bounds;
+  const double size = p.size;
   // One eye turning: the same distances to the scene, one trace exponent.
-  const glm::dvec3 c = (glm::dvec3(b.lo) + glm::dvec3(b.hi)) * 0.5;
+  const glm::dvec3 c = p.centre;
   std::vector<CameraSpec> specs;
   for (const CameraSpec& s : orbit(b, 4, 0.3 * size, 0.1 * size)) {
     CameraSpec turned = look(c + glm::dvec3(0.0, 0.1 * size, 0.6 * size), s.eye);
@@ -254,8 +269,9 @@ TEST(Align, SampledTilesAreEveryStrideThTileWhole) {
 
 TEST(Align, AutomaticChoicesPredictEveryCandidateAndRenderTheSameBits) {
   const Scene scene = testing::generated_atrium(13, 40, 15000);
-  const Aabb b = scene.world_bounds();
-  const double size = glm::length(glm::dvec3(b.extent()));
+  const Placed p(scene);
+  const Aabb& b = p.bounds;
+  const double size = p.size;
   const std::vector<Camera> views = cameras(orbit(b, 4, 0.3 * size, 0.1 * size), 64, 40);
   testing::ThreeWays r(scene);
   for (Renderer* renderer : {r.cpu.get(), r.tile.get()}) {
@@ -269,7 +285,9 @@ TEST(Align, AutomaticChoicesPredictEveryCandidateAndRenderTheSameBits) {
       EXPECT_GT(p.trace_ms, 0.0) << choice_name(p.choice);
       EXPECT_GE(p.update_ms, 0.0);
       EXPECT_TRUE(p.choice.align == 1 || p.choice.align == 4) << "align is the pass size: " << p.choice.align;
-      if (k > 0) EXPECT_LE(c.predictions[k - 1].total_ms(), p.total_ms()) << "fastest first";
+      if (k > 0) {
+        EXPECT_LE(c.predictions[k - 1].total_ms(), p.total_ms()) << "fastest first";
+      }
     }
     EXPECT_EQ(choice_name(c.best), choice_name(c.predictions[0].choice));
     // Whatever was picked traces the same bits as each view alone.

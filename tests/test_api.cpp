@@ -256,7 +256,9 @@ TEST(Api, RenderViewsEqualsEachViewAloneWhateverTheAlignment) {
           EXPECT_EQ(gs[0].views_in_trace, 6);
           EXPECT_EQ(gs[2].views_in_trace, 1);
         }
-        if (align == 2) EXPECT_EQ(gs[6].views_in_trace, 2);
+        if (align == 2) {
+          EXPECT_EQ(gs[6].views_in_trace, 2);
+        }
       }
     EXPECT_THROW(renderer.render_views(views, Fold::none, -1), InputError);
     EXPECT_THROW(renderer.render_views(views, Fold::none, kMaxAlignedViews + 1), InputError);

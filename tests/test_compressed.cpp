@@ -32,8 +32,12 @@ void compress_view(GltfFile& f, int vi, const std::vector<unsigned char>& encode
   v["buffer"] = 1;
   v["byteOffset"] = 0;
   v["byteLength"] = count * stride;
-  json ext = {{"buffer", 0}, {"byteOffset", ev["byteOffset"]}, {"byteLength", ev["byteLength"]},
-              {"byteStride", stride}, {"count", count}, {"mode", mode}};
+  json ext = {{"buffer", 0},
+              {"byteOffset", ev["byteOffset"]},
+              {"byteLength", ev["byteLength"]},
+              {"byteStride", stride},
+              {"count", count},
+              {"mode", mode}};
   if (std::string(filter) != "NONE") ext["filter"] = filter;
   v["extensions"] = {{"EXT_meshopt_compression", ext}};
 }
@@ -88,10 +92,12 @@ struct CubeFile {
   std::string write(const std::string& name) {
     size_t fallback = 0;
     for (const json& v : f.j["bufferViews"])
-      if (v["buffer"] == 1) fallback = std::max<size_t>(fallback, v["byteOffset"].get<size_t>() + v["byteLength"].get<size_t>());
+      if (v["buffer"] == 1)
+        fallback = std::max<size_t>(fallback, v["byteOffset"].get<size_t>() + v["byteLength"].get<size_t>());
     if (fallback) {
-      f.j["buffers"] = {{{"uri", name + ".bin"}, {"byteLength", f.bin.size() + 64}},
-                        {{"byteLength", fallback}, {"extensions", {{"EXT_meshopt_compression", {{"fallback", true}}}}}}};
+      f.j["buffers"] = {
+          {{"uri", name + ".bin"}, {"byteLength", f.bin.size() + 64}},
+          {{"byteLength", fallback}, {"extensions", {{"EXT_meshopt_compression", {{"fallback", true}}}}}}};
       f.bin.resize(f.bin.size() + 64, 0);
     }
     return f.write(name);
@@ -192,7 +198,9 @@ TEST(Compressed, ImagesWithoutDataAreNoConcernOfAGeometryLoader) {
   EXPECT_EQ(s.triangle_count(), 1u);
 }
 
-bool have_tool(const char* name) { return std::system((std::string("command -v ") + name + " >/dev/null").c_str()) == 0; }
+bool have_tool(const char* name) {
+  return std::system((std::string("command -v ") + name + " >/dev/null").c_str()) == 0;
+}
 
 // Every instance's triangles in world space, each as its three corners
 // rotated to start at the smallest (winding kept): the scene as a set.
@@ -261,12 +269,16 @@ TEST(Compressed, FilesFromGltfpackAndDracoTranscoderShowTheSameScene) {
     const std::string file = c.command.substr(c.command.rfind(' ') + 1);
     const Scene packed = load_gltf(file);
     EXPECT_EQ(packed.triangle_count(), original.triangle_count());
-    if (c.lossless) EXPECT_TRUE(world_triangles(packed) == world_triangles(original));
+    if (c.lossless) {
+      EXPECT_TRUE(world_triangles(packed) == world_triangles(original));
+    }
     double agree = 0.0, worst = 0.0;
     compare_renders(original, packed, &agree, &worst);
     // Quantization moves silhouettes by a fraction of a pixel.
     EXPECT_GE(agree, c.lossless ? 1.0 : 0.995) << agree;
-    if (c.lossless) EXPECT_LT(worst, 1e-6) << worst;
+    if (c.lossless) {
+      EXPECT_LT(worst, 1e-6) << worst;
+    }
   }
 }
 

@@ -80,7 +80,9 @@ TEST(Ortho, APowerOfTwoScaleMovesOnlyTheDepth) {
       ASSERT_EQ(got[i].primitive, ref[i].primitive);
       ASSERT_EQ(got[i].u, ref[i].u);
       ASSERT_EQ(got[i].nx, ref[i].nx);
-      if (std::isfinite(ref[i].z)) ASSERT_EQ(got[i].z, std::ldexp(ref[i].z, k)) << "k " << k << " pixel " << i;
+      if (std::isfinite(ref[i].z)) {
+        ASSERT_EQ(got[i].z, std::ldexp(ref[i].z, k)) << "k " << k << " pixel " << i;
+      }
     }
   }
 }
@@ -92,8 +94,8 @@ TEST(Ortho, AFilesOrthographicCameraRendersWhatItFrames) {
   testing::GltfFile f;
   f.one_triangle();
   f.j["nodes"][0]["translation"] = {0.0, 0.0, -3.0};
-  f.j["cameras"] = {{{"type", "orthographic"},
-                     {"orthographic", {{"xmag", 2.0}, {"ymag", 2.0}, {"znear", 0.01}, {"zfar", 100.0}}}}};
+  f.j["cameras"] = {
+      {{"type", "orthographic"}, {"orthographic", {{"xmag", 2.0}, {"ymag", 2.0}, {"znear", 0.01}, {"zfar", 100.0}}}}};
   f.j["nodes"].push_back({{"camera", 0}, {"name", "top"}});
   f.j["scenes"] = {{{"nodes", {0, 1}}}};
   const Scene scene = load_gltf(f.write("ortho_camera"));

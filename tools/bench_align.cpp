@@ -113,7 +113,9 @@ bool AlignReport::exact() const {
 
 AlignReport run_align_bench(const AlignBenchOptions& opt, const std::function<void(size_t, size_t)>& progress) {
   const Scene scene = load_gltf(opt.scene);
-  const CameraSpec base = camera_path(scene, ViewPath{opt.scene, opt.width, opt.height, 1})[0];
+  ViewPath one = opt;
+  one.views = 1;
+  const CameraSpec base = camera_path(scene, one)[0];
 
   // The kernels compared: both OpenCL kernels unless one is asked for.
   struct Way {
