@@ -6,7 +6,6 @@
 // work-groups), so a sample of whole tiles costs what they cost in the
 // render; a lower-resolution image would not.
 #include <algorithm>
-#include <cstdio>
 
 #include "reference/cpu_tracer.h"
 #include "renderer.h"
@@ -54,8 +53,8 @@ std::vector<Prediction> Renderer::predict(const std::vector<Camera>& views, cons
     const RayList& rays = ray_list(first.params, fold);
     pr.sample = sample_tiles(rays, static_cast<size_t>(stride));
     pr.scale = static_cast<double>(rays.tiles.size() - 1) / std::max<size_t>(pr.sample.tiles.size() - 1, 1);
-    pr.one = sample_tiles(rays, rays.tiles.size());
-    pr.one.entries.resize(std::min<size_t>(pr.one.entries.size(), 1));
+    // One ray in one tile: a trace that is all overhead.
+    pr.one.entries.assign(rays.entries.begin(), rays.entries.begin() + std::min<size_t>(rays.entries.size(), 1));
     pr.one.tiles = {0, static_cast<uint32_t>(pr.one.entries.size())};
     FrameOptions fo;
     fo.fold = fold;
@@ -83,18 +82,7 @@ std::vector<Prediction> Renderer::predict(const std::vector<Camera>& views, cons
         pr.best = std::min(pr.best, tracer_->trace(pr.cam, pr.kernel));
       } else {
         scratch.resize(view_pixels * pr.pass.size());
-        nodes_.resize(pr.frame.node_base);
-        nodes_.insert(nodes_.end(), pr.frame.tlas_nodes.begin(), pr.frame.tlas_nodes.end());
-        TraceInputs in;
-        in.nodes = nodes_.data();
-        in.node_count = nodes_.size();
-        in.tris = data_.blas.tris.data();
-        in.tri_count = data_.blas.tris.size();
-        in.instances = pr.frame.instances.data();
-        in.instance_count = pr.frame.instances.size();
-        in.normal_xforms = data_.normal_xforms.data();
-        in.normal_xform_count = data_.normal_xforms.size();
-        in.tlas_root = pr.frame.tlas_root;
+        const TraceInputs in = host_inputs(pr.frame);
         const std::vector<float> depth_scales = pr.frame.depth_scales();
         const auto s0 = Clock::now();
         trace_cpu(in, pr.sample, pr.cam, depth_scales.data(), scratch.data(), options_.threads);

@@ -172,21 +172,8 @@ void Renderer::render_views_into(RenderResult& result, const std::vector<Camera>
       times.readback_ms = tracer_->read_hits(result.hits.data(), pixels);
     } else {
       t0 = Clock::now();
-      nodes_.resize(frame.node_base);
-      nodes_.insert(nodes_.end(), frame.tlas_nodes.begin(), frame.tlas_nodes.end());
+      const TraceInputs in = host_inputs(frame);
       times.upload_ms = ms_since(t0);
-      TraceInputs in;
-      in.nodes = nodes_.data();
-      in.node_count = nodes_.size();
-      in.tris = data_.blas.tris.data();
-      in.tri_count = data_.blas.tris.size();
-      in.instances = frame.instances.data();
-      in.instance_count = frame.instances.size();
-      const std::vector<rf_normal_xform>& normals =
-          frame.normal_xforms.empty() ? data_.normal_xforms : frame.normal_xforms;
-      in.normal_xforms = normals.data();
-      in.normal_xform_count = normals.size();
-      in.tlas_root = frame.tlas_root;
       t0 = Clock::now();
       const std::vector<float> depth_scales = frame.depth_scales();
       trace_cpu(in, rays, frame_camera(camera, frame), depth_scales.data(), result.hits.data(), options_.threads);
@@ -222,6 +209,23 @@ void Renderer::render_views_into(RenderResult& result, const std::vector<Camera>
       result.warnings.push_back(cameras.size() == 1 ? text : "view " + std::to_string(v) + ": " + text);
   }
   result.median = median_times(result.frames);
+}
+
+TraceInputs Renderer::host_inputs(const Frame& frame) {
+  nodes_.resize(frame.node_base);
+  nodes_.insert(nodes_.end(), frame.tlas_nodes.begin(), frame.tlas_nodes.end());
+  TraceInputs in;
+  in.nodes = nodes_.data();
+  in.node_count = nodes_.size();
+  in.tris = data_.blas.tris.data();
+  in.tri_count = data_.blas.tris.size();
+  in.instances = frame.instances.data();
+  in.instance_count = frame.instances.size();
+  const std::vector<rf_normal_xform>& normals = frame.normal_xforms.empty() ? data_.normal_xforms : frame.normal_xforms;
+  in.normal_xforms = normals.data();
+  in.normal_xform_count = normals.size();
+  in.tlas_root = frame.tlas_root;
+  return in;
 }
 
 RenderResult view_result(const RenderResult& pass, size_t v) {

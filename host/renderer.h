@@ -10,6 +10,7 @@
 
 #include "fold/frame.h"
 #include "opencl/cl_tracer.h"
+#include "reference/trace_inputs.h"
 #include "scene/camera.h"
 #include "scene/scene.h"
 
@@ -133,6 +134,9 @@ class Renderer {
  private:
   // Device buffers for this many pixels (every view's) and top-level groups.
   void ensure_capacity(size_t pixels, int groups);
+  // The CPU reference's inputs for a frame: its top level placed after the
+  // bottom-level nodes (in nodes_), its normal matrices when it has its own.
+  TraceInputs host_inputs(const Frame& frame);
   // The ray list for these intrinsics and fold: it does not depend on the
   // camera's pose, so one per fold mode (and its upload) is kept while the
   // intrinsics stay the same.
