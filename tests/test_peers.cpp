@@ -18,9 +18,9 @@ TEST(Peers, EveryVariantIsMeasured) {
   opt.frames = 1;
   opt.warmup = 0;
   const PeerReport r = run_peers(opt);
-  // Four rayfold variants in four fold modes, then Embree instanced and flat,
-  // single rays and packets.
-  ASSERT_EQ(r.rows.size(), EmbreePeer::available() ? 20u : 16u);
+  // Four rayfold variants in four fold modes, then Embree instanced, flat and
+  // flat at high build quality, single rays and packets.
+  ASSERT_EQ(r.rows.size(), EmbreePeer::available() ? 22u : 16u);
   if (!EmbreePeer::available()) {
     EXPECT_FALSE(r.embree_note.empty());
   }
@@ -45,12 +45,43 @@ TEST(Peers, EveryVariantIsMeasured) {
   EXPECT_NE(md.find("| OpenCL single | xy |"), std::string::npos);
   if (EmbreePeer::available()) {
     EXPECT_NE(md.find("| Embree flat rtcIntersect16 |"), std::string::npos);
+    EXPECT_NE(md.find("| Embree flat high rtcIntersect16 |"), std::string::npos);
+    EXPECT_GT(r.embree_build_ms, 0.0);
+    EXPECT_GT(r.embree_high_build_ms, 0.0);
     const PeerRatios q = peer_ratios(r);
     ASSERT_NE(q.fastest_rayfold, nullptr);
     EXPECT_TRUE(q.fastest_rayfold->exact);
     EXPECT_GT(q.vs_embree, 0.0);
     EXPECT_NE(md.find("Fastest exact rayfold"), std::string::npos);
   }
+}
+
+// --variants tile: the tile kernel's rows alone are timed, still validated
+// against the CPU reference, which is not timed; random views are named and
+// listed as the camera list they are.
+TEST(Peers, ChosenVariantsOnRandomViews) {
+  PeerOptions opt;
+  opt.scene = std::string(RAYFOLD_SOURCE_DIR) + "/scenes/atrium.glb";
+  opt.width = 64;
+  opt.height = 36;
+  opt.views = 2;
+  opt.random = true;
+  opt.seed = 3;
+  opt.frames = 1;
+  opt.warmup = 0;
+  opt.variants = {"tile"};
+  const PeerReport r = run_peers(opt);
+  ASSERT_EQ(r.rows.size(), EmbreePeer::available() ? 10u : 4u);
+  for (size_t i = 0; i < 4; ++i) {
+    EXPECT_EQ(r.rows[i].variant, "OpenCL tile");
+    EXPECT_TRUE(r.rows[i].exact);
+    EXPECT_EQ(r.rows[i].mismatched_pixels, 0u);
+  }
+  EXPECT_TRUE(r.valid());
+  EXPECT_NE(r.views_note.find("2 random interior views, seed 3"), std::string::npos) << r.views_note;
+  EXPECT_NE(peers_markdown(r).find("Views: 2 random"), std::string::npos);
+  ASSERT_EQ(r.cameras.size(), 2u);
+  EXPECT_GT(r.rayfold_build_ms, 0.0);
 }
 
 TEST(Peers, AMismatchInvalidatesTheReport) {

@@ -64,6 +64,18 @@ std::vector<CameraSpec> camera_path(const CameraSpec& base, int views) {
 }
 
 std::vector<CameraSpec> camera_path(const Scene& scene, const ViewPath& p) {
+  if (p.random) {
+    if (scene.world_bounds().empty()) throw InputError(p.scene, "--random-views: the scene has no geometry to look at");
+    RendererOptions ro;
+    ro.backend = Backend::cpu;
+    Renderer cpu(scene, ro);
+    const RandomViews rv = random_views(scene, cpu, p.views, p.seed, p.kind);
+    p.views_note = std::to_string(p.views) + " random " + view_kind_name(rv.kind) + " views, seed " +
+                   std::to_string(p.seed) + " (tools/random_views.h; " + std::to_string(rv.redrawn) + " drawn again";
+    if (rv.below_threshold) p.views_note += ", " + std::to_string(rv.below_threshold) + " below its threshold";
+    p.views_note += ")";
+    return rv.cameras;
+  }
   CameraSpec base = scene.camera ? *scene.camera : frame_bounds(scene.world_bounds());
   if (p.eye) {
     base.eye = *p.eye;
@@ -86,6 +98,14 @@ bool parse_view_path_option(const std::string& a, cli::Args& args, ViewPath& p, 
     p.eye = cli::parse_vec3(a, args.value(a));
   } else if (a == "--look-at") {
     p.look_at = cli::parse_vec3(a, args.value(a));
+  } else if (a == "--random-views") {
+    p.views = cli::parse_int(a, args.value(a), 1, 1000);
+    p.random = true;
+  } else if (a == "--seed") {
+    p.seed = static_cast<uint64_t>(cli::parse_int(a, args.value(a), 0, 2147483647));
+    p.seed_given = true;
+  } else if (a == "--view-kind") {
+    p.kind = parse_view_kind(a, args.value(a));
   } else if (!a.empty() && a[0] != '-') {
     if (*have_scene) throw UsageError("more than one scene given ('" + p.scene + "' and '" + a + "')");
     p.scene = a;
@@ -98,6 +118,9 @@ bool parse_view_path_option(const std::string& a, cli::Args& args, ViewPath& p, 
 
 void check_view_path(const ViewPath& p) {
   if (p.eye.has_value() != p.look_at.has_value()) throw UsageError("--eye and --look-at go together");
+  if (p.random && p.eye) throw UsageError("--random-views draws its own views: drop --eye and --look-at");
+  if (!p.random && (p.seed_given || p.kind != ViewKind::automatic))
+    throw UsageError("--seed and --view-kind choose random views: add --random-views N");
 }
 
 BenchReport run_bench(const BenchOptions& opt, const std::function<void(size_t, size_t)>& progress) {

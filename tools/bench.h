@@ -12,19 +12,28 @@
 #include <glm/vec3.hpp>
 
 #include "cli_args.h"
+#include "random_views.h"
 #include "renderer.h"
 
 namespace rayfold::core {
 
-// What the benchmarks render: a scene, an image size, and K views on a short
-// path around a base view, each measured over some frames after a warm-up.
+// What the benchmarks render: a scene, an image size, and K views, each
+// measured over some frames after a warm-up: on a short path around a base
+// view, or (random) drawn by random_views.h from a seed.
 struct ViewPath {
   std::string scene;
   int width = 1280, height = 720;
-  int views = 8;                           // cameras on a short path through the scene
+  int views = 8;                           // cameras on the path, or random views
   int frames = 5;                          // measured frames per view and method
   int warmup = 1;                          // frames per view and method before measuring
   std::optional<glm::dvec3> eye, look_at;  // base view; default the file's camera
+  bool random = false;                     // --random-views N: views nobody chose
+  uint64_t seed = 1;                       // --seed
+  bool seed_given = false;
+  ViewKind kind = ViewKind::automatic;     // --view-kind
+  // What the random views were drawn as, in words, after camera_path (empty
+  // for a path): for the reports.
+  mutable std::string views_note;
 };
 
 struct BenchOptions : ViewPath {
@@ -64,9 +73,11 @@ std::string fmt(const char* format, double value);
 size_t frame_bytes(const SceneData& data, const RenderResult& r, size_t pixels);
 
 // Parses one ViewPath option (--size --views --frames --warmup --eye
-// --look-at) or a positional scene; false when `a` is none of them.
+// --look-at --random-views --seed --view-kind) or a positional scene; false
+// when `a` is none of them.
 bool parse_view_path_option(const std::string& a, cli::Args& args, ViewPath& path, bool* have_scene);
-// After parsing: --eye and --look-at go together.
+// After parsing: --eye and --look-at go together, and neither goes with
+// --random-views.
 void check_view_path(const ViewPath& path);
 
 // `progress` (may be null) is told each frame done, of views x methods x
@@ -81,7 +92,8 @@ std::string bench_json(const BenchReport& report);
 std::vector<CameraSpec> camera_path(const CameraSpec& base, int views);
 
 // The path's cameras for a loaded scene: around the given base view, else the
-// file's camera, else a view framing the scene.
+// file's camera, else a view framing the scene; or the random views (drawn
+// with a CPU-reference renderer of the scene, which sets path.views_note).
 std::vector<CameraSpec> camera_path(const Scene& scene, const ViewPath& path);
 
 }  // namespace rayfold::core

@@ -3,15 +3,23 @@
 # exists (skipping, with a note, those that do not):
 #   rayfold bench   -> out/bench/<scene>.md/.json        (fold modes, Tables 1 and 2)
 #   rayfold-peers   -> out/bench/<scene>-peers.md/.json  (speed against accuracy, Embree)
+#   rayfold-peers   -> out/bench/<scene>-file-peers.md/.json (the same from the file's
+#                      suggested camera alone: the one extra row)
 #   chart_peers.py  -> out/bench/<scene>-peers.png/.svg
 #   rayfold-stats   -> out/bench/<scene>-stats.txt  (traversal counters per pixel, both kernels, none and xy)
 #   rayfold bench --align -> out/bench/<scene>-align.md/.json (views alone against aligned, the cost
 #                      model's predictions; paths of $ALIGN_COUNTS views, default 2,4,8,16)
 # and last out/bench/summary.md (bench_tables.py): the speed table with the
 # ratios against Embree and the targets, printed too.
-# Views start from the scenes' suggested starting points
-# (../shared/scenes/README.md). Extra arguments go to both tools
-# (e.g. --views 3 --frames 3 for a shorter run).
+# Views: $RANDOM_VIEWS (default 16) random views per scene from seed $SEED
+# (default 1; tools/random_views.h), the kind told by its probe except
+# where a scene's description says otherwise (Lost Empire: a Minecraft
+# interior). The stats and the alignment paths start from the scenes'
+# suggested views (../shared/scenes/README.md). rayfold-peers times the
+# variants $PEER_VARIANTS (default tile,fast: on a CPU device the single-ray
+# kernel is 3 to 20 times slower than the tile kernel, docs/results.md; the
+# CPU reference validates every exact image whatever is timed). Extra
+# arguments go to every tool (e.g. --frames 3 for a shorter run).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bin=${RAYFOLD_BIN:-build/rayfold}
@@ -19,15 +27,21 @@ peers=${RAYFOLD_PEERS:-build/rayfold-peers}
 stats=${RAYFOLD_STATS:-build/rayfold-stats}
 shared=${RAYFOLD_SCENES_DIR:-../shared/scenes}
 out=${OUT_DIR:-out/bench}
+random=(--random-views "${RANDOM_VIEWS:-16}" --seed "${SEED:-1}")
+variants=${PEER_VARIANTS:-tile,fast}
 mkdir -p "$out"
 args=("$@")
 
+# run NAME FILE KIND [--eye E --look-at L]: KIND auto, interior or object.
 run() {
-  local name=$1 file=$2; shift 2
+  local name=$1 file=$2 kind=$3; shift 3
   if [ ! -f "$file" ]; then echo "bench_all: $file absent; skipped"; return; fi
   echo "== $name"
-  "$bin" bench "$file" "$@" "${args[@]}" --json "$out/$name.json" --md "$out/$name.md"
-  "$peers" "$file" "$@" "${args[@]}" --json "$out/$name-peers.json" --md "$out/$name-peers.md"
+  "$bin" bench "$file" "${random[@]}" --view-kind "$kind" "${args[@]}" --json "$out/$name.json" --md "$out/$name.md"
+  "$peers" "$file" "${random[@]}" --view-kind "$kind" --variants "$variants" "${args[@]}" \
+    --json "$out/$name-peers.json" --md "$out/$name-peers.md"
+  "$peers" "$file" "$@" --views 1 --variants "$variants" "${args[@]}" \
+    --json "$out/$name-file-peers.json" --md "$out/$name-file-peers.md"
   /usr/bin/python3 tools/chart_peers.py "$out/$name-peers.json" "$out/$name-peers"
   : > "$out/$name-stats.txt"
   for fold in none xy; do "$stats" "$file" "$@" --size 1280x720 --fold "$fold" >> "$out/$name-stats.txt"; done
@@ -35,13 +49,13 @@ run() {
     --json "$out/$name-align.json" --md "$out/$name-align.md"
 }
 
-run atrium scenes/atrium.glb
-run conference "$shared/conference.glb" --eye 330,300,-300 --look-at 1000,200,0
-run dabrovic_sponza "$shared/dabrovic_sponza.glb" --eye 0,3,0 --look-at 10,3,0
-run sports_car "$shared/sports_car.glb" --eye 1.8,0.9,2.2 --look-at 0,0.45,0
-run stanford_dragon "$shared/stanford_dragon.glb" --eye 0,0.13,0.22 --look-at 0,0.12,0
-run lost_empire "$shared/lost_empire.glb" --eye -10,20,40 --look-at 10,10,0
-run armadillo "$shared/armadillo.glb" --eye 0,20,170 --look-at 0,20,0
+run atrium scenes/atrium.glb auto
+run conference "$shared/conference.glb" auto --eye 330,300,-300 --look-at 1000,200,0
+run dabrovic_sponza "$shared/dabrovic_sponza.glb" auto --eye 0,3,0 --look-at 10,3,0
+run sports_car "$shared/sports_car.glb" auto --eye 1.8,0.9,2.2 --look-at 0,0.45,0
+run stanford_dragon "$shared/stanford_dragon.glb" auto --eye 0,0.13,0.22 --look-at 0,0.12,0
+run lost_empire "$shared/lost_empire.glb" interior --eye -10,20,40 --look-at 10,10,0
+run armadillo "$shared/armadillo.glb" auto --eye 0,20,170 --look-at 0,20,0
 
 align_reports=("$out"/*-align.json)
 if [ -e "${align_reports[0]}" ]; then
@@ -49,7 +63,7 @@ if [ -e "${align_reports[0]}" ]; then
   echo; cat "$out/align-summary.md"
 fi
 
-peer_reports=("$out"/*-peers.json)
+peer_reports=("$out"/*-peers.json)  # the file-camera reports too: bench_tables.py tells them apart
 if [ -e "${peer_reports[0]}" ]; then
   /usr/bin/python3 tools/bench_tables.py --peers "${peer_reports[@]}" > "$out/summary.md"
   echo; cat "$out/summary.md"

@@ -68,6 +68,18 @@ glm::dvec3 parse_vec3(const std::string& option, const std::string& text) {
   return v;
 }
 
+std::vector<std::string> split_list(const std::string& option, const std::string& text) {
+  std::vector<std::string> items;
+  size_t start = 0;
+  for (;;) {
+    const size_t comma = text.find(',', start);
+    items.push_back(text.substr(start, comma == std::string::npos ? std::string::npos : comma - start));
+    if (items.back().empty()) throw UsageError(option + ": '" + text + "' has an empty item");
+    if (comma == std::string::npos) return items;
+    start = comma + 1;
+  }
+}
+
 FoldMode parse_fold(const std::string& option, const std::string& text) {
   if (text == "none") return FoldMode::none;
   if (text == "y") return FoldMode::y;

@@ -46,6 +46,9 @@ int parse_int(const std::string& option, const std::string& text, int lo, int hi
 double parse_double(const std::string& option, const std::string& text);
 glm::dvec3 parse_vec3(const std::string& option, const std::string& text);
 void parse_size(const std::string& option, const std::string& text, int* width, int* height);
+// A comma-separated list's items ("a,b" gives a and b; an empty item is a
+// UsageError naming the option).
+std::vector<std::string> split_list(const std::string& option, const std::string& text);
 // none, y, x or xy (yx too).
 FoldMode parse_fold(const std::string& option, const std::string& text);
 

@@ -19,7 +19,9 @@ struct EmbreePeer::Impl {
   unsigned threads;
   RTCDevice device = nullptr;
   RTCScene top = nullptr;
-  RTCScene flat = nullptr;  // every instance's triangles in world space, one geometry per instance
+  RTCScene flat = nullptr;       // every instance's triangles in world space, one geometry per instance
+  RTCScene flat_high = nullptr;  // the same, RTC_BUILD_QUALITY_HIGH
+  double flat_build_ms = 0.0, flat_high_build_ms = 0.0;
   std::vector<RTCScene> meshes;
   std::vector<RTCGeometry> instances;  // per scene instance, null when hidden
   Camera camera;
@@ -56,9 +58,15 @@ struct EmbreePeer::Impl {
       rtcAttachGeometryByID(top, g, static_cast<unsigned>(i));
       instances[i] = g;
     }
-    // As a user with a static scene builds it: instances flattened into one
-    // single-level world-space tree, built once.
-    flat = rtcNewScene(device);
+    flat = make_flat(RTC_BUILD_QUALITY_MEDIUM, &flat_build_ms);
+    flat_high = make_flat(RTC_BUILD_QUALITY_HIGH, &flat_high_build_ms);
+  }
+
+  // As a user with a static scene builds it: instances flattened into one
+  // single-level world-space tree, built once at this quality (MEDIUM is
+  // Embree's default). build_ms: rtcCommitScene, the build alone.
+  RTCScene make_flat(RTCBuildQuality quality, double* build_ms) {
+    RTCScene s = rtcNewScene(device);
     for (size_t i = 0; i < scene.instances.size(); ++i) {
       if (!data.renderable[i]) continue;
       const Mesh& m = scene.meshes[scene.instances[i].mesh];
@@ -73,13 +81,16 @@ struct EmbreePeer::Impl {
         for (int k = 0; k < 3; ++k) vb[3 * v + k] = static_cast<float>(p[k]);
       }
       std::copy(m.indices.begin(), m.indices.end(), ib);
-      rtcSetGeometryBuildQuality(g, RTC_BUILD_QUALITY_HIGH);
+      rtcSetGeometryBuildQuality(g, quality);
       rtcCommitGeometry(g);
-      rtcAttachGeometryByID(flat, g, static_cast<unsigned>(i));
+      rtcAttachGeometryByID(s, g, static_cast<unsigned>(i));
       rtcReleaseGeometry(g);
     }
-    rtcSetSceneBuildQuality(flat, RTC_BUILD_QUALITY_HIGH);
-    rtcCommitScene(flat);
+    rtcSetSceneBuildQuality(s, quality);
+    const auto t0 = Clock::now();
+    rtcCommitScene(s);
+    *build_ms = ms_since(t0);
+    return s;
   }
 
   ~Impl() {
@@ -87,6 +98,7 @@ struct EmbreePeer::Impl {
       if (g) rtcReleaseGeometry(g);
     if (top) rtcReleaseScene(top);
     if (flat) rtcReleaseScene(flat);
+    if (flat_high) rtcReleaseScene(flat_high);
     for (RTCScene s : meshes) rtcReleaseScene(s);
     if (device) rtcReleaseDevice(device);
   }
@@ -143,6 +155,10 @@ struct EmbreePeer::Impl {
     h.primitive = prim;
   }
 
+  RTCScene traced(EmbreeScene which) const {
+    return which == EmbreeScene::instanced ? top : which == EmbreeScene::flat ? flat : flat_high;
+  }
+
   template <class Tile>
   double run(Tile tile, int tiles) {
     const auto t0 = Clock::now();
@@ -158,11 +174,14 @@ EmbreePeer::EmbreePeer(const Scene& scene, const SceneData& data, unsigned threa
 EmbreePeer::~EmbreePeer() = default;
 
 void EmbreePeer::set_camera(const Camera& camera) { impl_->set_camera(camera); }
+double EmbreePeer::build_ms(EmbreeScene which) const {
+  return which == EmbreeScene::flat ? impl_->flat_build_ms : which == EmbreeScene::flat_high ? impl_->flat_high_build_ms : 0.0;
+}
 
 double EmbreePeer::trace1(std::vector<rf_pixel_hit>& hits, EmbreeScene which) {
   Impl& m = *impl_;
-  const bool flat = which == EmbreeScene::flat;
-  RTCScene scene = flat ? m.flat : m.top;
+  const bool flat = which != EmbreeScene::instanced;
+  RTCScene scene = m.traced(which);
   const int w = m.camera.width, h = m.camera.height;
   hits.resize(static_cast<size_t>(w) * h);
   return m.run(
@@ -194,8 +213,8 @@ double EmbreePeer::trace1(std::vector<rf_pixel_hit>& hits, EmbreeScene which) {
 
 double EmbreePeer::trace16(std::vector<rf_pixel_hit>& hits, EmbreeScene which) {
   Impl& m = *impl_;
-  const bool flat = which == EmbreeScene::flat;
-  RTCScene scene = flat ? m.flat : m.top;
+  const bool flat = which != EmbreeScene::instanced;
+  RTCScene scene = m.traced(which);
   const int w = m.camera.width, h = m.camera.height;
   hits.resize(static_cast<size_t>(w) * h);
   const int tx = (w + 3) / 4, ty = (h + 3) / 4;
@@ -249,6 +268,7 @@ EmbreePeer::EmbreePeer(const Scene&, const SceneData&, unsigned) {
 }
 EmbreePeer::~EmbreePeer() = default;
 void EmbreePeer::set_camera(const Camera&) {}
+double EmbreePeer::build_ms(EmbreeScene) const { return 0.0; }
 double EmbreePeer::trace1(std::vector<rf_pixel_hit>&, EmbreeScene) { return 0.0; }
 double EmbreePeer::trace16(std::vector<rf_pixel_hit>&, EmbreeScene) { return 0.0; }
 

@@ -53,15 +53,22 @@ PeerReport run_peers(const PeerOptions& opt) {
   const std::vector<CameraSpec> path = camera_path(scene, opt);
 
   struct Ours {
+    const char* key;  // as --variants names it
     const char* name;
     Backend backend;
     KernelChoice kernel;
     KernelPrecision precision;
   };
-  const Ours ours[] = {{"OpenCL tile", Backend::opencl, KernelChoice::tile, KernelPrecision::exact},
-                       {"OpenCL single", Backend::opencl, KernelChoice::single, KernelPrecision::exact},
-                       {"OpenCL tile fast", Backend::opencl, KernelChoice::tile, KernelPrecision::fast},
-                       {"CPU reference", Backend::cpu, KernelChoice::automatic, KernelPrecision::exact}};
+  const Ours all_ours[] = {{"tile", "OpenCL tile", Backend::opencl, KernelChoice::tile, KernelPrecision::exact},
+                           {"single", "OpenCL single", Backend::opencl, KernelChoice::single, KernelPrecision::exact},
+                           {"fast", "OpenCL tile fast", Backend::opencl, KernelChoice::tile, KernelPrecision::fast},
+                           {"cpu", "CPU reference", Backend::cpu, KernelChoice::automatic, KernelPrecision::exact}};
+  // The CPU reference renderer always exists (it validates every exact row);
+  // its rows are timed only when asked for.
+  std::vector<Ours> ours;
+  for (const Ours& o : all_ours)
+    if (o.backend == Backend::cpu || opt.variants.count(o.key)) ours.push_back(o);
+  const bool time_cpu = opt.variants.count("cpu") != 0;
   const FoldMode folds[] = {FoldMode::none, FoldMode::y, FoldMode::x, FoldMode::xy};
   std::vector<std::unique_ptr<Renderer>> renderers;
   for (const Ours& o : ours) {
@@ -74,6 +81,7 @@ PeerReport run_peers(const PeerOptions& opt) {
     renderers.push_back(std::make_unique<Renderer>(scene, ro));
   }
   const SceneData& data = renderers[0]->scene_data();
+  const size_t timed_renderers = time_cpu ? renderers.size() : renderers.size() - 1;
 
   PeerReport rep;
   rep.scene = opt.scene;
@@ -85,23 +93,28 @@ PeerReport run_peers(const PeerOptions& opt) {
   rep.threads = opt.threads;
   rep.triangles = scene.triangle_count();
   rep.instances = scene.instances.size();
+  rep.views_note = opt.views_note;
+  rep.cameras = path;
+  rep.rayfold_build_ms = data.blas.build_ms;
 
   std::unique_ptr<EmbreePeer> embree;
-  if (EmbreePeer::available())
+  if (EmbreePeer::available()) {
     embree = std::make_unique<EmbreePeer>(scene, data, opt.threads);
-  else
+    rep.embree_build_ms = embree->build_ms(EmbreeScene::flat);
+    rep.embree_high_build_ms = embree->build_ms(EmbreeScene::flat_high);
+  } else
     rep.embree_note = "rayfold was built without Embree: its rows are skipped (install libembree-dev and reconfigure).";
 
   std::vector<Accumulator> acc;
-  for (const Ours& o : ours)
-    for (FoldMode f : folds) acc.emplace_back(make_row(o.name, fold_name(f)));
-  const EmbreeScene embree_scenes[] = {EmbreeScene::instanced, EmbreeScene::flat};
-  if (embree) {
-    acc.emplace_back(make_row("Embree instanced rtcIntersect1", "-"));
-    acc.emplace_back(make_row("Embree instanced rtcIntersect16", "-"));
-    acc.emplace_back(make_row("Embree flat rtcIntersect1", "-"));
-    acc.emplace_back(make_row("Embree flat rtcIntersect16", "-"));
-  }
+  for (size_t r = 0; r < timed_renderers; ++r)
+    for (FoldMode f : folds) acc.emplace_back(make_row(ours[r].name, fold_name(f)));
+  const EmbreeScene embree_scenes[] = {EmbreeScene::instanced, EmbreeScene::flat, EmbreeScene::flat_high};
+  const char* embree_names[] = {"Embree instanced", "Embree flat", "Embree flat high"};
+  if (embree)
+    for (const char* name : embree_names) {
+      acc.emplace_back(make_row(std::string(name) + " rtcIntersect1", "-"));
+      acc.emplace_back(make_row(std::string(name) + " rtcIntersect16", "-"));
+    }
 
   for (int v = 0; v < opt.views; ++v) {
     const Camera cam = make_camera(path[v], opt.width, opt.height);
@@ -112,13 +125,13 @@ PeerReport run_peers(const PeerOptions& opt) {
     if (embree) embree->set_camera(cam);
     // Every variant once to warm up, then all take turns frame by frame, so
     // that the drift of a noisy machine affects them alike.
-    const size_t rayfold_rows = renderers.size() * std::size(folds);
+    const size_t rayfold_rows = timed_renderers * std::size(folds);
     std::vector<std::vector<double>> ms(acc.size());
     std::vector<RenderResult> last(rayfold_rows);
     std::vector<std::vector<rf_pixel_hit>> embree_hits(acc.size() - rayfold_rows);
     for (int f = -opt.warmup; f < opt.frames; ++f) {
       size_t a = 0;
-      for (size_t r = 0; r < renderers.size(); ++r)
+      for (size_t r = 0; r < timed_renderers; ++r)
         for (FoldMode fold : folds) {
           FrameOptions fo;
           fo.fold = fold;
@@ -137,7 +150,7 @@ PeerReport run_peers(const PeerOptions& opt) {
           }
     }
     size_t a = 0;
-    for (size_t r = 0; r < renderers.size(); ++r)
+    for (size_t r = 0; r < timed_renderers; ++r)
       for (size_t k = 0; k < std::size(folds); ++k, ++a) {
         const RenderResult& res = last[a];
         if (ours[r].precision == KernelPrecision::exact) {
@@ -190,7 +203,13 @@ std::string peers_markdown(const PeerReport& r) {
   s << "Scene `" << r.scene << "`: " << r.instances << " instances, " << r.triangles << " triangles; " << r.width << "x"
     << r.height << ", " << r.views << " views, median of " << r.frames << " frames; " << r.threads
     << " threads. rayfold device: " << r.device << ".\n";
+  if (!r.views_note.empty()) s << "Views: " << r.views_note << ".\n";
   if (!r.embree_note.empty()) s << r.embree_note << "\n";
+  s << "Bottom-level build: rayfold " << fmt("%.0f", r.rayfold_build_ms) << " ms";
+  if (r.embree_build_ms > 0.0)
+    s << ", Embree flat " << fmt("%.0f", r.embree_build_ms) << " ms (default quality), "
+      << fmt("%.0f", r.embree_high_build_ms) << " ms (high)";
+  s << ".\n";
   s << "\nTimes: rayfold per frame is ray list + trace + readback; Embree's is the trace into host memory. "
        "Exact rows are checked bit for bit against the CPU reference's unfolded image first. "
        "Accuracy against the double-precision reference: share of pixels whose (instance, primitive) differs, "
@@ -236,6 +255,15 @@ std::string peers_json(const PeerReport& r) {
   j["threads"] = r.threads;
   j["triangles"] = r.triangles;
   j["instances"] = r.instances;
+  j["views_note"] = r.views_note;
+  for (const CameraSpec& c : r.cameras)
+    j["cameras"].push_back({{"eye", {c.eye.x, c.eye.y, c.eye.z}},
+                            {"look_at", {c.look_at.x, c.look_at.y, c.look_at.z}},
+                            {"up", {c.up.x, c.up.y, c.up.z}},
+                            {"vfov", c.vfov_degrees}});
+  j["rayfold_build_ms"] = r.rayfold_build_ms;
+  j["embree_build_ms"] = r.embree_build_ms;
+  j["embree_high_build_ms"] = r.embree_high_build_ms;
   for (const PeerRow& row : r.rows)
     j["rows"].push_back({{"variant", row.variant},
                          {"fold", row.fold},

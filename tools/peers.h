@@ -6,6 +6,7 @@
 #pragma once
 
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -19,6 +20,10 @@ namespace rayfold::core {
 struct PeerOptions : ViewPath {
   unsigned threads = 2;
   std::string device_hint;
+  // rayfold's rows: tile, single (the single-ray kernel), fast (the tile
+  // kernel's fast build), cpu (the CPU reference, timed; it validates every
+  // exact row whether timed or not).
+  std::set<std::string> variants{"tile", "single", "fast", "cpu"};
 };
 
 struct PeerRow {
@@ -33,10 +38,14 @@ struct PeerRow {
 };
 
 struct PeerReport {
-  std::string scene, device, embree_note;
+  std::string scene, device, embree_note, views_note;
+  std::vector<CameraSpec> cameras;  // the views traced
   int width = 0, height = 0, views = 0, frames = 0;
   unsigned threads = 0;
   size_t triangles = 0, instances = 0;
+  // Bottom-level builds: rayfold's (every mesh's tree) against Embree's flat
+  // scene at its default and its high quality (rtcCommitScene), in ms.
+  double rayfold_build_ms = 0.0, embree_build_ms = 0.0, embree_high_build_ms = 0.0;
   std::vector<PeerRow> rows;
   // False when an exact row differs from the CPU reference: no figure of
   // the report is then valid.

@@ -25,7 +25,9 @@ int main(int argc, char** argv) {
       if (a == "--help" || a == "-h") {
         std::puts(
             "usage: rayfold-peers [SCENE] [--size WxH] [--views K] [--frames N] [--warmup N] [--threads N]\n"
-            "                     [--eye X,Y,Z --look-at X,Y,Z] [--device NAME] [--json F] [--md F]\n"
+            "                     [--eye X,Y,Z --look-at X,Y,Z | --random-views K [--seed S]\n"
+            "                     [--view-kind auto|interior|object]] [--variants tile,single,fast,cpu]\n"
+            "                     [--device NAME] [--json F] [--md F]\n"
             "Speed against accuracy: rayfold's OpenCL tile and single-ray kernels, the fast build and the\n"
             "CPU reference in every fold mode, and Embree's rtcIntersect1 and rtcIntersect16 over an\n"
             "instanced and a flat scene (when installed), on the same views, each measured against a\n"
@@ -35,6 +37,13 @@ int main(int argc, char** argv) {
       } else if (parse_view_path_option(a, args, opt, &have_scene)) {
       } else if (a == "--threads") {
         opt.threads = static_cast<unsigned>(cli::parse_int(a, args.value(a), 1, 1024));
+      } else if (a == "--variants") {
+        opt.variants.clear();
+        for (const std::string& v : cli::split_list(a, args.value(a))) {
+          if (v != "tile" && v != "single" && v != "fast" && v != "cpu")
+            throw UsageError("--variants: expected a list of tile, single, fast, cpu; got '" + v + "'");
+          opt.variants.insert(v);
+        }
       } else if (a == "--device") {
         opt.device_hint = args.value(a);
       } else if (a == "--json") {

@@ -139,6 +139,9 @@ const char* kBenchUsage =
     "  --frames N             measured frames per view and method (default 5)\n"
     "  --warmup N             frames before measuring (default 1)\n"
     "  --eye X,Y,Z --look-at X,Y,Z   base view (default: the file's camera)\n"
+    "  --random-views K       instead of the path, K views nobody chose (tools/random_views.h)\n"
+    "  --seed S               the random views' seed (default 1)\n"
+    "  --view-kind auto|interior|object   how they are drawn (default auto: by a probe)\n"
     "  --animate              move a fixed subset of instances every frame\n"
     "  --braid N              re-braiding budget per instance (default 2, 0 = off)\n"
     "  --backend opencl|cpu   (default opencl)   --device NAME   --threads N\n"
@@ -888,8 +891,7 @@ int run_bench_command(cli::Args& args) {
       align = true;
     } else if (a == "--counts") {
       counts.clear();
-      std::stringstream list(args.value(a));
-      for (std::string item; std::getline(list, item, ',');) counts.push_back(cli::parse_int(a, item, 1, 64));
+      for (const std::string& item : cli::split_list(a, args.value(a))) counts.push_back(cli::parse_int(a, item, 1, 64));
     } else if (a == "--baseline") {
       baseline = cli::parse_double(a, args.value(a));
       if (!(baseline > 0.0)) throw UsageError("--baseline: must be positive (world units)");
