@@ -7,7 +7,11 @@
 #define RF_TRAVERSAL_STATS 1
 #include <cstdio>
 
+#include <algorithm>
+#include <cmath>
+
 #include "cli_args.h"
+#include "reference/double_reference.h"
 #include "fold/frame.h"
 #include "fold/ray_list.h"
 #include "opencl/cl_tracer.h"
@@ -18,15 +22,74 @@
 
 thread_local rf_traversal_stats rf_stats;
 
+namespace rayfold::core {
+namespace {
+
+// Where the depth error against the double reference comes from, pixel by
+// pixel on same-triangle hits: the float ray itself (the exact depth of the
+// float object-space ray rayfold traces, on the reported triangle, against
+// the exact ray's), and the triangle test (rayfold's depth against that
+// float ray's exact depth: the watertight t and the raise to the leaf entry).
+void print_depth_sources(const Scene& scene, const SceneData& data, const Camera& cam, const Frame& frame,
+                         const std::vector<rf_pixel_hit>& hits) {
+  const std::vector<ReferenceHit> ref = trace_double_reference(scene, data, cam, 0);
+  std::vector<const rf_instance*> copy(scene.instances.size(), nullptr);
+  for (const rf_instance& inst : frame.instances)
+    if (inst.group == 0 && !copy[inst.instance_id]) copy[inst.instance_id] = &inst;
+  std::vector<double> ray_err, test_err, total;
+  const double scale = frame.views[0].depth_scale;
+  for (int y = 0; y < cam.height; ++y)
+    for (int x = 0; x < cam.width; ++x) {
+      const size_t i = static_cast<size_t>(y) * cam.width + x;
+      const rf_pixel_hit& h = hits[i];
+      if (h.instance == RF_INVALID || h.instance != ref[i].instance || h.primitive != ref[i].primitive) continue;
+      const rf_instance* inst = copy[h.instance];
+      if (!inst) continue;
+      const uint32_t mesh = scene.instances[h.instance].mesh;
+      const Mesh& m = scene.meshes[mesh];
+      const double to_tree = std::ldexp(1.0, -data.blas.tree_exponents[mesh]);
+      glm::dvec3 v[3];
+      for (int k = 0; k < 3; ++k) v[k] = glm::dvec3(m.positions[m.indices[3 * h.primitive + k]]) * to_tree;
+      const float dx = cam.params.scale_x * (static_cast<float>(2 * x + cam.params.kx0) + cam.params.frac_x);
+      const float dy = cam.params.scale_y * (static_cast<float>(cam.params.ky0 - 2 * y) + cam.params.frac_y);
+      rf_ray r;
+      rf_ray_to_object(&r, inst->tree_from_trace, dx, dy, -1.0f);
+      const glm::dvec3 o(r.o[0], r.o[1], r.o[2]), d(r.d[0], r.d[1], r.d[2]);
+      const glm::dvec3 n = glm::cross(v[1] - v[0], v[2] - v[0]);
+      const double t = glm::dot(v[0] - o, n) / glm::dot(d, n);
+      const double len = std::sqrt(static_cast<double>(dx) * dx + static_cast<double>(dy) * dy + 1.0);
+      const double z_float_ray = t * len * scale;
+      ray_err.push_back(std::fabs(z_float_ray - ref[i].distance) / ref[i].distance);
+      test_err.push_back(std::fabs(h.z - z_float_ray) / z_float_ray);
+      total.push_back(std::fabs(h.z - ref[i].distance) / ref[i].distance);
+    }
+  auto report = [](const char* what, std::vector<double> e) {
+    if (e.empty()) return;
+    std::sort(e.begin(), e.end());
+    std::printf("  depth error from %-14s median %.1e  p99 %.1e  p99.9 %.1e  max %.1e\n", what, e[e.size() / 2],
+                e[std::min(e.size() - 1, static_cast<size_t>(0.99 * e.size()))],
+                e[std::min(e.size() - 1, static_cast<size_t>(0.999 * e.size()))], e.back());
+  };
+  std::printf("  depth error sources over %zu same-triangle pixels (relative):\n", total.size());
+  report("the float ray:", ray_err);
+  report("the test:", test_err);
+  report("both:", total);
+}
+
+}  // namespace
+}  // namespace rayfold::core
+
 int main(int argc, char** argv) {
   using namespace rayfold;
   using namespace rayfold::core;
   return cli::guarded_main([&] {
     const char* usage =
         "usage: rayfold-stats SCENE [--eye X,Y,Z --look-at X,Y,Z] [--size WxH] [--fold MODE] [--no-braid]\n"
-        "                     [--braid-items N] [--braid-min N]\n"
+        "                     [--braid-items N] [--braid-min N] [--vfov DEG] [--depth-sources]\n"
         "Traversal counters per ray and per pixel: the single-ray kernel's on the CPU reference, the tile\n"
-        "kernel's on the OpenCL device (default 320x180, the file's camera or a framing view).";
+        "kernel's on the OpenCL device (default 320x180, the file's camera or a framing view).\n"
+        "--depth-sources: also split the depth error against the double reference into the float ray's\n"
+        "and the triangle test's.";
     if (argc >= 2 && (std::string(argv[1]) == "--help" || std::string(argv[1]) == "-h")) {
       std::puts(usage);
       return 0;
@@ -38,12 +101,17 @@ int main(int argc, char** argv) {
     int w = 320, h = 180;
     FoldMode fold = FoldMode::none;
     BraidOptions braid;
+    bool depth_sources = false;
     while (!args.done()) {
       const std::string a = args.next();
       if (a == "--eye")
         spec.eye = cli::parse_vec3(a, args.value(a));
       else if (a == "--look-at")
         spec.look_at = cli::parse_vec3(a, args.value(a));
+      else if (a == "--depth-sources")
+        depth_sources = true;
+      else if (a == "--vfov")
+        spec.vfov_degrees = cli::parse_double(a, args.value(a));
       else if (a == "--size")
         cli::parse_size(a, args.value(a), &w, &h);
       else if (a == "--fold")
@@ -83,6 +151,8 @@ int main(int argc, char** argv) {
         rf_stats.triangles / n);
     std::printf("  single-ray, per pixel: %.1f TLAS nodes, %.2f set-ups, %.1f BLAS nodes, %.1f triangle tests\n",
                 rf_stats.tlas_nodes / px, rf_stats.setups / px, rf_stats.blas_nodes / px, rf_stats.triangles / px);
+
+    if (depth_sources && fold == FoldMode::none) print_depth_sources(scene, data, cam, frame, out);
 
     // The tile kernel on the OpenCL device, with its counters.
     ClDevice device;
