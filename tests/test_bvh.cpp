@@ -206,3 +206,50 @@ TEST(Bvh, TieRulePicksLowerInstanceThenPrimitive) {
 
 }  // namespace
 }  // namespace rayfold::core
+
+namespace rayfold::core {
+namespace {
+
+// Re-braiding past the budget: a mesh whose triangles lie in two clusters
+// far apart (one box, mostly empty) opens at its root; a compact mesh of as
+// many triangles, whose halves' boxes together have more surface than the
+// whole, stays one item. The budget alone opens neither.
+TEST(Bvh, LooseNodesOpenPastTheBudget) {
+  Scene s;
+  Mesh spread = testing::closed_cube(2), compact = testing::closed_cube(2);
+  const size_t n = spread.positions.size();
+  for (size_t i = 0; i < n; ++i) spread.positions.push_back(spread.positions[i] + glm::vec3(50.0f, 0.0f, 0.0f));
+  const size_t indices = spread.indices.size();
+  for (size_t i = 0; i < indices; ++i) spread.indices.push_back(spread.indices[i] + static_cast<uint32_t>(n));
+  for (size_t i = 0; i < indices; ++i) compact.indices.push_back(compact.indices[i]);  // each face twice
+  s.meshes = {spread, compact};
+  s.instances.resize(2);
+  s.instances[0].mesh = 0;
+  s.instances[1].mesh = 1;
+  BraidOptions budget_only;
+  budget_only.items_per_instance = 1;
+  budget_only.min_items = 0;
+  budget_only.loose_ratio = 0.0;
+  const SceneData closed = prepare_scene(s, 1, budget_only);
+  EXPECT_EQ(closed.braid_offsets[1] - closed.braid_offsets[0], 1u);
+  EXPECT_EQ(closed.braid_offsets[2] - closed.braid_offsets[1], 1u);
+  BraidOptions loose = budget_only;
+  loose.loose_ratio = 1.0;
+  const SceneData opened = prepare_scene(s, 1, loose);
+  EXPECT_GE(opened.braid_offsets[1] - opened.braid_offsets[0], 2u) << "the spread mesh's root opens";
+  EXPECT_EQ(opened.braid_offsets[2] - opened.braid_offsets[1], 1u) << "the compact mesh stays whole";
+  // Whatever the cut, the same bits: the traversal order does not matter.
+  testing::Rng rng(5);
+  for (int v = 0; v < 4; ++v) {
+    const Camera cam = make_camera(testing::random_camera(rng, s.world_bounds()), 48, 32);
+    RendererOptions a, b;
+    a.backend = b.backend = Backend::cpu;
+    a.braid = budget_only;
+    b.braid = loose;
+    EXPECT_EQ(testing::compare_hits(Renderer(s, a).render(cam).hits, Renderer(s, b).render(cam).hits, 48), "")
+        << "view " << v;
+  }
+}
+
+}  // namespace
+}  // namespace rayfold::core

@@ -85,7 +85,7 @@ int main(int argc, char** argv) {
   return cli::guarded_main([&] {
     const char* usage =
         "usage: rayfold-stats SCENE [--eye X,Y,Z --look-at X,Y,Z] [--size WxH] [--fold MODE] [--no-braid]\n"
-        "                     [--braid-items N] [--braid-min N] [--vfov DEG] [--depth-sources]\n"
+        "                     [--braid-items N] [--braid-min N] [--braid-loose R] [--vfov DEG] [--depth-sources]\n"
         "Traversal counters per ray and per pixel: the single-ray kernel's on the CPU reference, the tile\n"
         "kernel's on the OpenCL device (default 320x180, the file's camera or a framing view).\n"
         "--depth-sources: also split the depth error against the double reference into the float ray's\n"
@@ -120,6 +120,8 @@ int main(int argc, char** argv) {
         braid.enabled = false;
       else if (a == "--braid-items")
         braid.items_per_instance = cli::parse_int(a, args.value(a), 1, 1 << 20);
+      else if (a == "--braid-loose")
+        braid.loose_ratio = cli::parse_double(a, args.value(a));
       else if (a == "--braid-min")
         braid.min_items = cli::parse_int(a, args.value(a), 0, 1 << 24);
       else

@@ -48,17 +48,22 @@ void choose_braid_cuts(const Scene& scene, SceneData& data, const BraidOptions& 
   if (opt.enabled) {
     const size_t budget = std::max(opt.min_items, opt.items_per_instance * items);
     const double min_area = opt.min_area_fraction * half_area(data.world_bounds);
-    while (!open.empty() && items < budget && open.top().area >= min_area) {
+    const double loose = opt.loose_ratio;
+    while (!open.empty() && open.top().area >= min_area) {
       const Item top = open.top();
       const rf_node& node = data.blas.nodes[top.node];
+      open.pop();
       if ((node.meta & RF_NODE_COUNT_MASK) != 0) {  // a leaf cannot open
         cuts[top.instance].push_back(top.node);
-        open.pop();
         continue;
       }
-      open.pop();
-      open.push({world_area(top.instance, node.first), top.instance, node.first});
-      open.push({world_area(top.instance, node.first + 1), top.instance, node.first + 1});
+      const double left = world_area(top.instance, node.first), right = world_area(top.instance, node.first + 1);
+      if (items >= budget && !(left + right < loose * top.area)) {
+        cuts[top.instance].push_back(top.node);
+        continue;
+      }
+      open.push({left, top.instance, node.first});
+      open.push({right, top.instance, node.first + 1});
       ++items;
     }
   }
