@@ -94,7 +94,7 @@ def peers_tables(paths, file_paths=()):
     reports = load_peers(paths)
     by_file = {r["name"].replace("-file", ""): r for r in load_peers(file_paths)}
     r0 = reports[0]
-    print(f"{r0['width']}x{r0['height']}, {r0['views']} views per scene ({r0.get('views_note') or 'a path'}), "
+    print(f"{r0['width']}x{r0['height']}, {r0['views']} views per scene (kind and seed in the views column), "
           f"median of {r0['frames']} frames, {r0['threads']} threads; rayfold device: {r0['device']}.\n")
     print("Pixels answered per second (millions). rayfold: its fastest exact OpenCL mode (ray list + trace + "
           "readback per frame, every image checked bit for bit against the CPU reference first); Embree: the "
@@ -102,9 +102,9 @@ def peers_tables(paths, file_paths=()):
           "ratio is against the faster of every Embree mode. Build: rayfold's bottom-level trees against "
           "Embree's flat scene build (ms). Depth: relative error against the double-precision reference on "
           "same-triangle pixels, worst view's p99 and maximum.\n")
-    print("| scene | rayfold (mode) | Embree flat 16 | Embree flat high 16 | vs Embree fastest | file camera | "
+    print("| scene | views | rayfold (mode) | Embree flat 16 | Embree flat high 16 | vs Embree fastest | file camera | "
           "build rayfold | build Embree / high | depth p99 rayfold / Embree | depth max rayfold / Embree |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
     ratios, invalid, worse_depth, slower_build = {}, [], [], []
     for r in reports:
         if not r.get("valid", True):
@@ -126,7 +126,9 @@ def peers_tables(paths, file_paths=()):
         if r.get("rayfold_build_ms", 0) > r.get("embree_build_ms", float("inf")):
             slower_build.append(r["name"])
         mode = ours["variant"].replace("OpenCL ", "") + " " + ours["fold"]
-        print(f"| {r['name']} | {ours['mpixels_per_s']:.1f} ({mode}) | {mp('Embree flat rtcIntersect16')} | "
+        note = r.get("views_note", "")
+        views = " ".join(note.split()[1:3] + note.split()[4:6]).rstrip(" (") if note else "path"
+        print(f"| {r['name']} | {views} | {ours['mpixels_per_s']:.1f} ({mode}) | {mp('Embree flat rtcIntersect16')} | "
               f"{mp('Embree flat high rtcIntersect16')} | **{ratio:.2f}x** | {file_ratio} | "
               f"{r.get('rayfold_build_ms', 0):.0f} | {r.get('embree_build_ms', 0):.0f} / "
               f"{r.get('embree_high_build_ms', 0):.0f} | {ours['depth_error_p99']:.1e} / "
