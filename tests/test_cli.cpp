@@ -137,12 +137,21 @@ TEST(Cli, BenchPrintsBothTablesAndWritesReports) {
   EXPECT_GT(fs::file_size(md), 100u);
 }
 
+// Random views in the bench: the report says which views it measured.
+TEST(Cli, BenchOnRandomViewsSaysWhichViews) {
+  const CliRun r = rayfold("bench --size 64x36 --random-views 2 --seed 9 --frames 1 --warmup 0");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("2 random interior views, seed 9"), std::string::npos) << r.out;
+}
+
 TEST(Cli, UsageErrorsExitTwoWithAMessage) {
   for (const char* args :
        {"render --size 0x10", "render --size -5x10", "render --size 10", "render --bogus", "render --eye 0,0,0",
         "render --eye 0,0,0 --look-at 0,1,0 --up 0,2,0", "render --vfov 180", "render --frames 0", "frobnicate", "info",
         "render --fold z", "render --shift 1", "render --shift 1e9,0", "bench --views 0", "bench --bogus",
-        "render --time x", "render --ortho 2 --vfov 30", "render --ortho 0", "render --fps 0"}) {
+        "render --time x", "render --ortho 2 --vfov 30", "render --ortho 0", "render --fps 0", "bench --seed 3",
+        "bench --view-kind object", "bench --random-views 2 --view-kind room",
+        "bench --random-views 2 --eye 0,0,0 --look-at 1,0,0", "bench --random-views 0"}) {
     const CliRun r = rayfold(args);
     EXPECT_EQ(r.code, 2) << args << "\n" << r.err;
     EXPECT_EQ(r.err.rfind("error: ", 0), 0u) << args << ": " << r.err;

@@ -134,6 +134,7 @@ BenchReport run_bench(const BenchOptions& opt, const std::function<void(size_t, 
   rep.width = opt.width;
   rep.height = opt.height;
   rep.views = opt.views;
+  rep.views_note = opt.views_note;
   rep.frames = opt.frames;
   rep.warmup = opt.warmup;
   rep.animate = opt.animate;
@@ -203,6 +204,7 @@ std::string bench_markdown(const BenchReport& r) {
   s << "Scene `" << r.scene << "`: " << r.instances << " instances, " << r.meshes << " meshes, " << r.triangles
     << " triangles; " << r.width << "x" << r.height << ", " << r.views << " views, median of " << r.frames
     << " frames after " << r.warmup << " warm-up" << (r.animate ? ", animated" : "") << ".\n";
+  if (!r.views_note.empty()) s << "Views: " << r.views_note << ".\n";
   s << "Device: " << r.device << ", " << r.kernel << " kernel (" << r.threads << " host threads). Folded output "
     << (r.exact() ? "equals the unfolded output bit for bit in every view."
                   : "DIFFERS from the unfolded output (see mismatched pixels).")
@@ -240,6 +242,7 @@ std::string bench_json(const BenchReport& r) {
   j["width"] = r.width;
   j["height"] = r.height;
   j["views"] = r.views;
+  j["views_note"] = r.views_note;
   j["frames"] = r.frames;
   j["warmup"] = r.warmup;
   j["animate"] = r.animate;

@@ -56,6 +56,7 @@ struct BenchRow {
 
 struct BenchReport {
   std::string scene, device, kernel;  // kernel: which one traced (Renderer::kernel_label)
+  std::string views_note;             // ViewPath::views_note: which random views, if any
   int width = 0, height = 0, views = 0, frames = 0, warmup = 0;
   unsigned threads = 0;
   size_t instances = 0, meshes = 0, triangles = 0;
