@@ -9,14 +9,20 @@
 namespace rayfold::core {
 namespace {
 
-TEST(Peers, EveryVariantIsMeasured) {
+// The bundled scene, small, two views of one frame each.
+PeerOptions small_run(int width, int height) {
   PeerOptions opt;
   opt.scene = std::string(RAYFOLD_SOURCE_DIR) + "/scenes/atrium.glb";
-  opt.width = 96;
-  opt.height = 54;
+  opt.width = width;
+  opt.height = height;
   opt.views = 2;
   opt.frames = 1;
   opt.warmup = 0;
+  return opt;
+}
+
+TEST(Peers, EveryVariantIsMeasured) {
+  const PeerOptions opt = small_run(96, 54);
   const PeerReport r = run_peers(opt);
   // Four rayfold variants in four fold modes, then Embree instanced, flat and
   // flat at high build quality, single rays and packets.
@@ -60,15 +66,9 @@ TEST(Peers, EveryVariantIsMeasured) {
 // against the CPU reference, which is not timed; random views are named and
 // listed as the camera list they are.
 TEST(Peers, ChosenVariantsOnRandomViews) {
-  PeerOptions opt;
-  opt.scene = std::string(RAYFOLD_SOURCE_DIR) + "/scenes/atrium.glb";
-  opt.width = 64;
-  opt.height = 36;
-  opt.views = 2;
+  PeerOptions opt = small_run(64, 36);
   opt.random = true;
   opt.seed = 3;
-  opt.frames = 1;
-  opt.warmup = 0;
   opt.variants = {"tile"};
   const PeerReport r = run_peers(opt);
   ASSERT_EQ(r.rows.size(), EmbreePeer::available() ? 10u : 4u);

@@ -8,6 +8,7 @@
 
 #include "cli_args.h"
 #include "renderer.h"
+#include "splitmix.h"
 #include "scene/camera.h"
 #include "util/errors.h"
 
@@ -17,27 +18,10 @@ namespace {
 constexpr int kProbeWidth = 64, kProbeHeight = 36;
 constexpr int kMaxDraws = 200;
 
-// SplitMix64 (Steele, Lea, Flood 2014): tiny, and every platform gives the
-// same sequence.
-class Rng {
- public:
-  explicit Rng(uint64_t seed) : state_(seed) {}
-  uint64_t next() {
-    uint64_t z = (state_ += 0x9E3779B97F4A7C15ull);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    return z ^ (z >> 31);
-  }
-  double uniform() { return static_cast<double>(next() >> 11) * 0x1p-53; }  // [0, 1)
-  double uniform(double lo, double hi) { return lo + (hi - lo) * uniform(); }
-  glm::dvec3 in_box(const glm::dvec3& lo, const glm::dvec3& hi) {
-    const double x = uniform(lo.x, hi.x), y = uniform(lo.y, hi.y), z = uniform(lo.z, hi.z);
-    return {x, y, z};
-  }
-
- private:
-  uint64_t state_;
-};
+glm::dvec3 in_box(SplitMix& rng, const glm::dvec3& lo, const glm::dvec3& hi) {
+  const double x = rng.uniform(lo.x, hi.x), y = rng.uniform(lo.y, hi.y), z = rng.uniform(lo.z, hi.z);
+  return {x, y, z};
+}
 
 struct Probe {
   double hit_fraction = 0.0;
@@ -128,7 +112,7 @@ RandomViews random_views(const Scene& scene, Renderer& cpu, int count, uint64_t 
   const glm::dvec3 margin = 0.1 * (hi - lo);
   const bool interior = out.kind == ViewKind::interior;
   const double min_hits = interior ? 0.5 : 0.25;
-  Rng rng(seed);
+  SplitMix rng(seed);
   for (int v = 0; v < count; ++v) {
     CameraSpec best;
     double best_score = -1.0, best_hits = 0.0;
@@ -136,8 +120,8 @@ RandomViews random_views(const Scene& scene, Renderer& cpu, int count, uint64_t 
     for (int draw = 0; draw < kMaxDraws && !met; ++draw) {
       CameraSpec c;
       if (interior) {
-        c.eye = rng.in_box(lo + margin, hi - margin);
-        do c.look_at = rng.in_box(lo, hi);
+        c.eye = in_box(rng, lo + margin, hi - margin);
+        do c.look_at = in_box(rng, lo, hi);
         while (glm::length(c.look_at - c.eye) < 0.1 * diagonal);
       } else {
         const double azimuth = rng.uniform(0.0, 2.0 * M_PI);
@@ -145,7 +129,7 @@ RandomViews random_views(const Scene& scene, Renderer& cpu, int count, uint64_t 
         const double distance = rng.uniform(1.2, 3.0) * radius;
         c.eye = centre + distance * glm::dvec3(std::cos(elevation) * std::cos(azimuth), std::sin(elevation),
                                                std::cos(elevation) * std::sin(azimuth));
-        const double r = 0.25 * radius * std::cbrt(rng.uniform());
+        const double r = 0.25 * radius * std::cbrt(rng.uniform(0.0, 1.0));
         const glm::dvec3 dir = glm::dvec3(rng.uniform(-1.0, 1.0), rng.uniform(-1.0, 1.0), rng.uniform(-1.0, 1.0));
         c.look_at = centre + (glm::length(dir) > 0.0 ? r * glm::normalize(dir) : glm::dvec3(0.0));
       }

@@ -15,9 +15,7 @@
 // for objects), or, in an interior, more than half its hits are of back
 // faces (an eye inside a wall or under a floor). After 200 draws for one
 // view the best candidate seen is kept, and the view says so.
-// Random numbers: a 64-bit SplitMix sequence and doubles from its top 53
-// bits, not <random>'s distributions, whose outputs the C++ standard leaves
-// to each library.
+// Random numbers: tools/splitmix.h, the same sequence on every machine.
 #pragma once
 
 #include <cstdint>

@@ -6,26 +6,12 @@
 
 #include <glm/gtc/matrix_transform.hpp>
 
+#include "splitmix.h"
+
 namespace rayfold::core {
 namespace {
 
-// splitmix64: a fixed, portable generator (the standard distributions are
-// implementation-defined, which would change the scene between libraries).
-class Rng {
- public:
-  explicit Rng(uint64_t seed) : state_(seed) {}
-  uint64_t next() {
-    uint64_t z = (state_ += 0x9E3779B97F4A7C15ull);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    return z ^ (z >> 31);
-  }
-  double uniform(double lo, double hi) { return lo + (hi - lo) * (next() >> 11) * 0x1p-53; }
-  int below(int n) { return static_cast<int>(next() % static_cast<uint64_t>(n)); }
-
- private:
-  uint64_t state_;
-};
+using Rng = SplitMix;
 
 struct Builder {
   Mesh mesh;
