@@ -3,11 +3,13 @@
 // the brute-force hit, and the trees must satisfy their structural invariants.
 #include <gtest/gtest.h>
 
+#include <cstring>
 #include <set>
 
 #include <glm/gtc/matrix_transform.hpp>
 
 #include "bvh/bvh_build.h"
+#include "bvh/bvh_flatten.h"
 #include "fold/ray_list.h"
 #include "reference/cpu_tracer.h"
 #include "renderer.h"
@@ -79,6 +81,148 @@ TEST(Bvh, PathologicalSpreadStaysWithinStackDepth) {
     boxes.push_back(b);
   }
   check_tree(build_sah(boxes), boxes);
+}
+
+// Clustered boxes with duplicates (equal centres exercise the median
+// fallback), over 2^15 of them so that the parallel levels run.
+std::vector<Aabb> clustered_boxes(Rng& rng, int n) {
+  std::vector<Aabb> boxes;
+  while (static_cast<int>(boxes.size()) < n) {
+    const glm::vec3 c(rng.uniformf(-100, 100), rng.uniformf(-5, 5), rng.uniformf(-100, 100));
+    const int copies = rng.below(50) == 0 ? 12 : 1 + rng.below(4) * rng.below(2);  // 12 > max_leaf_size
+    const glm::vec3 size(rng.uniformf(0, 2), rng.uniformf(0, 2), rng.uniformf(0, 2));
+    for (int k = 0; k < copies; ++k) {
+      Aabb b;
+      b.grow(c);
+      b.grow(c + size);
+      boxes.push_back(b);
+    }
+  }
+  boxes.resize(n);
+  return boxes;
+}
+
+TEST(Bvh, BuildIsTheSameOnAnyThreadCount) {
+  Rng rng(77);
+  const std::vector<Aabb> boxes = clustered_boxes(rng, 150000);
+  std::vector<rf_node> reference;
+  BuildTree one = build_sah(boxes, BuildOptions{}, 1);
+  flatten_bvh(one, 0, nullptr, 0, reference);
+  for (unsigned threads : {2u, 3u, 8u}) {
+    const BuildTree tree = build_sah(boxes, BuildOptions{}, threads);
+    std::vector<rf_node> flat;
+    flatten_bvh(tree, 0, nullptr, 0, flat);
+    ASSERT_EQ(flat.size(), reference.size()) << threads << " threads";
+    EXPECT_EQ(std::memcmp(flat.data(), reference.data(), flat.size() * sizeof(rf_node)), 0) << threads << " threads";
+    EXPECT_EQ(tree.order, one.order) << threads << " threads";
+    EXPECT_EQ(tree.depth, one.depth) << threads << " threads";
+    EXPECT_EQ(tree.sah_cost, one.sah_cost) << threads << " threads";
+    check_tree(tree, boxes);
+  }
+}
+
+// The split rules, checked node by node by brute force: every interior node
+// splits at the cheapest boundary of 16 equal centre bins over the three
+// axes (first on ties, axes in order), or at the object median where no
+// boundary separates anything; a node is a leaf exactly when it has one
+// primitive or SAH prefers it and it fits.
+TEST(Bvh, EverySplitIsTheCheapestBinBoundary) {
+  Rng rng(78);
+  const std::vector<Aabb> boxes = clustered_boxes(rng, 40000);
+  const BuildOptions opt;
+  const BuildTree tree = build_sah(boxes, opt, 2);
+  check_tree(tree, boxes);
+  size_t sah_splits = 0, medians = 0;
+  // Each node's primitive range, recovered top-down.
+  std::vector<std::pair<uint32_t, uint32_t>> range(tree.nodes.size());
+  range[0] = {0, static_cast<uint32_t>(tree.order.size())};
+  for (size_t i = 0; i < tree.nodes.size(); ++i) {
+    const BuildNode& n = tree.nodes[i];
+    if (n.is_leaf()) {
+      EXPECT_EQ(range[i], std::make_pair(n.first, n.count)) << "node " << i;
+      continue;
+    }
+    const BuildNode& l = tree.nodes[n.left];
+    uint32_t left_count = l.count;
+    if (!l.is_leaf()) {  // count the leaves below the left child
+      left_count = 0;
+      std::vector<uint32_t> stack{n.left};
+      while (!stack.empty()) {
+        const BuildNode& c = tree.nodes[stack.back()];
+        stack.pop_back();
+        if (c.is_leaf()) {
+          left_count += c.count;
+        } else {
+          stack.push_back(c.left);
+          stack.push_back(c.right);
+        }
+      }
+    }
+    range[n.left] = {range[i].first, left_count};
+    range[n.right] = {range[i].first + left_count, range[i].second - left_count};
+  }
+  for (size_t i = 0; i < tree.nodes.size(); ++i) {
+    const auto [first, count] = range[i];
+    Aabb bounds, centres;
+    for (uint32_t k = first; k < first + count; ++k) {
+      bounds.grow(boxes[tree.order[k]]);
+      centres.grow(boxes[tree.order[k]].centre());
+    }
+    const BuildNode& n = tree.nodes[i];
+    for (int a = 0; a < 3; ++a) {
+      ASSERT_EQ(n.bounds.lo[a], bounds.lo[a]) << "node " << i;
+      ASSERT_EQ(n.bounds.hi[a], bounds.hi[a]) << "node " << i;
+    }
+    auto bin_of = [&](const Aabb& b, int a) {
+      const float f = (b.centre()[a] - centres.lo[a]) * (opt.bins / (centres.hi[a] - centres.lo[a]));
+      return !(f > 0.0f) ? 0 : f >= opt.bins - 1 ? opt.bins - 1 : static_cast<int>(f);
+    };
+    float best = INFINITY;
+    int best_axis = -1, best_bin = 0;
+    for (int a = 0; a < 3; ++a) {
+      if (!(centres.hi[a] > centres.lo[a])) continue;
+      for (int b = 0; b + 1 < opt.bins; ++b) {
+        Aabb left, right;
+        uint32_t nl = 0, nr = 0;
+        for (uint32_t k = first; k < first + count; ++k) {
+          const Aabb& box = boxes[tree.order[k]];
+          if (bin_of(box, a) <= b) {
+            left.grow(box);
+            nl++;
+          } else {
+            right.grow(box);
+            nr++;
+          }
+        }
+        if (nl == 0 || nr == 0) continue;
+        const float cost = opt.traversal_cost + opt.intersection_cost *
+                                                    (left.half_area() * nl + right.half_area() * nr) /
+                                                    std::max(bounds.half_area(), 1e-30f);
+        if (cost < best) {
+          best = cost;
+          best_axis = a;
+          best_bin = b;
+        }
+      }
+    }
+    const bool prefers_leaf = best_axis < 0 || best >= opt.intersection_cost * count;
+    const bool leaf = count <= 1 || (prefers_leaf && count <= opt.max_leaf_size);
+    ASSERT_EQ(n.is_leaf(), leaf) << "node " << i << " of " << count << " primitives, best cost " << best;
+    if (leaf) continue;
+    const uint32_t left_count = range[n.left].second;
+    if (best_axis >= 0) {
+      sah_splits++;
+      for (uint32_t k = first; k < first + count; ++k)
+        ASSERT_EQ(bin_of(boxes[tree.order[k]], best_axis) <= best_bin, k < first + left_count)
+            << "node " << i << " primitive " << tree.order[k] << " on the wrong side of axis " << best_axis
+            << " bin " << best_bin;
+    } else {
+      medians++;
+      EXPECT_EQ(left_count, count / 2) << "node " << i;
+    }
+  }
+  EXPECT_GT(sah_splits, 1000u);
+  EXPECT_GT(medians, 10u);  // the dozens of duplicates
 }
 
 TEST(Bvh, TwoLevelTraversalEqualsBruteForce) {

@@ -8,6 +8,12 @@
 #include "util/timer.h"
 
 namespace rayfold::core {
+namespace {
+
+// Meshes at least this large are built with every thread.
+constexpr size_t kParallelMeshTriangles = 1u << 16;
+
+}  // namespace
 
 int scale_exponent(const Aabb& box) {
   if (box.empty()) return 0;
@@ -30,30 +36,62 @@ BlasSet build_blas_set(const Scene& scene, const BuildOptions& options, unsigned
   std::vector<std::vector<glm::vec3>> positions(mesh_count);
   std::vector<BuildTree> trees(mesh_count);
   std::vector<size_t> unresolvable(mesh_count, 0);
-  parallel_for(mesh_count, threads, 1, [&](size_t m, size_t) {
+  auto build_mesh = [&](size_t m, unsigned mesh_threads) {
     const Mesh& mesh = scene.meshes[m];
+    const size_t tri_count = mesh.triangle_count();
+    constexpr size_t kChunk = 1u << 14;
+    std::vector<Aabb> partial((tri_count + kChunk - 1) / kChunk);
+    parallel_for(tri_count, mesh_threads, kChunk, [&](size_t begin, size_t end) {
+      for (size_t i = 3 * begin; i < 3 * end; ++i) partial[begin / kChunk].grow(mesh.positions[mesh.indices[i]]);
+    });
     Aabb object_bounds;
-    for (uint32_t idx : mesh.indices) object_bounds.grow(mesh.positions[idx]);
+    for (const Aabb& b : partial) object_bounds.grow(b);
     const int e = scale_exponent(object_bounds);
     set.bounds[m] = object_bounds;
     set.tree_exponents[m] = e;
     positions[m].resize(mesh.positions.size());
-    for (size_t i = 0; i < mesh.positions.size(); ++i)
-      for (int k = 0; k < 3; ++k) positions[m][i][k] = std::ldexp(mesh.positions[i][k], -e);
-    std::vector<Aabb> boxes(mesh.triangle_count());
-    for (size_t t = 0; t < boxes.size(); ++t)
-      for (int k = 0; k < 3; ++k) boxes[t].grow(positions[m][mesh.indices[3 * t + k]]);
-    for (const Aabb& b : boxes) {
-      const glm::vec3 e = b.extent();
-      const float size = std::max({e.x, e.y, e.z});
-      if (size > 0.0f && size < 0x1p-60f) unresolvable[m]++;
-    }
-    trees[m] = build_sah(boxes, options);
+    parallel_for(mesh.positions.size(), mesh_threads, kChunk, [&](size_t begin, size_t end) {
+      for (size_t i = begin; i < end; ++i)
+        for (int k = 0; k < 3; ++k) positions[m][i][k] = std::ldexp(mesh.positions[i][k], -e);
+    });
+    std::vector<Aabb> boxes(tri_count);
+    std::vector<size_t> tiny(partial.size(), 0);
+    parallel_for(tri_count, mesh_threads, kChunk, [&](size_t begin, size_t end) {
+      for (size_t t = begin; t < end; ++t) {
+        for (int k = 0; k < 3; ++k) boxes[t].grow(positions[m][mesh.indices[3 * t + k]]);
+        const glm::vec3 extent = boxes[t].extent();
+        const float size = std::max({extent.x, extent.y, extent.z});
+        if (size > 0.0f && size < 0x1p-60f) tiny[begin / kChunk]++;
+      }
+    });
+    for (size_t n : tiny) unresolvable[m] += n;
+    trees[m] = build_sah(boxes, options, mesh_threads);
+  };
+  // A large mesh is built by all threads, one after another; the others one
+  // mesh per thread side by side, largest first.
+  threads = resolve_threads(threads);
+  std::vector<size_t> small;
+  for (size_t m = 0; m < mesh_count; ++m) {
+    if (scene.meshes[m].triangle_count() >= kParallelMeshTriangles)
+      build_mesh(m, threads);
+    else
+      small.push_back(m);
+  }
+  std::stable_sort(small.begin(), small.end(), [&](size_t a, size_t b) {
+    return scene.meshes[a].triangle_count() > scene.meshes[b].triangle_count();
   });
+  parallel_for(small.size(), threads, 1, [&](size_t i, size_t) { build_mesh(small[i], 1); });
   for (size_t n : unresolvable) set.unresolvable_triangles += n;
 
   double weighted_sah = 0.0;
   size_t weight = 0;
+  size_t total_tris = 0, total_nodes = 0;
+  for (const BuildTree& tree : trees) {
+    total_tris += tree.order.size();
+    total_nodes += tree.nodes.size() + 1;
+  }
+  set.tris.reserve(total_tris);
+  set.nodes.reserve(total_nodes + 1);
   for (size_t m = 0; m < mesh_count; ++m) {
     const Mesh& mesh = scene.meshes[m];
     const BuildTree& tree = trees[m];

@@ -3,21 +3,116 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <numeric>
+#include <cstring>
 
 #include "util/errors.h"
+#include "util/parallel.h"
 
 namespace rayfold::core {
 namespace {
 
-struct Bin {
-  Aabb bounds;
-  uint32_t count = 0;
+// Four floats in one SSE or NEON register (GCC and Clang vector extensions):
+// x, y, z and a spare lane. Min, max, add and multiply of these are the same
+// IEEE operations as the scalar ones, lane by lane.
+typedef float v4f __attribute__((vector_size(16)));
+typedef int32_t v4i __attribute__((vector_size(16)));
+
+inline v4f vmin(v4f a, v4f b) { return b < a ? b : a; }
+inline v4f vmax(v4f a, v4f b) { return a < b ? b : a; }
+
+// One primitive as the builder moves it: its box, and its index in the
+// spare lane of lo. Partitioning these 32-byte records in place keeps every
+// pass over a node a sequential read (an index array into the boxes made
+// the deep levels cache misses). The index's bits read as a float are a
+// denormal, and arithmetic on denormals is slow: every use of the box goes
+// through box_lo(), which clears that lane.
+struct PrimRef {
+  v4f lo, hi;  // hi's spare lane is 0
+  uint32_t index() const {
+    uint32_t i;
+    std::memcpy(&i, reinterpret_cast<const char*>(&lo) + 12, 4);
+    return i;
+  }
+  v4f box_lo() const {
+    const v4i mask = {-1, -1, -1, 0};
+    return reinterpret_cast<v4f>(reinterpret_cast<v4i>(lo) & mask);
+  }
+  // (lo + hi) * 0.5 as Aabb::centre() computes it.
+  v4f centre() const { return (box_lo() + hi) * 0.5f; }
 };
 
-struct Task {
-  uint32_t node;
-  int depth;
+struct Box4 {
+  v4f lo = {INFINITY, INFINITY, INFINITY, INFINITY};
+  v4f hi = {-INFINITY, -INFINITY, -INFINITY, -INFINITY};
+  void grow(v4f l, v4f h) {
+    lo = vmin(lo, l);
+    hi = vmax(hi, h);
+  }
+  void grow(const Box4& b) { grow(b.lo, b.hi); }
+  Aabb aabb() const {
+    Aabb a;
+    for (int k = 0; k < 3; ++k) {
+      a.lo[k] = lo[k];
+      a.hi[k] = hi[k];
+    }
+    return a;
+  }
+};
+
+constexpr int kMaxBins = 64;
+
+// Every axis's bins of one node (or of one chunk of a large node). A bin is
+// written when its first primitive arrives and `used` marks it, so nothing
+// is initialised and the sweep visits only occupied bins: most nodes are
+// small, and resetting and sweeping all 3 x 16 bins cost more than binning
+// their few primitives.
+struct BinSet {
+  v4f lo[3][kMaxBins], hi[3][kMaxBins];
+  uint32_t counts[3][kMaxBins];
+  uint64_t used[3] = {0, 0, 0};
+  void grow(int axis, int bin, v4f l, v4f h, uint32_t n = 1) {
+    const uint64_t bit = uint64_t{1} << bin;
+    if (used[axis] & bit) {
+      lo[axis][bin] = vmin(lo[axis][bin], l);
+      hi[axis][bin] = vmax(hi[axis][bin], h);
+      counts[axis][bin] += n;
+    } else {
+      used[axis] |= bit;
+      lo[axis][bin] = l;
+      hi[axis][bin] = h;
+      counts[axis][bin] = n;
+    }
+  }
+  void merge(const BinSet& o) {
+    for (int a = 0; a < 3; ++a)
+      for (uint64_t m = o.used[a]; m; m &= m - 1) {
+        const int i = __builtin_ctzll(m);
+        grow(a, i, o.lo[a][i], o.hi[a][i], o.counts[a][i]);
+      }
+  }
+};
+
+// Maps centres to bins on all three axes at once. Clamped in float first: a
+// tiny centre extent makes the scale huge, and a float-to-int conversion of
+// an out-of-range value is undefined. An axis whose centres are all alike
+// has scale 0 and bins everything into bin 0.
+struct Binner {
+  v4f lo, scale, last;
+  Binner(const Box4& centres, int bins) {
+    lo = centres.lo;
+    for (int a = 0; a < 4; ++a) {
+      const bool splittable = a < 3 && centres.hi[a] > centres.lo[a];
+      scale[a] = splittable ? bins / (centres.hi[a] - centres.lo[a]) : 0.0f;
+      if (a == 3) lo[a] = 0.0f;
+    }
+    last = v4f{} + static_cast<float>(bins - 1);
+  }
+  v4i bin(v4f centre) const {
+    v4f f = (centre - lo) * scale;
+    f = f > 0.0f ? f : v4f{};  // also NaN to 0
+    f = f < last ? f : last;
+    return __builtin_convertvector(f, v4i);
+  }
 };
 
 struct Split {
@@ -26,154 +121,163 @@ struct Split {
   float cost = 0.0f;
 };
 
+// A node still to be split, with the box of its primitives' centres.
+struct Task {
+  uint32_t node;
+  int depth;
+  Box4 centres;
+};
+
+// Above this many primitives a node's binning is spread over the threads;
+// nodes at or below it are whole subtrees built by one thread each.
+constexpr uint32_t kParallelBinning = 1u << 15;
+
+// The split rules (SAH over bins, object medians past median_depth or where
+// SAH finds nothing) decide each node's primitive set from the set alone,
+// so the tree does not depend on the thread count or the order of the work.
 class Builder {
  public:
-  Builder(const std::vector<Aabb>& bounds, const BuildOptions& opt) : bounds_(bounds), opt_(opt) {
-    centres_.resize(bounds.size());
-    for (size_t i = 0; i < bounds.size(); ++i) centres_[i] = bounds[i].centre();
+  Builder(std::vector<PrimRef>& refs, const BuildOptions& opt) : refs_(refs), opt_(opt) {
+    RF_CHECK(opt_.bins >= 2 && opt_.bins <= kMaxBins, "bin count out of range");
   }
 
-  BuildTree run() {
-    BuildTree tree;
-    for (uint32_t i = 0; i < bounds_.size(); ++i)
-      if (!bounds_[i].empty()) tree.order.push_back(i);
-    if (tree.order.empty()) return tree;
-    order_ = &tree.order;
-    nodes_ = &tree.nodes;
-    BuildNode root;
-    root.first = 0;
-    root.count = static_cast<uint32_t>(tree.order.size());
-    tree.nodes.push_back(root);
-    std::vector<Task> stack{{0, 1}};
+  // Builds the tree of refs_[first, first + count) into `nodes` (root at
+  // nodes[0], whose bounds and centre bounds are given).
+  int build_subtree(std::vector<BuildNode>& nodes, const Box4& root_centres, int root_depth) const {
+    int depth = root_depth;
+    std::vector<Task> stack{{0, root_depth, root_centres}};
     while (!stack.empty()) {
       const Task task = stack.back();
       stack.pop_back();
-      tree.depth = std::max(tree.depth, task.depth);
-      if (subdivide(task.node, task.depth)) {
-        const BuildNode& n = tree.nodes[task.node];
-        stack.push_back({n.right, task.depth + 1});
-        stack.push_back({n.left, task.depth + 1});
+      depth = std::max(depth, task.depth);
+      Box4 children[2];
+      if (subdivide(nodes, task, 1, children)) {
+        const BuildNode& n = nodes[task.node];
+        stack.push_back({n.right, task.depth + 1, children[1]});
+        stack.push_back({n.left, task.depth + 1, children[0]});
       }
     }
-    tree.sah_cost = sah_cost(tree);
-    return tree;
+    return depth;
   }
 
- private:
-  // Fills the node's bounds and splits it in two; false when it stays a leaf.
-  bool subdivide(uint32_t ni, int depth) {
-    BuildNode& node = (*nodes_)[ni];
-    Aabb centre_bounds;
-    for (uint32_t i = node.first; i < node.first + node.count; ++i) {
-      node.bounds.grow(bounds_[(*order_)[i]]);
-      centre_bounds.grow(centres_[(*order_)[i]]);
-    }
-    if (node.count <= 1) return false;
-    const uint32_t first = node.first, count = node.count;
+  // Splits the task's node in two (appending both children, their centre
+  // boxes to `children`); false when it stays a leaf. `threads` > 1 bins it
+  // in parallel.
+  bool subdivide(std::vector<BuildNode>& nodes, const Task& task, unsigned threads, Box4 children[2]) const {
+    const uint32_t ni = task.node;
+    const int depth = task.depth;
+    const uint32_t first = nodes[ni].first, count = nodes[ni].count;
+    if (count <= 1) return false;
+    const Box4& cb = task.centres;
     uint32_t mid = first;
+    Box4 lbox, rbox, lcentres, rcentres;
     if (depth >= opt_.median_depth) {
       if (count <= opt_.max_leaf_size) return false;
     } else {
-      const Split split = find_split(first, count, centre_bounds, node.bounds);
+      const Binner binner(cb, opt_.bins);
+      const Split split = find_split(first, count, binner, nodes[ni].bounds, threads);
       const float leaf_cost = opt_.intersection_cost * static_cast<float>(count);
       const bool sah_prefers_leaf = split.axis < 0 || split.cost >= leaf_cost;
       if (sah_prefers_leaf && count <= opt_.max_leaf_size) return false;
-      if (split.axis >= 0) {
-        const float lo = centre_bounds.lo[split.axis];
-        const float scale = opt_.bins / (centre_bounds.hi[split.axis] - lo);
-        auto goes_left = [&](uint32_t p) { return bin_of(centres_[p][split.axis], lo, scale) <= split.bin; };
-        mid = static_cast<uint32_t>(
-            std::partition(order_->begin() + first, order_->begin() + first + count, goes_left) - order_->begin());
-      }
+      if (split.axis >= 0) mid = partition(first, count, binner, split, lbox, rbox, lcentres, rcentres);
     }
     if (mid == first || mid == first + count) {
       // No useful SAH split (all centres alike, or too deep): split at the
       // object median of the widest centre axis, which always terminates.
-      const glm::vec3 e = centre_bounds.extent();
-      const int axis = (e.x >= e.y && e.x >= e.z) ? 0 : (e.y >= e.z ? 1 : 2);
+      const v4f e = cb.hi - cb.lo;
+      const int axis = (e[0] >= e[1] && e[0] >= e[2]) ? 0 : (e[1] >= e[2] ? 1 : 2);
       mid = first + count / 2;
-      std::nth_element(order_->begin() + first, order_->begin() + mid, order_->begin() + first + count,
-                       [&](uint32_t a, uint32_t b) {
-                         if (centres_[a][axis] != centres_[b][axis]) return centres_[a][axis] < centres_[b][axis];
-                         return a < b;
+      std::nth_element(refs_.begin() + first, refs_.begin() + mid, refs_.begin() + first + count,
+                       [axis](const PrimRef& a, const PrimRef& b) {
+                         const float ca = a.centre()[axis], cb = b.centre()[axis];
+                         if (ca != cb) return ca < cb;
+                         return a.index() < b.index();
                        });
+      lbox = rbox = lcentres = rcentres = Box4();
+      for (uint32_t i = first; i < first + count; ++i) {
+        const PrimRef& r = refs_[i];
+        (i < mid ? lbox : rbox).grow(r.box_lo(), r.hi);
+        const v4f c = r.centre();
+        (i < mid ? lcentres : rcentres).grow(c, c);
+      }
     }
+    const uint32_t li = static_cast<uint32_t>(nodes.size());
     BuildNode left, right;
+    left.bounds = lbox.aabb();
     left.first = first;
     left.count = mid - first;
+    right.bounds = rbox.aabb();
     right.first = mid;
     right.count = first + count - mid;
-    const uint32_t li = static_cast<uint32_t>(nodes_->size());
-    nodes_->push_back(left);
-    nodes_->push_back(right);
-    BuildNode& parent = (*nodes_)[ni];  // push_back may have moved it
+    nodes.push_back(left);
+    nodes.push_back(right);
+    children[0] = lcentres;
+    children[1] = rcentres;
+    BuildNode& parent = nodes[ni];  // push_back may have moved it
     parent.left = li;
     parent.right = li + 1;
     parent.count = 0;
     return true;
   }
 
-  // Clamped in float first: a tiny centre extent makes scale huge, and a
-  // float-to-int conversion of an out-of-range value is undefined.
-  int bin_of(float c, float lo, float scale) const {
-    const float f = (c - lo) * scale;
-    if (!(f > 0.0f)) return 0;
-    if (f >= static_cast<float>(opt_.bins - 1)) return opt_.bins - 1;
-    return static_cast<int>(f);
+ private:
+  void bin_range(uint32_t begin, uint32_t end, const Binner& binner, BinSet& bins) const {
+    for (uint32_t i = begin; i < end; ++i) {
+      const PrimRef& r = refs_[i];
+      const v4i b = binner.bin(r.centre());
+      for (int axis = 0; axis < 3; ++axis) bins.grow(axis, b[axis], r.box_lo(), r.hi);
+    }
   }
 
-  // One pass over the primitives bins all three axes (the build's hot loop);
-  // the sweep then prices every bin boundary of every axis.
-  Split find_split(uint32_t first, uint32_t count, const Aabb& centre_bounds, const Aabb& node_bounds) const {
+  // Bins the node (in chunks over `threads` threads when it is large), then
+  // prices the boundary after every occupied bin of every axis. An empty
+  // bin changes neither side, so the boundaries after it price the same as
+  // the one before them and, the comparison being strict, are never chosen.
+  Split find_split(uint32_t first, uint32_t count, const Binner& binner, const Aabb& node_bounds,
+                   unsigned threads) const {
+    BinSet bins;
+    if (threads > 1 && count > kParallelBinning) {
+      constexpr uint32_t kChunk = 1u << 14;
+      const size_t chunks = (count + kChunk - 1) / kChunk;
+      std::vector<BinSet> partial(chunks);
+      parallel_for(chunks, threads, 1, [&](size_t c, size_t) {
+        const uint32_t b = first + static_cast<uint32_t>(c) * kChunk;
+        bin_range(b, std::min(first + count, b + kChunk), binner, partial[c]);
+      });
+      for (const BinSet& p : partial) bins.merge(p);
+    } else {
+      bin_range(first, first + count, binner, bins);
+    }
+
     Split best;
     best.cost = INFINITY;
-    constexpr int kMaxBins = 64;
-    RF_CHECK(opt_.bins >= 2 && opt_.bins <= kMaxBins, "bin count out of range");
-    const float parent_area = node_bounds.half_area();
-    bool splittable[3];
-    float lo[3], scale[3];
+    const float parent_area = std::max(node_bounds.half_area(), 1e-30f);
     for (int axis = 0; axis < 3; ++axis) {
-      lo[axis] = centre_bounds.lo[axis];
-      splittable[axis] = centre_bounds.hi[axis] > lo[axis];
-      scale[axis] = splittable[axis] ? opt_.bins / (centre_bounds.hi[axis] - lo[axis]) : 0.0f;
-    }
-    // Only the bins in use are reset: resetting all 3 x 64 cost more than
-    // the binning itself on the many small nodes near the leaves.
-    std::array<std::array<Bin, kMaxBins>, 3> bins;
-    for (int axis = 0; axis < 3; ++axis)
-      for (int i = 0; i < opt_.bins; ++i) bins[axis][i] = Bin();
-    for (uint32_t i = first; i < first + count; ++i) {
-      const uint32_t p = (*order_)[i];
-      const Aabb& box = bounds_[p];
-      const glm::vec3& c = centres_[p];
-      for (int axis = 0; axis < 3; ++axis) {
-        Bin& b = bins[axis][bin_of(c[axis], lo[axis], scale[axis])];
-        b.bounds.grow(box);
-        b.count++;
-      }
-    }
-    for (int axis = 0; axis < 3; ++axis) {
-      if (!splittable[axis]) continue;
+      if (binner.scale[axis] == 0.0f) continue;
+      int occupied[kMaxBins];
+      int m = 0;
+      for (uint64_t u = bins.used[axis]; u; u &= u - 1) occupied[m++] = __builtin_ctzll(u);
       // Sweep from the right to know each right side's area and count.
-      std::array<float, kMaxBins> right_area;
-      std::array<uint32_t, kMaxBins> right_count;
-      Aabb acc;
+      float right_area[kMaxBins];
+      uint32_t right_count[kMaxBins];
+      Box4 acc;
       uint32_t n = 0;
-      for (int i = opt_.bins - 1; i > 0; --i) {
-        acc.grow(bins[axis][i].bounds);
-        n += bins[axis][i].count;
-        right_area[i] = acc.half_area();
-        right_count[i] = n;
+      for (int j = m - 1; j > 0; --j) {
+        const int i = occupied[j];
+        acc.grow(bins.lo[axis][i], bins.hi[axis][i]);
+        n += bins.counts[axis][i];
+        right_area[j] = acc.aabb().half_area();
+        right_count[j] = n;
       }
-      acc = Aabb();
+      acc = Box4();
       n = 0;
-      for (int i = 0; i < opt_.bins - 1; ++i) {
-        acc.grow(bins[axis][i].bounds);
-        n += bins[axis][i].count;
-        if (n == 0 || right_count[i + 1] == 0) continue;
+      for (int j = 0; j + 1 < m; ++j) {
+        const int i = occupied[j];
+        acc.grow(bins.lo[axis][i], bins.hi[axis][i]);
+        n += bins.counts[axis][i];
         const float cost = opt_.traversal_cost + opt_.intersection_cost *
-                                                     (acc.half_area() * n + right_area[i + 1] * right_count[i + 1]) /
-                                                     std::max(parent_area, 1e-30f);
+                                                     (acc.aabb().half_area() * n + right_area[j + 1] * right_count[j + 1]) /
+                                                     parent_area;
         if (cost < best.cost) {
           best.cost = cost;
           best.axis = axis;
@@ -184,27 +288,162 @@ class Builder {
     return best;
   }
 
-  double sah_cost(const BuildTree& tree) const {
-    const double root_area = std::max<double>(tree.nodes[0].bounds.half_area(), 1e-300);
-    double cost = 0.0;
-    for (const BuildNode& n : tree.nodes) {
-      const double a = n.bounds.half_area() / root_area;
-      cost += n.is_leaf() ? a * opt_.intersection_cost * n.count : a * opt_.traversal_cost;
+  // Moves the split's left primitives to the front of the range; returns
+  // the first right one, with both sides' boxes and centre boxes.
+  uint32_t partition(uint32_t first, uint32_t count, const Binner& binner, const Split& split, Box4& lbox,
+                     Box4& rbox, Box4& lcentres, Box4& rcentres) const {
+    auto goes_left = [&](const PrimRef& r) { return binner.bin(r.centre())[split.axis] <= split.bin; };
+    PrimRef* i = refs_.data() + first;
+    PrimRef* j = i + count;
+    for (;;) {
+      while (i < j && goes_left(*i)) {
+        lbox.grow(i->box_lo(), i->hi);
+        const v4f c = i->centre();
+        lcentres.grow(c, c);
+        ++i;
+      }
+      while (i < j && !goes_left(*(j - 1))) {
+        --j;
+        rbox.grow(j->box_lo(), j->hi);
+        const v4f c = j->centre();
+        rcentres.grow(c, c);
+      }
+      if (i >= j) break;
+      std::swap(*i, *(j - 1));
     }
-    return cost;
+    return static_cast<uint32_t>(i - refs_.data());
   }
 
-  const std::vector<Aabb>& bounds_;
+  std::vector<PrimRef>& refs_;
   const BuildOptions& opt_;
-  std::vector<glm::vec3> centres_;
-  std::vector<uint32_t>* order_ = nullptr;
-  std::vector<BuildNode>* nodes_ = nullptr;
 };
+
+// Summed depth first from the root, so that the rounding does not depend on
+// how the nodes are numbered (which differs with the thread count).
+double sah_cost(const BuildTree& tree, const BuildOptions& opt) {
+  const double root_area = std::max<double>(tree.nodes[0].bounds.half_area(), 1e-300);
+  double cost = 0.0;
+  std::vector<uint32_t> stack{0};
+  while (!stack.empty()) {
+    const BuildNode& n = tree.nodes[stack.back()];
+    stack.pop_back();
+    const double a = n.bounds.half_area() / root_area;
+    if (n.is_leaf()) {
+      cost += a * opt.intersection_cost * n.count;
+    } else {
+      cost += a * opt.traversal_cost;
+      stack.push_back(n.right);
+      stack.push_back(n.left);
+    }
+  }
+  return cost;
+}
 
 }  // namespace
 
-BuildTree build_sah(const std::vector<Aabb>& prim_bounds, const BuildOptions& options) {
-  return Builder(prim_bounds, options).run();
+BuildTree build_sah(const std::vector<Aabb>& prim_bounds, const BuildOptions& options, unsigned threads) {
+  threads = resolve_threads(threads);
+  BuildTree tree;
+  std::vector<PrimRef> refs;
+  refs.reserve(prim_bounds.size());
+  Box4 root_box, root_centres;
+  for (uint32_t i = 0; i < prim_bounds.size(); ++i) {
+    const Aabb& b = prim_bounds[i];
+    if (b.empty()) continue;
+    PrimRef r;
+    float index_bits;
+    std::memcpy(&index_bits, &i, 4);
+    r.lo = v4f{b.lo.x, b.lo.y, b.lo.z, index_bits};
+    r.hi = v4f{b.hi.x, b.hi.y, b.hi.z, 0.0f};
+    root_box.grow(r.box_lo(), r.hi);
+    const v4f c = r.centre();
+    root_centres.grow(c, c);
+    refs.push_back(r);
+  }
+  if (refs.empty()) return tree;
+
+  const Builder builder(refs, options);
+  BuildNode root;
+  root.bounds = root_box.aabb();
+  root.count = static_cast<uint32_t>(refs.size());
+  tree.nodes.push_back(root);
+
+  // The large nodes near the root level by level: all threads binning each
+  // while a level has fewer nodes than threads, then one thread per node.
+  // The subtrees below them are then built by the threads side by side.
+  std::vector<Task> subtrees, level{{0, 1, root_centres}};
+  while (!level.empty()) {
+    std::vector<Task> large;
+    for (const Task& t : level) {
+      tree.depth = std::max(tree.depth, t.depth);
+      (threads == 1 || tree.nodes[t.node].count <= kParallelBinning ? subtrees : large).push_back(t);
+    }
+    level.clear();
+    const bool all_on_each = large.size() < threads;
+    std::vector<std::vector<BuildNode>> out(large.size());
+    std::vector<std::array<Box4, 2>> centres(large.size());
+    std::vector<char> split(large.size());
+    parallel_for(large.size(), all_on_each ? 1 : threads, 1, [&](size_t k, size_t) {
+      out[k] = {tree.nodes[large[k].node]};
+      Task local = large[k];
+      local.node = 0;
+      split[k] = builder.subdivide(out[k], local, all_on_each ? threads : 1, centres[k].data());
+    });
+    for (size_t k = 0; k < large.size(); ++k) {
+      BuildNode& node = tree.nodes[large[k].node];
+      node = out[k][0];
+      if (!split[k]) continue;
+      const uint32_t li = static_cast<uint32_t>(tree.nodes.size());
+      node.left = li;
+      node.right = li + 1;
+      tree.nodes.push_back(out[k][1]);
+      tree.nodes.push_back(out[k][2]);
+      level.push_back({li, large[k].depth + 1, centres[k][0]});
+      level.push_back({li + 1, large[k].depth + 1, centres[k][1]});
+    }
+  }
+  // Largest first, so the last subtree handed out is a small one.
+  std::stable_sort(subtrees.begin(), subtrees.end(), [&](const Task& a, const Task& b) {
+    return tree.nodes[a.node].count > tree.nodes[b.node].count;
+  });
+  if (subtrees.size() == 1 && subtrees[0].node == 0) {
+    // One thread, or a tree too small to share: built in place.
+    tree.nodes.reserve(2 * refs.size() - 1);  // a binary tree's node count at most
+    tree.depth = builder.build_subtree(tree.nodes, subtrees[0].centres, subtrees[0].depth);
+  } else {
+    std::vector<std::vector<BuildNode>> local(subtrees.size());
+    std::vector<int> depths(subtrees.size());
+    parallel_for(subtrees.size(), threads, 1, [&](size_t s, size_t) {
+      const BuildNode& root = tree.nodes[subtrees[s].node];
+      local[s].reserve(2 * size_t{root.count} - 1);
+      local[s].push_back(root);
+      depths[s] = builder.build_subtree(local[s], subtrees[s].centres, subtrees[s].depth);
+    });
+    // Each subtree's root takes its placeholder's place; the rest follow, so
+    // that children still come after their parents.
+    size_t total = tree.nodes.size();
+    for (const std::vector<BuildNode>& l : local) total += l.size() - 1;
+    tree.nodes.reserve(total);
+    for (size_t s = 0; s < subtrees.size(); ++s) {
+      const uint32_t offset = static_cast<uint32_t>(tree.nodes.size()) - 1;
+      for (size_t k = 0; k < local[s].size(); ++k) {
+        BuildNode n = local[s][k];
+        if (!n.is_leaf()) {
+          n.left += offset;
+          n.right += offset;
+        }
+        if (k == 0)
+          tree.nodes[subtrees[s].node] = n;
+        else
+          tree.nodes.push_back(n);
+      }
+      tree.depth = std::max(tree.depth, depths[s]);
+    }
+  }
+  tree.order.resize(refs.size());
+  for (size_t i = 0; i < refs.size(); ++i) tree.order[i] = refs[i].index();
+  tree.sah_cost = sah_cost(tree, options);
+  return tree;
 }
 
 }  // namespace rayfold::core

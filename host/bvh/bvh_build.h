@@ -34,7 +34,9 @@ struct BuildTree {
   double sah_cost = 0.0;         // expected cost per ray through the root
 };
 
-// Primitives with empty boxes are dropped (they can never be hit).
-BuildTree build_sah(const std::vector<Aabb>& prim_bounds, const BuildOptions& options = {});
+// Primitives with empty boxes are dropped (they can never be hit). The tree
+// (every node's box and primitives, the leaf order) is the same for every
+// thread count (0: all cores).
+BuildTree build_sah(const std::vector<Aabb>& prim_bounds, const BuildOptions& options = {}, unsigned threads = 1);
 
 }  // namespace rayfold::core

@@ -1,6 +1,7 @@
 #include "bvh/bvh_flatten.h"
 
-#include <deque>
+#include <algorithm>
+
 
 #include "rf_trace.h"
 #include "util/errors.h"
@@ -26,7 +27,7 @@ uint32_t flatten_bvh(const BuildTree& tree, uint32_t item_base, const std::vecto
 
   // Group masks bottom-up: children always follow their parent in tree.nodes.
   const bool tlas = item_groups != nullptr;
-  std::vector<uint32_t> groups(tree.nodes.size(), 0);
+  std::vector<uint32_t> groups(tlas ? tree.nodes.size() : 0, 0);
   if (tlas) {
     for (size_t i = tree.nodes.size(); i-- > 0;) {
       const BuildNode& b = tree.nodes[i];
@@ -38,14 +39,18 @@ uint32_t flatten_bvh(const BuildTree& tree, uint32_t item_base, const std::vecto
     }
   }
 
+  const size_t needed = out.size() + tree.nodes.size() + 1;
+  if (out.capacity() < needed) out.reserve(std::max(needed, 2 * out.capacity()));  // geometric over many calls
   const uint32_t root = index_base + static_cast<uint32_t>(out.size());
   out.push_back(make_node(tree.nodes[0]));
   if ((index_base + out.size()) % 2 != 0) out.push_back(rf_node{});  // keeps sibling pairs 64-byte aligned
 
-  std::deque<std::pair<uint32_t, uint32_t>> queue{{0u, root - index_base}};  // (build node, flat position)
-  while (!queue.empty()) {
-    const auto [bi, fi] = queue.front();
-    queue.pop_front();
+  // Breadth first: (build node, flat position) pairs, consumed in order.
+  std::vector<std::pair<uint32_t, uint32_t>> queue;
+  queue.reserve(tree.nodes.size());
+  queue.push_back({0u, root - index_base});
+  for (size_t head = 0; head < queue.size(); ++head) {
+    const auto [bi, fi] = queue[head];
     const BuildNode& b = tree.nodes[bi];
     if (b.is_leaf()) {
       if (tlas) {
@@ -65,7 +70,7 @@ uint32_t flatten_bvh(const BuildTree& tree, uint32_t item_base, const std::vecto
     out.push_back(make_node(tree.nodes[b.right]));
     RF_CHECK(!tlas || index_base + pair <= RF_TLAS_INDEX_MASK, "too many nodes for the top-level node layout");
     out[fi].first = index_base + pair;
-    out[fi].meta = groups[bi];
+    out[fi].meta = tlas ? groups[bi] : 0;
     queue.push_back({b.left, pair});
     queue.push_back({b.right, pair + 1});
   }
