@@ -141,6 +141,38 @@ RF_INLINE float rf_interval_box(const float c0[3], const float c1[3], const floa
   return (tnear > tfar || tnear > tmax) ? RF_FAR : tnear;
 }
 
+/* Fills tri->n from its vertices: the unnormalised geometric normal, whose
+ * edges are differences of tree-space vertices, so that it carries the
+ * triangle's own rounding, not an origin's. Every rf_tri is made with it. */
+RF_INLINE void rf_tri_set_normal(rf_tri* tri) {
+  const float e1x = tri->v1[0] - tri->v0[0], e1y = tri->v1[1] - tri->v0[1], e1z = tri->v1[2] - tri->v0[2];
+  const float e2x = tri->v2[0] - tri->v0[0], e2y = tri->v2[1] - tri->v0[1], e2z = tri->v2[2] - tri->v0[2];
+  tri->n[0] = e1y * e2z - e1z * e2y;
+  tri->n[1] = e1z * e2x - e1x * e2z;
+  tri->n[2] = e1x * e2y - e1y * e2x;
+}
+
+/* The triangle's plane as the distance formula below reads it: n.(p - o) for
+ * p the vertex nearest the origin o (smallest |p - o| summed over the axes,
+ * the lowest vertex on a tie), which keeps the rounding of p - o small
+ * against the plane's distance from o. One function for every kernel and the
+ * CPU reference: the same floats in the same order. */
+RF_INLINE float rf_plane_offset(const RF_GLOBAL rf_tri* tri, const float o[3]) {
+  const float ax = tri->v0[0] - o[0], ay = tri->v0[1] - o[1], az = tri->v0[2] - o[2];
+  const float bx = tri->v1[0] - o[0], by = tri->v1[1] - o[1], bz = tri->v1[2] - o[2];
+  const float cx = tri->v2[0] - o[0], cy = tri->v2[1] - o[1], cz = tri->v2[2] - o[2];
+  const float la = RF_FABS(ax) + RF_FABS(ay) + RF_FABS(az);
+  const float lb = RF_FABS(bx) + RF_FABS(by) + RF_FABS(bz);
+  const float lc = RF_FABS(cx) + RF_FABS(cy) + RF_FABS(cz);
+  /* Selects, not branches: which vertex wins varies from triangle to triangle. */
+  const int b_first = lb < la;
+  const int c_first = lc < (b_first ? lb : la);
+  const float px = c_first ? cx : (b_first ? bx : ax);
+  const float py = c_first ? cy : (b_first ? by : ay);
+  const float pz = c_first ? cz : (b_first ? bz : az);
+  return tri->n[0] * px + tri->n[1] * py + tri->n[2] * pz;
+}
+
 /* Watertight ray-triangle test (Woop, Benthin, Wald 2013), without the double
  * fallback. Chosen because a ray through a shared edge or vertex can never
  * slip between the two triangles: each edge function is computed as
@@ -148,6 +180,13 @@ RF_INLINE float rf_interval_box(const float c0[3], const float c1[3], const floa
  * negation in IEEE arithmetic, so the sign tests of both sides agree. It
  * accepts both windings (mirrored instances flip them) and rejects zero-area
  * triangles (det == 0) and NaN without producing a hit.
+ * The distance is not Woop's (the edge functions times the sheared vertex
+ * depths over det): where a large triangle passes close to the eye those
+ * products are far larger than their sum and cancel, up to 1e-4 relative on
+ * the Dabrovic Sponza's floor. It is the plane's, t = n.(p - o) / n.d with
+ * rf_plane_offset, written with the shear (d = d[kz] (sx, sy, 1), sz =
+ * 1 / d[kz]) as sz n.(p - o) / (n[kx] sx + n[ky] sy + n[kz]); Woop's where that
+ * denominator is 0 (a ray in the plane, as rounded).
  * Returns 1 with t, u (weight of v1), v (weight of v2) when the ray's line
  * meets the triangle; the caller checks t against its interval. */
 RF_INLINE int rf_intersect_triangle(const RF_GLOBAL rf_tri* tri, const rf_ray* r, float* t_out, float* u_out,
@@ -165,22 +204,24 @@ RF_INLINE int rf_intersect_triangle(const RF_GLOBAL rf_tri* tri, const rf_ray* r
   if ((eu < 0.0f || ev < 0.0f || ew < 0.0f) && (eu > 0.0f || ev > 0.0f || ew > 0.0f)) return 0;
   const float det = eu + ev + ew;
   if (det == 0.0f) return 0;
-  const float t_scaled = eu * (r->sz * a_z) + ev * (r->sz * b_z) + ew * (r->sz * c_z);
-  *t_out = t_scaled / det;
+  const float offset = rf_plane_offset(tri, r->o);
+  const float den = tri->n[kx] * r->sx + tri->n[ky] * r->sy + tri->n[kz];
+  if (den != 0.0f) {
+    *t_out = (offset * r->sz) / den;
+  } else {
+    const float t_scaled = eu * (r->sz * a_z) + ev * (r->sz * b_z) + ew * (r->sz * c_z);
+    *t_out = t_scaled / det;
+  }
   *u_out = ev / det;
   *v_out = ew / det;
   return 1;
 }
 
-/* World-space unit geometric normal, cross(v1 - v0, v2 - v0) as wound in the
+/* World-space unit geometric normal, cross(v1 - v0, v2 - v0) (tri->n) as wound in the
  * file, taken through the instance's normal matrix. Scaled by its largest
  * component before squaring so that large scenes cannot overflow. */
 RF_INLINE void rf_geometric_normal(const RF_GLOBAL rf_tri* tri, const RF_GLOBAL rf_normal_xform* xf, float n[3]) {
-  const float e1x = tri->v1[0] - tri->v0[0], e1y = tri->v1[1] - tri->v0[1], e1z = tri->v1[2] - tri->v0[2];
-  const float e2x = tri->v2[0] - tri->v0[0], e2y = tri->v2[1] - tri->v0[1], e2z = tri->v2[2] - tri->v0[2];
-  const float cx = e1y * e2z - e1z * e2y;
-  const float cy = e1z * e2x - e1x * e2z;
-  const float cz = e1x * e2y - e1y * e2x;
+  const float cx = tri->n[0], cy = tri->n[1], cz = tri->n[2];
   const RF_GLOBAL float* m = xf->m;
   float wx = m[0] * cx + m[1] * cy + m[2] * cz;
   float wy = m[3] * cx + m[4] * cy + m[5] * cz;

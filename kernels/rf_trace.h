@@ -43,7 +43,7 @@ RF_INLINE int rf_hit_is_closer(float t, rf_u32 instance, rf_u32 prim, const rf_h
  * skips a node whose entry lies beyond the current hit, so the closest hit
  * is found in every traversal order (folded or not, scalar or in lanes) only
  * if no hit lies nearer than the boxes around it. The box entries are
- * accurate, but the watertight t of a ray grazing a large triangle is not
+ * accurate, but the triangle test's t of a ray grazing a large triangle is not
  * (its error grows with 1 / sin of the angle), nor is t at the edge of the
  * float range; there the raise keeps the order irrelevant. Elsewhere t is at
  * or beyond the widened entry and unchanged [Stress.*, Scale.*]. */

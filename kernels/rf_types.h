@@ -89,14 +89,18 @@ typedef struct {
        rf_gm_ &= rf_gm_ - 1u, g = rf_gm_ ? RF_CTZ(rf_gm_) : 0u)
 #endif
 
-/* One triangle in BVH leaf order, 40 bytes.
+/* One triangle in BVH leaf order, 52 bytes.
  *   bytes  0..35  v0, v1, v2   tree-space vertices, in the file's winding
- *   bytes 36..39  prim         triangle index within its mesh, as in the file
+ *   bytes 36..47  n            cross(v1 - v0, v2 - v0) in float, as
+ *                              rf_tri_set_normal computes it (the distance
+ *                              and the normal read it; made once on the host)
+ *   bytes 48..51  prim         triangle index within its mesh, as in the file
  *                              (after strips and fans are made triangles) */
 typedef struct {
   float v0[3];
   float v1[3];
   float v2[3];
+  float n[3];
   rf_u32 prim;
 } rf_tri;
 

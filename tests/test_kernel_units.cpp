@@ -151,6 +151,7 @@ TEST_F(KernelUnits, RayTriangle) {
     if (i % 10 == 2) {  // aim through the middle of edge v0-v1
       for (int k = 0; k < 3; ++k) r[6 * i + 3 + k] = 0.5f * (t.v0[k] + t.v1[k]) - r[6 * i + k];
     }
+    rf_tri_set_normal(&t);
     rf_ray ray;
     rf_ray_init(&ray, r[6 * i], r[6 * i + 1], r[6 * i + 2], r[6 * i + 3], r[6 * i + 4], r[6 * i + 5]);
     float tt = 0, u = 0, v = 0;
@@ -198,6 +199,7 @@ TEST_F(KernelUnits, GeometricNormal) {
       tris[i].v1[k] = scale * rng.uniformf(-1, 1);
       tris[i].v2[k] = scale * rng.uniformf(-1, 1);
     }
+    rf_tri_set_normal(&tris[i]);
     for (float& f : xf[i].m) f = rng.uniformf(-2, 2);
     rf_geometric_normal(&tris[i], &xf[i], &host[3 * i]);
     if (i % 4 == 0) {
@@ -335,6 +337,7 @@ TEST_F(KernelUnits, TileTriangleEqualsScalarTriangleTest) {
     }
     if (i % 16 == 5) std::memcpy(t.v2, t.v1, sizeof t.v1);  // zero area
     t.prim = 0;
+    rf_tri_set_normal(&t);
     for (int l = 0; l < RF_TILE_RAYS; ++l) {
       const rf_ray r = c.lane_ray(i, l);
       float tt = 0, u = 0, v = 0;

@@ -51,6 +51,7 @@ std::vector<rf_pixel_hit> brute_force(const Scene& scene, const SceneData& data,
         tri.v2[k] = mesh.positions[mesh.indices[3 * t + 2]][k];
       }
       tri.prim = static_cast<uint32_t>(t);
+      rf_tri_set_normal(&tri);
       mesh_tris[m].push_back(tri);
     }
   }

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "bvh/bvh_flatten.h"
+#include "rf_geometry.h"
 #include "util/parallel.h"
 #include "util/timer.h"
 
@@ -106,6 +107,7 @@ BlasSet build_blas_set(const Scene& scene, const BuildOptions& options, unsigned
         tri.v2[k] = (*v[2])[k];
       }
       tri.prim = t;
+      rf_tri_set_normal(&tri);
       set.tris.push_back(tri);
     }
     set.roots[m] = flatten_bvh(tree, tri_base, nullptr, 0, set.nodes);
