@@ -3,7 +3,11 @@
 // fold modes of each rayfold variant report the same accuracy.
 #include <gtest/gtest.h>
 
+#include <cstring>
+#include <vector>
+
 #include "../tools/embree_peer.h"
+#include "../tools/peak_memory.h"
 #include "../tools/peers.h"
 
 namespace rayfold::core {
@@ -54,12 +58,34 @@ TEST(Peers, EveryVariantIsMeasured) {
     EXPECT_NE(md.find("| Embree flat high rtcIntersect16 |"), std::string::npos);
     EXPECT_GT(r.embree_build_ms, 0.0);
     EXPECT_GT(r.embree_high_build_ms, 0.0);
+    if (PeakMemory().available()) {
+      // Per scene triangle: the atrium's meshes are instanced, so rayfold
+      // builds a fifth of them, Embree's flat scene all.
+      EXPECT_GT(r.rayfold_build_bytes, 5.0);
+      EXPECT_GT(r.embree_build_bytes, 20.0);
+      EXPECT_NE(md.find("B/scene triangle"), std::string::npos);
+    }
     const PeerRatios q = peer_ratios(r);
     ASSERT_NE(q.fastest_rayfold, nullptr);
     EXPECT_TRUE(q.fastest_rayfold->exact);
     EXPECT_GT(q.vs_embree, 0.0);
     EXPECT_NE(md.find("Fastest exact rayfold"), std::string::npos);
   }
+}
+
+// The peak counts what a step touched, freed or not, and nothing before it.
+TEST(Peers, PeakMemorySeesWhatAStepTouched) {
+  if (!PeakMemory().available()) GTEST_SKIP() << "no /proc/self/clear_refs here: peak memory is not reported";
+  const PeakMemory idle;
+  EXPECT_LT(idle.peak_bytes(), size_t{8} << 20);
+  const PeakMemory step;
+  {
+    std::vector<char> block(size_t{64} << 20);
+    std::memset(block.data(), 1, block.size());
+  }
+  EXPECT_GE(step.peak_bytes(), size_t{60} << 20);
+  const PeakMemory after;
+  EXPECT_LT(after.peak_bytes(), size_t{8} << 20);  // the block went back to the system
 }
 
 // --variants tile: the tile kernel's rows alone are timed, still validated

@@ -100,11 +100,13 @@ def peers_tables(paths, file_paths=()):
           "readback per frame, every image checked bit for bit against the CPU reference first); Embree: the "
           "trace, flat world-space scene, `rtcIntersect16` packets, default (MEDIUM) and HIGH build quality; the "
           "ratio is against the faster of every Embree mode. Build: rayfold's bottom-level trees against "
-          "Embree's flat scene build (ms). Depth: relative error against the double-precision reference on "
+          "Embree's flat scene build (ms), and their peak resident memory (bytes per scene triangle, instances counted each time; the high-water "
+          "mark during the build, less where it started). Depth: relative error against the double-precision reference on "
           "same-triangle pixels, worst view's p99 and maximum.\n")
     print("| scene | views | rayfold (mode) | Embree flat 16 | Embree flat high 16 | vs Embree fastest | file camera | "
-          "build rayfold | build Embree / high | depth p99 rayfold / Embree | depth max rayfold / Embree |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|")
+          "build rayfold | build Embree / high | B/triangle rayfold / Embree | depth p99 rayfold / Embree | "
+          "depth max rayfold / Embree |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     ratios, invalid, worse_depth, slower_build = {}, [], [], []
     for r in reports:
         if not r.get("valid", True):
@@ -131,7 +133,8 @@ def peers_tables(paths, file_paths=()):
         print(f"| {r['name']} | {views} | {ours['mpixels_per_s']:.1f} ({mode}) | {mp('Embree flat rtcIntersect16')} | "
               f"{mp('Embree flat high rtcIntersect16')} | **{ratio:.2f}x** | {file_ratio} | "
               f"{r.get('rayfold_build_ms', 0):.0f} | {r.get('embree_build_ms', 0):.0f} / "
-              f"{r.get('embree_high_build_ms', 0):.0f} | {ours['depth_error_p99']:.1e} / "
+              f"{r.get('embree_high_build_ms', 0):.0f} | {r.get('rayfold_build_bytes_per_triangle', 0):.0f} / "
+              f"{r.get('embree_build_bytes_per_triangle', 0):.0f} | {ours['depth_error_p99']:.1e} / "
               f"{theirs['depth_error_p99']:.1e} | {ours['depth_error_max']:.1e} / {theirs['depth_error_max']:.1e} |")
     if ratios:
         med, low = median(list(ratios.values())), min(ratios.values())

@@ -1,5 +1,6 @@
 #include "embree_peer.h"
 
+#include "peak_memory.h"
 #include "util/errors.h"
 #include "util/parallel.h"
 #include "util/timer.h"
@@ -22,6 +23,7 @@ struct EmbreePeer::Impl {
   RTCScene flat = nullptr;       // every instance's triangles in world space, one geometry per instance
   RTCScene flat_high = nullptr;  // the same, RTC_BUILD_QUALITY_HIGH
   double flat_build_ms = 0.0, flat_high_build_ms = 0.0;
+  size_t flat_peak_bytes = 0, flat_high_peak_bytes = 0;
   std::vector<RTCScene> meshes;
   std::vector<RTCGeometry> instances;  // per scene instance, null when hidden
   Camera camera;
@@ -58,14 +60,15 @@ struct EmbreePeer::Impl {
       rtcAttachGeometryByID(top, g, static_cast<unsigned>(i));
       instances[i] = g;
     }
-    flat = make_flat(RTC_BUILD_QUALITY_MEDIUM, &flat_build_ms);
-    flat_high = make_flat(RTC_BUILD_QUALITY_HIGH, &flat_high_build_ms);
+    flat = make_flat(RTC_BUILD_QUALITY_MEDIUM, &flat_build_ms, &flat_peak_bytes);
+    flat_high = make_flat(RTC_BUILD_QUALITY_HIGH, &flat_high_build_ms, &flat_high_peak_bytes);
   }
 
   // As a user with a static scene builds it: instances flattened into one
   // single-level world-space tree, built once at this quality (MEDIUM is
-  // Embree's default). build_ms: rtcCommitScene, the build alone.
-  RTCScene make_flat(RTCBuildQuality quality, double* build_ms) {
+  // Embree's default). build_ms and peak_bytes: rtcCommitScene, the build
+  // alone (the vertex and index buffers it reads exist before).
+  RTCScene make_flat(RTCBuildQuality quality, double* build_ms, size_t* peak_bytes) {
     RTCScene s = rtcNewScene(device);
     for (size_t i = 0; i < scene.instances.size(); ++i) {
       if (!data.renderable[i]) continue;
@@ -87,9 +90,11 @@ struct EmbreePeer::Impl {
       rtcReleaseGeometry(g);
     }
     rtcSetSceneBuildQuality(s, quality);
+    const PeakMemory memory;
     const auto t0 = Clock::now();
     rtcCommitScene(s);
     *build_ms = ms_since(t0);
+    *peak_bytes = memory.peak_bytes();
     return s;
   }
 
@@ -174,6 +179,11 @@ EmbreePeer::EmbreePeer(const Scene& scene, const SceneData& data, unsigned threa
 EmbreePeer::~EmbreePeer() = default;
 
 void EmbreePeer::set_camera(const Camera& camera) { impl_->set_camera(camera); }
+size_t EmbreePeer::build_peak_bytes(EmbreeScene which) const {
+  return which == EmbreeScene::flat ? impl_->flat_peak_bytes
+                                    : which == EmbreeScene::flat_high ? impl_->flat_high_peak_bytes : 0;
+}
+
 double EmbreePeer::build_ms(EmbreeScene which) const {
   return which == EmbreeScene::flat ? impl_->flat_build_ms : which == EmbreeScene::flat_high ? impl_->flat_high_build_ms : 0.0;
 }
@@ -269,6 +279,7 @@ EmbreePeer::EmbreePeer(const Scene&, const SceneData&, unsigned) {
 EmbreePeer::~EmbreePeer() = default;
 void EmbreePeer::set_camera(const Camera&) {}
 double EmbreePeer::build_ms(EmbreeScene) const { return 0.0; }
+size_t EmbreePeer::build_peak_bytes(EmbreeScene) const { return 0; }
 double EmbreePeer::trace1(std::vector<rf_pixel_hit>&, EmbreeScene) { return 0.0; }
 double EmbreePeer::trace16(std::vector<rf_pixel_hit>&, EmbreeScene) { return 0.0; }
 

@@ -35,6 +35,8 @@ class EmbreePeer {
   void set_camera(const Camera& camera);
   // The flat scenes' build (rtcCommitScene) in ms; 0 for the instanced one.
   double build_ms(EmbreeScene scene) const;
+  // The same builds' peak resident memory (tools/peak_memory.h), bytes.
+  size_t build_peak_bytes(EmbreeScene scene) const;
   // Every pixel's hit (distance, instance, primitive; normals and
   // barycentrics are left 0). Returns ms.
   double trace1(std::vector<rf_pixel_hit>& hits, EmbreeScene scene);

@@ -10,6 +10,7 @@
 
 #include "bench.h"
 #include "embree_peer.h"
+#include "peak_memory.h"
 #include "reference/double_reference.h"
 #include "reference/hit_compare.h"
 #include "renderer.h"
@@ -96,12 +97,22 @@ PeerReport run_peers(const PeerOptions& opt) {
   rep.views_note = opt.views_note;
   rep.cameras = path;
   rep.rayfold_build_ms = data.blas.build_ms;
+  const double triangles = std::max<double>(1.0, static_cast<double>(rep.triangles));
+  {
+    // The renderer's build again, alone, for its peak memory: deterministic,
+    // so it is the same build.
+    const PeakMemory memory;
+    const BlasSet again = build_blas_set(scene, BuildOptions{}, opt.threads);
+    rep.rayfold_build_bytes = static_cast<double>(memory.peak_bytes()) / triangles;
+  }
 
   std::unique_ptr<EmbreePeer> embree;
   if (EmbreePeer::available()) {
     embree = std::make_unique<EmbreePeer>(scene, data, opt.threads);
     rep.embree_build_ms = embree->build_ms(EmbreeScene::flat);
     rep.embree_high_build_ms = embree->build_ms(EmbreeScene::flat_high);
+    rep.embree_build_bytes = static_cast<double>(embree->build_peak_bytes(EmbreeScene::flat)) / triangles;
+    rep.embree_high_build_bytes = static_cast<double>(embree->build_peak_bytes(EmbreeScene::flat_high)) / triangles;
   } else
     rep.embree_note = "rayfold was built without Embree: its rows are skipped (install libembree-dev and reconfigure).";
 
@@ -205,11 +216,13 @@ std::string peers_markdown(const PeerReport& r) {
     << " threads. rayfold device: " << r.device << ".\n";
   if (!r.views_note.empty()) s << "Views: " << r.views_note << ".\n";
   if (!r.embree_note.empty()) s << r.embree_note << "\n";
-  s << "Bottom-level build: rayfold " << fmt("%.0f", r.rayfold_build_ms) << " ms";
+  auto bytes = [](double b) { return b > 0.0 ? ", peak " + fmt("%.0f", b) + " B/scene triangle" : std::string(); };
+  s << "Bottom-level build: rayfold " << fmt("%.0f", r.rayfold_build_ms) << " ms" << bytes(r.rayfold_build_bytes);
   if (r.embree_build_ms > 0.0)
-    s << ", Embree flat " << fmt("%.0f", r.embree_build_ms) << " ms (default quality), "
-      << fmt("%.0f", r.embree_high_build_ms) << " ms (high)";
-  s << ".\n";
+    s << "; Embree flat " << fmt("%.0f", r.embree_build_ms) << " ms" << bytes(r.embree_build_bytes)
+      << " (default quality), " << fmt("%.0f", r.embree_high_build_ms) << " ms" << bytes(r.embree_high_build_bytes)
+      << " (high)";
+  s << ". Peak: the resident set's high-water mark during the build, less where it started.\n";
   s << "\nTimes: rayfold per frame is ray list + trace + readback; Embree's is the trace into host memory. "
        "Exact rows are checked bit for bit against the CPU reference's unfolded image first. "
        "Accuracy against the double-precision reference: share of pixels whose (instance, primitive) differs, "
@@ -264,6 +277,9 @@ std::string peers_json(const PeerReport& r) {
   j["rayfold_build_ms"] = r.rayfold_build_ms;
   j["embree_build_ms"] = r.embree_build_ms;
   j["embree_high_build_ms"] = r.embree_high_build_ms;
+  j["rayfold_build_bytes_per_triangle"] = r.rayfold_build_bytes;
+  j["embree_build_bytes_per_triangle"] = r.embree_build_bytes;
+  j["embree_high_build_bytes_per_triangle"] = r.embree_high_build_bytes;
   for (const PeerRow& row : r.rows)
     j["rows"].push_back({{"variant", row.variant},
                          {"fold", row.fold},

@@ -46,6 +46,10 @@ struct PeerReport {
   // Bottom-level builds: rayfold's (every mesh's tree) against Embree's flat
   // scene at its default and its high quality (rtcCommitScene), in ms.
   double rayfold_build_ms = 0.0, embree_build_ms = 0.0, embree_high_build_ms = 0.0;
+  // The same builds' peak resident memory per scene triangle (instances
+  // counted each time, as Embree's flat scene holds them; tools/peak_memory.h;
+  // 0 where it cannot be measured), bytes.
+  double rayfold_build_bytes = 0.0, embree_build_bytes = 0.0, embree_high_build_bytes = 0.0;
   std::vector<PeerRow> rows;
   // False when an exact row differs from the CPU reference: no figure of
   // the report is then valid.
