@@ -91,26 +91,31 @@ BlasSet build_blas_set(const Scene& scene, const BuildOptions& options, unsigned
     total_tris += tree.order.size();
     total_nodes += tree.nodes.size() + 1;
   }
-  set.tris.reserve(total_tris);
-  set.nodes.reserve(total_nodes + 1);
-  for (size_t m = 0; m < mesh_count; ++m) {
-    const Mesh& mesh = scene.meshes[m];
-    const BuildTree& tree = trees[m];
-    const uint32_t tri_base = static_cast<uint32_t>(set.tris.size());
-    for (uint32_t t : tree.order) {
-      rf_tri tri{};
+  // Triangles in leaf order, every mesh's after the one before, side by side.
+  std::vector<size_t> tri_base(mesh_count + 1, 0);
+  for (size_t m = 0; m < mesh_count; ++m) tri_base[m + 1] = tri_base[m] + trees[m].order.size();
+  set.tris.resize(total_tris);
+  parallel_for(total_tris, threads, size_t{1} << 14, [&](size_t begin, size_t end) {
+    size_t m = static_cast<size_t>(std::upper_bound(tri_base.begin(), tri_base.end(), begin) - tri_base.begin()) - 1;
+    for (size_t i = begin; i < end; ++i) {
+      while (i >= tri_base[m + 1]) ++m;
+      const Mesh& mesh = scene.meshes[m];
+      const uint32_t t = trees[m].order[i - tri_base[m]];
       const std::vector<glm::vec3>& p = positions[m];
-      const glm::vec3* v[3] = {&p[mesh.indices[3 * t]], &p[mesh.indices[3 * t + 1]], &p[mesh.indices[3 * t + 2]]};
+      rf_tri& tri = set.tris[i];
       for (int k = 0; k < 3; ++k) {
-        tri.v0[k] = (*v[0])[k];
-        tri.v1[k] = (*v[1])[k];
-        tri.v2[k] = (*v[2])[k];
+        tri.v0[k] = p[mesh.indices[3 * t]][k];
+        tri.v1[k] = p[mesh.indices[3 * t + 1]][k];
+        tri.v2[k] = p[mesh.indices[3 * t + 2]][k];
       }
       tri.prim = t;
       rf_tri_set_normal(&tri);
-      set.tris.push_back(tri);
     }
-    set.roots[m] = flatten_bvh(tree, tri_base, nullptr, 0, set.nodes);
+  });
+  set.nodes.reserve(total_nodes + 1);
+  for (size_t m = 0; m < mesh_count; ++m) {
+    const BuildTree& tree = trees[m];
+    set.roots[m] = flatten_bvh(tree, static_cast<uint32_t>(tri_base[m]), nullptr, 0, set.nodes);
     set.max_depth = std::max(set.max_depth, tree.depth);
     weighted_sah += tree.sah_cost * tree.order.size();
     weight += tree.order.size();
