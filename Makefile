@@ -31,13 +31,17 @@ test: python-env build
 python-env: deps
 	@tools/python-env.sh $(BUILD_DIR)/venv
 
-# Fold tables, speed against accuracy with Embree, and charts for the bundled
-# scene and every scene in ../shared/scenes, into out/bench/. Long (about
-# 5 minutes a scene); BENCH_ARGS="--views 3 --frames 3" shortens it.
+# Fold tables, speed against accuracy with Embree, from Python against
+# Mitsuba 3 and Open3D, and charts for the bundled scene and every scene in
+# ../shared/scenes, into out/bench/. Long (about 5 minutes a scene);
+# BENCH_ARGS="--views 3 --frames 3" shortens it. Open3D's wheel needs libusb.
 BENCH_ARGS ?=
-bench: build
-	@tools/install-deps.sh python3-matplotlib
-	tools/bench_all.sh $(BENCH_ARGS)
+bench: PYTHON_FLAGS = -DRAYFOLD_PYTHON=ON -DPython_EXECUTABLE=$(CURDIR)/$(BUILD_DIR)/venv/bin/python
+bench: python-env build
+	@tools/install-deps.sh python3-matplotlib libusb-1.0-0
+	@tools/python-env.sh $(BUILD_DIR)/venv --peers
+	PYTHONPATH=$(CURDIR)/$(BUILD_DIR)/python BENCH_PYTHON=$(CURDIR)/$(BUILD_DIR)/venv/bin/python \
+	    tools/bench_all.sh $(BENCH_ARGS)
 
 # The whole suite under AddressSanitizer and UndefinedBehaviorSanitizer.
 # Leaks inside the OpenCL runtime (PoCL, LLVM) are suppressed; ours are not.

@@ -5,6 +5,9 @@
 #   rayfold-peers   -> out/bench/<scene>-peers.md/.json  (speed against accuracy, Embree)
 #   rayfold-peers   -> out/bench/<scene>-file-peers.md/.json (the same from the file's
 #                      suggested camera alone: the one extra row)
+#   bench_python.py -> out/bench/<scene>-python.md/.json (rayfold from Python against Mitsuba 3
+#                      and Open3D on the peers report's random views; with $BENCH_PYTHON, a
+#                      Python that has them and rayfold: make bench makes one)
 #   chart_peers.py  -> out/bench/<scene>-peers.png/.svg
 #   rayfold-stats   -> out/bench/<scene>-stats.txt  (traversal counters per pixel, both kernels, none and xy)
 #   rayfold bench --align -> out/bench/<scene>-align.md/.json (views alone against aligned, the cost
@@ -29,8 +32,15 @@ shared=${RAYFOLD_SCENES_DIR:-../shared/scenes}
 out=${OUT_DIR:-out/bench}
 random=(--random-views "${RANDOM_VIEWS:-16}" --seed "${SEED:-1}")
 variants=${PEER_VARIANTS:-tile,fast}
+python_peers=${BENCH_PYTHON:-}
 mkdir -p "$out"
 args=("$@")
+# The options bench_python.py shares with the C++ tools.
+py_args=()
+while [ "$#" -gt 0 ]; do
+  case $1 in --frames|--warmup|--size|--threads) py_args+=("$1" "$2"); shift 2 ;; *) shift ;; esac
+done
+set -- "${args[@]}"
 
 # run NAME FILE KIND [--eye E --look-at L]: KIND auto, interior or object.
 run() {
@@ -42,6 +52,10 @@ run() {
     --json "$out/$name-peers.json" --md "$out/$name-peers.md"
   "$peers" "$file" "$@" --views 1 --variants "$variants" "${args[@]}" \
     --json "$out/$name-file-peers.json" --md "$out/$name-file-peers.md"
+  if [ -n "$python_peers" ]; then
+    "$python_peers" tools/bench_python.py "$file" --cameras "$out/$name-peers.json" "${py_args[@]}" \
+      --json "$out/$name-python.json" --md "$out/$name-python.md"
+  fi
   /usr/bin/python3 tools/chart_peers.py "$out/$name-peers.json" "$out/$name-peers"
   : > "$out/$name-stats.txt"
   for fold in none xy; do "$stats" "$file" "$@" --size 1280x720 --fold "$fold" >> "$out/$name-stats.txt"; done
@@ -66,5 +80,9 @@ fi
 peer_reports=("$out"/*-peers.json)  # the file-camera reports too: bench_tables.py tells them apart
 if [ -e "${peer_reports[0]}" ]; then
   /usr/bin/python3 tools/bench_tables.py --peers "${peer_reports[@]}" > "$out/summary.md"
+  python_reports=("$out"/*-python.json)
+  if [ -e "${python_reports[0]}" ]; then
+    /usr/bin/python3 tools/bench_tables.py --python "${python_reports[@]}" >> "$out/summary.md"
+  fi
   echo; cat "$out/summary.md"
 fi

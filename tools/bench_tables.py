@@ -7,6 +7,7 @@ culled unfolded baseline. Standard library only.
 usage: tools/bench_tables.py out/bench/<scene>.json... > tables.md
        tools/bench_tables.py --peers out/bench/<scene>-peers.json... [<scene>-file-peers.json...] > peers.md
        tools/bench_tables.py --stats out/bench/<scene>-stats.txt... > counters.md
+       tools/bench_tables.py --python out/bench/<scene>-python.json... > python.md
 """
 import json
 import os
@@ -60,6 +61,7 @@ def table2(reports):
 TARGET_MEDIAN = 2.0
 BAR_MEDIAN = 1.5
 TARGET_EVERY_SCENE = 1.0
+TARGET_PYTHON_VS_MITSUBA = 1.5  # Python scene.render against Mitsuba 3 on every scene
 FOLDS = ["none", "y", "x", "xy"]
 
 
@@ -161,6 +163,38 @@ def peers_tables(paths, file_paths=()):
                   f"{x['depth_error_p99']:.1e} / {x['depth_error_max']:.1e} |")
 
 
+def python_table(paths):
+    """rayfold from Python against Mitsuba 3 and Open3D (tools/bench_python.py)."""
+    reports = [json.load(open(p)) for p in paths]
+    if not reports:
+        return
+    r0 = reports[0]
+    print(f"\nFrom Python: {r0['width']}x{r0['height']}, the peers report's random views, median of "
+          f"{r0['frames']} frames, {r0['threads']} threads, wall clock (rayfold: Renderer.render of the whole "
+          "G-buffer into numpy, fastest fold; the peers: the intersection call on prebuilt rays, same rays and "
+          "world-space triangles, each checked against rayfold's depth first). Ratio: peer time / rayfold's.\n")
+    print("| scene | rayfold ms (fold) | Mitsuba 3 ms | vs Mitsuba | Open3D ms | vs Open3D |")
+    print("|---|---|---|---|---|---|")
+    low = None
+    for r in reports:
+        ours = min((x for x in r["rows"] if x["variant"].startswith("rayfold")), key=lambda x: x["ms"])
+        peer = {x["variant"].split()[0]: x for x in r["rows"] if not x["variant"].startswith("rayfold")}
+
+        def cell(name):
+            x = peer.get(name)
+            return (f"{x['ms']:.1f} | **{x['ratio']:.2f}x**" if x else "- | -")
+
+        m = peer.get("Mitsuba")
+        if m:
+            low = m["ratio"] if low is None else min(low, m["ratio"])
+        print(f"| {r['scene']} | {ours['ms']:.1f} ({r['fastest_fold']}) | {cell('Mitsuba')} | {cell('Open3D')} |")
+        for note in r.get("skipped", []) + r.get("failed", []):
+            print(f"\n{r['scene']}: {note}")
+    if low is not None:
+        print(f"\nAgainst Mitsuba 3, lowest **{low:.2f}x** (target {TARGET_PYTHON_VS_MITSUBA}x on every scene: "
+              f"{'met' if low >= TARGET_PYTHON_VS_MITSUBA else 'NOT met'}).")
+
+
 def stats_table(paths):
     """Traversal work per answered pixel from rayfold-stats, both kernels."""
     print("Work per answered pixel at 1280x720, base view (`rayfold-stats`). Single-ray kernel (the CPU "
@@ -190,6 +224,9 @@ def main():
     if sys.argv[1] == "--peers":
         paths = [p for p in sys.argv[2:] if not p.endswith("-file-peers.json")]
         peers_tables(paths, [p for p in sys.argv[2:] if p.endswith("-file-peers.json")])
+        return
+    if sys.argv[1] == "--python":
+        python_table(sys.argv[2:])
         return
     if sys.argv[1] == "--stats":
         stats_table(sys.argv[2:])

@@ -1,0 +1,71 @@
+"""tools/bench_python.py's inputs are real: the world-space triangles it gives
+the peers are the ones rayfold renders, and its agreement check sees a
+disagreement."""
+import importlib.util
+import json
+
+import numpy as np
+import pytest
+
+import rayfold
+from conftest import ROOT
+
+spec = importlib.util.spec_from_file_location("bench_python", ROOT / "tools" / "bench_python.py")
+bench = importlib.util.module_from_spec(spec)
+spec.loader.exec_module(bench)
+
+
+def first_hits(origin, dirs, tris):
+    """Closest hit distance per ray over all triangles, Moeller-Trumbore in float64."""
+    o = origin.astype(np.float64)
+    v0, v1, v2 = (tris[:, k].astype(np.float64) for k in range(3))
+    e1, e2 = v1 - v0, v2 - v0
+    out = np.full(len(dirs), np.inf)
+    for i, d in enumerate(dirs.astype(np.float64)):
+        p = np.cross(d, e2)
+        det = np.einsum("ij,ij->i", e1, p)
+        ok = np.abs(det) > 1e-300
+        inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
+        s = o - v0
+        u = np.einsum("ij,ij->i", s, p) * inv
+        q = np.cross(s, e1)
+        v = (q @ d) * inv
+        t = np.einsum("ij,ij->i", e2, q) * inv
+        hit = ok & (u >= 0) & (v >= 0) & (u + v <= 1) & (t > 0)
+        if hit.any():
+            out[i] = t[hit].min()
+    return out
+
+
+def test_world_triangles_are_what_rayfold_renders(atrium_path):
+    scene = rayfold.Scene(atrium_path)
+    tris = bench.world_triangles(scene)
+    assert tris.shape == (scene.triangle_count, 3, 3)
+    cam = scene.default_camera(48, 27)
+    g = scene.render(cam, backend="cpu")
+    dirs = np.asarray(cam.ray_directions(), dtype=np.float32).reshape(-1, 3)
+    rng = np.random.default_rng(3)
+    pick = rng.choice(len(dirs), 40, replace=False)
+    want = g.depth.reshape(-1)[pick]
+    got = first_hits(np.asarray(cam.eye), dirs[pick], tris)
+    assert np.isfinite(want).sum() > 20
+    np.testing.assert_array_equal(np.isfinite(got), np.isfinite(want))
+    both = np.isfinite(want)
+    assert np.max(np.abs(got[both] - want[both]) / want[both]) < 1e-4
+
+
+def test_agreement_sees_a_disagreement():
+    d = np.array([1.0, 2.0, np.inf, 4.0], dtype=np.float32)
+    assert bench.agreement(d, d) == (1.0, 0.0)
+    hit, err = bench.agreement(d, np.array([1.0, np.inf, np.inf, 4.4], dtype=np.float32))
+    assert hit == 0.75 and err == pytest.approx(0.05)
+
+
+def test_cameras_come_from_a_peers_report(tmp_path):
+    path = tmp_path / "peers.json"
+    path.write_text(json.dumps({"cameras": [{"eye": [0, 1, 5], "look_at": [0, 1, 0], "up": [0, 1, 0], "vfov": 50}]}))
+    (cam,) = bench.cameras_from(str(path), 64, 36)
+    assert (cam.width, cam.height) == (64, 36)
+    (tmp_path / "none.json").write_text("{}")
+    with pytest.raises(SystemExit, match="no 'cameras' list"):
+        bench.cameras_from(str(tmp_path / "none.json"), 64, 36)
