@@ -173,6 +173,20 @@ RF_INLINE float rf_plane_offset(const RF_GLOBAL rf_tri* tri, const float o[3]) {
   return tri->n[0] * px + tri->n[1] * py + tri->n[2] * pz;
 }
 
+/* Which distance formula a hit takes, from the vertices' depths along the
+ * ray's dominant axis (vertex minus origin, axis kz): Woop's, a weighted
+ * mean of those depths, is accurate when they are all on one side of the eye
+ * and spread less than the nearest of them (a triangle small against its
+ * distance: rounding of the weights moves t by a fraction of the spread);
+ * the plane's is accurate when the plane does not pass close to the eye (a
+ * large triangle near it, seen at an angle). Returns 1 for Woop's. */
+RF_INLINE int rf_woop_distance_suits(float a_z, float b_z, float c_z) {
+  const int one_side = (a_z > 0.0f && b_z > 0.0f && c_z > 0.0f) || (a_z < 0.0f && b_z < 0.0f && c_z < 0.0f);
+  const float fa = RF_FABS(a_z), fb = RF_FABS(b_z), fc = RF_FABS(c_z);
+  const float lo = rf_minf(rf_minf(fa, fb), fc), hi = rf_maxf(rf_maxf(fa, fb), fc);
+  return one_side && hi - lo < lo;
+}
+
 /* Watertight ray-triangle test (Woop, Benthin, Wald 2013), without the double
  * fallback. Chosen because a ray through a shared edge or vertex can never
  * slip between the two triangles: each edge function is computed as
@@ -180,12 +194,13 @@ RF_INLINE float rf_plane_offset(const RF_GLOBAL rf_tri* tri, const float o[3]) {
  * negation in IEEE arithmetic, so the sign tests of both sides agree. It
  * accepts both windings (mirrored instances flip them) and rejects zero-area
  * triangles (det == 0) and NaN without producing a hit.
- * The distance is not Woop's (the edge functions times the sheared vertex
- * depths over det): where a large triangle passes close to the eye those
- * products are far larger than their sum and cancel, up to 1e-4 relative on
- * the Dabrovic Sponza's floor. It is the plane's, t = n.(p - o) / n.d with
- * rf_plane_offset, written with the shear (d = d[kz] (sx, sy, 1), sz =
- * 1 / d[kz]) as sz n.(p - o) / (n[kx] sx + n[ky] sy + n[kz]); Woop's where that
+ * The distance is Woop's (the edge functions times the sheared vertex
+ * depths over det) where rf_woop_distance_suits says so. Elsewhere, where a
+ * large triangle passes close to the eye, those products are far larger
+ * than their sum and cancel (up to 3e-4 relative on the Dabrovic Sponza's
+ * floor), and it is the plane's, t = n.(p - o) / n.d with rf_plane_offset,
+ * written with the shear (d = d[kz] (sx, sy, 1), sz = 1 / d[kz]) as
+ * sz n.(p - o) / (n[kx] sx + n[ky] sy + n[kz]); Woop's again where that
  * denominator is 0 (a ray in the plane, as rounded).
  * Returns 1 with t, u (weight of v1), v (weight of v2) when the ray's line
  * meets the triangle; the caller checks t against its interval. */
@@ -204,10 +219,9 @@ RF_INLINE int rf_intersect_triangle(const RF_GLOBAL rf_tri* tri, const rf_ray* r
   if ((eu < 0.0f || ev < 0.0f || ew < 0.0f) && (eu > 0.0f || ev > 0.0f || ew > 0.0f)) return 0;
   const float det = eu + ev + ew;
   if (det == 0.0f) return 0;
-  const float offset = rf_plane_offset(tri, r->o);
   const float den = tri->n[kx] * r->sx + tri->n[ky] * r->sy + tri->n[kz];
-  if (den != 0.0f) {
-    *t_out = (offset * r->sz) / den;
+  if (!rf_woop_distance_suits(a_z, b_z, c_z) && den != 0.0f) {
+    *t_out = (rf_plane_offset(tri, r->o) * r->sz) / den;
   } else {
     const float t_scaled = eu * (r->sz * a_z) + ev * (r->sz * b_z) + ew * (r->sz * c_z);
     *t_out = t_scaled / det;

@@ -111,14 +111,26 @@ RF_INLINE rf_vf rf_lanes_box_entry(const float c0[3], const float c1[3], rf_vf i
   return select((rf_vf)(RF_FAR), tnear, tnear <= rf_lanes_min(tfar, tmax));
 }
 
+/* rf_woop_distance_suits lane by lane. */
+RF_INLINE rf_vi rf_lanes_woop_suits(rf_vf a_z, rf_vf b_z, rf_vf c_z) {
+  const rf_vf zero = (rf_vf)(0.0f);
+  const rf_vi one_side = ((a_z > zero) & (b_z > zero) & (c_z > zero)) | ((a_z < zero) & (b_z < zero) & (c_z < zero));
+  const rf_vf fa = fabs(a_z), fb = fabs(b_z), fc = fabs(c_z);
+  const rf_vf lo = rf_lanes_min(rf_lanes_min(fa, fb), fc), hi = rf_lanes_max(rf_lanes_max(fa, fb), fc);
+  return one_side & (hi - lo < lo);
+}
+
 /* rf_intersect_triangle lane by lane. a, b, c are the vertices minus the
- * shared origin, already permuted by each lane's (kx, ky, kz); offset and
- * nx, ny, nz are rf_plane_offset's, n permuted the same way. Returns the
- * mask of lanes whose line meets the triangle, with t for every lane and the
- * edge functions ev, ew and det that give u and v when a hit is taken. */
+ * shared origin, already permuted by each lane's (kx, ky, kz), and nx, ny, nz
+ * the triangle's normal permuted the same way; woop is
+ * rf_woop_distance_suits of each lane, and offset rf_plane_offset (needed
+ * only where woop is not set). Returns the mask of lanes whose line meets
+ * the triangle, with t for every lane and the edge functions ev, ew and det
+ * that give u and v when a hit is taken. */
 RF_INLINE rf_vi rf_lanes_triangle(rf_vf a_x, rf_vf a_y, rf_vf a_z, rf_vf b_x, rf_vf b_y, rf_vf b_z, rf_vf c_x,
-                                  rf_vf c_y, rf_vf c_z, rf_vf sx, rf_vf sy, rf_vf sz, float offset, rf_vf nx, rf_vf ny,
-                                  rf_vf nz, rf_vf* t_out, rf_vf* ev_out, rf_vf* ew_out, rf_vf* det_out) {
+                                  rf_vf c_y, rf_vf c_z, rf_vf sx, rf_vf sy, rf_vf sz, rf_vf nx, rf_vf ny, rf_vf nz,
+                                  rf_vi woop, float offset, rf_vf* t_out, rf_vf* ev_out, rf_vf* ew_out,
+                                  rf_vf* det_out) {
   const rf_vf ax = a_x - sx * a_z, ay = a_y - sy * a_z;
   const rf_vf bx = b_x - sx * b_z, by = b_y - sy * b_z;
   const rf_vf cx = c_x - sx * c_z, cy = c_y - sy * c_z;
@@ -131,12 +143,15 @@ RF_INLINE rf_vi rf_lanes_triangle(rf_vf a_x, rf_vf a_y, rf_vf a_z, rf_vf b_x, rf
   const rf_vf det = eu + ev + ew;
   const rf_vi ok = ~(neg & pos) & (det != zero);
   if (!rf_lanes_any(ok)) return ok;
-  const rf_vf den = nx * sx + ny * sy + nz;
-  rf_vf t = ((rf_vf)(offset) * sz) / den;
-  const rf_vi in_plane = den == zero;
-  if (rf_lanes_any(in_plane & ok)) {
+  rf_vf t = zero;
+  if (rf_lanes_any(ok & ~woop)) {
+    const rf_vf den = nx * sx + ny * sy + nz;
+    t = ((rf_vf)(offset) * sz) / den;
+    woop |= den == zero;
+  }
+  if (rf_lanes_any(ok & woop)) {
     const rf_vf t_scaled = eu * (sz * a_z) + ev * (sz * b_z) + ew * (sz * c_z);
-    t = select(t, t_scaled / det, in_plane);
+    t = select(t, t_scaled / det, woop);
   }
   *t_out = t;
   *ev_out = ev;

@@ -175,9 +175,12 @@ RF_INLINE int rf_tile_triangle(const RF_GLOBAL rf_tri* tri, rf_u32 ti, const rf_
   const float uax = ua[r->kx], uay = ua[r->ky], uaz = ua[r->kz];
   const float ubx = ub[r->kx], uby = ub[r->ky], ubz = ub[r->kz];
   const float ucx = uc[r->kx], ucy = uc[r->ky], ucz = uc[r->kz];
-  const float offset = rf_plane_offset(tri, r->o);
   const float n[3] = {tri->n[0], tri->n[1], tri->n[2]};
   const float unx = n[r->kx], uny = n[r->ky], unz = n[r->kz];
+  /* The distance formula, once for the tile where the permutation is; the
+   * plane's offset only where some lane may take it. */
+  const int woop_u = r->uniform && rf_woop_distance_suits(uaz, ubz, ucz);
+  const float offset = woop_u ? 0.0f : rf_plane_offset(tri, r->o);
   int taken = 0;
   for (int j = 0; j < RF_LANE_GROUPS; ++j) {
     if (((lanes >> j) & 1u) == 0u) continue;
@@ -187,17 +190,18 @@ RF_INLINE int rf_tile_triangle(const RF_GLOBAL rf_tri* tri, rf_u32 ti, const rf_
     if (r->uniform) {
       ok =
           rf_lanes_triangle((rf_vf)(uax), (rf_vf)(uay), (rf_vf)(uaz), (rf_vf)(ubx), (rf_vf)(uby), (rf_vf)(ubz),
-                            (rf_vf)(ucx), (rf_vf)(ucy), (rf_vf)(ucz), r->sx[j], r->sy[j], r->sz[j], offset,
-                            (rf_vf)(unx), (rf_vf)(uny), (rf_vf)(unz), &t, &ev, &ew, &det);
+                            (rf_vf)(ucx), (rf_vf)(ucy), (rf_vf)(ucz), r->sx[j], r->sy[j], r->sz[j], (rf_vf)(unx),
+                            (rf_vf)(uny), (rf_vf)(unz), (rf_vi)(woop_u ? -1 : 0), offset, &t, &ev, &ew, &det);
     } else {
       const rf_vi kx = r->pkx[j], ky = r->pky[j], kz = r->pkz[j];
-      ok =
-          rf_lanes_triangle(rf_lanes_pick(a0, a1, a2, kx), rf_lanes_pick(a0, a1, a2, ky), rf_lanes_pick(a0, a1, a2, kz),
-                            rf_lanes_pick(b0, b1, b2, kx), rf_lanes_pick(b0, b1, b2, ky), rf_lanes_pick(b0, b1, b2, kz),
-                            rf_lanes_pick(c0, c1, c2, kx), rf_lanes_pick(c0, c1, c2, ky), rf_lanes_pick(c0, c1, c2, kz),
-                            r->sx[j], r->sy[j], r->sz[j], offset, rf_lanes_pick(n[0], n[1], n[2], kx),
-                            rf_lanes_pick(n[0], n[1], n[2], ky), rf_lanes_pick(n[0], n[1], n[2], kz), &t, &ev, &ew,
-                            &det);
+      const rf_vf az = rf_lanes_pick(a0, a1, a2, kz), bz = rf_lanes_pick(b0, b1, b2, kz);
+      const rf_vf cz = rf_lanes_pick(c0, c1, c2, kz);
+      ok = rf_lanes_triangle(rf_lanes_pick(a0, a1, a2, kx), rf_lanes_pick(a0, a1, a2, ky), az,
+                             rf_lanes_pick(b0, b1, b2, kx), rf_lanes_pick(b0, b1, b2, ky), bz,
+                             rf_lanes_pick(c0, c1, c2, kx), rf_lanes_pick(c0, c1, c2, ky), cz, r->sx[j], r->sy[j],
+                             r->sz[j], rf_lanes_pick(n[0], n[1], n[2], kx), rf_lanes_pick(n[0], n[1], n[2], ky),
+                             rf_lanes_pick(n[0], n[1], n[2], kz), rf_lanes_woop_suits(az, bz, cz), offset, &t, &ev,
+                             &ew, &det);
     }
     if (!rf_lanes_any(ok)) continue;
     const rf_vi positive = t > (rf_vf)(0.0f);
