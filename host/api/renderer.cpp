@@ -6,6 +6,7 @@
 #include "fold/view_passes.h"
 #include "rayfold/errors.h"
 #include "renderer.h"
+#include "util/parallel.h"
 #include "util/timer.h"
 
 namespace rayfold {
@@ -92,8 +93,9 @@ GBuffer Renderer::render(const Camera& camera, Fold fold) {
 
 namespace {
 
-// A core result (one view's) as the public planes.
-void fill_gbuffer(GBuffer& g, const core::RenderResult& r, int width, int height) {
+// A core result (one view's) as the public planes, on `threads` threads: a
+// 720p frame's 30 MB of planes cost a fifth of the trace on one.
+void fill_gbuffer(GBuffer& g, const core::RenderResult& r, int width, int height, unsigned threads) {
   const size_t n = r.hits.size();
   g.width = width;
   g.height = height;
@@ -102,19 +104,26 @@ void fill_gbuffer(GBuffer& g, const core::RenderResult& r, int width, int height
   g.uv.resize(2 * n);
   g.instance_id.resize(n);
   g.primitive_id.resize(n);
+  constexpr size_t kChunk = size_t{1} << 15;
+  std::vector<size_t> chunk_hits((n + kChunk - 1) / kChunk, 0);
+  core::parallel_for(n, threads, kChunk, [&](size_t begin, size_t end) {
+    size_t hits = 0;
+    for (size_t i = begin; i < end; ++i) {
+      const rf_pixel_hit& h = r.hits[i];
+      g.depth[i] = h.z;
+      g.normal[3 * i] = h.nx;
+      g.normal[3 * i + 1] = h.ny;
+      g.normal[3 * i + 2] = h.nz;
+      g.uv[2 * i] = h.u;
+      g.uv[2 * i + 1] = h.v;
+      g.instance_id[i] = h.instance;
+      g.primitive_id[i] = h.primitive;
+      hits += h.instance != RF_INVALID;
+    }
+    chunk_hits[begin / kChunk] = hits;
+  });
   size_t hits = 0;
-  for (size_t i = 0; i < n; ++i) {
-    const rf_pixel_hit& h = r.hits[i];
-    g.depth[i] = h.z;
-    g.normal[3 * i] = h.nx;
-    g.normal[3 * i + 1] = h.ny;
-    g.normal[3 * i + 2] = h.nz;
-    g.uv[2 * i] = h.u;
-    g.uv[2 * i + 1] = h.v;
-    g.instance_id[i] = h.instance;
-    g.primitive_id[i] = h.primitive;
-    hits += h.instance != RF_INVALID;
-  }
+  for (size_t c : chunk_hits) hits += c;
   g.hits = hits;
   g.fold = from_core(r.fold);
   g.rays = r.rays;
@@ -131,7 +140,7 @@ void Renderer::render_into(GBuffer& g, const Camera& camera, Fold fold) {
   frame.moved = impl_->moved();
   core::RenderResult& r = impl_->result;
   impl_->core->render_into(r, camera.core(), 1, frame);
-  fill_gbuffer(g, r, camera.width(), camera.height());
+  fill_gbuffer(g, r, camera.width(), camera.height(), impl_->options.threads);
   g.frame_ms = core::ms_since(t0);
 }
 
@@ -157,7 +166,8 @@ std::vector<GBuffer> Renderer::render_views(const std::vector<Camera>& cameras, 
     const double ms = core::ms_since(t0) / static_cast<double>(pass.size());
     for (size_t k = 0; k < pass.size(); ++k) {
       GBuffer& g = out[pass[k]];
-      fill_gbuffer(g, core::view_result(r, k), cameras[pass[k]].width(), cameras[pass[k]].height());
+      fill_gbuffer(g, core::view_result(r, k), cameras[pass[k]].width(), cameras[pass[k]].height(),
+                   impl_->options.threads);
       g.views_in_trace = static_cast<int>(pass.size());
       g.trace_ms = r.median.trace_ms / static_cast<double>(pass.size());
       g.frame_ms = ms;
