@@ -202,7 +202,7 @@ TEST(Cli, BadSceneWritesNoOutput) {
 }
 
 TEST(Cli, HelpForEveryCommand) {
-  for (const char* args : {"--help", "render --help", "info --help", "bench --help"}) {
+  for (const char* args : {"--help", "render --help", "info --help", "bench --help", "devices --help", "devices -h"}) {
     const CliRun r = rayfold(args);
     EXPECT_EQ(r.code, 0) << args;
     EXPECT_NE(r.out.find("usage: rayfold"), std::string::npos) << args;
@@ -331,6 +331,10 @@ TEST(Cli, CameraListsAndStereoPairsRenderEachViewAsAloneBitForBit) {
   EXPECT_NE(chosen.out.find("ms/view"), std::string::npos) << chosen.out;
   EXPECT_EQ(same_views("one", "auto"), "");
   EXPECT_EQ(rayfold("render --fold auto --compare").code, 2);
+  // Once silently traced xy: naming none with --compare is a usage error.
+  const CliRun none = rayfold("render --size 16x16 --fold none --compare");
+  EXPECT_EQ(none.code, 2);
+  EXPECT_NE(none.err.find("--compare --fold none"), std::string::npos) << none.err;
   EXPECT_EQ(rayfold("render --cameras " + list + " --align 0").code, 2);
   EXPECT_EQ(rayfold("render --fold sideways").code, 2);
   EXPECT_EQ(rayfold("render --cameras " + list + " --align 33").code, 2);
@@ -431,6 +435,7 @@ TEST(Cli, VersionDevicesAndDeviceErrors) {
   CliRun r = rayfold("--version");
   EXPECT_EQ(r.code, 0);
   EXPECT_EQ(r.out.rfind("rayfold ", 0), 0u) << r.out;
+  EXPECT_EQ(rayfold("devices --all").code, 2);
   r = rayfold("devices");
   EXPECT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.out.find("compute units"), std::string::npos) << r.out;

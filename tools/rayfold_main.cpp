@@ -65,6 +65,11 @@ const char* kUsage =
     "without it, render uses the bundled default scene.\n"
     "exit codes: 0 success, 2 bad input or usage, 3 runtime failure\n";
 
+const char* kDevicesUsage =
+    "usage: rayfold devices\n"
+    "Lists the OpenCL platforms and devices this machine offers, with their compute units;\n"
+    "--device NAME (render, bench) picks the first whose platform or name contains NAME.\n";
+
 const char* kRenderUsage =
     "usage: rayfold render [SCENE] [options]\n"
     "\n"
@@ -100,7 +105,8 @@ const char* kRenderUsage =
     "                         fourth instance every frame\n"
     "  --fps F                frames per second of --animate (default 30)\n"
     "  --compare              also render unfolded, check the two agree bit for bit\n"
-    "                         and print them side by side (--fold defaults to xy)\n"
+    "                         and print them side by side (--fold defaults to xy;\n"
+    "                         --fold none has nothing to compare and is refused)\n"
     "  --braid N              top level opens the instances' trees into about N items\n"
     "                         per instance, at least 256 (partial re-braiding;\n"
     "                         default 2, 0 = whole instances)\n"
@@ -169,6 +175,7 @@ struct RenderArgs {
   std::optional<double> stereo;  // --stereo B: a left and a right view
   int align = 0;                 // --align N: views per pass; 0 = all (as many as a pass holds), -1 = auto
   bool fold_auto = false;        // --fold auto
+  bool fold_given = false;       // --fold named at all
   double shift_x = 0.0, shift_y = 0.0;
   RendererOptions renderer;
   FrameOptions frame;
@@ -308,6 +315,7 @@ RenderArgs parse_render(cli::Args& args) {
     } else if (a == "--fold") {
       const std::string v = args.value(a);
       r.fold_auto = v == "auto";
+      r.fold_given = true;
       if (!r.fold_auto) r.frame.fold = cli::parse_fold(a, v);
     } else if (a == "--shift") {
       const std::string v = args.value(a);
@@ -367,6 +375,9 @@ RenderArgs parse_render(cli::Args& args) {
   if (r.fold_auto && r.compare) throw UsageError("--compare: compares a fold with none; name the fold");
   check_outputs(
       {{"-o", &r.exr, ".exr"}, {"--png", &r.png, ".png"}, {"--stats", &r.stats, ".json"}, {"--ids", &r.ids, ".json"}});
+  if (r.compare && r.fold_given && r.frame.fold == FoldMode::none)
+    throw UsageError("--compare --fold none: --compare checks a fold against none; name y, x or xy (or leave --fold "
+                     "out for xy)");
   if (r.compare && r.frame.fold == FoldMode::none) r.frame.fold = FoldMode::xy;
   check_renderer_options(r.renderer);
   return r;
@@ -953,6 +964,10 @@ int run(int argc, char** argv) {
     return 0;
   }
   if (command == "devices") {
+    if (!args.done() && (args.peek() == "--help" || args.peek() == "-h")) {
+      std::fputs(kDevicesUsage, stdout);
+      return 0;
+    }
     if (!args.done()) throw UsageError("devices: takes no arguments");
     std::printf("OpenCL devices (--device NAME picks the first whose platform or name contains NAME):\n%s",
                 describe_devices(list_devices()).c_str());
