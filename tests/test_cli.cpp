@@ -370,6 +370,15 @@ TEST(Cli, CameraListsAndStereoPairsRenderEachViewAsAloneBitForBit) {
   r = rayfold("render --cameras " + list);
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("views.json: cameras[0]: eye and look-at must be distinct"), std::string::npos) << r.err;
+  // Once silently rendered at the list's vfov: intrinsics and typos are named.
+  for (const char* key : {"fx", "lookat"}) {
+    std::ofstream(list) << R"({"width": 40, "height": 30, "cameras": [{"eye": [0, 3, 1], "look_at": [0, 2, 0]},
+                               {"eye": [0, 3, 2], "look_at": [0, 2, 0], ")" << key << R"(": 500}]})";
+    r = rayfold("render --cameras " + list);
+    EXPECT_EQ(r.code, 2) << key;
+    EXPECT_NE(r.err.find(std::string("views.json: cameras[1]: unknown key \"") + key + "\""), std::string::npos)
+        << r.err;
+  }
   std::ofstream(list) << R"({"width": 40, "height": 30, "cameras": [{"eye": [0, 3, 1], "look_at": [0, 2, 0]},
                                                                    {"eye": [0, 3, 2], "look_at": [0, 2, 0]}]})";
   r = rayfold("render --cameras " + list + " -o " + (d / "plain.exr").string());

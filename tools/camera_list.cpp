@@ -1,6 +1,8 @@
 #include "camera_list.h"
 
+#include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <fstream>
 
 #include <glm/geometric.hpp>
@@ -54,6 +56,15 @@ std::vector<View> read_camera_list(const std::string& path) {
     const json& c = j["cameras"][i];
     const std::string where = "cameras[" + std::to_string(i) + "]";
     if (!c.is_object()) throw InputError(path, where + " must be an object");
+    // Nothing a camera says is dropped: intrinsics (fx, fy, cx, cy, K) would
+    // otherwise render at the list's vfov without a word.
+    for (const auto& item : c.items()) {
+      static const char* const kKeys[] = {"eye", "look_at", "up", "vfov", "camera_to_world"};
+      if (std::find(std::begin(kKeys), std::end(kKeys), item.key()) == std::end(kKeys))
+        throw InputError(path, where + ": unknown key \"" + item.key() +
+                                   "\" (a camera has eye, look_at, up, vfov or camera_to_world; intrinsics such as "
+                                   "fx, fy, cx, cy are not read)");
+    }
     const double fov = c.contains("vfov") ? number(c["vfov"], where + ".vfov", path) : vfov;
     try {
       if (c.contains("camera_to_world")) {

@@ -18,7 +18,8 @@ struct View {
 //                    or {"camera_to_world": [16 numbers, row-major]}, each
 //                    with an optional "vfov"]}.
 // vfov defaults to 60, up to +Y, convention (of camera_to_world) to opengl.
-// Throws InputError(path, ...) naming the member that is wrong.
+// Throws InputError(path, ...) naming the member that is wrong, also for a
+// key a camera does not have (fx, fy, cx, cy are not read yet).
 std::vector<View> read_camera_list(const std::string& path);
 
 // A parallel-axis stereo pair around `centre`: the eyes baseline / 2 to the
