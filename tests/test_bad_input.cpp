@@ -204,6 +204,11 @@ TEST(BadInput, Nodes) {
          f.j["scenes"] = {{{"nodes", {0}}}};
          f.j["scene"] = 3;
        }},
+      {"default_scene_without_scenes", "\"scene\" is 0 but the file has no scenes",
+       [](GltfFile& f) {  // once rendered with exit 0 while --scene 0 on it was an error
+         f.j.erase("scenes");
+         f.j["scene"] = 0;
+       }},
       {"mesh_ref", "mesh 5", [](GltfFile& f) { f.j["nodes"][0]["mesh"] = 5; }},
       {"camera_ref", "", [](GltfFile& f) { f.j["nodes"][0]["camera"] = 3; }},
       {"matrix_and_trs", "both a matrix",

@@ -410,6 +410,10 @@ class Loader {
       scene_.scene_index = s;
       return model_.scenes[s].nodes;
     }
+    // "scene" names a scene the file must have: --scene 0 on such a file is
+    // an error, so its own default is too.
+    if (model_.defaultScene >= 0)
+      fail("\"scene\" is " + std::to_string(model_.defaultScene) + " but the file has no scenes");
     // No scene: every node that is nobody's child is a root.
     std::vector<char> is_child(model_.nodes.size(), 0);
     for (const tinygltf::Node& n : model_.nodes)
