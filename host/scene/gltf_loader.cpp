@@ -375,6 +375,13 @@ class Loader {
     if (!ok) {
       std::string what = err.empty() ? "not a readable glTF file" : err;
       while (!what.empty() && (what.back() == '\n' || what.back() == ' ')) what.pop_back();
+      // tinygltf's words for a buffer file that is not there, in ours.
+      const std::string missing = "File not found : ";
+      if (what.rfind(missing, 0) == 0) {
+        const std::string uri = what.substr(missing.size(), what.find('\n') - missing.size());
+        const std::filesystem::path dir = std::filesystem::path(path_).parent_path();
+        fail("buffer file \"" + uri + "\" does not exist (looked for " + (dir / uri).string() + ")");
+      }
       fail(what);
     }
     // Images are never decoded, so a missing image file is no concern of
