@@ -497,6 +497,21 @@ TEST(Cli, AutoFramedCameraIsPrintedAndReusable) {
   EXPECT_EQ(testing::compare_hits(read_exr(a, &w, &h), read_exr(b, &w, &h), 20), "") << line;
 }
 
+// Once silent: the stand-in motion for a file without animations is said,
+// also with -q.
+TEST(Cli, AnimateWithoutAnimationsSaysWhatMovesInstead) {
+  testing::GltfFile f;
+  f.one_triangle();
+  const std::string path = f.write("still");
+  for (const char* quiet : {"", " -q"}) {
+    const CliRun r = rayfold("render " + path + " --size 8x8 --frames 2 --animate" + quiet);
+    EXPECT_EQ(r.code, 0) << r.err;
+    EXPECT_NE(r.err.find("warning: --animate: " + path + " has no animations"), std::string::npos) << r.err;
+  }
+  const CliRun plain = rayfold("render " + path + " --size 8x8");
+  EXPECT_EQ(plain.err.find("--animate"), std::string::npos) << plain.err;
+}
+
 TEST(Cli, OneWarningLinePerKind) {
   testing::GltfFile f;
   f.one_triangle();

@@ -664,6 +664,12 @@ int run_render(cli::Args& args) {
   // --animate plays the file's own animations when it has any (frame f at
   // --time + f / --fps); other files get the synthetic motion (animation.h).
   const bool play = r.frame.animate_frame >= 0 && file.animated();
+  // A substitute is announced, -q or not.
+  if (r.frame.animate_frame >= 0 && !play)
+    std::fprintf(stderr,
+                 "warning: --animate: %s has no animations; every fourth instance moves instead (a synthetic "
+                 "motion for benchmarking updates)\n",
+                 r.scene.c_str());
   FrameOptions frame_options = r.frame;
   if (play) frame_options.animate_frame = -1;
   const double start_time = std::isnan(r.load.time) ? 0.0 : r.load.time;
