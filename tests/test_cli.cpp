@@ -523,6 +523,15 @@ TEST(Cli, OneWarningLinePerKind) {
   for (size_t p = r.err.find("zero scale"); p != std::string::npos; p = r.err.find("zero scale", p + 1)) ++lines;
   EXPECT_EQ(lines, 1u) << r.err;
   EXPECT_NE(r.err.find("(and 4 more like it)"), std::string::npos) << r.err;
+  // Once hidden by -q and left out of --stats: the loader's warnings.
+  const std::string stats = (testing::temp_dir() / "zero_scales_stats.json").string();
+  const CliRun q = rayfold("render " + f.write("zero_scales") + " --size 8x8 -q --stats " + stats);
+  EXPECT_EQ(q.code, 0) << q.err;
+  EXPECT_EQ(q.out, "");
+  EXPECT_NE(q.err.find("zero scale"), std::string::npos) << q.err;
+  const nlohmann::json j = nlohmann::json::parse(std::ifstream(stats));
+  ASSERT_FALSE(j["warnings"].empty());
+  EXPECT_NE(j["warnings"][0].get<std::string>().find("zero scale"), std::string::npos) << j["warnings"];
 }
 
 TEST(Cli, SceneAndCameraOptionsAndInfoListsThem) {

@@ -127,7 +127,8 @@ const char* kRenderUsage =
     "                         32 / the fold's mirrors; auto: as the cost model predicts\n"
     "                         fastest); views with other intrinsics go to other passes;\n"
     "                         every view's bits equal the view alone\n"
-    "  -q, --quiet            print nothing but errors (and no progress)\n"
+    "  -q, --quiet            print nothing but errors and warnings (no table, no\n"
+    "                         progress)\n"
     "  -v, --verbose          also the time of every stage, and of every frame\n"
     "Each output's extension must match its kind (.exr, .png, .json), so no two\n"
     "outputs can name the same file.\n";
@@ -183,6 +184,7 @@ struct RenderArgs {
   double fps = 30.0;  // --animate on an animated file: frame f at --time + f / fps
   std::string exr, png, stats, ids;
   bool quiet = false;
+  std::vector<std::string> load_warnings;  // the loader's, for --stats (filled once loaded)
   bool verbose = false;
   bool compare = false;
   LoadOptions load;
@@ -194,11 +196,10 @@ std::string with_commas(size_t n) {
   return s;
 }
 
-Scene load_scene(const std::string& path, bool quiet, const LoadOptions& options = {}) {
+Scene load_scene(const std::string& path, const LoadOptions& options = {}) {
   std::vector<std::string> warnings;
   Scene scene = load_gltf(path, &warnings, options);
-  if (!quiet)
-    for (const std::string& w : warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
+  for (const std::string& w : warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
   return scene;
 }
 
@@ -461,7 +462,8 @@ void write_stats(const std::string& path, const RenderArgs& args, const Scene& s
   j["pixels"] = {{"hit", hit}, {"miss", result.hits.size() - hit}};
   j["instances_after_culling"] = result.frame_stats.kept;
   j["instances_out_of_range"] = result.views.empty() ? 0 : result.views[0].out_of_range;
-  j["warnings"] = result.warnings;
+  j["warnings"] = args.load_warnings;  // the loader's, then the trace's
+  for (const std::string& w : result.warnings) j["warnings"].push_back(w);
   j["times_ms"] = {{"load", load_ms},
                    {"blas_build", renderer.blas_build_ms()},
                    {"cull", result.median.cull_ms},
@@ -658,8 +660,9 @@ int run_render(cli::Args& args) {
   auto t0 = Clock::now();
   GltfFile file(r.scene, r.load);
   Scene scene = file.scene_at(r.load.time);
-  if (!r.quiet)
-    for (const std::string& w : file.warnings()) std::fprintf(stderr, "warning: %s\n", w.c_str());
+  // Warnings are printed under -q too: it silences the table and progress.
+  for (const std::string& w : file.warnings()) std::fprintf(stderr, "warning: %s\n", w.c_str());
+  r.load_warnings = file.warnings();
   const double load_ms = ms_since(t0);
   // --animate plays the file's own animations when it has any (frame f at
   // --time + f / --fps); other files get the synthetic motion (animation.h).
@@ -845,7 +848,7 @@ int run_info(cli::Args& args) {
     path = a;
   }
   if (path.empty()) throw UsageError("info: no scene given (usage: rayfold info SCENE)");
-  const Scene scene = load_scene(path, false);
+  const Scene scene = load_scene(path);
   const Aabb b = scene.world_bounds();
   std::printf("%s\n", path.c_str());
   std::printf("  meshes      %s\n", with_commas(scene.meshes.size()).c_str());
