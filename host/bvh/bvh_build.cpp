@@ -141,8 +141,8 @@ class Builder {
     RF_CHECK(opt_.bins >= 2 && opt_.bins <= kMaxBins, "bin count out of range");
   }
 
-  // Builds the tree of refs_[first, first + count) into `nodes` (root at
-  // nodes[0], whose bounds and centre bounds are given).
+  // Builds the subtree under nodes[0] (its range and box already set) into
+  // `nodes`, given its centres' box and level; returns the deepest level.
   int build_subtree(std::vector<BuildNode>& nodes, const Box4& root_centres, int root_depth) const {
     int depth = root_depth;
     std::vector<Task> stack{{0, root_depth, root_centres}};
