@@ -181,6 +181,12 @@ void Renderer::render_views_into(RenderResult& result, const std::vector<Camera>
     }
     result.frames.push_back(times);
   }
+  result.kernel = kernel_label();
+  result.kernel_reason = kernel_reason_;
+  if (tracer_ && is_orthographic(camera)) {
+    result.kernel = kernel_name(KernelKind::single);
+    result.kernel_reason = "orthographic: parallel rays share no origin for the tile kernel";
+  }
   result.view_warnings.assign(cameras.size(), {});
   result.warnings.clear();
   for (size_t v = 0; v < cameras.size(); ++v) {

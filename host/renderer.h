@@ -85,6 +85,9 @@ struct RenderResult {
   // "view k: " in front.
   std::vector<std::vector<std::string>> view_warnings;
   std::vector<std::string> warnings;
+  // The kernel that traced this render and why (Renderer::kernel_label and
+  // kernel_reason, but an orthographic view's is the single-ray kernel's).
+  std::string kernel, kernel_reason;
 };
 
 class Renderer {

@@ -61,6 +61,14 @@ TEST(Cli, KernelChoiceIsReportedAndBothKernelsWriteTheSameFile) {
     images.push_back(read_exr(exr, &w, &h));
   }
   EXPECT_EQ(testing::compare_hits(images[0], images[1], 65), "");
+  // Once reported as the tile kernel: orthographic views trace single rays.
+  const std::string ortho = (d / "ortho.json").string();
+  const CliRun o = rayfold("render --size 32x18 --ortho 6 --kernel tile --stats " + ortho);
+  ASSERT_EQ(o.code, 0) << o.err;
+  EXPECT_NE(o.out.find("kernel       single (orthographic"), std::string::npos) << o.out;
+  std::ifstream oj(ortho);
+  const std::string otext((std::istreambuf_iterator<char>(oj)), {});
+  EXPECT_NE(otext.find("\"kernel\": \"single\""), std::string::npos) << otext;
   const CliRun bad = rayfold("render --size 8x8 --kernel wide");
   EXPECT_EQ(bad.code, 2);
   EXPECT_NE(bad.err.find("--kernel: 'wide' is not tile, single, measure or auto"), std::string::npos) << bad.err;

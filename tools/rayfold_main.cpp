@@ -442,8 +442,8 @@ void write_stats(const std::string& path, const RenderArgs& args, const Scene& s
   j["height"] = args.height;
   j["backend"] = args.renderer.backend == Backend::opencl ? "opencl" : "cpu";
   j["device"] = renderer.device_name();
-  j["kernel"] = renderer.kernel_label();
-  j["kernel_reason"] = renderer.kernel_reason();
+  j["kernel"] = result.kernel;
+  j["kernel_reason"] = result.kernel_reason;
   j["frames"] = result.frames.size();
   j["instances"] = scene.instances.size();
   j["meshes"] = scene.meshes.size();
@@ -795,7 +795,7 @@ int run_render(cli::Args& args) {
     const double mrays = result.rays / (m.trace_ms * 1e3);
     std::printf("rayfold render  %s  %dx%d  fold %s\n", r.scene.c_str(), r.width, r.height, fold_name(r.frame.fold));
     std::printf("  %-12s %s\n", "device", renderer.device_name().c_str());
-    std::printf("  %-12s %s (%s)\n", "kernel", renderer.kernel_label().c_str(), renderer.kernel_reason().c_str());
+    std::printf("  %-12s %s (%s)\n", "kernel", result.kernel.c_str(), result.kernel_reason.c_str());
     std::printf("  %-12s %s instances, %s meshes, %s triangles (%s stored)\n", "scene",
                 with_commas(scene.instances.size()).c_str(), with_commas(scene.meshes.size()).c_str(),
                 with_commas(scene.triangle_count()).c_str(), with_commas(scene.unique_triangle_count()).c_str());
