@@ -219,8 +219,10 @@ RF_INLINE int rf_intersect_triangle(const RF_GLOBAL rf_tri* tri, const rf_ray* r
   if ((eu < 0.0f || ev < 0.0f || ew < 0.0f) && (eu > 0.0f || ev > 0.0f || ew > 0.0f)) return 0;
   const float det = eu + ev + ew;
   if (det == 0.0f) return 0;
-  const float den = tri->n[kx] * r->sx + tri->n[ky] * r->sy + tri->n[kz];
-  if (!rf_woop_distance_suits(a_z, b_z, c_z) && den != 0.0f) {
+  /* The plane's denominator only where its distance is taken; 0 picks Woop's. */
+  const float den =
+      rf_woop_distance_suits(a_z, b_z, c_z) ? 0.0f : tri->n[kx] * r->sx + tri->n[ky] * r->sy + tri->n[kz];
+  if (den != 0.0f) {
     *t_out = (rf_plane_offset(tri, r->o) * r->sz) / den;
   } else {
     const float t_scaled = eu * (r->sz * a_z) + ev * (r->sz * b_z) + ew * (r->sz * c_z);
