@@ -121,6 +121,49 @@ TEST(Bvh, BuildIsTheSameOnAnyThreadCount) {
   }
 }
 
+// The flat layout at an odd and an even start: every pair on an even node
+// index after its parent, every leaf's items once, each node's box the
+// build node's. The same tree flattened in parallel is the same bytes.
+TEST(Bvh, FlatTreeKeepsPairsAlignedAfterTheirParents) {
+  Rng rng(79);
+  const std::vector<Aabb> boxes = clustered_boxes(rng, 70000);
+  const BuildTree tree = build_sah(boxes, BuildOptions{}, 2);
+  for (uint32_t base : {0u, 1u, 6u}) {
+    std::vector<rf_node> flat(3, rf_node{});
+    flat.resize(base);
+    const uint32_t root = flatten_bvh(tree, 100, nullptr, 0, flat);
+    ASSERT_EQ(root, base);
+    ASSERT_EQ(flat.size(), base + flat_node_count(tree, base));
+    std::vector<int> items(tree.order.size(), 0);
+    std::vector<uint32_t> stack{root};
+    size_t visited = 0;
+    while (!stack.empty()) {
+      const uint32_t i = stack.back();
+      stack.pop_back();
+      ++visited;
+      const rf_node& n = flat[i];
+      if (n.meta > 0) {
+        for (uint32_t k = n.first; k < n.first + n.meta; ++k) items.at(k - 100)++;
+        continue;
+      }
+      ASSERT_EQ(n.first % 2, 0u) << "node " << i;
+      ASSERT_GT(n.first, i) << "node " << i;
+      for (uint32_t c : {n.first, n.first + 1}) {
+        for (int k = 0; k < 3; ++k) {
+          EXPECT_LE(n.bmin[k], flat[c].bmin[k]) << "node " << i;
+          EXPECT_GE(n.bmax[k], flat[c].bmax[k]) << "node " << i;
+        }
+        stack.push_back(c);
+      }
+    }
+    EXPECT_EQ(visited, tree.nodes.size());
+    for (size_t k = 0; k < items.size(); ++k) ASSERT_EQ(items[k], 1) << "item " << k;
+    std::vector<rf_node> parallel(flat_node_count(tree, base));
+    flatten_bvh_at(tree, 100, nullptr, base, parallel.data(), 3);
+    EXPECT_EQ(std::memcmp(parallel.data(), flat.data() + base, parallel.size() * sizeof(rf_node)), 0);
+  }
+}
+
 // The split rules, checked node by node by brute force: every interior node
 // splits at the cheapest boundary of 16 equal centre bins over the three
 // axes (first on ties, axes in order), or at the object median where no
@@ -214,8 +257,8 @@ TEST(Bvh, EverySplitIsTheCheapestBinBoundary) {
       sah_splits++;
       for (uint32_t k = first; k < first + count; ++k)
         ASSERT_EQ(bin_of(boxes[tree.order[k]], best_axis) <= best_bin, k < first + left_count)
-            << "node " << i << " primitive " << tree.order[k] << " on the wrong side of axis " << best_axis
-            << " bin " << best_bin;
+            << "node " << i << " primitive " << tree.order[k] << " on the wrong side of axis " << best_axis << " bin "
+            << best_bin;
     } else {
       medians++;
       EXPECT_EQ(left_count, count / 2) << "node " << i;

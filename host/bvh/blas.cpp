@@ -71,13 +71,10 @@ BlasSet build_blas_set(const Scene& scene, const BuildOptions& options, unsigned
   // A large mesh is built by all threads, one after another; the others one
   // mesh per thread side by side, largest first.
   threads = resolve_threads(threads);
-  std::vector<size_t> small;
-  for (size_t m = 0; m < mesh_count; ++m) {
-    if (scene.meshes[m].triangle_count() >= kParallelMeshTriangles)
-      build_mesh(m, threads);
-    else
-      small.push_back(m);
-  }
+  std::vector<size_t> large, small;
+  for (size_t m = 0; m < mesh_count; ++m)
+    (scene.meshes[m].triangle_count() >= kParallelMeshTriangles ? large : small).push_back(m);
+  for (size_t m : large) build_mesh(m, threads);
   std::stable_sort(small.begin(), small.end(), [&](size_t a, size_t b) {
     return scene.meshes[a].triangle_count() > scene.meshes[b].triangle_count();
   });
@@ -86,11 +83,8 @@ BlasSet build_blas_set(const Scene& scene, const BuildOptions& options, unsigned
 
   double weighted_sah = 0.0;
   size_t weight = 0;
-  size_t total_tris = 0, total_nodes = 0;
-  for (const BuildTree& tree : trees) {
-    total_tris += tree.order.size();
-    total_nodes += tree.nodes.size() + 1;
-  }
+  size_t total_tris = 0;
+  for (const BuildTree& tree : trees) total_tris += tree.order.size();
   // Triangles in leaf order, every mesh's after the one before, side by side.
   std::vector<size_t> tri_base(mesh_count + 1, 0);
   for (size_t m = 0; m < mesh_count; ++m) tri_base[m + 1] = tri_base[m] + trees[m].order.size();
@@ -112,10 +106,19 @@ BlasSet build_blas_set(const Scene& scene, const BuildOptions& options, unsigned
       rf_tri_set_normal(&tri);
     }
   });
-  set.nodes.reserve(total_nodes + 1);
+  // Every mesh's nodes after the one before, written side by side.
+  std::vector<uint32_t> node_base(mesh_count + 1, 0);
+  for (size_t m = 0; m < mesh_count; ++m)
+    node_base[m + 1] = node_base[m] + static_cast<uint32_t>(flat_node_count(trees[m], node_base[m]));
+  set.nodes.resize(node_base[mesh_count]);
+  auto flatten_mesh = [&](size_t m, unsigned mesh_threads) {
+    set.roots[m] = flatten_bvh_at(trees[m], static_cast<uint32_t>(tri_base[m]), nullptr, node_base[m],
+                                  set.nodes.data() + node_base[m], mesh_threads);
+  };
+  for (size_t m : large) flatten_mesh(m, threads);
+  parallel_for(small.size(), threads, 1, [&](size_t i, size_t) { flatten_mesh(small[i], 1); });
   for (size_t m = 0; m < mesh_count; ++m) {
     const BuildTree& tree = trees[m];
-    set.roots[m] = flatten_bvh(tree, static_cast<uint32_t>(tri_base[m]), nullptr, 0, set.nodes);
     set.max_depth = std::max(set.max_depth, tree.depth);
     weighted_sah += tree.sah_cost * tree.order.size();
     weight += tree.order.size();

@@ -61,27 +61,29 @@ struct Box4 {
 
 constexpr int kMaxBins = 64;
 
-// Every axis's bins of one node (or of one chunk of a large node). A bin is
-// written when its first primitive arrives and `used` marks it, so nothing
-// is initialised and the sweep visits only occupied bins: most nodes are
-// small, and resetting and sweeping all 3 x 16 bins cost more than binning
-// their few primitives.
+// Every axis's bins of one node (or of one chunk of a large node), set to
+// empty for the bins in use before binning. Growing a bin then needs no
+// test of whether it was written before: that test's branch mispredicts
+// for most primitives of the many small nodes, where it cost more than the
+// stores it saved. `used` marks the occupied bins, which the sweep visits.
 struct BinSet {
   v4f lo[3][kMaxBins], hi[3][kMaxBins];
   uint32_t counts[3][kMaxBins];
   uint64_t used[3] = {0, 0, 0};
+  explicit BinSet(int bins) {
+    const v4f inf = v4f{} + INFINITY;
+    for (int a = 0; a < 3; ++a)
+      for (int i = 0; i < bins; ++i) {
+        lo[a][i] = inf;
+        hi[a][i] = -inf;
+        counts[a][i] = 0;
+      }
+  }
   void grow(int axis, int bin, v4f l, v4f h, uint32_t n = 1) {
-    const uint64_t bit = uint64_t{1} << bin;
-    if (used[axis] & bit) {
-      lo[axis][bin] = vmin(lo[axis][bin], l);
-      hi[axis][bin] = vmax(hi[axis][bin], h);
-      counts[axis][bin] += n;
-    } else {
-      used[axis] |= bit;
-      lo[axis][bin] = l;
-      hi[axis][bin] = h;
-      counts[axis][bin] = n;
-    }
+    used[axis] |= uint64_t{1} << bin;
+    lo[axis][bin] = vmin(lo[axis][bin], l);
+    hi[axis][bin] = vmax(hi[axis][bin], h);
+    counts[axis][bin] += n;
   }
   void merge(const BinSet& o) {
     for (int a = 0; a < 3; ++a)
@@ -235,11 +237,11 @@ class Builder {
   // the one before them and, the comparison being strict, are never chosen.
   Split find_split(uint32_t first, uint32_t count, const Binner& binner, const Aabb& node_bounds,
                    unsigned threads) const {
-    BinSet bins;
+    BinSet bins(opt_.bins);
     if (threads > 1 && count > kParallelBinning) {
       constexpr uint32_t kChunk = 1u << 14;
       const size_t chunks = (count + kChunk - 1) / kChunk;
-      std::vector<BinSet> partial(chunks);
+      std::vector<BinSet> partial(chunks, BinSet(opt_.bins));
       parallel_for(chunks, threads, 1, [&](size_t c, size_t) {
         const uint32_t b = first + static_cast<uint32_t>(c) * kChunk;
         bin_range(b, std::min(first + count, b + kChunk), binner, partial[c]);
@@ -275,9 +277,9 @@ class Builder {
         const int i = occupied[j];
         acc.grow(bins.lo[axis][i], bins.hi[axis][i]);
         n += bins.counts[axis][i];
-        const float cost = opt_.traversal_cost + opt_.intersection_cost *
-                                                     (acc.aabb().half_area() * n + right_area[j + 1] * right_count[j + 1]) /
-                                                     parent_area;
+        const float cost = opt_.traversal_cost +
+                           opt_.intersection_cost *
+                               (acc.aabb().half_area() * n + right_area[j + 1] * right_count[j + 1]) / parent_area;
         if (cost < best.cost) {
           best.cost = cost;
           best.axis = axis;
@@ -290,9 +292,36 @@ class Builder {
 
   // Moves the split's left primitives to the front of the range; returns
   // the first right one, with both sides' boxes and centre boxes.
-  uint32_t partition(uint32_t first, uint32_t count, const Binner& binner, const Split& split, Box4& lbox,
-                     Box4& rbox, Box4& lcentres, Box4& rcentres) const {
+  uint32_t partition(uint32_t first, uint32_t count, const Binner& binner, const Split& split, Box4& lbox, Box4& rbox,
+                     Box4& lcentres, Box4& rcentres) const {
     auto goes_left = [&](const PrimRef& r) { return binner.bin(r.centre())[split.axis] <= split.bin; };
+    if (count <= kParallelBinning) {
+      // Without branches on the side, which is a coin toss for the branch
+      // predictor: each record is copied to the next free slot of its side
+      // (left from the front, right from the back) and the boxes grow by
+      // index; the range is then copied back.
+      thread_local std::vector<PrimRef> scratch;
+      if (scratch.size() < count) scratch.resize(std::max<size_t>(count, 1024));
+      Box4 boxes[2], centres[2];
+      uint32_t l = 0, r = count;
+      const PrimRef* in = refs_.data() + first;
+      for (uint32_t k = 0; k < count; ++k) {
+        const PrimRef& p = in[k];
+        const v4f c = p.centre();
+        const bool left = binner.bin(c)[split.axis] <= split.bin;
+        r -= !left;
+        scratch[left ? l : r] = p;
+        l += left;
+        boxes[!left].grow(p.box_lo(), p.hi);
+        centres[!left].grow(c, c);
+      }
+      std::memcpy(refs_.data() + first, scratch.data(), count * sizeof(PrimRef));
+      lbox = boxes[0];
+      rbox = boxes[1];
+      lcentres = centres[0];
+      rcentres = centres[1];
+      return first + l;
+    }
     PrimRef* i = refs_.data() + first;
     PrimRef* j = i + count;
     for (;;) {
@@ -344,21 +373,40 @@ double sah_cost(const BuildTree& tree, const BuildOptions& opt) {
 BuildTree build_sah(const std::vector<Aabb>& prim_bounds, const BuildOptions& options, unsigned threads) {
   threads = resolve_threads(threads);
   BuildTree tree;
-  std::vector<PrimRef> refs;
-  refs.reserve(prim_bounds.size());
+  // The records in chunks side by side: each chunk's non-empty boxes are
+  // counted, then written from the chunk's offset on, so the order (and so
+  // the tree) is the input's on any thread count.
+  constexpr size_t kChunk = size_t{1} << 14;
+  const size_t chunks = (prim_bounds.size() + kChunk - 1) / kChunk;
+  std::vector<size_t> offsets(chunks + 1, 0);
+  parallel_for(chunks, threads, 1, [&](size_t c, size_t) {
+    const size_t end = std::min(prim_bounds.size(), (c + 1) * kChunk);
+    for (size_t i = c * kChunk; i < end; ++i) offsets[c + 1] += !prim_bounds[i].empty();
+  });
+  for (size_t c = 0; c < chunks; ++c) offsets[c + 1] += offsets[c];
+  std::vector<PrimRef> refs(offsets[chunks]);
+  std::vector<Box4> chunk_boxes(chunks), chunk_centres(chunks);
+  parallel_for(chunks, threads, 1, [&](size_t c, size_t) {
+    const size_t end = std::min(prim_bounds.size(), (c + 1) * kChunk);
+    PrimRef* out = refs.data() + offsets[c];
+    for (size_t i = c * kChunk; i < end; ++i) {
+      const Aabb& b = prim_bounds[i];
+      if (b.empty()) continue;
+      const uint32_t index = static_cast<uint32_t>(i);
+      float index_bits;
+      std::memcpy(&index_bits, &index, 4);
+      PrimRef& r = *out++;
+      r.lo = v4f{b.lo.x, b.lo.y, b.lo.z, index_bits};
+      r.hi = v4f{b.hi.x, b.hi.y, b.hi.z, 0.0f};
+      chunk_boxes[c].grow(r.box_lo(), r.hi);
+      const v4f centre = r.centre();
+      chunk_centres[c].grow(centre, centre);
+    }
+  });
   Box4 root_box, root_centres;
-  for (uint32_t i = 0; i < prim_bounds.size(); ++i) {
-    const Aabb& b = prim_bounds[i];
-    if (b.empty()) continue;
-    PrimRef r;
-    float index_bits;
-    std::memcpy(&index_bits, &i, 4);
-    r.lo = v4f{b.lo.x, b.lo.y, b.lo.z, index_bits};
-    r.hi = v4f{b.hi.x, b.hi.y, b.hi.z, 0.0f};
-    root_box.grow(r.box_lo(), r.hi);
-    const v4f c = r.centre();
-    root_centres.grow(c, c);
-    refs.push_back(r);
+  for (size_t c = 0; c < chunks; ++c) {
+    root_box.grow(chunk_boxes[c]);
+    root_centres.grow(chunk_centres[c]);
   }
   if (refs.empty()) return tree;
 
@@ -371,12 +419,14 @@ BuildTree build_sah(const std::vector<Aabb>& prim_bounds, const BuildOptions& op
   // The large nodes near the root level by level: all threads binning each
   // while a level has fewer nodes than threads, then one thread per node.
   // The subtrees below them are then built by the threads side by side.
+  // One thread takes the same steps, so the nodes are numbered the same on
+  // any thread count (flatten_bvh keeps that numbering).
   std::vector<Task> subtrees, level{{0, 1, root_centres}};
   while (!level.empty()) {
     std::vector<Task> large;
     for (const Task& t : level) {
       tree.depth = std::max(tree.depth, t.depth);
-      (threads == 1 || tree.nodes[t.node].count <= kParallelBinning ? subtrees : large).push_back(t);
+      (tree.nodes[t.node].count <= kParallelBinning ? subtrees : large).push_back(t);
     }
     level.clear();
     const bool all_on_each = large.size() < threads;
@@ -403,11 +453,10 @@ BuildTree build_sah(const std::vector<Aabb>& prim_bounds, const BuildOptions& op
     }
   }
   // Largest first, so the last subtree handed out is a small one.
-  std::stable_sort(subtrees.begin(), subtrees.end(), [&](const Task& a, const Task& b) {
-    return tree.nodes[a.node].count > tree.nodes[b.node].count;
-  });
+  std::stable_sort(subtrees.begin(), subtrees.end(),
+                   [&](const Task& a, const Task& b) { return tree.nodes[a.node].count > tree.nodes[b.node].count; });
   if (subtrees.size() == 1 && subtrees[0].node == 0) {
-    // One thread, or a tree too small to share: built in place.
+    // A tree too small to share: built in place.
     tree.nodes.reserve(2 * refs.size() - 1);  // a binary tree's node count at most
     tree.depth = builder.build_subtree(tree.nodes, subtrees[0].centres, subtrees[0].depth);
   } else {

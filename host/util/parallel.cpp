@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <atomic>
+#include <exception>
+#include <mutex>
 #include <thread>
 #include <vector>
 
@@ -14,13 +16,26 @@ unsigned resolve_threads(unsigned threads) {
 void parallel_for(size_t n, unsigned threads, size_t chunk, const std::function<void(size_t, size_t)>& body) {
   chunk = std::max<size_t>(chunk, 1);
   std::atomic<size_t> next{0};
+  // The first exception a chunk throws stops the hand-out and is rethrown on
+  // the caller's thread once every thread has stopped.
+  std::exception_ptr failure;
+  std::mutex failure_mutex;
   auto worker = [&] {
-    for (size_t begin; (begin = next.fetch_add(chunk)) < n;) body(begin, std::min(n, begin + chunk));
+    try {
+      for (size_t begin; (begin = next.fetch_add(chunk)) < n;) body(begin, std::min(n, begin + chunk));
+    } catch (...) {
+      next = n;
+      const std::lock_guard<std::mutex> lock(failure_mutex);
+      if (!failure) failure = std::current_exception();
+    }
   };
+  // No more threads than chunks: a small job runs on the caller alone.
+  const size_t useful = std::min<size_t>(resolve_threads(threads), (n + chunk - 1) / chunk);
   std::vector<std::thread> pool;
-  for (unsigned t = 1; t < resolve_threads(threads); ++t) pool.emplace_back(worker);
+  for (size_t t = 1; t < useful; ++t) pool.emplace_back(worker);
   worker();
   for (std::thread& t : pool) t.join();
+  if (failure) std::rethrow_exception(failure);
 }
 
 }  // namespace rayfold::core

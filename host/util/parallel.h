@@ -12,7 +12,8 @@ namespace rayfold::core {
 unsigned resolve_threads(unsigned threads);
 
 // Calls body(begin, end) over [0, n) in chunks of `chunk` items on `threads`
-// threads (the caller's included); returns when all are done.
+// threads (the caller's included); returns when all are done. An exception
+// from body stops the remaining chunks and is rethrown here.
 void parallel_for(size_t n, unsigned threads, size_t chunk, const std::function<void(size_t, size_t)>& body);
 
 }  // namespace rayfold::core
