@@ -101,7 +101,7 @@ TEST(Cli, RenderWritesEverythingAndPrintsTheTable) {
                           "\"nodes\"", "\"triangles\"", "\"hits\""})
     EXPECT_NE(text.find(key), std::string::npos) << key;
   for (const auto& e : fs::directory_iterator(d))
-    EXPECT_EQ(e.path().string().find(".tmp-"), std::string::npos) << "temporary file left: " << e.path();
+    EXPECT_EQ(e.path().string().find(".rayfold-"), std::string::npos) << "temporary file left: " << e.path();
 }
 
 TEST(Cli, CpuAndOpenClWriteIdenticalFiles) {
@@ -206,7 +206,7 @@ TEST(Cli, BadSceneWritesNoOutput) {
   EXPECT_FALSE(fs::exists(out));
   EXPECT_FALSE(fs::exists(out + ".png"));
   for (const auto& e : fs::directory_iterator(d))
-    EXPECT_EQ(e.path().string().find(".tmp-"), std::string::npos) << "temporary file left: " << e.path();
+    EXPECT_EQ(e.path().string().find(".rayfold-"), std::string::npos) << "temporary file left: " << e.path();
 }
 
 TEST(Cli, HelpForEveryCommand) {

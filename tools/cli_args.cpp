@@ -7,6 +7,7 @@
 #include <new>
 
 #include "util/errors.h"
+#include "util/output_transaction.h"
 
 namespace rayfold::core::cli {
 
@@ -20,8 +21,13 @@ std::string Args::value(const std::string& option) {
 }
 
 int guarded_main(const std::function<int()>& body) {
+  install_interrupt_cleanup();
+  // Every output of the run lands together, and only when it succeeded.
+  OutputTransaction outputs;
   try {
-    return body();
+    const int code = body();
+    if (code == 0) outputs.commit();
+    return code;
   } catch (const InputError& e) {
     std::fprintf(stderr, "error: %s\n", e.what());
     return 2;

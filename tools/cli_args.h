@@ -39,7 +39,10 @@ class Args {
 
 // Runs a tool's body and turns rayfold's two error tiers into the exit codes
 // every tool shares: 2 for bad input or usage, 3 for runtime failures (no
-// device, out of memory), each with "error: ..." on stderr.
+// device, out of memory, a failed write), each with "error: ..." on stderr;
+// 128 + N for signal N (SIGINT 130, SIGTERM 143, SIGHUP 129). The body's
+// output files are renamed into place only when it returns 0: a run that
+// fails or is interrupted leaves none of them (util/output_transaction.h).
 int guarded_main(const std::function<int()>& body);
 
 int parse_int(const std::string& option, const std::string& text, int lo, int hi);

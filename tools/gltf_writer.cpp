@@ -111,7 +111,7 @@ void write_glb(const Scene& scene, const std::string& path) {
   AtomicFile file(path);
   tinygltf::TinyGLTF writer;
   if (!writer.WriteGltfSceneToFile(&model, file.temp_path(), false, true, false, true))
-    throw InputError(path, "cannot write the glTF file");
+    throw RuntimeFailure(path + ": cannot write the glTF file");
   file.commit();
 }
 

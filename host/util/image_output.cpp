@@ -1,22 +1,26 @@
 #include "util/image_output.h"
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
+#include <cstring>
 #include <thread>
 
 #include <glm/matrix.hpp>
 
 #include <ImfChannelList.h>
 #include <ImfDoubleAttribute.h>
+#include <ImfFrameBuffer.h>
+#include <ImfHeader.h>
+#include <ImfIO.h>
+#include <ImfInputFile.h>
 #include <ImfMatrixAttribute.h>
+#include <ImfOutputFile.h>
 #include <ImfStandardAttributes.h>
 #include <ImfStringAttribute.h>
 #include <ImfStringVectorAttribute.h>
-#include <ImfFrameBuffer.h>
-#include <ImfHeader.h>
-#include <ImfInputFile.h>
-#include <ImfOutputFile.h>
 #include <ImfThreading.h>
 #include <stb_image_write.h>
 
@@ -98,6 +102,43 @@ void add_metadata(Imf::Header& header, const ExrMetadata& meta, int width, int h
   for (const auto& [name, value] : meta.strings) header.insert("rayfold:" + name, Imf::StringAttribute(value));
 }
 
+// OpenEXR's output stream over a checked FILE*. OpenEXR writes the file's
+// offset table from OutputFile's destructor and drops any exception there,
+// so a full disk at that point would pass unseen: every failure is also kept
+// here and close() reports it.
+class CheckedExrStream : public Imf::OStream {
+ public:
+  CheckedExrStream(const std::string& temp, const std::string& path)
+      : Imf::OStream(temp.c_str()), path_(path), file_(std::fopen(temp.c_str(), "wb")) {
+    if (!file_) throw RuntimeFailure(path + ": cannot write the EXR file: " + std::strerror(errno));
+  }
+  ~CheckedExrStream() override {
+    if (file_) std::fclose(file_);
+  }
+  void write(const char c[], int n) override {
+    if (!error_ && std::fwrite(c, 1, static_cast<size_t>(n), file_) != static_cast<size_t>(n)) error_ = errno;
+    if (error_) throw std::runtime_error(std::strerror(error_));
+  }
+  uint64_t tellp() override { return static_cast<uint64_t>(std::ftell(file_)); }
+  void seekp(uint64_t pos) override {
+    if (!error_ && std::fseek(file_, static_cast<long>(pos), SEEK_SET) != 0) error_ = errno;
+  }
+  // Flushes and closes; RuntimeFailure naming the file on any failure.
+  void close() {
+    const bool flushed = std::fflush(file_) == 0;
+    if (!error_ && !flushed) error_ = errno;
+    const bool closed = std::fclose(file_) == 0;
+    file_ = nullptr;
+    if (!error_ && !closed) error_ = errno;
+    if (error_) throw RuntimeFailure(path_ + ": cannot write the EXR file: " + std::strerror(error_));
+  }
+
+ private:
+  std::string path_;
+  std::FILE* file_;
+  int error_ = 0;
+};
+
 }  // namespace
 
 void write_exr(const std::string& path, const std::vector<rf_pixel_hit>& hits, int width, int height,
@@ -112,17 +153,19 @@ void write_exr(const std::string& path, const std::vector<rf_pixel_hit>& hits, i
   }();
   (void)pool;
   AtomicFile file(path);
+  CheckedExrStream stream(file.temp_path(), path);
   try {
     Imf::Header header(width, height);
     header.compression() = Imf::ZIP_COMPRESSION;
     for (const Channel& c : kChannels) header.channels().insert(c.name, Imf::Channel(c.type));
     if (metadata) add_metadata(header, *metadata, width, height);
-    Imf::OutputFile out(file.temp_path().c_str(), header);
+    Imf::OutputFile out(stream, header, Imf::globalThreadCount());
     out.setFrameBuffer(frame_buffer(hits.data(), width));
     out.writePixels(height);
   } catch (const std::exception& e) {
-    throw InputError(path, std::string("cannot write the EXR file: ") + e.what());
+    throw RuntimeFailure(path + ": cannot write the EXR file: " + e.what());
   }
+  stream.close();
   file.commit();
 }
 
@@ -155,9 +198,17 @@ void write_png(const std::string& path, const std::vector<rf_pixel_hit>& hits, i
     rgb[3 * i + 1] = to_byte(hits[i].ny);
     rgb[3 * i + 2] = to_byte(hits[i].nz);
   }
+  // Encoded in memory and written by write_temp_bytes: stb's own file
+  // writer does not check its writes, and reported success on a full disk.
+  std::vector<uint8_t> png;
+  auto append = [](void* context, void* data, int size) {
+    auto* out = static_cast<std::vector<uint8_t>*>(context);
+    out->insert(out->end(), static_cast<uint8_t*>(data), static_cast<uint8_t*>(data) + size);
+  };
+  if (!stbi_write_png_to_func(append, &png, width, height, 3, rgb.data(), width * 3))
+    throw RuntimeFailure(path + ": cannot encode the PNG file");
   AtomicFile file(path);
-  if (!stbi_write_png(file.temp_path().c_str(), width, height, 3, rgb.data(), width * 3))
-    throw InputError(path, "cannot write the PNG file");
+  write_temp_bytes(file, png.data(), png.size());
   file.commit();
 }
 

@@ -42,11 +42,12 @@ struct ExrMetadata {
 //   rayfold:projection          "perspective" or "orthographic"
 //   rayfold:instanceNames       string vector indexed by InstanceID
 //   rayfold:<name>              each of metadata.strings
-// Throws InputError naming the file on failure; never leaves a partial file.
+// Throws RuntimeFailure naming the file on failure; never leaves a partial file.
 void write_exr(const std::string& path, const std::vector<rf_pixel_hit>& hits, int width, int height,
                const ExrMetadata* metadata = nullptr);
 
-// Normals mapped to colour ((n + 1) / 2), misses black.
+// Normals mapped to colour ((n + 1) / 2), misses black. RuntimeFailure
+// naming the file on failure.
 void write_png(const std::string& path, const std::vector<rf_pixel_hit>& hits, int width, int height);
 
 // Reads back what write_exr wrote (for tests and tools); InputError on failure.
