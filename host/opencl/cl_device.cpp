@@ -1,6 +1,9 @@
 #include "opencl/cl_device.h"
 
+#include <unistd.h>
+
 #include <algorithm>
+#include <atomic>
 #include <cctype>
 #include <cstdlib>
 #include <vector>
@@ -44,8 +47,14 @@ struct Candidate {
   std::string platform;
 };
 
+// The process that first used OpenCL; 0 before any use.
+std::atomic<pid_t> g_opencl_pid{0};
+
 // Every device of every platform; throws RuntimeFailure when there is none.
 std::vector<Candidate> all_devices() {
+  check_not_forked();
+  pid_t none = 0;
+  g_opencl_pid.compare_exchange_strong(none, ::getpid());
   std::vector<cl::Platform> platforms;
   try {
     cl::Platform::get(&platforms);
@@ -84,6 +93,17 @@ DeviceInfo describe(const Candidate& c) {
 }
 
 }  // namespace
+
+void check_not_forked() {
+  const pid_t first = g_opencl_pid.load();
+  if (first == 0 || first == ::getpid()) return;
+  throw RuntimeFailure(
+      "OpenCL was first used in process " + std::to_string(first) +
+      ", and this process is a fork of it: the OpenCL driver's threads do not survive fork, so the device "
+      "would wait forever. Start workers with the 'spawn' or 'forkserver' method (Python: "
+      "multiprocessing.get_context('spawn'); PyTorch: DataLoader(..., multiprocessing_context='spawn')), or "
+      "use OpenCL only in the workers, or render with backend='cpu' in forked workers");
+}
 
 std::vector<DeviceInfo> list_devices() {
   std::vector<DeviceInfo> out;
@@ -136,6 +156,7 @@ ClDevice::ClDevice(const std::string& hint_arg) {
 }
 
 cl::Program ClDevice::build(const std::string& source, KernelPrecision precision, const std::string& defines) {
+  check_not_forked();
   std::string options = "-cl-std=CL1.2";
   if (!defines.empty()) options += " " + defines;
   if (precision == KernelPrecision::exact) {

@@ -27,6 +27,13 @@ struct DeviceInfo {
   unsigned native_float_width = 1;  // CL_DEVICE_NATIVE_VECTOR_WIDTH_FLOAT: 8 with AVX2, 16 with AVX-512
 };
 
+// OpenCL drivers keep worker threads (PoCL's pthread device) and driver
+// state that a fork does not carry into the child, where the first command
+// then waits forever. A child forked after this process (or its parent)
+// first used OpenCL gets RuntimeFailure naming the remedies instead of that
+// hang. Cheap: one getpid.
+void check_not_forked();
+
 class ClDevice {
  public:
   // Picks the device whose platform or device name contains `hint`
@@ -35,9 +42,11 @@ class ClDevice {
   explicit ClDevice(const std::string& hint = "");
 
   const DeviceInfo& info() const { return info_; }
-  cl::Context& context() { return context_; }
-  cl::Device& device() { return device_; }
-  cl::CommandQueue& queue() { return queue_; }
+  // Each throws RuntimeFailure in a process forked after OpenCL was first
+  // used in its parent (check_not_forked).
+  cl::Context& context() { return check_not_forked(), context_; }
+  cl::Device& device() { return check_not_forked(), device_; }
+  cl::CommandQueue& queue() { return check_not_forked(), queue_; }
 
   // Builds a program with the precision's options and `defines` (for
   // example "-DRF_LANES=8"); a failed build throws RuntimeFailure with the

@@ -307,3 +307,58 @@ def test_the_readme_python_lines_run_as_written():
     import run_readme
 
     run_readme.run()
+
+
+def _pool_results(method, args, timeout=120):
+    import multiprocessing
+
+    import fork_worker
+
+    with multiprocessing.get_context(method).Pool(2) as pool:
+        return pool.map_async(fork_worker.render_hits, args).get(timeout=timeout)
+
+
+@pytest.mark.parametrize("method", ["spawn", "forkserver", "fork"])
+def test_workers_after_the_parent_rendered_never_hang(atrium_path, method):
+    """A forked child of a process that used OpenCL used to wait forever in
+    PoCL's dead worker threads; it now fails at once naming the remedy, and
+    its CPU backend works. Spawned and forkserver workers render as the
+    parent does. (get() times out instead of hanging.)"""
+    parent = rayfold.Scene(atrium_path)
+    expected = parent.render(parent.default_camera(48, 27), fold="xy").depth.tobytes()
+    results = _pool_results(method, [(atrium_path, "opencl"), (atrium_path, "cpu")])
+    assert results[1] == ("ok", expected), results[1]
+    if method == "fork":
+        kind, message = results[0]
+        assert kind == "RuntimeFailure", results[0]
+        assert "is a fork of it" in message and "'spawn'" in message and "backend='cpu'" in message, message
+    else:
+        assert results[0] == ("ok", expected), results[0][0]
+
+
+def test_python_threads_render_side_by_side(atrium):
+    """Threads sharing one scene and threads with their own give the bits of
+    one render alone (the GIL is released while tracing)."""
+    camera = atrium.default_camera(48, 27)
+    expected = atrium.render(camera, fold="xy")
+    own = [rayfold.Scene(atrium.path) for _ in range(2)]
+    results, errors = {}, []
+
+    def work(key, scene):
+        try:
+            for _ in range(3):
+                results[key] = scene.render(camera, fold="xy")
+        except Exception as e:  # reported below
+            errors.append(e)
+
+    threads = [threading.Thread(target=work, args=(f"shared{k}", atrium)) for k in range(2)]
+    threads += [threading.Thread(target=work, args=(f"own{k}", s)) for k, s in enumerate(own)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join(timeout=120)
+    assert not any(t.is_alive() for t in threads), "a rendering thread hung"
+    assert not errors, errors
+    assert len(results) == 4
+    for g in results.values():
+        assert_same_bits(g, expected)
