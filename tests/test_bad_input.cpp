@@ -264,6 +264,11 @@ TEST(BadInput, SchemaTypesAreCheckedWithThePathOfTheMember) {
          f.j["nodes"][0]["translation"] = {1, "2", 3};
        }},
       {"scene_string", ".scene must be an integer", [](GltfFile& f) { f.j["scene"] = "0"; }},
+      // Once shown as "(unnamed)": tinygltf reads a name of another type as absent.
+      {"scene_name_number", "scenes[0].name must be a string (glTF 2.0 schema), not number",
+       [](GltfFile& f) {
+         f.j["scenes"] = {{{"nodes", {0}}, {"name", 42}}};
+       }},
   };
   expect_errors(cases);
 }
@@ -333,8 +338,8 @@ TEST(BadInput, UnsupportedRequiredExtensionsAreNamed) {
     GltfFile f;
     f.one_triangle();
     f.j["extensionsUsed"] = {"KHR_draco_mesh_compression"};
-    f.j["meshes"][0]["primitives"][0]["extensions"]["KHR_draco_mesh_compression"] = {
-        {"bufferView", 0}, {"attributes", {{"POSITION", 0}}}};
+    f.j["meshes"][0]["primitives"][0]["extensions"]["KHR_draco_mesh_compression"] = {{"bufferView", 0},
+                                                                                     {"attributes", {{"POSITION", 0}}}};
     expect_error(f.write("draco_optional"), "(KHR_draco_mesh_compression): the compressed data does not decode");
   }
   {

@@ -8,6 +8,9 @@
 #include <filesystem>
 #include <fstream>
 
+#include <ImfHeader.h>
+#include <ImfInputFile.h>
+#include <ImfStringVectorAttribute.h>
 #include <nlohmann/json.hpp>
 
 #include "gltf_fixture.h"
@@ -110,7 +113,8 @@ TEST(Cli, CpuAndOpenClWriteIdenticalFiles) {
   ASSERT_EQ(rayfold("render --size 64x40 --backend cpu -q -o " + a).code, 0);
   ASSERT_EQ(rayfold("render --size 64x40 --backend opencl -q -o " + b).code, 0);
   int w, h;
-  EXPECT_EQ(testing::compare_hits(read_exr(a, &w, &h), read_exr(b, &w, &h), w), "");
+  const auto from_a = read_exr(a, &w, &h), from_b = read_exr(b, &w, &h);  // w is set before it is passed
+  EXPECT_EQ(testing::compare_hits(from_a, from_b, w), "");
 }
 
 TEST(Cli, FoldedFilesEqualUnfoldedFiles) {
@@ -153,13 +157,30 @@ TEST(Cli, BenchOnRandomViewsSaysWhichViews) {
 }
 
 TEST(Cli, UsageErrorsExitTwoWithAMessage) {
-  for (const char* args :
-       {"render --size 0x10", "render --size -5x10", "render --size 10", "render --bogus", "render --eye 0,0,0",
-        "render --eye 0,0,0 --look-at 0,1,0 --up 0,2,0", "render --vfov 180", "render --frames 0", "frobnicate", "info",
-        "render --fold z", "render --shift 1", "render --shift 1e9,0", "bench --views 0", "bench --bogus",
-        "render --time x", "render --ortho 2 --vfov 30", "render --ortho 0", "render --fps 0", "bench --seed 3",
-        "bench --view-kind object", "bench --random-views 2 --view-kind room",
-        "bench --random-views 2 --eye 0,0,0 --look-at 1,0,0", "bench --random-views 0"}) {
+  for (const char* args : {"render --size 0x10",
+                           "render --size -5x10",
+                           "render --size 10",
+                           "render --bogus",
+                           "render --eye 0,0,0",
+                           "render --eye 0,0,0 --look-at 0,1,0 --up 0,2,0",
+                           "render --vfov 180",
+                           "render --frames 0",
+                           "frobnicate",
+                           "info",
+                           "render --fold z",
+                           "render --shift 1",
+                           "render --shift 1e9,0",
+                           "bench --views 0",
+                           "bench --bogus",
+                           "render --time x",
+                           "render --ortho 2 --vfov 30",
+                           "render --ortho 0",
+                           "render --fps 0",
+                           "bench --seed 3",
+                           "bench --view-kind object",
+                           "bench --random-views 2 --view-kind room",
+                           "bench --random-views 2 --eye 0,0,0 --look-at 1,0,0",
+                           "bench --random-views 0"}) {
     const CliRun r = rayfold(args);
     EXPECT_EQ(r.code, 2) << args << "\n" << r.err;
     EXPECT_EQ(r.err.rfind("error: ", 0), 0u) << args << ": " << r.err;
@@ -257,6 +278,36 @@ TEST(Cli, IdsManifestAndStatsRecordTheViewAndTheNodes) {
   EXPECT_NE(listed.out.find("    0      mesh 0     floor\n"), std::string::npos) << listed.out;
 }
 
+// Unnamed nodes are "node N" everywhere the docs say: info, --ids (which
+// also gives each instance's node index), the EXR header; once they were "".
+TEST(Cli, UnnamedNodesAreNamedByTheirIndexEverywhere) {
+  const fs::path d = work_dir();
+  testing::GltfFile f;
+  f.one_triangle();
+  f.j["nodes"][0]["name"] = "named";
+  f.j["nodes"][0]["translation"] = {0.0, 0.0, -3.0};
+  f.j["nodes"].push_back({{"children", {2}}});
+  f.j["nodes"].push_back({{"mesh", 0}, {"translation", {1.0, 0.0, -4.0}}});
+  f.j["scenes"] = {{{"nodes", {0, 1}}}};
+  const std::string path = f.write("cli_unnamed");
+  const std::string ids = (d / "unnamed_ids.json").string(), exr = (d / "unnamed.exr").string();
+  const CliRun r = rayfold("render " + path + " --size 32x18 --ids " + ids + " -o " + exr);
+  ASSERT_EQ(r.code, 0) << r.err;
+  const nlohmann::json m = nlohmann::json::parse(std::ifstream(ids));
+  ASSERT_EQ(m["instances"].size(), 2u) << m.dump();
+  EXPECT_EQ(m["instances"][0]["name"], "named");
+  EXPECT_EQ(m["instances"][0]["node"], 0);
+  EXPECT_EQ(m["instances"][1]["name"], "node 2");
+  EXPECT_EQ(m["instances"][1]["node"], 2);
+  const CliRun info = rayfold("info " + path);
+  ASSERT_EQ(info.code, 0) << info.err;
+  EXPECT_NE(info.out.find("    1      mesh 0     node 2\n"), std::string::npos) << info.out;
+  Imf::InputFile in(exr.c_str());
+  const auto* names = in.header().findTypedAttribute<Imf::StringVectorAttribute>("rayfold:instanceNames");
+  ASSERT_NE(names, nullptr);
+  EXPECT_EQ(names->value(), (std::vector<std::string>{"named", "node 2"}));
+}
+
 TEST(Cli, AnimateFramesEqualTheFilePosedAtTheirTimes) {
   // Two triangles: one turning about y, one moving up and across, over 2 s.
   const fs::path d = work_dir();
@@ -298,6 +349,51 @@ TEST(Cli, AnimateFramesEqualTheFilePosedAtTheirTimes) {
       EXPECT_GT(hits, 50);
     }
   }
+  // Auto-framed: once --time T was framed at T and --animate at its first
+  // frame, so the two disagreed; both now frame the pose at time 0.
+  const std::string framed = " --size 48x36 --fold xy ";
+  const CliRun auto_played =
+      rayfold("render " + path + framed + "--animate --fps 2 --frames 5 -o " + (d / "auto_%d.exr").string());
+  ASSERT_EQ(auto_played.code, 0) << auto_played.err;
+  for (int k : {2, 4}) {
+    const std::string single = (d / ("auto_at_" + std::to_string(k) + ".exr")).string();
+    const CliRun posed = rayfold("render " + path + framed + "--time " + std::to_string(0.5 * k) + " -o " + single);
+    ASSERT_EQ(posed.code, 0) << posed.err;
+    int w = 0, h = 0;
+    const auto alone = read_exr(single, &w, &h);
+    const auto played_k = read_exr((d / ("auto_" + std::to_string(k) + ".exr")).string(), &w, &h);
+    EXPECT_EQ(testing::compare_hits(alone, played_k, w), "") << "auto-framed frame " << k;
+  }
+}
+
+// On a terminal the progress line is erased before every line of output;
+// once the first view line was printed onto it ("tracing 0%  0.4 srayfold").
+TEST(Cli, TheProgressLineNeverSharesALineWithOutput) {
+  if (std::system("command -v script >/dev/null 2>&1") != 0) GTEST_SKIP() << "no script(1) to make a terminal";
+  const fs::path d = work_dir();
+  const std::string list = (d / "progress.json").string();
+  std::ofstream(list) << R"({"width": 32, "height": 18, "cameras": [
+      {"eye": [0, 3, 12], "look_at": [0, 2, 0]}, {"eye": [1, 3, 12], "look_at": [0, 2, 0]},
+      {"eye": [2, 3, 12], "look_at": [0, 2, 0]}]})";
+  const std::string log = (d / "tty.log").string();
+  const std::string cmd =
+      "script -qec '" + std::string(RAYFOLD_BIN) + " render --cameras " + list + " --align 1' /dev/null > " + log;
+  ASSERT_EQ(std::system(cmd.c_str()), 0);
+  std::ifstream in(log);
+  const std::string text((std::istreambuf_iterator<char>(in)), {});
+  ASSERT_NE(text.find("tracing"), std::string::npos) << "no progress line drawn: " << text;
+  size_t lines = 0;
+  for (const char* start : {"rayfold render", "  pass ", "    view ", "  3 views in 3 passes: trace"})
+    for (size_t at = text.find(start); at != std::string::npos; at = text.find(start, at + 1)) {
+      ++lines;
+      const size_t line_start = text.find_last_of('\n', at);
+      const std::string before = text.substr(line_start == std::string::npos ? 0 : line_start + 1,
+                                             at - (line_start == std::string::npos ? 0 : line_start + 1));
+      const bool erased = before.empty() || before == "\r" ||
+                          (before.size() >= 4 && before.compare(before.size() - 4, 4, "\r\033[K") == 0);
+      EXPECT_TRUE(erased) << "'" << start << "' printed after: " << before;
+    }
+  EXPECT_GE(lines, 8u) << text;
 }
 
 TEST(Cli, CameraListsAndStereoPairsRenderEachViewAsAloneBitForBit) {
@@ -313,6 +409,21 @@ TEST(Cli, CameraListsAndStereoPairsRenderEachViewAsAloneBitForBit) {
   // Views 0 and 2 share their intrinsics and trace together; view 1's
   // field of view puts it in a pass of its own.
   EXPECT_NE(r.out.find("3 views in 2 passes (--align all)"), std::string::npos) << r.out;
+  // Once each view's --stats said 1280x720, load 0, and the pass's trace
+  // time as if the view's own; the console repeated it on every view line.
+  for (int k = 0; k < 3; ++k) {
+    const nlohmann::json s = nlohmann::json::parse(std::ifstream(d / ("view_0" + std::to_string(k) + ".json")));
+    EXPECT_EQ(s["width"], 40) << k;
+    EXPECT_EQ(s["height"], 30) << k;
+    EXPECT_GT(s["times_ms"]["load"].get<double>(), 0.0) << k;
+    EXPECT_EQ(s["pass"]["views"], k == 1 ? 1 : 2) << k;
+    EXPECT_EQ(s["pass"]["index"], k == 1 ? 1 : 0) << k;
+  }
+  EXPECT_NE(r.out.find("pass 1 of 2: 2 views, trace "), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("pass 2 of 2: 1 view, trace "), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("3 views in 2 passes: trace "), std::string::npos) << r.out;
+  for (size_t at = r.out.find("    view "); at != std::string::npos; at = r.out.find("    view ", at + 1))
+    EXPECT_EQ(r.out.substr(at, r.out.find('\n', at) - at).find(" ms"), std::string::npos) << r.out;
   // Each view alone (--align 1) writes the same bits as the aligned passes.
   CliRun one = rayfold("render --cameras " + list + " --fold xy --align 1 -o " + (d / "one_%02d.exr").string());
   ASSERT_EQ(one.code, 0) << one.err;
@@ -323,8 +434,8 @@ TEST(Cli, CameraListsAndStereoPairsRenderEachViewAsAloneBitForBit) {
     for (int k = 0; k < 3; ++k) {
       int w = 0, h = 0;
       const std::string n = "_0" + std::to_string(k) + ".exr";
-      const std::string diff =
-          testing::compare_hits(read_exr((d / (a + n)).string(), &w, &h), read_exr((d / (b + n)).string(), &w, &h), w);
+      const auto from_a = read_exr((d / (a + n)).string(), &w, &h), from_b = read_exr((d / (b + n)).string(), &w, &h);
+      const std::string diff = testing::compare_hits(from_a, from_b, w);
       if (!diff.empty()) out += "view " + std::to_string(k) + ": " + diff + "\n";
     }
     return out;
@@ -381,7 +492,8 @@ TEST(Cli, CameraListsAndStereoPairsRenderEachViewAsAloneBitForBit) {
   // Once silently rendered at the list's vfov: intrinsics and typos are named.
   for (const char* key : {"fx", "lookat"}) {
     std::ofstream(list) << R"({"width": 40, "height": 30, "cameras": [{"eye": [0, 3, 1], "look_at": [0, 2, 0]},
-                               {"eye": [0, 3, 2], "look_at": [0, 2, 0], ")" << key << R"(": 500}]})";
+                               {"eye": [0, 3, 2], "look_at": [0, 2, 0], ")"
+                        << key << R"(": 500}]})";
     r = rayfold("render --cameras " + list);
     EXPECT_EQ(r.code, 2) << key;
     EXPECT_NE(r.err.find(std::string("views.json: cameras[1]: unknown key \"") + key + "\""), std::string::npos)
@@ -603,6 +715,10 @@ TEST(Cli, ProgressOnlyOnATerminalAndVerboseStages) {
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_EQ(r.err.find('\r'), std::string::npos) << r.err;
   EXPECT_NE(r.out.find("stages       load"), std::string::npos) << r.out;
+  // The writes are timed too (once 7 of 8.5 s at 6000x4000 went unreported).
+  const CliRun w = rayfold("render --size 32x24 -v -o " + (work_dir() / "verbose.exr").string());
+  ASSERT_EQ(w.code, 0) << w.err;
+  EXPECT_NE(w.out.find("), writing "), std::string::npos) << w.out;
   EXPECT_NE(r.out.find("frame 1      cull"), std::string::npos) << r.out;
   // On a terminal (script(1) gives the command one): the stages appear,
   // and with -q nothing does.

@@ -13,11 +13,14 @@ Progress::~Progress() { clear(); }
 void Progress::stage(const std::string& name, size_t total) {
   stage_ = name;
   total_ = total;
+  active_ = true;
+  done_ = 0;
   last_ = Clock::time_point{};
   draw(0);
 }
 
 void Progress::update(size_t done) {
+  done_ = done;
   if (!enabled_ || ms_since(last_) < 100.0) return;
   draw(done);
 }
@@ -35,10 +38,23 @@ void Progress::draw(size_t done) {
 }
 
 void Progress::clear() {
+  active_ = false;
   if (!drawn_) return;
   std::fprintf(stderr, "\r\033[K");
   std::fflush(stderr);
   drawn_ = false;
+}
+
+void Progress::print(std::FILE* out, const std::string& text) {
+  const bool redraw = active_;
+  if (drawn_) {
+    std::fprintf(stderr, "\r\033[K");
+    std::fflush(stderr);
+    drawn_ = false;
+  }
+  std::fputs(text.c_str(), out);
+  std::fflush(out);
+  if (redraw) draw(done_);
 }
 
 }  // namespace rayfold::core

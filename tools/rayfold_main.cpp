@@ -106,7 +106,8 @@ const char* kRenderUsage =
     "  --fps F                frames per second of --animate (default 30)\n"
     "  --compare              also render unfolded, check the two agree bit for bit\n"
     "                         and print them side by side (--fold defaults to xy;\n"
-    "                         --fold none has nothing to compare and is refused)\n"
+    "                         --fold none has nothing to compare and is refused);\n"
+    "                         exit code 3, and no file written, when they differ\n"
     "  --braid N              top level opens the instances' trees into about N items\n"
     "                         per instance, at least 256 (partial re-braiding;\n"
     "                         default 2, 0 = whole instances)\n"
@@ -377,8 +378,9 @@ RenderArgs parse_render(cli::Args& args) {
   check_outputs(
       {{"-o", &r.exr, ".exr"}, {"--png", &r.png, ".png"}, {"--stats", &r.stats, ".json"}, {"--ids", &r.ids, ".json"}});
   if (r.compare && r.fold_given && r.frame.fold == FoldMode::none)
-    throw UsageError("--compare --fold none: --compare checks a fold against none; name y, x or xy (or leave --fold "
-                     "out for xy)");
+    throw UsageError(
+        "--compare --fold none: --compare checks a fold against none; name y, x or xy (or leave --fold "
+        "out for xy)");
   if (r.compare && r.frame.fold == FoldMode::none) r.frame.fold = FoldMode::xy;
   check_renderer_options(r.renderer);
   return r;
@@ -423,8 +425,12 @@ void write_ids(const std::string& path, const RenderArgs& args, const Scene& sce
   nlohmann::json instances = nlohmann::json::array();
   for (size_t i = 0; i < scene.instances.size(); ++i) {
     const Instance& inst = scene.instances[i];
-    instances.push_back(
-        {{"id", i}, {"name", inst.name}, {"mesh", inst.mesh}, {"mesh_name", scene.meshes[inst.mesh].name}});
+    // The node index too: many real files repeat names.
+    instances.push_back({{"id", i},
+                         {"name", inst.name},
+                         {"node", inst.node},
+                         {"mesh", inst.mesh},
+                         {"mesh_name", scene.meshes[inst.mesh].name}});
   }
   const nlohmann::json j = {{"scene", args.scene},
                             {"miss", RF_INVALID},
@@ -433,13 +439,26 @@ void write_ids(const std::string& path, const RenderArgs& args, const Scene& sce
   write_text_file(path, j.dump(2) + "\n");
 }
 
+// The pass of a camera list that traced a view, with the views beside it.
+struct PassInfo {
+  size_t index = 0;
+  size_t views = 1;
+};
+
+// --stats: one view's figures. A view of a camera list (`pass` given) was
+// traced with the others of its pass, so its times are the pass's.
 void write_stats(const std::string& path, const RenderArgs& args, const Scene& scene, const Camera& camera,
-                 const Renderer& renderer, const RenderResult& result, double load_ms) {
+                 const Renderer& renderer, const RenderResult& result, double load_ms,
+                 std::optional<PassInfo> pass = std::nullopt) {
   nlohmann::json j;
   j["rayfold_version"] = RAYFOLD_VERSION;
   j["scene"] = args.scene;
-  j["width"] = args.width;
-  j["height"] = args.height;
+  j["width"] = camera.width;
+  j["height"] = camera.height;
+  if (pass)
+    j["pass"] = {{"index", pass->index},
+                 {"views", pass->views},
+                 {"note", "times_ms are the whole pass's: its views were traced together"}};
   j["backend"] = args.renderer.backend == Backend::opencl ? "opencl" : "cpu";
   j["device"] = renderer.device_name();
   j["kernel"] = result.kernel;
@@ -585,7 +604,8 @@ void choose_automatically(RenderArgs& r, Renderer& renderer, const std::vector<C
 
 // --cameras and --stereo: the views traced in passes of aligned views, each
 // view's outputs written.
-int render_views(RenderArgs r, const Scene& scene, const std::vector<cli::View>& views, Progress& progress) {
+int render_views(RenderArgs r, const Scene& scene, const std::vector<cli::View>& views, Progress& progress,
+                 double load_ms) {
   const bool stereo = r.stereo.has_value();
   for (const cli::View& v : views)
     for (auto [option, out] : {std::pair{"-o", &r.exr}, {"--png", &r.png}, {"--stats", &r.stats}})
@@ -599,9 +619,6 @@ int render_views(RenderArgs r, const Scene& scene, const std::vector<cli::View>&
   choose_automatically(r, renderer, cameras, r.quiet);
   const int align = r.align > 0 ? r.align : RF_GROUP_LIMIT;
   const std::vector<std::vector<size_t>> passes = plan_passes(renderer.scene_data(), cameras, align, r.frame.fold);
-  progress.stage("tracing", views.size());
-  RenderResult result;
-  size_t done = 0;
   if (!r.quiet)
     std::printf("rayfold render  %s  %zu views in %zu passes (--align %s)  fold %s\n", r.scene.c_str(), views.size(),
                 passes.size(),
@@ -609,10 +626,24 @@ int render_views(RenderArgs r, const Scene& scene, const std::vector<cli::View>&
                 : r.align > 0 ? std::to_string(r.align).c_str()
                               : "all",
                 fold_name(r.frame.fold));
-  for (const std::vector<size_t>& pass : passes) {
+  progress.stage("tracing", views.size());
+  const auto start = Clock::now();
+  RenderResult result;
+  size_t done = 0;
+  double trace_ms = 0.0;
+  char line[512];
+  for (size_t p = 0; p < passes.size(); ++p) {
+    const std::vector<size_t>& pass = passes[p];
     std::vector<Camera> pass_cameras;
     for (size_t i : pass) pass_cameras.push_back(cameras[i]);
     renderer.render_views_into(result, pass_cameras, 1, r.frame);
+    trace_ms += result.median.trace_ms;
+    // One line per pass: its views were traced together, so the time is theirs together.
+    if (!r.quiet) {
+      std::snprintf(line, sizeof line, "  pass %zu of %zu: %zu view%s, trace %.2f ms\n", p + 1, passes.size(),
+                    pass.size(), pass.size() == 1 ? "" : "s", result.median.trace_ms);
+      progress.print(stdout, line);
+    }
     for (size_t k = 0; k < pass.size(); ++k) {
       const cli::View& v = views[pass[k]];
       const RenderResult vr = view_result(result, k);
@@ -621,18 +652,25 @@ int render_views(RenderArgs r, const Scene& scene, const std::vector<cli::View>&
       if (!r.exr.empty()) write_exr(view_output("-o", r.exr, v, stereo, views.size()), vr.hits, w, h, &metadata);
       if (!r.png.empty()) write_png(view_output("--png", r.png, v, stereo, views.size()), vr.hits, w, h);
       if (!r.stats.empty())
-        write_stats(view_output("--stats", r.stats, v, stereo, views.size()), r, scene, v.camera, renderer, vr, 0.0);
+        write_stats(view_output("--stats", r.stats, v, stereo, views.size()), r, scene, v.camera, renderer, vr, load_ms,
+                    PassInfo{p, pass.size()});
       for (const std::string& w : vr.warnings)
-        std::fprintf(stderr, "warning: view %s: %s (docs/exactness.md)\n", v.label.c_str(), w.c_str());
+        progress.print(stderr, "warning: view " + v.label + ": " + w + " (docs/exactness.md)\n");
       progress.update(++done);
       if (!r.quiet) {
         const glm::dvec3 eye(v.camera.world_from_camera[3]);
-        std::printf("  view %-6s %dx%d  eye (%g, %g, %g)  pass of %zu views, trace %.2f ms\n", v.label.c_str(), w, h,
-                    eye.x, eye.y, eye.z, pass.size(), result.median.trace_ms);
+        std::snprintf(line, sizeof line, "    view %-6s %dx%d  eye (%g, %g, %g)\n", v.label.c_str(), w, h, eye.x, eye.y,
+                      eye.z);
+        progress.print(stdout, line);
       }
     }
   }
   progress.clear();
+  if (!r.quiet) {
+    const double wall_s = ms_since(start) / 1000.0;
+    std::printf("  %zu views in %zu passes: trace %.2f ms in all (%.3f ms a view), %.1f views/s with the writes\n",
+                views.size(), passes.size(), trace_ms, trace_ms / views.size(), views.size() / wall_s);
+  }
   if (!r.ids.empty()) write_ids(r.ids, r, scene);
   if (!r.quiet && r.exr.empty() && r.png.empty() && r.stats.empty() && r.ids.empty())
     std::printf("  nothing written (-o F_%%04d.exr, --png, --stats or --ids write the results)\n");
@@ -677,7 +715,13 @@ int run_render(cli::Args& args) {
   if (play) frame_options.animate_frame = -1;
   const double start_time = std::isnan(r.load.time) ? 0.0 : r.load.time;
 
-  CameraSpec spec = scene.camera ? *scene.camera : frame_bounds(scene.world_bounds());
+  // Auto-framing of an animated file frames the pose at its start (time 0)
+  // whenever a time is asked for, so that --time T and frame k of
+  // --animate at the same time see the same camera.
+  const bool timed = !std::isnan(r.load.time) || r.frame.animate_frame >= 0;
+  CameraSpec spec = scene.camera               ? *scene.camera
+                    : timed && file.animated() ? frame_bounds(file.scene_at(0.0).world_bounds())
+                                               : frame_bounds(scene.world_bounds());
   const bool auto_framed = !scene.camera && !r.eye;
   if (r.eye) {
     // A camera given on the command line is given whole: +Y up unless --up.
@@ -697,7 +741,7 @@ int run_render(cli::Args& args) {
   if (!r.cameras.empty() || r.stereo) {
     std::vector<cli::View> views =
         !r.cameras.empty() ? cli::read_camera_list(r.cameras) : cli::stereo_pair(spec, *r.stereo, r.width, r.height);
-    return render_views(r, scene, views, progress);
+    return render_views(r, scene, views, progress, load_ms);
   }
   const Camera camera = make_camera(spec, r.width, r.height, r.shift_x, r.shift_y);
 
@@ -736,13 +780,16 @@ int run_render(cli::Args& args) {
   }
   RenderResult result;
   std::vector<std::string> written;
+  double write_ms = 0.0;  // the EXR and PNG writes (ZIP compression is most of it)
   const ExrMetadata metadata = exr_metadata(camera, scene, r);
   if (!sequence && !play) {
     Renderer& renderer = *renderer_ptr;
     result = renderer.render(camera, r.frames, frame_options);
     progress.stage("writing");
+    const auto w0 = Clock::now();
     if (!r.exr.empty()) write_exr(r.exr, result.hits, r.width, r.height, &metadata);
     if (!r.png.empty()) write_png(r.png, result.hits, r.width, r.height);
+    write_ms += ms_since(w0);
     for (const std::string* out : {&r.exr, &r.png})
       if (!out->empty()) written.push_back(*out);
   } else {
@@ -757,9 +804,11 @@ int run_render(cli::Args& args) {
       times.push_back(result.frames.front());
       const bool last = f + 1 == r.frames;
       if (sequence || last) {
+        const auto w0 = Clock::now();
         if (!r.exr.empty())
           write_exr(frame_name("output", r.exr, f, nullptr), result.hits, r.width, r.height, &metadata);
         if (!r.png.empty()) write_png(frame_name("output", r.png, f, nullptr), result.hits, r.width, r.height);
+        write_ms += ms_since(w0);
       }
       progress.update(static_cast<size_t>(f + 1));
     }
@@ -813,8 +862,8 @@ int run_render(cli::Args& args) {
                   spec.orthographic ? "--ortho" : "--vfov", spec.orthographic ? spec.ymag : spec.vfov_degrees);
     if (unfolded) print_comparison(*unfolded, result, r.frame.fold);
     if (r.verbose) {
-      std::printf("  %-12s load %.2f ms, trees and kernels %.2f ms (BLAS %.2f ms)\n", "stages", load_ms, setup_ms,
-                  renderer.blas_build_ms());
+      std::printf("  %-12s load %.2f ms, trees and kernels %.2f ms (BLAS %.2f ms), writing %.2f ms\n", "stages",
+                  load_ms, setup_ms, renderer.blas_build_ms(), write_ms);
       for (size_t f = 0; f < result.frames.size(); ++f) {
         const FrameTimes& t = result.frames[f];
         std::printf("  %-12s cull %.3f, TLAS %.3f, upload %.3f, ray list %.3f, trace %.3f, readback %.3f ms\n",
@@ -911,7 +960,8 @@ int run_bench_command(cli::Args& args) {
       align = true;
     } else if (a == "--counts") {
       counts.clear();
-      for (const std::string& item : cli::split_list(a, args.value(a))) counts.push_back(cli::parse_int(a, item, 1, 64));
+      for (const std::string& item : cli::split_list(a, args.value(a)))
+        counts.push_back(cli::parse_int(a, item, 1, 64));
     } else if (a == "--baseline") {
       baseline = cli::parse_double(a, args.value(a));
       if (!(baseline > 0.0)) throw UsageError("--baseline: must be positive (world units)");

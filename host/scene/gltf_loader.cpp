@@ -229,7 +229,9 @@ class Loader {
       if (it == j.end()) return;
       for (size_t i = 0; i < it->size(); ++i) fn((*it)[i], std::string(array) + "[" + std::to_string(i) + "]");
     };
-    each("scenes", [&](const json& o, const std::string& p) { check(o, p, {{"nodes", kIntArray}}); });
+    each("scenes", [&](const json& o, const std::string& p) {
+      check(o, p, {{"nodes", kIntArray}, {"name", kString}});
+    });
     each("nodes", [&](const json& o, const std::string& p) {
       check(o, p,
             {{"mesh", kInt},
@@ -345,7 +347,8 @@ class Loader {
           const std::string rest = bytes.substr(bin_offset);
           const uint32_t chunk = static_cast<uint32_t>(text.size()), total = 20 + chunk + rest.size();
           prepared.assign("glTF", 4);
-          for (uint32_t word : {2u, total, chunk, 0x4E4F534Au}) prepared.append(reinterpret_cast<const char*>(&word), 4);
+          for (uint32_t word : {2u, total, chunk, 0x4E4F534Au})
+            prepared.append(reinterpret_cast<const char*>(&word), 4);
           prepared += text + rest;
         } else {
           prepared = std::move(text);
@@ -522,13 +525,19 @@ class Loader {
     return out;
   }
 
+  // The node's name, or "node N" for an unnamed node (as the docs promise).
+  std::string node_name(int ni) const {
+    const std::string& name = model_.nodes[ni].name;
+    return name.empty() ? "node " + std::to_string(ni) : name;
+  }
+
   void add_camera(int ni, const Xform& world_from_node) {
     const int ci = model_.nodes[ni].camera;
     if (static_cast<size_t>(ci) >= model_.cameras.size())
       fail("node " + std::to_string(ni) + " refers to camera " + std::to_string(ci) + ", which does not exist");
     const tinygltf::Camera& c = model_.cameras[ci];
     Scene::FileCamera fc;
-    fc.name = model_.nodes[ni].name;
+    fc.name = node_name(ni);
     fc.node = ni;
     fc.perspective = c.type == "perspective";
     fc.spec.eye = transform_point(world_from_node, glm::dvec3(0.0));
@@ -594,7 +603,8 @@ class Loader {
     Instance inst;
     inst.mesh = static_cast<uint32_t>(found->second);
     inst.world_from_object = world_from_object;
-    inst.name = model_.nodes[ni].name;
+    inst.name = node_name(ni);
+    inst.node = ni;
     if (gpu.empty()) {
       scene_.instances.push_back(std::move(inst));
       return;
@@ -1125,8 +1135,8 @@ class Loader {
   std::vector<Warning> pending_;
   bool binary_ = false;
   tinygltf::Model model_;
-  std::vector<int> fallback_buffers_;               // meshopt fallback buffers: no data to read
-  std::map<int, std::vector<double>> decoded_;      // accessors decoded from Draco primitives
+  std::vector<int> fallback_buffers_;           // meshopt fallback buffers: no data to read
+  std::map<int, std::vector<double>> decoded_;  // accessors decoded from Draco primitives
   Scene scene_;
   std::vector<tinygltf::Node> rest_nodes_;  // the file's nodes, before any pose
   struct MeshKey {
@@ -1137,8 +1147,8 @@ class Loader {
       return std::tie(mesh, weights, skin) < std::tie(o.mesh, o.weights, o.skin);
     }
   };
-  std::map<MeshKey, int> mesh_slot_;  // glTF mesh, morph weights and skin -> scene mesh (or -1)
-  bool cache_meshes_ = false;                        // animated: poses reuse unskinned meshes (mesh_for)
+  std::map<MeshKey, int> mesh_slot_;                  // glTF mesh, morph weights and skin -> scene mesh (or -1)
+  bool cache_meshes_ = false;                         // animated: poses reuse unskinned meshes (mesh_for)
   std::map<MeshKey, std::optional<Mesh>> converted_;  // static meshes of earlier poses; none: no triangles
   std::vector<int> parent_;
   std::vector<Xform> world_;

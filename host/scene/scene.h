@@ -25,7 +25,8 @@ struct Mesh {
 struct Instance {
   uint32_t mesh = 0;
   Xform world_from_object{1.0};
-  std::string name;
+  std::string name;  // the glTF node's name, "node N" when it has none
+  int node = -1;     // the glTF node it comes from; -1 for one built in memory
 };
 
 // A camera; +y of the image is `up` projected onto the view plane.
@@ -53,10 +54,10 @@ struct Scene {
 
   // What the file holds besides the scene shown, for `rayfold info`.
   struct FileCamera {
-    std::string name;        // the node's name
-    int node = -1;           // the node that places it
-    bool perspective = true; // false: orthographic (spec.orthographic)
-    CameraSpec spec;         // eye, look-at, up; vertical field of view or ymag
+    std::string name;         // the node's name
+    int node = -1;            // the node that places it
+    bool perspective = true;  // false: orthographic (spec.orthographic)
+    CameraSpec spec;          // eye, look-at, up; vertical field of view or ymag
   };
   std::vector<FileCamera> cameras;       // every camera node of the shown scene, in node order
   std::vector<std::string> scene_names;  // every scene of the file ("" when unnamed)

@@ -75,7 +75,7 @@ class Scene {
   const std::vector<std::string>& warnings() const;
 
   // The file's cameras by node name, in node order (LoadOptions::camera
-  // indexes them; orthographic ones are listed but cannot be chosen).
+  // indexes them; perspective and orthographic alike).
   std::vector<std::string> camera_names() const;
   // The chosen file camera (LoadOptions::camera) at this image size, or, for a
   // file without one and a scene built in memory, a view of the whole scene.
