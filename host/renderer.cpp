@@ -268,4 +268,6 @@ FrameTimes median_times(const std::vector<FrameTimes>& frames) {
   return m;
 }
 
+double Renderer::program_build_ms() const { return tracer_ ? tracer_->program_build_ms() : 0.0; }
+
 }  // namespace rayfold::core

@@ -133,6 +133,9 @@ class Renderer {
   // kernel_reason().
   void set_kernel(KernelKind kernel, const std::string& why);
   double blas_build_ms() const { return data_.blas.build_ms; }
+  // The OpenCL programs' build so far (ClTracer::program_build_ms); 0 on the
+  // CPU backend.
+  double program_build_ms() const;
 
  private:
   // Device buffers for this many pixels (every view's) and top-level groups.

@@ -278,6 +278,39 @@ TEST(Cli, IdsManifestAndStatsRecordTheViewAndTheNodes) {
   EXPECT_NE(listed.out.find("    0      mesh 0     floor\n"), std::string::npos) << listed.out;
 }
 
+// A machine's first use compiles the kernels (about 2 s with PoCL): said
+// once, and the second run takes them from PoCL's cache.
+TEST(Cli, FirstUseCompileIsAnnouncedAndCachedAfterwards) {
+  const CliRun devices = rayfold("devices");
+  if (devices.out.find("Portable Computing Language") == std::string::npos)
+    GTEST_SKIP() << "the cache checked here is PoCL's";
+  const fs::path cache = work_dir() / "pocl-cache";
+  fs::remove_all(cache);
+  fs::create_directories(cache);
+  const std::string env = "POCL_CACHE_DIR=" + cache.string() + " ";
+  auto kernels_ms = [](const std::string& out) {
+    const size_t at = out.find("kernels ", out.find("(BLAS"));
+    return at == std::string::npos ? -1.0 : std::atof(out.c_str() + at + 8);
+  };
+  const std::string cmd = std::string(RAYFOLD_BIN) + " render --size 32x18 -v";
+  const auto run_with_cache = [&](std::string* out, std::string* err) {
+    const fs::path o = cache.parent_path() / "first.out", e = cache.parent_path() / "first.err";
+    const int status = std::system((env + cmd + " >" + o.string() + " 2>" + e.string()).c_str());
+    std::ifstream oi(o), ei(e);
+    out->assign(std::istreambuf_iterator<char>(oi), {});
+    err->assign(std::istreambuf_iterator<char>(ei), {});
+    return status;
+  };
+  std::string out1, err1, out2, err2;
+  ASSERT_EQ(run_with_cache(&out1, &err1), 0) << err1;
+  ASSERT_EQ(run_with_cache(&out2, &err2), 0) << err2;
+  EXPECT_NE(err1.find("note: the OpenCL kernels took"), std::string::npos) << err1;
+  EXPECT_NE(err1.find("PoCL caches them"), std::string::npos) << err1;
+  EXPECT_EQ(err2.find("note: the OpenCL kernels took"), std::string::npos) << err2;
+  EXPECT_GT(kernels_ms(out1), 4 * kernels_ms(out2)) << out1 << out2;
+  EXPECT_GT(kernels_ms(out2), 0.0) << out2;
+}
+
 // Unnamed nodes are "node N" everywhere the docs say: info, --ids (which
 // also gives each instance's node index), the EXR header; once they were "".
 TEST(Cli, UnnamedNodesAreNamedByTheirIndexEverywhere) {

@@ -602,6 +602,21 @@ void choose_automatically(RenderArgs& r, Renderer& renderer, const std::vector<C
     std::printf("  %-24s %8.2f ms/view\n", choice_name(p.choice).c_str(), p.total_ms());
 }
 
+// A slow program build is a machine's first use (PoCL compiles, then
+// caches); said once so that the wait and the first frame's time (which
+// also holds the compile for the work-group size) are not taken for rayfold's.
+void announce_program_build(const Renderer& renderer, Progress& progress, bool quiet) {
+  const double ms = renderer.program_build_ms();
+  if (quiet || ms < 500.0) return;
+  char text[400];
+  std::snprintf(text, sizeof text,
+                "note: the OpenCL kernels took %.1f s to compile: the first use of this device and rayfold version; "
+                "PoCL caches them ($XDG_CACHE_HOME/pocl or ~/.cache/pocl), so later runs skip this. The first frame "
+                "also compiles for its work-group size: --frames N reports medians.\n",
+                ms / 1000.0);
+  progress.print(stderr, text);
+}
+
 // --cameras and --stereo: the views traced in passes of aligned views, each
 // view's outputs written.
 int render_views(RenderArgs r, const Scene& scene, const std::vector<cli::View>& views, Progress& progress,
@@ -612,6 +627,7 @@ int render_views(RenderArgs r, const Scene& scene, const std::vector<cli::View>&
       if (!out->empty()) check_writable(view_output(option, *out, v, stereo, views.size()));
   progress.stage("building the bottom-level trees and the kernels");
   Renderer renderer(scene, r.renderer);
+  announce_program_build(renderer, progress, r.quiet);
   std::vector<Camera> cameras;
   for (const cli::View& v : views) cameras.push_back(v.camera);
   const bool align_auto = r.align < 0;
@@ -750,6 +766,7 @@ int run_render(cli::Args& args) {
   auto renderer_ptr = std::make_unique<Renderer>(scene, r.renderer);
   std::vector<char> moved_since_build(scene.instances.size(), 0);  // since the renderer's trees were built
   const double setup_ms = ms_since(t0);
+  announce_program_build(*renderer_ptr, progress, r.quiet);
   if (r.fold_auto) {
     progress.clear();
     choose_automatically(r, *renderer_ptr, {camera}, r.quiet);
@@ -862,8 +879,8 @@ int run_render(cli::Args& args) {
                   spec.orthographic ? "--ortho" : "--vfov", spec.orthographic ? spec.ymag : spec.vfov_degrees);
     if (unfolded) print_comparison(*unfolded, result, r.frame.fold);
     if (r.verbose) {
-      std::printf("  %-12s load %.2f ms, trees and kernels %.2f ms (BLAS %.2f ms), writing %.2f ms\n", "stages",
-                  load_ms, setup_ms, renderer.blas_build_ms(), write_ms);
+      std::printf("  %-12s load %.2f ms, trees and kernels %.2f ms (BLAS %.2f ms, kernels %.2f ms), writing %.2f ms\n",
+                  "stages", load_ms, setup_ms, renderer.blas_build_ms(), renderer.program_build_ms(), write_ms);
       for (size_t f = 0; f < result.frames.size(); ++f) {
         const FrameTimes& t = result.frames[f];
         std::printf("  %-12s cull %.3f, TLAS %.3f, upload %.3f, ray list %.3f, trace %.3f, readback %.3f ms\n",

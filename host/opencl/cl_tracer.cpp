@@ -40,7 +40,9 @@ ClTracer::Programs& ClTracer::programs_for(int groups) {
   if (tile_stats_) defines += " -DRF_TILE_STATS";
   Programs p;
   p.groups = size;
+  const auto start = Clock::now();
   p.program = device_.build(trace_program_source(), precision_, defines);
+  build_ms_ += ms_since(start);
   p.single = cl::Kernel(p.program, "rf_trace_primary");
   p.tile = cl::Kernel(p.program, "rf_trace_tiles");
   programs_.push_back(p);

@@ -62,6 +62,10 @@ class ClTracer {
   // does it ahead, outside any timing).
   double trace(const rf_camera& camera, KernelKind kernel);
   void prepare_groups(int groups);
+  // Milliseconds spent building programs so far: about 2 s on a machine's
+  // first use of this rayfold version with PoCL, about 0.1 s once PoCL's
+  // cache ($XDG_CACHE_HOME/pocl or ~/.cache/pocl) holds them.
+  double program_build_ms() const { return build_ms_; }
   // Where the next trace writes its hits. On CPU devices the kernel writes
   // straight into `out` (a buffer over host memory), and read_hits only
   // synchronises; elsewhere read_hits copies the device buffer into `out`.
@@ -109,6 +113,7 @@ class ClTracer {
   uint32_t blas_node_count_ = 0;
   uint32_t tlas_root_ = RF_INVALID;
   size_t max_tlas_nodes_ = 0, max_instances_ = 0, max_rays_ = 0, pixel_count_ = 0;
+  double build_ms_ = 0.0;
 };
 
 }  // namespace rayfold::core
