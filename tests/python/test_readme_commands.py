@@ -1,0 +1,102 @@
+"""The README's command lines, run: every `build/rayfold...` line of its shell
+blocks and its camera-list example, at a small image size so the suite stays
+quick (the size is the only change), each expected to exit 0; and every
+option the README names is one the tool's --help documents. Docs that a
+test runs stay true."""
+import json
+import os
+import pathlib
+import re
+import shlex
+import subprocess
+
+import pytest
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+README = (ROOT / "README.md").read_text()
+SMALL = "96x54"
+
+
+def shell_lines():
+    """Each `build/rayfold...` command of the README's sh blocks, continuation
+    lines joined, comments dropped."""
+    lines = []
+    for block in re.findall(r"```sh\n(.*?)```", README, re.S):
+        joined = block.replace("\\\n", " ")
+        for line in joined.splitlines():
+            line = line.split("  #")[0].strip()
+            if line.startswith("build/rayfold"):
+                lines.append(line)
+    return lines
+
+
+def small(argv):
+    """The command at a small size: a given --size shrinks, the tracing
+    commands without one get it."""
+    out = list(argv)
+    if "--size" in out:
+        out[out.index("--size") + 1] = SMALL
+    elif len(out) > 1 and out[1] in ("render", "bench") and "--help" not in out:
+        out += ["--size", SMALL]
+    elif pathlib.Path(out[0]).name in ("rayfold-peers", "rayfold-stats"):
+        out += ["--size", SMALL]
+    return out
+
+
+@pytest.fixture(scope="module")
+def bin_dir(cli):
+    return pathlib.Path(cli).parent
+
+
+@pytest.fixture(scope="module")
+def scenes(tmp_path_factory, bin_dir):
+    """scene.glb is the bundled scene; scene.gltf the same written as .gltf."""
+    d = tmp_path_factory.mktemp("readme")
+    (d / "scene.glb").write_bytes((ROOT / "scenes" / "atrium.glb").read_bytes())
+    subprocess.run([str(bin_dir / "rayfold-gen-scene"), "-o", str(d / "scene.gltf"), "--objects", "24",
+                    "--triangles", "3000"], check=True, capture_output=True)
+    return d
+
+
+def test_the_readme_shows_commands():
+    assert len(shell_lines()) >= 12, shell_lines()
+
+
+@pytest.mark.parametrize("line", shell_lines())
+def test_every_readme_command_runs(line, bin_dir, scenes):
+    argv = shlex.split(line)
+    argv[0] = str(bin_dir / pathlib.Path(argv[0]).name)
+    if not pathlib.Path(argv[0]).exists():
+        pytest.skip(f"{argv[0]} is not built here")
+    argv = small(argv)
+    if "bench" in argv[1:2]:
+        argv += ["--frames", "1"] if "--frames" not in argv else []
+    r = subprocess.run(argv, cwd=scenes, capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, f"{' '.join(argv)}\n{r.stderr[-2000:]}"
+
+
+def test_the_camera_list_example_renders(cli, tmp_path):
+    block = re.search(r'```json\n(\{"width".*?)```', README, re.S)
+    assert block, "the README's camera-list example"
+    views = json.loads(block.group(1))
+    views["width"], views["height"] = 64, 36  # the size only
+    (tmp_path / "views.json").write_text(json.dumps(views))
+    r = subprocess.run([cli, "render", "--cameras", "views.json", "-o", "view_%02d.exr"], cwd=tmp_path,
+                       capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["view_00.exr", "view_01.exr", "views.json"]
+
+
+def test_every_option_the_readme_names_is_documented_by_help(cli, bin_dir):
+    helps = ""
+    for args in (["render", "--help"], ["bench", "--help"], ["info", "--help"], ["devices", "--help"]):
+        helps += subprocess.run([cli] + args, capture_output=True, text=True).stdout
+    for tool in ("rayfold-peers", "rayfold-stats", "rayfold-limits"):
+        if (bin_dir / tool).exists():
+            r = subprocess.run([str(bin_dir / tool), "--help"], capture_output=True, text=True)
+            helps += r.stdout + r.stderr
+    options = set(re.findall(r"(?<![\w-])(--[a-z][a-z-]+)", README))
+    # Options of other programs the README quotes (pip, cmake, make).
+    foreign = {"--prefix", "--build", "--install", "--target", "--peers", "--help", "--version"}
+    missing = sorted(o for o in options - foreign if o not in helps)
+    assert not missing, f"options the README names that no --help documents: {missing}"
