@@ -1,0 +1,284 @@
+// The file itself: JSON or GLB, the checks tinygltf does not make (schema
+// types, GLB header, matrix with TRS), buffers, and required extensions.
+#include "scene/gltf/loader.h"
+
+namespace rayfold::core::gltf {
+
+namespace {
+
+// Hit info needs no pixels: images are neither decoded nor required.
+bool skip_image(tinygltf::Image*, const int, std::string*, std::string*, int, int, const unsigned char*, int, void*) {
+  return true;
+}
+
+// External buffers are read only from regular files: a URI naming a device
+// or a pipe (/dev/zero, a FIFO) would otherwise hang the loader or exhaust
+// memory. Files are otherwise read as tinygltf would.
+bool read_regular_file(std::vector<unsigned char>* out, std::string* err, const std::string& path, void* user) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) {
+    if (err) *err += "'" + path + "' is not a regular file\n";
+    return false;
+  }
+  return tinygltf::ReadWholeFile(out, err, path, user);
+}
+
+// Required extensions that change nothing about geometry can be ignored;
+// any other one changes how positions or indices are stored.
+bool geometry_neutral(const std::string& ext) {
+  static const char* prefixes[] = {"KHR_materials_", "KHR_texture_", "EXT_texture_", "KHR_lights_", "MSFT_texture_"};
+  for (const char* p : prefixes)
+    if (ext.rfind(p, 0) == 0) return true;
+  // Read: integer positions are converted as glTF says; GPU instances become
+  // instances.
+  // Decoded (gltf_decompress.h): meshopt buffer views and Draco primitives.
+  return ext == "KHR_mesh_quantization" || ext == "EXT_mesh_gpu_instancing" || ext == "EXT_meshopt_compression" ||
+         ext == "KHR_meshopt_compression" || ext == "KHR_draco_mesh_compression";
+}
+
+}  // namespace
+
+void Loader::check_json_start(const std::string& bytes) const {
+  const size_t first = bytes.find_first_not_of(" \t\r\n");
+  if (first != std::string::npos && bytes[first] == '{') return;
+  std::string ext = std::filesystem::path(path_).extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  static const std::pair<const char*, const char*> formats[] = {
+      {".obj", "an OBJ file"},    {".ply", "a PLY file"},       {".fbx", "an FBX file"}, {".stl", "an STL file"},
+      {".dae", "a COLLADA file"}, {".usd", "a USD file"},       {".usda", "a USD file"}, {".usdz", "a USD file"},
+      {".3ds", "a 3DS file"},     {".blend", "a Blender file"}, {".off", "an OFF file"}};
+  std::string what = "not a glTF file";
+  for (const auto& [e, name] : formats)
+    if (ext == e) what = std::string("not a glTF file but ") + name;
+  fail(what +
+       " (rayfold reads glTF 2.0, .gltf or .glb; other formats can be converted, for example with "
+       "Blender or assimp export)");
+}
+
+void Loader::check_schema_types(const nlohmann::json& j) const {
+  using json = nlohmann::json;
+  enum Kind { kInt, kNumber, kString, kArray, kObject, kIntArray, kNumberArray, kObjectArray };
+  auto is = [](const json& v, Kind k) {
+    auto all = [&](auto pred) {
+      if (!v.is_array()) return false;
+      for (const json& e : v)
+        if (!pred(e)) return false;
+      return true;
+    };
+    switch (k) {
+      case kInt: return v.is_number_integer();
+      case kNumber: return v.is_number();
+      case kString: return v.is_string();
+      case kArray: return v.is_array();
+      case kObject: return v.is_object();
+      case kIntArray: return all([](const json& e) { return e.is_number_integer(); });
+      case kNumberArray: return all([](const json& e) { return e.is_number(); });
+      case kObjectArray: return all([](const json& e) { return e.is_object(); });
+    }
+    return false;
+  };
+  static const char* names[] = {
+      "an integer",          "a number",           "a string", "an array", "an object", "an array of integers",
+      "an array of numbers", "an array of objects"};
+  auto check = [&](const json& obj, const std::string& path, std::initializer_list<std::pair<const char*, Kind>> m) {
+    for (const auto& [key, kind] : m) {
+      const auto it = obj.find(key);
+      if (it != obj.end() && !is(*it, kind))
+        fail(path + "." + key + " must be " + names[kind] + " (glTF 2.0 schema), not " + it->type_name());
+    }
+  };
+  check(j, "",
+        {{"scene", kInt},
+         {"scenes", kObjectArray},
+         {"nodes", kObjectArray},
+         {"meshes", kObjectArray},
+         {"accessors", kObjectArray},
+         {"bufferViews", kObjectArray},
+         {"buffers", kObjectArray},
+         {"cameras", kObjectArray},
+         {"skins", kObjectArray},
+         {"extensionsRequired", kArray},
+         {"extensionsUsed", kArray}});
+  auto each = [&](const char* array, auto fn) {
+    const auto it = j.find(array);
+    if (it == j.end()) return;
+    for (size_t i = 0; i < it->size(); ++i) fn((*it)[i], std::string(array) + "[" + std::to_string(i) + "]");
+  };
+  each("scenes", [&](const json& o, const std::string& p) { check(o, p, {{"nodes", kIntArray}, {"name", kString}}); });
+  each("nodes", [&](const json& o, const std::string& p) {
+    check(o, p,
+          {{"mesh", kInt},
+           {"camera", kInt},
+           {"skin", kInt},
+           {"children", kIntArray},
+           {"matrix", kNumberArray},
+           {"translation", kNumberArray},
+           {"rotation", kNumberArray},
+           {"scale", kNumberArray},
+           {"name", kString}});
+  });
+  each("meshes", [&](const json& o, const std::string& p) {
+    check(o, p, {{"primitives", kObjectArray}, {"weights", kNumberArray}, {"name", kString}});
+    const auto prims = o.find("primitives");
+    if (prims == o.end()) return;
+    for (size_t i = 0; i < prims->size(); ++i) {
+      const std::string pp = p + ".primitives[" + std::to_string(i) + "]";
+      check((*prims)[i], pp, {{"attributes", kObject}, {"indices", kInt}, {"mode", kInt}, {"targets", kObjectArray}});
+      const auto attrs = (*prims)[i].find("attributes");
+      if (attrs != (*prims)[i].end()) check(*attrs, pp + ".attributes", {{"POSITION", kInt}});
+    }
+  });
+  each("accessors", [&](const json& o, const std::string& p) {
+    check(o, p,
+          {{"bufferView", kInt},
+           {"byteOffset", kInt},
+           {"componentType", kInt},
+           {"count", kInt},
+           {"type", kString},
+           {"sparse", kObject},
+           {"min", kNumberArray},
+           {"max", kNumberArray}});
+  });
+  each("skins", [&](const json& o, const std::string& p) {
+    check(o, p, {{"joints", kIntArray}, {"inverseBindMatrices", kInt}, {"skeleton", kInt}});
+  });
+  each("bufferViews", [&](const json& o, const std::string& p) {
+    check(o, p, {{"buffer", kInt}, {"byteOffset", kInt}, {"byteLength", kInt}, {"byteStride", kInt}});
+  });
+  each("buffers", [&](const json& o, const std::string& p) { check(o, p, {{"uri", kString}, {"byteLength", kInt}}); });
+  each("cameras", [&](const json& o, const std::string& p) {
+    check(o, p, {{"type", kString}, {"perspective", kObject}, {"orthographic", kObject}});
+    const auto persp = o.find("perspective");
+    if (persp != o.end()) check(*persp, p + ".perspective", {{"yfov", kNumber}, {"aspectRatio", kNumber}});
+  });
+}
+
+nlohmann::json Loader::check_raw(const std::string& bytes, size_t* bin_offset) const {
+  std::string json_text = bytes;
+  if (binary_) {
+    if (bytes.size() < 20) fail("the GLB header is truncated");
+    uint32_t version, length, chunk_length, chunk_type;
+    std::memcpy(&version, &bytes[4], 4);
+    std::memcpy(&length, &bytes[8], 4);
+    std::memcpy(&chunk_length, &bytes[12], 4);
+    std::memcpy(&chunk_type, &bytes[16], 4);
+    if (version != 2) fail("GLB version " + std::to_string(version) + "; only glTF 2.0 (version 2) is read");
+    if (length != bytes.size())
+      fail("the GLB header gives a length of " + std::to_string(length) + " bytes, the file has " +
+           std::to_string(bytes.size()));
+    if (chunk_type != 0x4E4F534Au) fail("the first GLB chunk is not of type JSON");
+    if (chunk_length > bytes.size() - 20) fail("the GLB JSON chunk runs past the end of the file");
+    json_text = bytes.substr(20, chunk_length);
+    *bin_offset = 20 + static_cast<size_t>(chunk_length);
+  }
+  nlohmann::json j = nlohmann::json::parse(json_text, nullptr, false);
+  if (j.is_discarded() || !j.is_object()) return j;  // tinygltf reports these
+  check_schema_types(j);
+  const auto nodes = j.find("nodes");
+  if (nodes == j.end() || !nodes->is_array()) return j;
+  for (size_t i = 0; i < nodes->size(); ++i) {
+    const nlohmann::json& n = (*nodes)[i];
+    if (n.is_object() && n.contains("matrix") &&
+        (n.contains("translation") || n.contains("rotation") || n.contains("scale")))
+      fail("node " + std::to_string(i) + " has both a matrix and translation, rotation or scale (glTF 2.0, 5.25)");
+  }
+  return j;
+}
+
+void Loader::read_model() {
+  std::string bytes;
+  {
+    std::error_code ec;
+    const auto status = std::filesystem::status(path_, ec);
+    if (std::filesystem::is_directory(status)) fail("is a directory, not a glTF file");
+    if (std::filesystem::exists(status) && !std::filesystem::is_regular_file(status)) fail("is not a regular file");
+    std::ifstream f(path_, std::ios::binary);
+    if (!f) fail(std::string("cannot open the file (") + std::strerror(errno) + ")");
+    bytes.assign(std::istreambuf_iterator<char>(f), {});
+    if (bytes.empty()) fail("the file is empty");
+    binary_ = bytes.size() >= 4 && std::memcmp(bytes.data(), "glTF", 4) == 0;
+    if (!binary_) check_json_start(bytes);
+  }
+  size_t bin_offset = bytes.size();
+  nlohmann::json j = check_raw(bytes, &bin_offset);
+  // Compressed files carry JSON tinygltf rejects (gltf_decompress.h): it
+  // then reads the prepared JSON from memory.
+  JsonFixups fixups;
+  std::string prepared;
+  if (!j.is_discarded() && j.is_object()) {
+    fixups = prepare_json(j);
+    if (fixups.changed()) {
+      std::string text = j.dump();
+      if (binary_) {
+        text.append((4 - text.size() % 4) % 4, ' ');
+        const std::string rest = bytes.substr(bin_offset);
+        const uint32_t chunk = static_cast<uint32_t>(text.size()), total = 20 + chunk + rest.size();
+        prepared.assign("glTF", 4);
+        for (uint32_t word : {2u, total, chunk, 0x4E4F534Au}) prepared.append(reinterpret_cast<const char*>(&word), 4);
+        prepared += text + rest;
+      } else {
+        prepared = std::move(text);
+      }
+    }
+  }
+  tinygltf::TinyGLTF gltf;
+  gltf.SetImageLoader(skip_image, nullptr);
+  gltf.SetFsCallbacks(
+      {tinygltf::FileExists, tinygltf::ExpandFilePath, read_regular_file, tinygltf::WriteWholeFile, nullptr});
+  std::string err, warn;
+  bool ok = false;
+  try {
+    const std::string base_dir = std::filesystem::path(path_).parent_path().string();
+    const auto* data = reinterpret_cast<const unsigned char*>(prepared.data());
+    if (prepared.empty())
+      ok = binary_ ? gltf.LoadBinaryFromFile(&model_, &err, &warn, path_)
+                   : gltf.LoadASCIIFromFile(&model_, &err, &warn, path_);
+    else
+      ok = binary_
+               ? gltf.LoadBinaryFromMemory(&model_, &err, &warn, data, static_cast<unsigned>(prepared.size()), base_dir)
+               : gltf.LoadASCIIFromString(&model_, &err, &warn, prepared.data(), static_cast<unsigned>(prepared.size()),
+                                          base_dir);
+  } catch (const std::exception& e) {
+    fail(std::string("not a readable glTF file: ") + e.what());
+  }
+  if (!ok) {
+    std::string what = err.empty() ? "not a readable glTF file" : err;
+    while (!what.empty() && (what.back() == '\n' || what.back() == ' ')) what.pop_back();
+    // tinygltf's words for a buffer file that is not there, in ours.
+    const std::string missing = "File not found : ";
+    if (what.rfind(missing, 0) == 0) {
+      const std::string uri = what.substr(missing.size(), what.find('\n') - missing.size());
+      const std::filesystem::path dir = std::filesystem::path(path_).parent_path();
+      fail("buffer file \"" + uri + "\" does not exist (looked for " + (dir / uri).string() + ")");
+    }
+    fail(what);
+  }
+  // Images are never decoded, so a missing image file is no concern of
+  // rayfold's (tinygltf reports one; a missing buffer is an error).
+  std::istringstream lines(warn);
+  for (std::string line; std::getline(lines, line);) {
+    if (line.empty() || line.rfind("File not found : ", 0) == 0 ||
+        line.find("Failed to load external 'uri' for image[") != std::string::npos)
+      continue;
+    this->warn(line);
+  }
+  restore_fixups(model_, fixups);
+  fallback_buffers_ = fixups.fallback_buffers;
+  decode_meshopt_views(model_, fixups, path_);
+  decoded_ = decode_draco_primitives(model_, path_);
+}
+
+void Loader::check_extensions() const {
+  std::string unsupported;
+  for (const std::string& ext : model_.extensionsRequired)
+    if (!geometry_neutral(ext)) unsupported += (unsupported.empty() ? "" : ", ") + ext;
+  if (!unsupported.empty()) fail("requires extensions rayfold does not support: " + unsupported);
+}
+
+bool Loader::uses_extension(const std::string& name) const {
+  for (const std::string& e : model_.extensionsUsed)
+    if (e == name) return true;
+  return false;
+}
+
+}  // namespace rayfold::core::gltf

@@ -1,0 +1,228 @@
+// The glTF loader's one class, whose stages live in the files beside it:
+// document.cpp (the file and its checks), accessors.cpp (typed reads),
+// scene.cpp (one pose of the whole scene), nodes.cpp (the hierarchy and
+// instancing), meshes.cpp, cameras.cpp and animation.cpp (poses, morph
+// targets, skins). host/scene/gltf_loader.h is the interface; this header
+// is internal to the loader.
+#pragma once
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <optional>
+#include <set>
+#include <sstream>
+#include <tuple>
+
+#include <tiny_gltf.h>
+#include <glm/gtc/matrix_transform.hpp>
+#include <glm/gtc/quaternion.hpp>
+#include <glm/gtc/type_ptr.hpp>
+#include <nlohmann/json.hpp>
+
+#include "scene/gltf_decompress.h"
+#include "util/errors.h"
+
+#include "scene/gltf_loader.h"
+
+namespace rayfold::core::gltf {
+
+class Loader {
+ public:
+  Loader(const std::string& path, std::vector<std::string>* warnings, const LoadOptions& options)
+      : path_(path), warnings_(warnings), options_(options) {}
+
+  // Reads and checks the file: once.
+  void open() {
+    read_model();
+    check_extensions();
+    rest_nodes_ = model_.nodes;
+  }
+
+  // The scene posed at `time` (NaN: at rest); any number of times. Warnings
+  // are reported for the first only.
+  Scene build(double time);
+
+  void cache_meshes(bool on) { cache_meshes_ = on; }
+
+  // The last keyframe time over the node animations; NaN without any.
+  double animation_end() const;
+
+ private:
+  [[noreturn]] void fail(const std::string& what) const { throw InputError(path_, what); }
+  // One line per kind of warning: the first case, and how many more there
+  // are. The kind is the message up to its first digit ("node 7 has a zero
+  // scale" and "node 9 has a zero scale" are one kind).
+  void warn(const std::string& what) {
+    std::string kind;
+    for (char c : what) kind += (c >= '0' && c <= '9') ? '#' : c;
+    for (Warning& w : pending_)
+      if (w.kind == kind) {
+        ++w.more;
+        return;
+      }
+    pending_.push_back({kind, what, 0});
+  }
+  void flush_warnings() {
+    if (!warnings_) return;
+    for (const Warning& w : pending_)
+      warnings_->push_back(path_ + ": " + w.first +
+                           (w.more ? " (and " + std::to_string(w.more) + " more like it)" : std::string()));
+  }
+
+  // A file that is neither GLB nor JSON is some other format: say which, if
+  // its extension tells, rather than report a JSON syntax error.
+  void check_json_start(const std::string& bytes) const;
+
+  // tinygltf reads a member of the wrong JSON type as absent: "primitives"
+  // written as an object gives a mesh without triangles, silently. Every
+  // member rayfold's reading depends on is checked against the glTF 2.0
+  // schema's type, and a mismatch names its path.
+  void check_schema_types(const nlohmann::json& j) const;
+
+  // What tinygltf does not check: the GLB header's version and length, and
+  // nodes that carry both a matrix and TRS (tinygltf silently drops the TRS).
+  // Returns the parsed JSON (discarded when it does not parse) and, for a
+  // GLB, sets *bin_offset to where the chunks after the JSON start.
+  nlohmann::json check_raw(const std::string& bytes, size_t* bin_offset) const;
+
+  void read_model();
+
+  void check_extensions() const;
+
+  std::vector<int> root_nodes();
+
+  Xform local_transform(int ni);
+
+  // T * R * S (glTF 2.0, 3.5.3); a missing part is the identity. A rotation
+  // quaternion (x, y, z, w) that is not unit length is normalised, with a
+  // warning.
+  Xform trs(const double* t, const double* r, const double* s, const std::string& where);
+
+  // EXT_mesh_gpu_instancing: the node's mesh drawn once per element of its
+  // TRANSLATION, ROTATION and SCALE accessors, each transform applied before
+  // the node's own. Empty when the node does not use it.
+  std::vector<Xform> gpu_instances(int ni);
+
+  // The node's name, or "node N" for an unnamed node (as the docs promise).
+  std::string node_name(int ni) const;
+
+  void add_camera(int ni, const Xform& world_from_node);
+
+  // The camera the scene is rendered with: the one asked for, else the
+  // file's first (as glTF viewers start with).
+  void choose_camera();
+
+  void add_instance(int ni, const Xform& world_from_node);
+
+  // Morph targets at the default weights (glTF 2.0, 3.7.2.2): the node's,
+  // else the mesh's, else 0; summed in double and rounded once.
+  void apply_morph_targets(int mi, size_t pi, const std::vector<double>& weights, const std::string& where,
+                           std::vector<glm::vec3>& positions) const;
+
+  // Every animation channel sampled at `time`, written over the node's TRS or
+  // weights before the hierarchy is read (glTF 2.0, 3.11). Times outside a
+  // sampler's keys hold its first or last value.
+  void pose_at(double time);
+
+  // Components per element of an accessor's type (VEC3: 3), for values read
+  // whole; 0 refused.
+  int components(int ai, const std::string& where) const;
+
+  size_t weight_count(int ni) const;
+
+  // One sampler's value at `time`: n components per key (3n for a cubic
+  // spline: in-tangent, value, out-tangent).
+  std::vector<double> sample(const tinygltf::AnimationSampler& s, int n, bool rotation, double time,
+                             const std::string& where) const;
+
+  // World transform of any node, whether or not the scene shows it (joints
+  // may live outside the scene's hierarchy): its ancestors' transforms times
+  // its own, memoised.
+  Xform node_world(int ni);
+
+  // A skin's joint matrices at the default pose: each joint's world
+  // transform times its inverse bind matrix (identity when absent).
+  std::vector<Xform> joint_matrices(int si);
+
+  // Linear blend skinning (glTF 2.0, 3.7.3): each vertex moved by the
+  // weighted sum of its joints' matrices, from every JOINTS_n / WEIGHTS_n
+  // set; summed in double and rounded once.
+  void apply_skin(const tinygltf::Primitive& prim, const std::vector<Xform>& joints, const std::string& where,
+                  std::vector<glm::vec3>& positions) const;
+
+  // Converts a glTF mesh (all its triangle primitives) into one Mesh; returns
+  // its index in scene_.meshes, or -1 when it has no triangles.
+  // This build's scene mesh. In an animated file a mesh without skin and
+  // morph weights does not depend on the pose: it is converted once and
+  // copied into later poses (GltfFile::scene_at per frame). Skinned meshes
+  // follow their joints and weighted ones their (maybe animated) weights:
+  // converted every time, so that no cache grows frame by frame.
+  int mesh_for(int mi, const std::vector<double>& weights, int skin);
+
+  int convert_mesh(int mi, const std::vector<double>& weights, int skin);
+
+  static void append_triangles(int mode, const std::vector<uint32_t>& seq, uint32_t base, std::vector<uint32_t>& out,
+                               size_t* dropped);
+
+  bool uses_extension(const std::string& name) const;
+
+  static size_t component_bytes(int type);
+
+  // One component as glTF reads it (2.0, 3.11): FLOAT as stored, a
+  // normalized integer mapped to [0, 1] or [-1, 1], any other integer as its
+  // value.
+  static double component(const unsigned char* p, int type, bool normalized);
+
+  // `count` elements of `element_bytes` from view vi at `offset` with the
+  // view's stride (or tightly packed): the bytes of element 0 and the
+  // stride, after checking that the last element ends inside the view.
+  const unsigned char* view_data(int vi, size_t offset, size_t count, size_t element_bytes, size_t align, bool is_index,
+                                 const std::string& acc, size_t* stride) const;
+
+  // An accessor's elements, `components` per element, as glTF reads them
+  // (component()), with a sparse accessor's substitutions applied over its
+  // base values (zeros without a buffer view).
+  std::vector<double> read_elements(int ai, const std::string& what, int components, bool is_index) const;
+
+  // Positions (and morph target displacements): VEC3 of FLOAT, or of
+  // (normalized) integers as KHR_mesh_quantization allows.
+  std::vector<glm::vec3> read_vec3(int ai, const std::string& what) const;
+
+  void read_indices(int ai, const std::string& where, uint32_t vertex_count, std::vector<uint32_t>& out) const;
+
+  struct Warning {
+    std::string kind, first;
+    size_t more;
+  };
+  std::string path_;
+  std::vector<std::string>* warnings_;
+  LoadOptions options_;
+  std::vector<Warning> pending_;
+  bool binary_ = false;
+  tinygltf::Model model_;
+  std::vector<int> fallback_buffers_;           // meshopt fallback buffers: no data to read
+  std::map<int, std::vector<double>> decoded_;  // accessors decoded from Draco primitives
+  Scene scene_;
+  std::vector<tinygltf::Node> rest_nodes_;  // the file's nodes, before any pose
+  struct MeshKey {
+    int mesh;
+    std::vector<double> weights;
+    int skin;
+    bool operator<(const MeshKey& o) const {
+      return std::tie(mesh, weights, skin) < std::tie(o.mesh, o.weights, o.skin);
+    }
+  };
+  std::map<MeshKey, int> mesh_slot_;                  // glTF mesh, morph weights and skin -> scene mesh (or -1)
+  bool cache_meshes_ = false;                         // animated: poses reuse unskinned meshes (mesh_for)
+  std::map<MeshKey, std::optional<Mesh>> converted_;  // static meshes of earlier poses; none: no triangles
+  std::vector<int> parent_;
+  std::vector<Xform> world_;
+  std::vector<char> world_known_;
+};
+
+}  // namespace rayfold::core::gltf

@@ -1,0 +1,85 @@
+// Meshes: glTF primitives to triangles, converted once per key.
+#include "scene/gltf/loader.h"
+
+namespace rayfold::core::gltf {
+
+int Loader::mesh_for(int mi, const std::vector<double>& weights, int skin) {
+  if (!cache_meshes_ || skin >= 0 || !weights.empty()) return convert_mesh(mi, weights, skin);
+  const MeshKey key{mi, weights, skin};
+  const auto cached = converted_.find(key);
+  if (cached == converted_.end()) {
+    const int slot = convert_mesh(mi, weights, skin);
+    converted_.emplace(key, slot < 0 ? std::optional<Mesh>() : std::optional<Mesh>(scene_.meshes[slot]));
+    return slot;
+  }
+  if (!cached->second) return -1;
+  scene_.meshes.push_back(*cached->second);
+  return static_cast<int>(scene_.meshes.size()) - 1;
+}
+
+int Loader::convert_mesh(int mi, const std::vector<double>& weights, int skin) {
+  const std::vector<Xform> joints = skin >= 0 ? joint_matrices(skin) : std::vector<Xform>{};
+  const tinygltf::Mesh& gm = model_.meshes[mi];
+  Mesh mesh;
+  mesh.name = gm.name;
+  for (size_t pi = 0; pi < gm.primitives.size(); ++pi) {
+    const tinygltf::Primitive& prim = gm.primitives[pi];
+    const std::string where = "mesh " + std::to_string(mi) + " primitive " + std::to_string(pi);
+    const int mode = prim.mode < 0 ? TINYGLTF_MODE_TRIANGLES : prim.mode;
+    if (mode == TINYGLTF_MODE_POINTS || mode == TINYGLTF_MODE_LINE || mode == TINYGLTF_MODE_LINE_LOOP ||
+        mode == TINYGLTF_MODE_LINE_STRIP) {
+      warn(where + " draws points or lines; skipped");
+      continue;
+    }
+    if (mode != TINYGLTF_MODE_TRIANGLES && mode != TINYGLTF_MODE_TRIANGLE_STRIP && mode != TINYGLTF_MODE_TRIANGLE_FAN)
+      fail(where + " has an unknown primitive mode " + std::to_string(mode));
+    const auto pos = prim.attributes.find("POSITION");
+    if (pos == prim.attributes.end()) fail(where + " has no POSITION attribute");
+    const uint32_t base = static_cast<uint32_t>(mesh.positions.size());
+    std::vector<glm::vec3> positions = read_vec3(pos->second, where + ": POSITION");
+    apply_morph_targets(mi, pi, weights, where, positions);
+    if (skin >= 0) apply_skin(prim, joints, where, positions);
+    mesh.positions.insert(mesh.positions.end(), positions.begin(), positions.end());
+    const uint32_t vertex_count = static_cast<uint32_t>(positions.size());
+    std::vector<uint32_t> seq;
+    if (prim.indices >= 0) {
+      read_indices(prim.indices, where, vertex_count, seq);
+    } else {
+      seq.resize(vertex_count);
+      for (uint32_t i = 0; i < vertex_count; ++i) seq[i] = i;
+    }
+    size_t dropped = 0;
+    append_triangles(mode, seq, base, mesh.indices, &dropped);
+    if (dropped)
+      warn(where + " has " + std::to_string(seq.size()) + " triangle vertices, not a multiple of 3; the last " +
+           std::to_string(dropped) + " are ignored");
+  }
+  if (mesh.indices.empty()) {
+    warn("mesh " + std::to_string(mi) + (gm.name.empty() ? "" : " (" + gm.name + ")") + " has no triangles");
+    return -1;
+  }
+  scene_.meshes.push_back(std::move(mesh));
+  return static_cast<int>(scene_.meshes.size()) - 1;
+}
+
+void Loader::append_triangles(int mode, const std::vector<uint32_t>& seq, uint32_t base, std::vector<uint32_t>& out,
+                              size_t* dropped) {
+  auto tri = [&](uint32_t a, uint32_t b, uint32_t c) {
+    out.push_back(base + seq[a]);
+    out.push_back(base + seq[b]);
+    out.push_back(base + seq[c]);
+  };
+  const size_t n = seq.size();
+  if (mode == TINYGLTF_MODE_TRIANGLES) {
+    for (size_t i = 0; i + 2 < n; i += 3) tri(i, i + 1, i + 2);
+    if (n % 3 != 0 && dropped) *dropped = n % 3;
+  } else if (mode == TINYGLTF_MODE_TRIANGLE_STRIP) {
+    // glTF 2.0 spec 3.7.2.1: triangle i is (i, i + 1 + i % 2, i + 2 - i % 2).
+    for (size_t i = 0; i + 2 < n; ++i) tri(i, i + 1 + i % 2, i + 2 - i % 2);
+  } else {
+    // Fan: triangle i is (i + 1, i + 2, 0).
+    for (size_t i = 0; i + 2 < n; ++i) tri(i + 1, i + 2, 0);
+  }
+}
+
+}  // namespace rayfold::core::gltf
