@@ -236,6 +236,23 @@ TEST(Cli, HelpForEveryCommand) {
     EXPECT_EQ(r.code, 0) << args;
     EXPECT_NE(r.out.find("usage: rayfold"), std::string::npos) << args;
   }
+  // Once missing: what --compare's failure exits with.
+  const CliRun render = rayfold("render --help");
+  const size_t compare = render.out.find("  --compare");
+  ASSERT_NE(compare, std::string::npos) << render.out;
+  EXPECT_NE(render.out.substr(compare, render.out.find("  --braid") - compare).find("exit code 3"), std::string::npos)
+      << render.out;
+}
+
+// docs/cost_model.md: --fold auto on one view probes the 2 kernels at one
+// fold, then the 4 folds with each kernel within 2x of the faster: 5 choices
+// or 8, each printed with its prediction (the doc once said 8 always).
+TEST(Cli, FoldAutoPrintsTheChoicesTheCostModelDocCounts) {
+  const CliRun r = rayfold("render --size 64x36 --fold auto");
+  ASSERT_EQ(r.code, 0) << r.err;
+  size_t lines = 0;
+  for (size_t at = r.out.find("ms/view"); at != std::string::npos; at = r.out.find("ms/view", at + 1)) ++lines;
+  EXPECT_TRUE(lines == 5 || lines == 8) << lines << " choices:\n" << r.out;
 }
 
 TEST(Cli, InfoDescribesTheDefaultScene) {

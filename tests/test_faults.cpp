@@ -71,6 +71,28 @@ Outcome shell(const std::string& command, const fs::path& scratch) {
 
 const std::string kRender = std::string(RAYFOLD_BIN) + " render -q";
 
+// How this machine makes a private mount namespace: "unshare -rm" (a user
+// namespace, no root needed), else "unshare -m" (root); "" when neither works
+// (a container without either), and the tmpfs cases skip.
+const std::string& private_mount() {
+  static const std::string how = [] {
+    const fs::path probe = fs::temp_directory_path() / ("rayfold_faults_probe_" + std::to_string(::getpid()));
+    fs::create_directories(probe);
+    std::string found;
+    for (const char* u : {"unshare -rm", "unshare -m"}) {
+      const std::string cmd =
+          std::string(u) + " sh -c 'mount -t tmpfs -o size=65536 tmpfs " + probe.string() + "' >/dev/null 2>&1";
+      if (std::system(cmd.c_str()) == 0) {
+        found = u;
+        break;
+      }
+    }
+    fs::remove_all(probe);
+    return found;
+  }();
+  return how;
+}
+
 // Runs `args` with `mount` as a fresh tmpfs of `bytes` (its listing afterwards
 // in `files`); false when this machine cannot make a private mount.
 bool render_in_tmpfs(size_t bytes, const std::string& args, const fs::path& scratch, Outcome* run,
@@ -80,7 +102,8 @@ bool render_in_tmpfs(size_t bytes, const std::string& args, const fs::path& scra
   const std::string script = "mount -t tmpfs -o size=" + std::to_string(bytes) + " tmpfs " + mount.string() +
                              " || exit 99; cd " + mount.string() + "; " + kRender + " " + args + "; code=$?; ls -A > " +
                              list.string() + "; exit $code";
-  *run = shell("unshare -rm sh -c '" + script + "'", scratch);
+  if (private_mount().empty()) return false;
+  *run = shell(private_mount() + " sh -c '" + script + "'", scratch);
   if (run->code == 99) return false;
   files->clear();
   std::istringstream in(read_text(list));
@@ -108,7 +131,7 @@ TEST(Faults, AFullDiskAtEveryOutputLeavesNothing) {
     Outcome r;
     std::vector<std::string> files;
     if (!render_in_tmpfs(c.bytes, args, d, &r, &files))
-      GTEST_SKIP() << "cannot mount a tmpfs here (unshare -rm needs user namespaces or root)";
+      GTEST_SKIP() << "cannot mount a tmpfs here (unshare -rm needs user namespaces, unshare -m root)";
     EXPECT_EQ(r.code, 3) << c.failing << ": " << r.err;
     EXPECT_NE(r.err.find(std::string(c.failing) + ": cannot write"), std::string::npos) << r.err;
     EXPECT_NE(r.err.find("No space left on device"), std::string::npos) << r.err;
@@ -218,7 +241,8 @@ TEST(Faults, ReadOnlyAndMissingFoldersFailFirst) {
   EXPECT_NE(r.err.find("no/such/dir/x.exr: cannot write here"), std::string::npos) << r.err;
   const fs::path mount = d / "ro";
   fs::create_directories(mount);
-  r = shell("unshare -rm sh -c 'mount -t tmpfs -o ro tmpfs " + mount.string() + " || exit 99; " + kRender +
+  if (private_mount().empty()) GTEST_SKIP() << "cannot make a private mount here (unshare -rm or -m)";
+  r = shell(private_mount() + " sh -c 'mount -t tmpfs -o ro tmpfs " + mount.string() + " || exit 99; " + kRender +
                 " --size 32x18 -o " + (mount / "x.exr").string() + "'",
             d);
   if (r.code == 99) GTEST_SKIP() << "cannot mount a read-only tmpfs here";
