@@ -362,3 +362,25 @@ def test_python_threads_render_side_by_side(atrium):
     assert len(results) == 4
     for g in results.values():
         assert_same_bits(g, expected)
+
+
+def test_unnamed_nodes_are_node_n_in_instance_names(tmp_path):
+    """The docs promise "node N" for unnamed nodes; they were ""."""
+    import base64
+    import json
+
+    positions = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], dtype=np.float32).tobytes()
+    gltf = {
+        "asset": {"version": "2.0"},
+        "buffers": [{"uri": "data:application/octet-stream;base64," + base64.b64encode(positions).decode(),
+                     "byteLength": len(positions)}],
+        "bufferViews": [{"buffer": 0, "byteLength": len(positions)}],
+        "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                       "min": [0, 0, 0], "max": [1, 1, 0]}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
+        "nodes": [{"mesh": 0, "name": "named"}, {"mesh": 0, "translation": [2, 0, 0]}],
+        "scenes": [{"nodes": [0, 1]}],
+    }
+    path = tmp_path / "unnamed.gltf"
+    path.write_text(json.dumps(gltf))
+    assert rayfold.Scene(str(path)).instance_names == ["named", "node 1"]
