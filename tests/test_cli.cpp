@@ -295,6 +295,59 @@ TEST(Cli, IdsManifestAndStatsRecordTheViewAndTheNodes) {
   EXPECT_NE(listed.out.find("    0      mesh 0     floor\n"), std::string::npos) << listed.out;
 }
 
+// Dataset intrinsics in a camera list (fx, fy, cx, cy or K, in pixels with
+// pixel centres at +0.5): once refused. The same focal length as a vfov gives
+// the same bits, K the same as fx..cy, and --stats records what was given.
+TEST(Cli, CameraListsTakeIntrinsicsInPixels) {
+  const fs::path d = work_dir();
+  const std::string list = (d / "k.json").string();
+  const std::string pose = R"("camera_to_world": [1, 0, 0, 0,  0, 1, 0, 2,  0, 0, 1, 14,  0, 0, 0, 1])";
+  const double f = 0.5 * 30 / std::tan(50.0 * M_PI / 360.0);
+  char fstr[64];
+  std::snprintf(fstr, sizeof fstr, "%.17g", f);
+  auto render_list = [&](const std::string& text, const std::string& out) {
+    std::ofstream(list) << text;
+    return rayfold("render --cameras " + list + " -o " + (d / out).string() + " --stats " +
+                   (d / (out + ".json")).string());
+  };
+  CliRun r = render_list(R"({"width": 40, "height": 30, "vfov": 50, "cameras": [{)" + pose + "}]}", "vfov.exr");
+  ASSERT_EQ(r.code, 0) << r.err;
+  r = render_list(R"({"width": 40, "height": 30, "cameras": [{)" + pose + R"(, "fx": )" + fstr + R"(, "fy": )" + fstr +
+                      R"(, "cx": 20, "cy": 15}]})",
+                  "fx.exr");
+  ASSERT_EQ(r.code, 0) << r.err;
+  r = render_list(R"({"width": 40, "height": 30, "K": [[)" + std::string(fstr) + R"(, 0, 20], [0, )" + fstr +
+                      R"(, 15], [0, 0, 1]], "cameras": [{)" + pose + "}]}",
+                  "k.exr");
+  ASSERT_EQ(r.code, 0) << r.err;
+  int w = 0, h = 0;
+  const auto by_vfov = read_exr((d / "vfov.exr").string(), &w, &h);
+  const auto by_fx = read_exr((d / "fx.exr").string(), &w, &h);
+  const auto by_k = read_exr((d / "k.exr").string(), &w, &h);
+  EXPECT_EQ(testing::compare_hits(by_vfov, by_fx, w), "");
+  EXPECT_EQ(testing::compare_hits(by_fx, by_k, w), "");
+  // An off-centre principal point and an eye/look_at pose: recorded as given.
+  r = render_list(R"({"width": 40, "height": 30, "cameras": [{"eye": [0, 3, 12], "look_at": [0, 2, 0],
+                     "fx": 30, "fy": 31, "cx": 22.5, "cy": 14}]})",
+                  "shifted.exr");
+  ASSERT_EQ(r.code, 0) << r.err;
+  const nlohmann::json st = nlohmann::json::parse(std::ifstream(d / "shifted.exr.json"));
+  EXPECT_EQ(st["camera"]["intrinsics"], nlohmann::json({{"fx", 30.0}, {"fy", 31.0}, {"cx", 22.5}, {"cy", 14.0}}));
+  EXPECT_EQ(st["camera"]["eye"], nlohmann::json({0.0, 3.0, 12.0}));
+  // Half a set, two forms, a skewed K: refused by name.
+  const std::pair<const char*, const char*> bad[] = {
+      {R"("fx": 30, "fy": 30, "cx": 20)", "fx, fy, cx and cy go together; \"cy\" is missing"},
+      {R"("fx": 30, "fy": 30, "cx": 20, "cy": 15, "vfov": 40)", "gives both vfov and intrinsics"},
+      {R"("K": [30, 1, 20, 0, 30, 15, 0, 0, 1])", "cameras[0].K must be [[fx, 0, cx], [0, fy, cy], [0, 0, 1]]"},
+      {R"("fx": -30, "fy": 30, "cx": 20, "cy": 15)", "cameras[0]"}};
+  for (const auto& [keys, message] : bad) {
+    r = render_list(R"({"width": 40, "height": 30, "cameras": [{)" + pose + ", " + keys + "}]}", "bad.exr");
+    EXPECT_EQ(r.code, 2) << keys << ": " << r.err;
+    EXPECT_NE(r.err.find(message), std::string::npos) << keys << ": " << r.err;
+    EXPECT_FALSE(fs::exists(d / "bad.exr"));
+  }
+}
+
 // A machine's first use compiles the kernels (about 2 s with PoCL): said
 // once, and the second run takes them from PoCL's cache.
 TEST(Cli, FirstUseCompileIsAnnouncedAndCachedAfterwards) {
@@ -539,8 +592,8 @@ TEST(Cli, CameraListsAndStereoPairsRenderEachViewAsAloneBitForBit) {
   r = rayfold("render --cameras " + list);
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("views.json: cameras[0]: eye and look-at must be distinct"), std::string::npos) << r.err;
-  // Once silently rendered at the list's vfov: intrinsics and typos are named.
-  for (const char* key : {"fx", "lookat"}) {
+  // Once silently rendered at the list's vfov: typos are named.
+  for (const char* key : {"lookat", "focal"}) {
     std::ofstream(list) << R"({"width": 40, "height": 30, "cameras": [{"eye": [0, 3, 1], "look_at": [0, 2, 0]},
                                {"eye": [0, 3, 2], "look_at": [0, 2, 0], ")"
                         << key << R"(": 500}]})";

@@ -2,8 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
-#include <iterator>
 #include <fstream>
+#include <iterator>
+#include <optional>
 
 #include <glm/geometric.hpp>
 #include <nlohmann/json.hpp>
@@ -37,6 +38,42 @@ int side(const json& j, const char* key, const std::string& path) {
   return static_cast<int>(v);
 }
 
+// Pinhole intrinsics given in `j` (the list or one camera): fx, fy, cx, cy
+// in pixels, or "K", the 3x3 matrix row-major (9 numbers or 3 rows of 3,
+// no skew, last row 0 0 1). Pixel centres are at +0.5 as everywhere in
+// rayfold (add 0.5 to an OpenCV calibration's cx, cy). None when `j` gives
+// neither; InputError for half a set or both forms.
+std::optional<Intrinsics> read_intrinsics(const json& j, const std::string& where, const std::string& path) {
+  const bool any = j.contains("fx") || j.contains("fy") || j.contains("cx") || j.contains("cy");
+  if (any && j.contains("K")) throw InputError(path, where + " gives both \"K\" and fx, fy, cx, cy: name one");
+  const std::string at = where.empty() ? "" : where + ".";
+  if (any) {
+    for (const char* key : {"fx", "fy", "cx", "cy"})
+      if (!j.contains(key))
+        throw InputError(path, where + (where.empty() ? "" : ": ") + "fx, fy, cx and cy go together; \"" + key +
+                                   "\" is missing (pixels, pixel centres at +0.5)");
+    return Intrinsics{number(j["fx"], at + "fx", path), number(j["fy"], at + "fy", path),
+                      number(j["cx"], at + "cx", path), number(j["cy"], at + "cy", path)};
+  }
+  if (!j.contains("K")) return std::nullopt;
+  std::vector<double> k;
+  const json& m = j["K"];
+  const std::string what = at + "K";
+  if (m.is_array() && m.size() == 3) {
+    for (size_t r = 0; r < 3; ++r) {
+      if (!m[r].is_array() || m[r].size() != 3) throw InputError(path, what + " must be 3 rows of 3 numbers");
+      for (size_t c = 0; c < 3; ++c) k.push_back(number(m[r][c], what, path));
+    }
+  } else if (m.is_array() && m.size() == 9) {
+    for (const json& v : m) k.push_back(number(v, what, path));
+  } else {
+    throw InputError(path, what + " must be a 3x3 matrix: 9 numbers row-major or 3 rows of 3");
+  }
+  if (k[1] != 0.0 || k[3] != 0.0 || k[6] != 0.0 || k[7] != 0.0 || k[8] != 1.0)
+    throw InputError(path, what + " must be [[fx, 0, cx], [0, fy, cy], [0, 0, 1]] (no skew)");
+  return Intrinsics{k[0], k[4], k[2], k[5]};
+}
+
 }  // namespace
 
 std::vector<View> read_camera_list(const std::string& path) {
@@ -46,6 +83,8 @@ std::vector<View> read_camera_list(const std::string& path) {
   if (j.is_discarded() || !j.is_object()) throw InputError(path, "is not a JSON object");
   const int width = side(j, "width", path), height = side(j, "height", path);
   const double vfov = j.contains("vfov") ? number(j["vfov"], "vfov", path) : 60.0;
+  const std::optional<Intrinsics> list_k = read_intrinsics(j, "", path);
+  if (list_k && j.contains("vfov")) throw InputError(path, "gives both vfov and intrinsics: name one");
   const std::string convention = j.value("convention", std::string("opengl"));
   if (convention != "opengl" && convention != "opencv")
     throw InputError(path, "convention must be \"opengl\" (-z forward) or \"opencv\" (+z forward, +y down)");
@@ -59,12 +98,17 @@ std::vector<View> read_camera_list(const std::string& path) {
     // Nothing a camera says is dropped: intrinsics (fx, fy, cx, cy, K) would
     // otherwise render at the list's vfov without a word.
     for (const auto& item : c.items()) {
-      static const char* const kKeys[] = {"eye", "look_at", "up", "vfov", "camera_to_world"};
+      static const char* const kKeys[] = {"eye", "look_at", "up", "vfov", "camera_to_world",
+                                          "fx",  "fy",      "cx", "cy",   "K"};
       if (std::find(std::begin(kKeys), std::end(kKeys), item.key()) == std::end(kKeys))
         throw InputError(path, where + ": unknown key \"" + item.key() +
-                                   "\" (a camera has eye, look_at, up, vfov or camera_to_world; intrinsics such as "
-                                   "fx, fy, cx, cy are not read)");
+                                   "\" (a camera has eye, look_at, up, camera_to_world, and vfov or fx, fy, cx, cy "
+                                   "or K)");
     }
+    const std::optional<Intrinsics> own_k = read_intrinsics(c, where, path);
+    if (own_k && c.contains("vfov")) throw InputError(path, where + " gives both vfov and intrinsics: name one");
+    // A camera's own field of view or intrinsics, else the list's.
+    const std::optional<Intrinsics> k = own_k ? own_k : c.contains("vfov") ? std::nullopt : list_k;
     const double fov = c.contains("vfov") ? number(c["vfov"], where + ".vfov", path) : vfov;
     try {
       if (c.contains("camera_to_world")) {
@@ -79,10 +123,10 @@ std::vector<View> read_camera_list(const std::string& path) {
           x[1] = -x[1];
           x[2] = -x[2];
         }
-        if (!(fov > 0.0 && fov < 180.0)) throw InputError(path, where + ": vfov must be in (0, 180) degrees");
+        if (!k && !(fov > 0.0 && fov < 180.0)) throw InputError(path, where + ": vfov must be in (0, 180) degrees");
         const double f = 0.5 * height / std::tan(fov * M_PI / 360.0);
         views.push_back(
-            {make_camera(x, Intrinsics{f, f, 0.5 * width, 0.5 * height}, width, height), std::to_string(i)});
+            {make_camera(x, k ? *k : Intrinsics{f, f, 0.5 * width, 0.5 * height}, width, height), std::to_string(i)});
       } else {
         CameraSpec spec;
         if (!c.contains("eye") || !c.contains("look_at"))
@@ -91,7 +135,9 @@ std::vector<View> read_camera_list(const std::string& path) {
         spec.look_at = vec3(c["look_at"], where + ".look_at", path);
         if (c.contains("up")) spec.up = vec3(c["up"], where + ".up", path);
         spec.vfov_degrees = fov;
-        views.push_back({make_camera(spec, width, height), std::to_string(i)});
+        Camera camera = make_camera(spec, width, height);
+        if (k) camera = make_camera(camera.world_from_camera, *k, width, height);  // the pose, these intrinsics
+        views.push_back({camera, std::to_string(i)});
       }
     } catch (const InputError& e) {
       if (!e.file().empty()) throw;
