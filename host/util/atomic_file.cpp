@@ -38,7 +38,7 @@ bool process_ended(const std::string& digits) {
 
 // The pid in ".<name>.rayfold-<pid>-<n>.tmp", or "" when the name is not one.
 std::string temporary_pid(const std::string& name) {
-  if (name.size() < 2 || name[0] != '.' || name.size() < 4 || name.compare(name.size() - 4, 4, ".tmp") != 0) return "";
+  if (name.size() < 5 || name[0] != '.' || name.compare(name.size() - 4, 4, ".tmp") != 0) return "";
   const size_t tag = name.rfind(kTag);
   if (tag == std::string::npos) return "";
   const size_t start = tag + std::strlen(kTag), dash = name.find('-', start);
