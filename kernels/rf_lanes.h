@@ -30,10 +30,14 @@ typedef uint8 rf_vu;
 #error "RF_LANES must be 8 or 16"
 #endif
 
-/* Any lane set (a lane of a comparison mask is -1 or 0). An OR tree by hand:
- * PoCL compiles the built-in any() on wide vectors to a chain of shuffles and
- * branches. */
+/* Any lane set (a lane of a comparison mask is -1 or 0). PoCL compiles the
+ * built-in any() on wide vectors to a chain of shuffles and branches; clang's
+ * reduction lets LLVM test the comparison's mask register directly (one
+ * kortest with AVX-512), else an OR tree by hand. */
 RF_INLINE int rf_lanes_any(rf_vi m) {
+#ifdef RF_CLANG_BUILTINS
+  return __builtin_reduce_or(m) < 0;
+#else
 #if RF_LANES == 16
   const int8 a = m.lo | m.hi;
   const int4 b = a.lo | a.hi;
@@ -42,6 +46,7 @@ RF_INLINE int rf_lanes_any(rf_vi m) {
 #endif
   const int2 c = b.lo | b.hi;
   return (c.x | c.y) < 0;
+#endif
 }
 
 /* rf_minf and rf_maxf lane by lane, with the same NaN rule (b wins). */

@@ -345,6 +345,16 @@ RF_INLINE void rf_tile_trace_blas(const RF_GLOBAL rf_node* nodes, const RF_GLOBA
       const float d0[3] = {ch->bmin[0] - r->o[0], ch->bmin[1] - r->o[1], ch->bmin[2] - r->o[2]};
       const float d1[3] = {ch->bmax[0] - r->o[0], ch->bmax[1] - r->o[1], ch->bmax[2] - r->o[2]};
       tc[s] = rf_interval_box(d0, d1, r->lo, r->hi, h->tmax);
+      /* The lines this child reads first when it is popped. */
+      if (tc[s] != RF_FAR) {
+        if (ch->meta & RF_NODE_COUNT_MASK) {
+          RF_PREFETCH_LINE(&tris[ch->first]);
+          RF_PREFETCH_LINE(&tris[ch->first + 1]);
+        } else {
+          RF_PREFETCH_LINE(&nodes[ch->first]);
+          RF_PREFETCH_LINE(&nodes[ch->first + 1]);
+        }
+      }
     }
     sp = rf_tile_push_children(stack_node, stack_t, stack_range, sp, c, tc, child_range);
   }
