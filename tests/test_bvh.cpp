@@ -8,6 +8,7 @@
 
 #include <glm/gtc/matrix_transform.hpp>
 
+#include "bvh/blas.h"
 #include "bvh/bvh_build.h"
 #include "bvh/bvh_flatten.h"
 #include "fold/ray_list.h"
@@ -435,6 +436,26 @@ TEST(Bvh, LooseNodesOpenPastTheBudget) {
     b.braid = loose;
     EXPECT_EQ(testing::compare_hits(Renderer(s, a).render(cam).hits, Renderer(s, b).render(cam).hits, 48), "")
         << "view " << v;
+  }
+}
+
+TEST(Bvh, MeshesWithinEightPowersOfTwoShareOneTreeSpace) {
+  // Boxes whose largest coordinate has exponents 3, 2, -5 and -6, and an
+  // empty one: the first three share the largest exponent, -6 lies 9 below
+  // it and keeps its own, the empty box keeps 0. The choice moves with a
+  // power-of-two scale of the scene.
+  auto box = [](float big) {
+    Aabb b;
+    b.grow(glm::vec3(-0.5f * big, 0.0f, 0.25f * big));
+    b.grow(glm::vec3(0.0f, big, 0.0f));
+    return b;
+  };
+  for (int k : {0, 10, -20}) {
+    const float s = std::ldexp(1.0f, k);
+    const std::vector<Aabb> bounds = {box(12.0f * s), box(5.0f * s), box(0.04f * s), box(0.02f * s), Aabb{}};
+    std::vector<int> exponents;
+    choose_tree_exponents(bounds, exponents);
+    EXPECT_EQ(exponents, (std::vector<int>{3 + k, 3 + k, 3 + k, -6 + k, 0})) << "scale 2^" << k;
   }
 }
 

@@ -1,6 +1,7 @@
 #include "bvh/blas.h"
 
 #include <algorithm>
+#include <climits>
 #include <cmath>
 
 #include "bvh/bvh_flatten.h"
@@ -14,6 +15,10 @@ namespace {
 // Meshes at least this large are built with every thread.
 constexpr size_t kParallelMeshTriangles = 1u << 16;
 
+// How many powers of two below the scene's largest mesh a mesh may lie and
+// still share its tree space (choose_tree_exponents).
+constexpr int kSharedTreeRange = 8;
+
 }  // namespace
 
 int scale_exponent(const Aabb& box) {
@@ -21,6 +26,17 @@ int scale_exponent(const Aabb& box) {
   const float big = std::max({std::fabs(box.lo.x), std::fabs(box.lo.y), std::fabs(box.lo.z), std::fabs(box.hi.x),
                               std::fabs(box.hi.y), std::fabs(box.hi.z)});
   return big > 0.0f && std::isfinite(big) ? std::ilogb(big) : 0;
+}
+
+void choose_tree_exponents(const std::vector<Aabb>& bounds, std::vector<int>& exponents) {
+  int top = INT_MIN;
+  for (const Aabb& b : bounds)
+    if (!b.empty()) top = std::max(top, scale_exponent(b));
+  exponents.resize(bounds.size());
+  for (size_t m = 0; m < bounds.size(); ++m) {
+    const int own = scale_exponent(bounds[m]);
+    exponents[m] = !bounds[m].empty() && top - own <= kSharedTreeRange ? top : own;
+  }
 }
 
 Xform object_from_tree(const BlasSet& blas, uint32_t mesh) { return uniform_scale(blas.tree_exponents[mesh]); }
@@ -37,26 +53,29 @@ BlasSet build_blas_set(const Scene& scene, const BuildOptions& options, unsigned
   std::vector<std::vector<glm::vec3>> positions(mesh_count);
   std::vector<BuildTree> trees(mesh_count);
   std::vector<size_t> unresolvable(mesh_count, 0);
-  auto build_mesh = [&](size_t m, unsigned mesh_threads) {
+  constexpr size_t kChunk = 1u << 14;
+  auto bound_mesh = [&](size_t m, unsigned mesh_threads) {
     const Mesh& mesh = scene.meshes[m];
     const size_t tri_count = mesh.triangle_count();
-    constexpr size_t kChunk = 1u << 14;
     std::vector<Aabb> partial((tri_count + kChunk - 1) / kChunk);
     parallel_for(tri_count, mesh_threads, kChunk, [&](size_t begin, size_t end) {
       for (size_t i = 3 * begin; i < 3 * end; ++i) partial[begin / kChunk].grow(mesh.positions[mesh.indices[i]]);
     });
     Aabb object_bounds;
     for (const Aabb& b : partial) object_bounds.grow(b);
-    const int e = scale_exponent(object_bounds);
     set.bounds[m] = object_bounds;
-    set.tree_exponents[m] = e;
+  };
+  auto build_mesh = [&](size_t m, unsigned mesh_threads) {
+    const Mesh& mesh = scene.meshes[m];
+    const size_t tri_count = mesh.triangle_count();
+    const int e = set.tree_exponents[m];
     positions[m].resize(mesh.positions.size());
     parallel_for(mesh.positions.size(), mesh_threads, kChunk, [&](size_t begin, size_t end) {
       for (size_t i = begin; i < end; ++i)
         for (int k = 0; k < 3; ++k) positions[m][i][k] = std::ldexp(mesh.positions[i][k], -e);
     });
     std::vector<Aabb> boxes(tri_count);
-    std::vector<size_t> tiny(partial.size(), 0);
+    std::vector<size_t> tiny((tri_count + kChunk - 1) / kChunk, 0);
     parallel_for(tri_count, mesh_threads, kChunk, [&](size_t begin, size_t end) {
       for (size_t t = begin; t < end; ++t) {
         for (int k = 0; k < 3; ++k) boxes[t].grow(positions[m][mesh.indices[3 * t + k]]);
@@ -74,10 +93,13 @@ BlasSet build_blas_set(const Scene& scene, const BuildOptions& options, unsigned
   std::vector<size_t> large, small;
   for (size_t m = 0; m < mesh_count; ++m)
     (scene.meshes[m].triangle_count() >= kParallelMeshTriangles ? large : small).push_back(m);
-  for (size_t m : large) build_mesh(m, threads);
   std::stable_sort(small.begin(), small.end(), [&](size_t a, size_t b) {
     return scene.meshes[a].triangle_count() > scene.meshes[b].triangle_count();
   });
+  for (size_t m : large) bound_mesh(m, threads);
+  parallel_for(small.size(), threads, 1, [&](size_t i, size_t) { bound_mesh(small[i], 1); });
+  choose_tree_exponents(set.bounds, set.tree_exponents);
+  for (size_t m : large) build_mesh(m, threads);
   parallel_for(small.size(), threads, 1, [&](size_t i, size_t) { build_mesh(small[i], 1); });
   for (size_t n : unresolvable) set.unresolvable_triangles += n;
 

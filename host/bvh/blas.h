@@ -13,18 +13,19 @@
 namespace rayfold::core {
 
 // Each tree is stored in its mesh's tree space: object space in units of
-// 2^tree_exponents[m], so that the mesh's largest coordinate lies in [1, 2).
-// Scaling by a power of two is exact, so the trees of a mesh scaled by 2^k
-// hold the same floats; the scale moves into the instance transforms.
+// 2^tree_exponents[m] (choose_tree_exponents), so that the mesh's largest
+// coordinate lies in [2^-8, 2). Scaling by a power of two is exact, so the
+// trees of a scene scaled by 2^k hold the same floats; the scale moves into
+// the instance transforms.
 struct BlasSet {
   std::vector<rf_node> nodes;       // all meshes' trees (tree space); the TLAS follows them
   std::vector<rf_tri> tris;         // all meshes' triangles in leaf order (tree space)
   std::vector<uint32_t> roots;      // per mesh; RF_INVALID for a mesh with no triangle
   std::vector<Aabb> bounds;         // per mesh, object space
   std::vector<int> tree_exponents;  // per mesh: tree space = object space * 2^-e
-  // Triangles of nonzero extent under 2^-60 of their mesh's largest
-  // coordinate: the watertight test's edge functions, products of two such
-  // extents, fall below the normal floats and cannot resolve them.
+  // Triangles of nonzero extent under 2^-60 in tree space: the watertight
+  // test's edge functions, products of two such extents, fall below the
+  // normal floats and cannot resolve them.
   size_t unresolvable_triangles = 0;
   double build_ms = 0.0;
   double sah_cost = 0.0;  // per mesh SAH cost, weighted by triangle count
@@ -37,6 +38,16 @@ BlasSet build_blas_set(const Scene& scene, const BuildOptions& options = {}, uns
 // The power of two that brings a box's largest coordinate magnitude into
 // [1, 2): floor(log2(max |coordinate|)), 0 for an empty or all-zero box.
 int scale_exponent(const Aabb& box);
+
+// Each mesh's tree exponent from its object-space bounds: the scene's
+// largest scale_exponent for every mesh within 2^8 of it, its own for the
+// smaller ones (whose triangles would otherwise lose normal-float range).
+// Meshes placed in one space give their instances one linear tree_from_trace
+// where their nodes' transforms agree, so the tile kernel sets their rays up
+// once (kernels/rf_tile.h): per-mesh scales made the Dabrovic Sponza's
+// meshes, in three, set up 10 times a tile. Depends only on the bounds'
+// exponents' differences, so a scene scaled by 2^k keeps its trees.
+void choose_tree_exponents(const std::vector<Aabb>& bounds, std::vector<int>& exponents);
 
 // object_from_tree of a mesh: the uniform scale 2^tree_exponent.
 Xform object_from_tree(const BlasSet& blas, uint32_t mesh);
