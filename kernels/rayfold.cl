@@ -50,7 +50,8 @@ __kernel void rf_trace_primary(__global const rf_node* nodes, __global const rf_
 /* The tile kernel (rf_tile.h): one work-item per tile of the ray list; tile t
  * covers rays[tiles[t] .. tiles[t + 1]). PoCL runs it fastest with one
  * work-item per work-group: the SIMD is inside the work-item. */
-__kernel void rf_trace_tiles(__global const rf_node* nodes, __global const rf_tri* tris,
+__kernel void rf_trace_tiles(__global const rf_node* nodes, __global const rf_wide_node* wide,
+                             __global const rf_tri* tris,
                              __global const rf_instance* instances, __global const rf_normal_xform* normal_xforms,
                              uint tlas_root, __global const uint* rays, __global const uint* tiles, uint tile_count,
                              RF_CAMERA_ARGS, __global rf_pixel_hit* out
@@ -67,7 +68,8 @@ __kernel void rf_trace_tiles(__global const rf_node* nodes, __global const rf_tr
   uint stats[RF_TILE_STAT_COUNT];
   for (int k = 0; k < RF_TILE_STAT_COUNT; ++k) stats[k] = 0u;
 #endif
-  rf_trace_tile(rays, begin, tiles[t + 1] - begin, &cam, depth_scales, nodes, tris, instances, normal_xforms, tlas_root,
+  rf_trace_tile(rays, begin, tiles[t + 1] - begin, &cam, depth_scales, nodes, wide, tris, instances, normal_xforms,
+                tlas_root,
                 out RF_TSTAT_ARG);
 #ifdef RF_TILE_STATS
   for (int k = 0; k < RF_TILE_STAT_COUNT; ++k) tile_stats[t * RF_TILE_STAT_COUNT + k] = stats[k];

@@ -282,81 +282,130 @@ RF_INLINE int rf_tile_narrow(const float c0[3], const float c1[3], const rf_vf* 
   return 1;
 }
 
-/* Closest hit of every lane's object-space ray in one bottom-level tree,
- * for the lanes in `entered` (those whose ray passed the top-level leaf),
- * which lie in the lane groups of `range`. */
-RF_INLINE void rf_tile_trace_blas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_tri* tris, rf_u32 root,
-                                  const rf_tile_ray* r, rf_u32 instance_id, const rf_vi* entered, rf_u32 range,
-                                  rf_tile_hits* h RF_TSTAT_PARAM) {
+/* A leaf of a bottom-level tree, box c0, c1 (minus the origin): its
+ * triangles first_tri .. + count tested on the lane groups of [first, last]
+ * that have a ray in the box, for the lanes in `entered`. */
+RF_INLINE void rf_tile_leaf(const float c0[3], const float c1[3], rf_u32 first_tri, rf_u32 count,
+                            const RF_GLOBAL rf_tri* tris, const rf_tile_ray* r, rf_u32 instance_id,
+                            const rf_vi* entered, int first, int last, rf_tile_hits* h RF_TSTAT_PARAM) {
   rf_vi lane_in[RF_LANE_GROUPS];
   rf_vf leaf_t[RF_LANE_GROUPS];
-  rf_u32 stack_node[RF_STACK_SIZE];
-  float stack_t[RF_STACK_SIZE];
-  rf_u32 stack_range[RF_STACK_SIZE];
-  int sp = 0;
+  rf_u32 lanes = 0u;
+  for (int j = first; j <= last; ++j) {
+    leaf_t[j] = rf_tile_lane_entry(c0, c1, r, h, j);
+    lane_in[j] = (leaf_t[j] != (rf_vf)(RF_FAR)) & entered[j];
+    if (rf_lanes_any(lane_in[j])) lanes |= 1u << j;
+  }
+  RF_TSTAT(RF_TILE_STAT_BLAS_LANE_BOXES, last - first + 1);
+  if (lanes == 0u) return;
+  RF_TSTAT(RF_TILE_STAT_LEAVES, 1);
+  int taken = 0;
+  for (rf_u32 k = 0; k < count; ++k) {
+    const rf_u32 ti = first_tri + k;
+    taken |= rf_tile_triangle(&tris[ti], ti, r, instance_id, lanes, lane_in, leaf_t, h RF_TSTAT_ARG);
+  }
+  if (taken) rf_tile_update_tmax(h);
+}
+
+/* Entries of the wide traversal's stack: a child slot of a wide node as
+ * (node << 2) | slot. Each wide level pushes at most four and pops one, and
+ * a wide level descends at least one binary level, so the stack never holds
+ * more than three per binary level plus one. */
+#define RF_WIDE_STACK_SIZE (3 * RF_STACK_SIZE + 1)
+
+/* Pushes the children of wide node w that their whole-tile bounds do not
+ * reject, the farthest first so that the nearest is visited next, each with
+ * the lane-group range `range`; returns the new stack size. */
+RF_INLINE int rf_tile_push_wide(const RF_GLOBAL rf_wide_node* wide, rf_u32 w, const RF_GLOBAL rf_tri* tris,
+                                const rf_tile_ray* r, float tmax, rf_u32 range, rf_u32* stack_ref, float* stack_t,
+                                rf_u32* stack_range, int sp) {
+  const RF_GLOBAL rf_wide_node* n = &wide[w];
+  float tc[4];
+  rf_u32 slot[4];
+  int m = 0;
+  for (int k = 0; k < 4; ++k) {
+    const rf_u32 count = n->count[k];
+    if (count == RF_INVALID) break; /* the slots in use come first */
+    const float d0[3] = {n->lo_x[k] - r->o[0], n->lo_y[k] - r->o[1], n->lo_z[k] - r->o[2]};
+    const float d1[3] = {n->hi_x[k] - r->o[0], n->hi_y[k] - r->o[1], n->hi_z[k] - r->o[2]};
+    const float t = rf_interval_box(d0, d1, r->lo, r->hi, tmax);
+    if (t == RF_FAR) continue;
+    /* The lines this child reads first when it is popped. */
+    const rf_u32 child = n->child[k];
+    if (count != 0u) {
+      RF_PREFETCH_LINE(&tris[child]);
+      RF_PREFETCH_LINE(&tris[child + 1]);
+    } else {
+      RF_PREFETCH_LINE(&wide[child]);
+      RF_PREFETCH_LINE(&wide[child].child[0]);
+    }
+    int i = m++;
+    for (; i > 0 && tc[i - 1] < t; --i) {
+      tc[i] = tc[i - 1];
+      slot[i] = slot[i - 1];
+    }
+    tc[i] = t;
+    slot[i] = (rf_u32)k;
+  }
+  for (int i = 0; i < m; ++i) {
+    stack_ref[sp] = (w << 2) | slot[i];
+    stack_t[sp] = tc[i];
+    stack_range[sp] = range;
+    ++sp;
+  }
+  return sp;
+}
+
+/* Closest hit of every lane's object-space ray in one bottom-level tree
+ * (binary root `root`, its children in wide node `wide_root`), for the lanes
+ * in `entered` (those whose ray passed the top-level leaf), which lie in the
+ * lane groups of `range`. */
+RF_INLINE void rf_tile_trace_blas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_wide_node* wide,
+                                  const RF_GLOBAL rf_tri* tris, rf_u32 root, rf_u32 wide_root, const rf_tile_ray* r,
+                                  rf_u32 instance_id, const rf_vi* entered, rf_u32 range,
+                                  rf_tile_hits* h RF_TSTAT_PARAM) {
+  int first = RF_RANGE_FIRST(range), last = RF_RANGE_LAST(range);
   {
     const RF_GLOBAL rf_node* n = &nodes[root];
     const float c0[3] = {n->bmin[0] - r->o[0], n->bmin[1] - r->o[1], n->bmin[2] - r->o[2]};
     const float c1[3] = {n->bmax[0] - r->o[0], n->bmax[1] - r->o[1], n->bmax[2] - r->o[2]};
-    const float tn = rf_interval_box(c0, c1, r->lo, r->hi, h->tmax);
-    if (tn == RF_FAR) return;
-    stack_node[0] = root;
-    stack_t[0] = tn;
-    stack_range[0] = range;
-    sp = 1;
+    if (rf_interval_box(c0, c1, r->lo, r->hi, h->tmax) == RF_FAR) return;
+    RF_TSTAT(RF_TILE_STAT_BLAS_NODES, 1);
+    if (wide_root == RF_INVALID) { /* the root is a leaf */
+      rf_tile_leaf(c0, c1, n->first, n->meta & RF_NODE_COUNT_MASK, tris, r, instance_id, entered, first, last,
+                   h RF_TSTAT_ARG);
+      return;
+    }
+    if (!rf_tile_narrow(c0, c1, r->ix, r->iy, r->iz, h, 1u, &first, &last, RF_TILE_STAT_BLAS_LANE_BOXES RF_TSTAT_ARG))
+      return;
   }
+  rf_u32 stack_ref[RF_WIDE_STACK_SIZE];
+  float stack_t[RF_WIDE_STACK_SIZE];
+  rf_u32 stack_range[RF_WIDE_STACK_SIZE];
+  int sp = rf_tile_push_wide(wide, wide_root, tris, r, h->tmax, RF_RANGE(first, last), stack_ref, stack_t,
+                             stack_range, 0);
   while (sp > 0) {
     --sp;
     if (stack_t[sp] > h->tmax) continue;
     RF_TSTAT(RF_TILE_STAT_BLAS_NODES, 1);
-    const RF_GLOBAL rf_node* n = &nodes[stack_node[sp]];
-    const rf_u32 count = n->meta & RF_NODE_COUNT_MASK;
-    const float c0[3] = {n->bmin[0] - r->o[0], n->bmin[1] - r->o[1], n->bmin[2] - r->o[2]};
-    const float c1[3] = {n->bmax[0] - r->o[0], n->bmax[1] - r->o[1], n->bmax[2] - r->o[2]};
-    int first = RF_RANGE_FIRST(stack_range[sp]), last = RF_RANGE_LAST(stack_range[sp]);
-    if (count != 0) {
-      /* Which lane groups have a ray in the leaf's box. */
-      rf_u32 lanes = 0u;
-      for (int j = first; j <= last; ++j) {
-        leaf_t[j] = rf_tile_lane_entry(c0, c1, r, h, j);
-        lane_in[j] = (leaf_t[j] != (rf_vf)(RF_FAR)) & entered[j];
-        if (rf_lanes_any(lane_in[j])) lanes |= 1u << j;
-      }
-      RF_TSTAT(RF_TILE_STAT_BLAS_LANE_BOXES, last - first + 1);
-      if (lanes == 0u) continue;
-      RF_TSTAT(RF_TILE_STAT_LEAVES, 1);
-      int taken = 0;
-      for (rf_u32 k = 0; k < count; ++k) {
-        const rf_u32 ti = n->first + k;
-        taken |= rf_tile_triangle(&tris[ti], ti, r, instance_id, lanes, lane_in, leaf_t, h RF_TSTAT_ARG);
-      }
-      if (taken) rf_tile_update_tmax(h);
+    const rf_u32 ref = stack_ref[sp];
+    const RF_GLOBAL rf_wide_node* p = &wide[ref >> 2];
+    const int k = (int)(ref & 3u);
+    const float c0[3] = {p->lo_x[k] - r->o[0], p->lo_y[k] - r->o[1], p->lo_z[k] - r->o[2]};
+    const float c1[3] = {p->hi_x[k] - r->o[0], p->hi_y[k] - r->o[1], p->hi_z[k] - r->o[2]};
+    first = RF_RANGE_FIRST(stack_range[sp]);
+    last = RF_RANGE_LAST(stack_range[sp]);
+    const rf_u32 count = p->count[k];
+    if (count != 0u) {
+      rf_tile_leaf(c0, c1, p->child[k], count, tris, r, instance_id, entered, first, last, h RF_TSTAT_ARG);
       continue;
     }
     /* Interior: go on when a lane group of the range enters the box, with
      * the range narrowed to those that do. */
     if (!rf_tile_narrow(c0, c1, r->ix, r->iy, r->iz, h, 1u, &first, &last, RF_TILE_STAT_BLAS_LANE_BOXES RF_TSTAT_ARG))
       continue;
-    const rf_u32 child_range = RF_RANGE(first, last);
-    const rf_u32 c = n->first;
-    float tc[2];
-    for (int s = 0; s < 2; ++s) {
-      const RF_GLOBAL rf_node* ch = &nodes[c + s];
-      const float d0[3] = {ch->bmin[0] - r->o[0], ch->bmin[1] - r->o[1], ch->bmin[2] - r->o[2]};
-      const float d1[3] = {ch->bmax[0] - r->o[0], ch->bmax[1] - r->o[1], ch->bmax[2] - r->o[2]};
-      tc[s] = rf_interval_box(d0, d1, r->lo, r->hi, h->tmax);
-      /* The lines this child reads first when it is popped. */
-      if (tc[s] != RF_FAR) {
-        if (ch->meta & RF_NODE_COUNT_MASK) {
-          RF_PREFETCH_LINE(&tris[ch->first]);
-          RF_PREFETCH_LINE(&tris[ch->first + 1]);
-        } else {
-          RF_PREFETCH_LINE(&nodes[ch->first]);
-          RF_PREFETCH_LINE(&nodes[ch->first + 1]);
-        }
-      }
-    }
-    sp = rf_tile_push_children(stack_node, stack_t, stack_range, sp, c, tc, child_range);
+    sp = rf_tile_push_wide(wide, p->child[k], tris, r, h->tmax, RF_RANGE(first, last), stack_ref, stack_t,
+                           stack_range, sp);
   }
 }
 
@@ -379,7 +428,8 @@ RF_INLINE float rf_tile_group_bound(rf_u32 groups, const rf_tile_hits* hits) {
 /* Closest hit per group of every lane through the top-level tree;
  * tile_groups: the groups some lane answers (the others' hits are not
  * set). */
-RF_INLINE void rf_tile_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_tri* tris,
+RF_INLINE void rf_tile_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_wide_node* wide,
+                                  const RF_GLOBAL rf_tri* tris,
                                   const RF_GLOBAL rf_instance* instances, rf_u32 tlas_root, const rf_tile_camera* cam,
                                   rf_u32 tile_groups, rf_tile_ray* ro, rf_tile_hits* hits RF_TSTAT_PARAM) {
   rf_u32 stack_node[RF_STACK_SIZE];
@@ -427,7 +477,8 @@ RF_INLINE void rf_tile_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBA
         RF_TSTAT(RF_TILE_STAT_INSTANCES, 1);
         rf_tile_ray* r = &ro[g];
         rf_tile_to_object(r, inst->tree_from_trace, cam RF_TSTAT_ARG);
-        rf_tile_trace_blas(nodes, tris, inst->blas_root, r, inst->instance_id, entered, range, h RF_TSTAT_ARG);
+        rf_tile_trace_blas(nodes, wide, tris, inst->blas_root, inst->wide_root, r, inst->instance_id, entered, range,
+                           h RF_TSTAT_ARG);
       }
       continue;
     }
@@ -544,7 +595,8 @@ RF_INLINE void rf_tile_write_group(const RF_GLOBAL rf_u32* rays, rf_u32 begin, r
 /* Traces tile `tile` of the ray list: rays[begin .. begin + count), count at
  * most RF_TILE_RAYS, and writes every pixel its rays answer. */
 RF_INLINE void rf_trace_tile(const RF_GLOBAL rf_u32* rays, rf_u32 begin, rf_u32 count, const rf_camera* cam,
-                             const RF_GLOBAL float* depth_scales, const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_tri* tris,
+                             const RF_GLOBAL float* depth_scales, const RF_GLOBAL rf_node* nodes,
+                             const RF_GLOBAL rf_wide_node* wide, const RF_GLOBAL rf_tri* tris,
                              const RF_GLOBAL rf_instance* instances, const RF_GLOBAL rf_normal_xform* normal_xforms,
                              rf_u32 tlas_root, RF_GLOBAL rf_pixel_hit* out RF_TSTAT_PARAM) {
   rf_tile_camera tc;
@@ -595,7 +647,7 @@ RF_INLINE void rf_trace_tile(const RF_GLOBAL rf_u32* rays, rf_u32 begin, rf_u32 
   for (int g = 0; g < RF_MAX_GROUPS; ++g) hits[g].tmax = ((tile_groups >> g) & 1u) ? RF_FAR : -1.0f;
 
   if (tlas_root != RF_INVALID)
-    rf_tile_trace_tlas(nodes, tris, instances, tlas_root, &tc, tile_groups, ro, hits RF_TSTAT_ARG);
+    rf_tile_trace_tlas(nodes, wide, tris, instances, tlas_root, &tc, tile_groups, ro, hits RF_TSTAT_ARG);
 
   RF_FOR_EACH_GROUP(g, tile_groups) {
     rf_tile_write_group(rays, begin, count, cam, lane_groups, &tc, &hits[g], g, depth_scales[g >> cam->group_shift],

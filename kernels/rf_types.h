@@ -5,7 +5,7 @@
  * of two (only the depth written out scales), and so that the watertight
  * test's quadratic and cubic terms stay far from the float range:
  *  - tree space: a mesh's object space in units of 2^e, e chosen per mesh so
- *    that its largest coordinate lies in [1, 2) (host/bvh/blas.h);
+ *    that its largest coordinate lies in [2^-8, 2) (host/bvh/blas.h);
  *  - trace space: camera space (eye at the origin, looking down -z) in units
  *    of 2^c, c chosen per frame from the eye's distance to the scene
  *    (host/fold/frame.h). A trace-space t times |d| times depth_scale (2^c) is the
@@ -45,6 +45,27 @@ typedef struct {
   float bmax[3];
   rf_u32 meta;
 } rf_node;
+
+/* One node of the tile kernel's 4-wide bottom-level trees, 128 bytes: up to
+ * four children of a binary node, collapsed from the binary tree below it
+ * (host/bvh/wide_bvh.h) with the binary tree's own leaves, boxes and
+ * triangle ranges, so the tile kernel, which takes a lane's hits only from
+ * leaves its own slab test enters, finds the same hits as the binary
+ * traversal of the CPU reference. Children's boxes side by side, so one
+ * node brings all four in two 64-byte lines.
+ *   bytes   0..95   lo_x, lo_y, lo_z, hi_x, hi_y, hi_z  child k's box in
+ *                   element k of each (tree space)
+ *   bytes  96..111  child  interior child: its wide node; leaf: its first
+ *                   triangle
+ *   bytes 112..127  count  leaf: its triangle count; 0: an interior child;
+ *                   RF_INVALID: no child in this slot (the slots in use
+ *                   come first) */
+typedef struct {
+  float lo_x[4], lo_y[4], lo_z[4];
+  float hi_x[4], hi_y[4], hi_z[4];
+  rf_u32 child[4];
+  rf_u32 count[4];
+} rf_wide_node;
 
 /* Deepest traversal stack of every kernel; the builders cap tree depth
  * below it (host/bvh/bvh_flatten.cpp checks). */
@@ -110,17 +131,20 @@ typedef struct {
  *                 Rays stay unnormalised under it, so a hit's t is the same
  *                 parameter in trace and tree space.
  *   bytes 48..51  blas_root    node index of the mesh's bottom-level root
+ *                              (or of the subtree re-braiding opened)
  *   bytes 52..55  instance_id  index of the scene instance; mirrored copies
  *                              keep the id of the instance they mirror
  *   bytes 56..59  group        transform group (see above; 0 = view 0
  *                              not mirrored)
- *   bytes 60..63  pad */
+ *   bytes 60..63  wide_root    the rf_wide_node holding blas_root's
+ *                              children (the tile kernel's tree);
+ *                              RF_INVALID when blas_root is a leaf */
 typedef struct {
   float tree_from_trace[12];
   rf_u32 blas_root;
   rf_u32 instance_id;
   rf_u32 group;
-  rf_u32 pad;
+  rf_u32 wide_root;
 } rf_instance;
 
 /* Per scene instance, 36 bytes: the row-major 3x3 that takes a tree-space

@@ -11,6 +11,7 @@
 #include "bvh/blas.h"
 #include "bvh/bvh_build.h"
 #include "bvh/bvh_flatten.h"
+#include "bvh/wide_bvh.h"
 #include "fold/ray_list.h"
 #include "reference/cpu_tracer.h"
 #include "renderer.h"
@@ -456,6 +457,97 @@ TEST(Bvh, MeshesWithinEightPowersOfTwoShareOneTreeSpace) {
     std::vector<int> exponents;
     choose_tree_exponents(bounds, exponents);
     EXPECT_EQ(exponents, (std::vector<int>{3 + k, 3 + k, 3 + k, -6 + k, 0})) << "scale 2^" << k;
+  }
+}
+
+// The wide trees hold the binary trees' leaves, boxes and ranges (what makes
+// the tile kernel's hits the CPU reference's): below every entry, each
+// binary leaf under it once, with its own box; two to four children per
+// node, the slots in use first; every child's box inside the binary box it
+// was collapsed from; an entry inside another's subtree collapsed once.
+TEST(Bvh, WideTreesKeepTheBinaryLeavesBelowEveryEntry) {
+  Rng rng(83);
+  for (int n : {1, 2, 5, 3000}) {
+    const std::vector<Aabb> boxes = clustered_boxes(rng, n);
+    std::vector<rf_node> nodes;
+    const uint32_t root = flatten_bvh(build_sah(boxes), 0, nullptr, 0, nodes);
+    // The root, every node of one random path down, and the nodes where
+    // two more random paths stop.
+    std::vector<uint32_t> entries = {root};
+    for (uint32_t x = root; (nodes[x].meta & RF_NODE_COUNT_MASK) == 0;) {
+      x = nodes[x].first + static_cast<uint32_t>(rng.below(2));
+      entries.push_back(x);
+    }
+    for (int walk = 0; walk < 2; ++walk) {
+      uint32_t x = root;
+      for (int steps = rng.below(12); steps > 0 && (nodes[x].meta & RF_NODE_COUNT_MASK) == 0; --steps)
+        x = nodes[x].first + static_cast<uint32_t>(rng.below(2));
+      entries.push_back(x);
+    }
+    const WideTrees wide = build_wide_trees(nodes, entries);
+    ASSERT_EQ(wide.roots.size(), entries.size());
+    auto binary_leaves = [&](uint32_t x) {
+      std::vector<uint32_t> out, todo = {x};
+      while (!todo.empty()) {
+        const uint32_t y = todo.back();
+        todo.pop_back();
+        if (nodes[y].meta & RF_NODE_COUNT_MASK) out.push_back(y);
+        else todo.insert(todo.end(), {nodes[y].first, nodes[y].first + 1});
+      }
+      return out;
+    };
+    for (size_t e = 0; e < entries.size(); ++e) {
+      const rf_node& entry = nodes[entries[e]];
+      if (entry.meta & RF_NODE_COUNT_MASK) {
+        EXPECT_EQ(wide.roots[e], RF_INVALID) << "leaf entry " << entries[e];
+        continue;
+      }
+      ASSERT_LT(wide.roots[e], wide.nodes.size());
+      // Leaves reached through the wide nodes, as (first triangle, count, box).
+      std::multiset<std::vector<float>> got, want;
+      std::vector<std::pair<uint32_t, rf_node>> todo = {{wide.roots[e], entry}};
+      while (!todo.empty()) {
+        const auto [w, parent] = todo.back();
+        todo.pop_back();
+        ASSERT_LT(w, wide.nodes.size());
+        const rf_wide_node& wn = wide.nodes[w];
+        int used = 0;
+        while (used < 4 && wn.count[used] != RF_INVALID) ++used;
+        EXPECT_GE(used, 2) << "wide node " << w;
+        for (int k = used; k < 4; ++k) EXPECT_EQ(wn.count[k], RF_INVALID) << "wide node " << w << " slot " << k;
+        for (int k = 0; k < used; ++k) {
+          const float lo[3] = {wn.lo_x[k], wn.lo_y[k], wn.lo_z[k]}, hi[3] = {wn.hi_x[k], wn.hi_y[k], wn.hi_z[k]};
+          for (int a = 0; a < 3; ++a) {
+            EXPECT_GE(lo[a], parent.bmin[a]) << "wide node " << w << " slot " << k;
+            EXPECT_LE(hi[a], parent.bmax[a]) << "wide node " << w << " slot " << k;
+          }
+          rf_node as_binary{{lo[0], lo[1], lo[2]}, wn.child[k], {hi[0], hi[1], hi[2]}, wn.count[k]};
+          if (wn.count[k] != 0)
+            got.insert({float(wn.child[k]), float(wn.count[k]), lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]});
+          else
+            todo.push_back({wn.child[k], as_binary});
+        }
+      }
+      for (uint32_t leaf : binary_leaves(entries[e])) {
+        const rf_node& l = nodes[leaf];
+        want.insert({float(l.first), float(l.meta), l.bmin[0], l.bmin[1], l.bmin[2], l.bmax[0], l.bmax[1], l.bmax[2]});
+      }
+      EXPECT_EQ(got, want) << "entry " << entries[e] << " of " << n << " boxes";
+    }
+    // Collapsed once: every entry lies below the root, so every wide node is
+    // reached from the root's, and only once.
+    if (wide.roots[0] != RF_INVALID) {
+      std::vector<int> seen(wide.nodes.size(), 0);
+      std::vector<uint32_t> todo = {wide.roots[0]};
+      while (!todo.empty()) {
+        const uint32_t w = todo.back();
+        todo.pop_back();
+        ++seen[w];
+        for (int k = 0; k < 4; ++k)
+          if (wide.nodes[w].count[k] == 0) todo.push_back(wide.nodes[w].child[k]);
+      }
+      for (size_t w = 0; w < seen.size(); ++w) EXPECT_EQ(seen[w], 1) << "wide node " << w << " of " << n << " boxes";
+    }
   }
 }
 

@@ -27,7 +27,7 @@ struct BlasSet {
   // test's edge functions, products of two such extents, fall below the
   // normal floats and cannot resolve them.
   size_t unresolvable_triangles = 0;
-  double build_ms = 0.0;
+  double build_ms = 0.0;  // with the wide trees prepare_scene adds (bvh/scene_data.h)
   double sah_cost = 0.0;  // per mesh SAH cost, weighted by triangle count
   int max_depth = 0;
 };

@@ -4,7 +4,9 @@
 #include <cmath>
 #include <queue>
 
+#include "bvh/wide_bvh.h"
 #include "util/errors.h"
+#include "util/timer.h"
 
 namespace rayfold::core {
 namespace {
@@ -102,6 +104,13 @@ SceneData prepare_scene(const Scene& scene, unsigned threads, const BraidOptions
     if (big > 0.0 && std::isfinite(big)) data.max_tree_scale = std::max(data.max_tree_scale, std::ilogb(big));
   }
   choose_braid_cuts(scene, data, braid);
+  // The wide trees are part of the bottom level: their time counts in its
+  // build time.
+  const auto wide_start = Clock::now();
+  WideTrees wide = build_wide_trees(data.blas.nodes, data.braid_nodes);
+  data.wide_nodes = std::move(wide.nodes);
+  data.braid_wide = std::move(wide.roots);
+  data.blas.build_ms += ms_since(wide_start);
   return data;
 }
 

@@ -42,6 +42,10 @@ struct SceneData {
   // instance i (just its root when re-braiding is off).
   std::vector<uint32_t> braid_offsets;
   std::vector<uint32_t> braid_nodes;
+  // The tile kernel's wide trees below the braid nodes (bvh/wide_bvh.h);
+  // braid_wide[c] is braid_nodes[c]'s wide node (RF_INVALID for a leaf).
+  std::vector<rf_wide_node> wide_nodes;
+  std::vector<uint32_t> braid_wide;
   std::vector<Xform> tree_from_world;          // per scene instance, into its mesh's tree space
   std::vector<bool> renderable;                // false: singular transform or empty mesh
   std::vector<rf_normal_xform> normal_xforms;  // per scene instance, tree-space normals to world

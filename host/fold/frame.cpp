@@ -170,6 +170,7 @@ Frame build_frame(const Scene& scene, const SceneData& data, const std::vector<C
       tree_box.grow(glm::vec3(node.bmax[0], node.bmax[1], node.bmax[2]));
       const Aabb box = transform_bounds_conservative(trace_from_tree, tree_box, origin_pad);
       base.blas_root = data.braid_nodes[c];
+      base.wide_root = data.braid_wide[c];
       for (int slot = 0; slot < slots; ++slot) {
         const int m = slot_mirror(options.fold, slot);
         if (!rays.group_used[m]) continue;

@@ -70,6 +70,7 @@ void ClTracer::upload_scene(const SceneData& data, size_t max_tlas_nodes, size_t
       {"normal_xforms", at_least_one(data.normal_xforms.size()) * sizeof(rf_normal_xform)},
       {"rays", at_least_one(max_rays) * sizeof(uint32_t)},
       {"hits", at_least_one(pixel_count) * sizeof(rf_pixel_hit)},
+      {"wide_nodes", at_least_one(data.wide_nodes.size()) * sizeof(rf_wide_node)},
   };
   const DeviceInfo& info = device_.info();
   for (const BufferInfo& b : buffer_info_) {
@@ -98,8 +99,12 @@ void ClTracer::upload_scene(const SceneData& data, size_t max_tlas_nodes, size_t
     slots_[0].rays = cl::Buffer(ctx, CL_MEM_READ_ONLY, buffer_info_[4].bytes);
     slots_[0].rays_capacity = at_least_one(max_rays);
     hits_ = cl::Buffer(ctx, CL_MEM_WRITE_ONLY, buffer_info_[5].bytes);
+    wide_nodes_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, buffer_info_[6].bytes);
     if (!blas.nodes.empty())
       q.enqueueWriteBuffer(nodes_, CL_FALSE, 0, blas.nodes.size() * sizeof(rf_node), blas.nodes.data());
+    if (!data.wide_nodes.empty())
+      q.enqueueWriteBuffer(wide_nodes_, CL_FALSE, 0, data.wide_nodes.size() * sizeof(rf_wide_node),
+                           data.wide_nodes.data());
     if (!blas.tris.empty())
       q.enqueueWriteBuffer(tris_, CL_FALSE, 0, blas.tris.size() * sizeof(rf_tri), blas.tris.data());
     if (!data.normal_xforms.empty())
@@ -185,6 +190,7 @@ double ClTracer::trace(const rf_camera& cam, KernelKind kind) {
     cl::Kernel& kernel = kind == KernelKind::tile ? programs.tile : programs.single;
     int a = 0;
     kernel.setArg(a++, nodes_);
+    if (kind == KernelKind::tile) kernel.setArg(a++, wide_nodes_);
     kernel.setArg(a++, tris_);
     kernel.setArg(a++, instances_);
     kernel.setArg(a++, normal_xforms_);

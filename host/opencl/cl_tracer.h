@@ -93,7 +93,7 @@ class ClTracer {
   ClDevice& device_;
   KernelPrecision precision_;
   std::vector<Programs> programs_;
-  cl::Buffer nodes_, tris_, instances_, normal_xforms_, hits_, depth_scales_;
+  cl::Buffer nodes_, wide_nodes_, tris_, instances_, normal_xforms_, hits_, depth_scales_;
   // One uploaded ray list and its tile table. Slot 0's rays buffer is made
   // with the scene (its size is checked against the device's memory); the
   // others grow on first use.

@@ -1,0 +1,98 @@
+#include "bvh/wide_bvh.h"
+
+#include <unordered_map>
+
+#include "util/errors.h"
+
+namespace rayfold::core {
+namespace {
+
+constexpr int kWidth = 4;
+
+bool is_leaf(const rf_node& n) { return (n.meta & RF_NODE_COUNT_MASK) != 0; }
+
+float half_area(const rf_node& n) {
+  const float dx = n.bmax[0] - n.bmin[0], dy = n.bmax[1] - n.bmin[1], dz = n.bmax[2] - n.bmin[2];
+  return dx * dy + dy * dz + dz * dx;
+}
+
+class Collapser {
+ public:
+  Collapser(const std::vector<rf_node>& nodes, const std::vector<uint32_t>& entries)
+      : nodes_(nodes), is_entry_(nodes.size(), false) {
+    for (uint32_t e : entries) {
+      entry_wide_.emplace(e, RF_INVALID);
+      is_entry_[e] = true;
+    }
+  }
+
+  // The wide node of interior binary node x's children.
+  uint32_t collapse(uint32_t x) {
+    const auto entry = is_entry_[x] ? entry_wide_.find(x) : entry_wide_.end();
+    if (entry != entry_wide_.end() && entry->second != RF_INVALID) return entry->second;
+    const uint32_t w = static_cast<uint32_t>(out_.size());
+    out_.emplace_back();
+    uint32_t slots[kWidth] = {nodes_[x].first, nodes_[x].first + 1};
+    int used = 2;
+    while (used < kWidth) {
+      int best = -1;
+      float best_area = -1.0f;
+      for (int k = 0; k < used; ++k) {
+        const rf_node& n = nodes_[slots[k]];
+        if (is_leaf(n) || is_entry_[slots[k]]) continue;
+        const float a = half_area(n);
+        if (a > best_area) {
+          best = k;
+          best_area = a;
+        }
+      }
+      if (best < 0) break;
+      const uint32_t opened = slots[best];
+      slots[best] = nodes_[opened].first;
+      slots[used++] = nodes_[opened].first + 1;
+    }
+    rf_wide_node wide{};
+    for (int k = 0; k < kWidth; ++k) {
+      if (k >= used) {
+        wide.count[k] = RF_INVALID;
+        continue;
+      }
+      const rf_node& n = nodes_[slots[k]];
+      wide.lo_x[k] = n.bmin[0];
+      wide.lo_y[k] = n.bmin[1];
+      wide.lo_z[k] = n.bmin[2];
+      wide.hi_x[k] = n.bmax[0];
+      wide.hi_y[k] = n.bmax[1];
+      wide.hi_z[k] = n.bmax[2];
+      wide.count[k] = n.meta & RF_NODE_COUNT_MASK;
+      wide.child[k] = is_leaf(n) ? n.first : collapse(slots[k]);
+    }
+    out_[w] = wide;
+    if (entry != entry_wide_.end()) entry->second = w;
+    return w;
+  }
+
+  std::vector<rf_wide_node> take() { return std::move(out_); }
+
+ private:
+  const std::vector<rf_node>& nodes_;
+  std::vector<bool> is_entry_;
+  std::unordered_map<uint32_t, uint32_t> entry_wide_;
+  std::vector<rf_wide_node> out_;
+};
+
+}  // namespace
+
+WideTrees build_wide_trees(const std::vector<rf_node>& nodes, const std::vector<uint32_t>& entries) {
+  for (uint32_t e : entries) RF_CHECK(e < nodes.size(), "wide tree entry outside the node array");
+  Collapser c(nodes, entries);
+  WideTrees trees;
+  trees.roots.reserve(entries.size());
+  for (uint32_t e : entries) {
+    trees.roots.push_back(is_leaf(nodes[e]) ? RF_INVALID : c.collapse(e));
+  }
+  trees.nodes = c.take();
+  return trees;
+}
+
+}  // namespace rayfold::core

@@ -1,0 +1,36 @@
+// The tile kernel's 4-wide bottom-level trees, collapsed from the binary
+// ones (kernels/rf_types.h, rf_wide_node).
+//
+// Why wide: the tile kernel pays a fixed cost per node it pops (its stack,
+// the children's loads, the narrowing of the tile's lane groups), and on a
+// dense mesh it pops three nodes for every leaf it enters. A wide node holds
+// four children, so a pop decides four boxes. Why collapsed from the binary
+// tree rather than built anew: a lane of the tile takes hits only from the
+// leaves its own slab test enters, so with the binary tree's leaves, boxes
+// and triangle ranges the tile kernel finds exactly the CPU reference's
+// hits, whatever the nodes above the leaves.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "device_layout.h"
+
+namespace rayfold::core {
+
+struct WideTrees {
+  std::vector<rf_wide_node> nodes;
+  // Per entry node given to build_wide_trees: the wide node holding its
+  // children, RF_INVALID for a leaf entry.
+  std::vector<uint32_t> roots;
+};
+
+// Collapses the binary trees below `entries` (indices into `nodes`: every
+// node a traversal starts from, each instance's re-braided cut) into wide
+// nodes. Each wide node takes its binary node's children and opens the
+// largest interior one (by surface area) until it holds four; an entry is
+// never opened into its parent, so that it keeps a wide node of its own.
+// A subtree shared by several entries is collapsed once.
+WideTrees build_wide_trees(const std::vector<rf_node>& nodes, const std::vector<uint32_t>& entries);
+
+}  // namespace rayfold::core
