@@ -232,6 +232,8 @@ RF_INLINE int rf_tile_triangle(const RF_GLOBAL rf_tri* tri, rf_u32 ti, const rf_
 #define RF_RANGE(first, last) ((rf_u32)(first) | ((rf_u32)(last) << 8))
 #define RF_RANGE_FIRST(r) ((int)((r)&0xFFu))
 #define RF_RANGE_LAST(r) ((int)((r) >> 8))
+/* The range's lane groups as a mask (bit j: group j). */
+#define RF_RANGE_MASK(first, last) (((2u << (last)) - 1u) & ~((1u << (first)) - 1u))
 
 /* Pushes the children c and c + 1 that their whole-tile bounds tc did not
  * reject, the far one first so that the near one is visited next; returns
@@ -282,21 +284,39 @@ RF_INLINE int rf_tile_narrow(const float c0[3], const float c1[3], const rf_vf* 
   return 1;
 }
 
+/* The lane groups of `groups` (bit j: group j) with a lane entering the box
+ * c0, c1 (minus the origin). In the bottom level the groups go down as a
+ * mask, each tested at every interior node, rather than as the range the
+ * top level narrows from its ends: on a dense mesh a node's rays are a few
+ * groups spread over the tile, and the mask took 11% fewer lane tests on a
+ * dragon view (7% less time). */
+RF_INLINE rf_u32 rf_tile_keep_groups(const float c0[3], const float c1[3], const rf_tile_ray* r, const rf_tile_hits* h,
+                                     rf_u32 groups RF_TSTAT_PARAM) {
+  rf_u32 kept = 0u;
+  for (rf_u32 m = groups; m != 0u; m &= m - 1u) {
+    const int j = (int)RF_CTZ(m);
+    if (rf_lanes_any(rf_tile_lane_box(c0, c1, r->ix, r->iy, r->iz, h, 1u, j))) kept |= 1u << j;
+    RF_TSTAT(RF_TILE_STAT_BLAS_LANE_BOXES, 1);
+  }
+  return kept;
+}
+
 /* A leaf of a bottom-level tree, box c0, c1 (minus the origin): its
- * triangles first_tri .. + count tested on the lane groups of [first, last]
- * that have a ray in the box, for the lanes in `entered`. */
+ * triangles first_tri .. + count tested on the lane groups of `groups` that
+ * have a ray in the box, for the lanes in `entered`. */
 RF_INLINE void rf_tile_leaf(const float c0[3], const float c1[3], rf_u32 first_tri, rf_u32 count,
                             const RF_GLOBAL rf_tri* tris, const rf_tile_ray* r, rf_u32 instance_id,
-                            const rf_vi* entered, int first, int last, rf_tile_hits* h RF_TSTAT_PARAM) {
+                            const rf_vi* entered, rf_u32 groups, rf_tile_hits* h RF_TSTAT_PARAM) {
   rf_vi lane_in[RF_LANE_GROUPS];
   rf_vf leaf_t[RF_LANE_GROUPS];
   rf_u32 lanes = 0u;
-  for (int j = first; j <= last; ++j) {
+  for (rf_u32 m = groups; m != 0u; m &= m - 1u) {
+    const int j = (int)RF_CTZ(m);
     leaf_t[j] = rf_tile_lane_entry(c0, c1, r, h, j);
     lane_in[j] = (leaf_t[j] != (rf_vf)(RF_FAR)) & entered[j];
     if (rf_lanes_any(lane_in[j])) lanes |= 1u << j;
+    RF_TSTAT(RF_TILE_STAT_BLAS_LANE_BOXES, 1);
   }
-  RF_TSTAT(RF_TILE_STAT_BLAS_LANE_BOXES, last - first + 1);
   if (lanes == 0u) return;
   RF_TSTAT(RF_TILE_STAT_LEAVES, 1);
   int taken = 0;
@@ -337,10 +357,10 @@ RF_INLINE float4 rf_tile_interval_box4(const RF_GLOBAL rf_wide_node* n, const rf
 
 /* Pushes the children of wide node w that their whole-tile bounds do not
  * reject, the farthest first so that the nearest is visited next, each with
- * the lane-group range `range`; returns the new stack size. */
+ * the lane groups `groups` (bit j: group j); returns the new stack size. */
 RF_INLINE int rf_tile_push_wide(const RF_GLOBAL rf_wide_node* wide, rf_u32 w, const RF_GLOBAL rf_tri* tris,
-                                const rf_tile_ray* r, float tmax, rf_u32 range, rf_u32* stack_ref, float* stack_t,
-                                rf_u32* stack_range, int sp) {
+                                const rf_tile_ray* r, float tmax, rf_u32 groups, rf_u32* stack_ref, float* stack_t,
+                                rf_u32* stack_groups, int sp) {
   const RF_GLOBAL rf_wide_node* n = &wide[w];
   float t4[4];
   vstore4(rf_tile_interval_box4(n, r, tmax), 0, t4);
@@ -372,7 +392,7 @@ RF_INLINE int rf_tile_push_wide(const RF_GLOBAL rf_wide_node* wide, rf_u32 w, co
   for (int i = 0; i < m; ++i) {
     stack_ref[sp] = (w << 2) | slot[i];
     stack_t[sp] = tc[i];
-    stack_range[sp] = range;
+    stack_groups[sp] = groups;
     ++sp;
   }
   return sp;
@@ -386,7 +406,7 @@ RF_INLINE void rf_tile_trace_blas(const RF_GLOBAL rf_node* nodes, const RF_GLOBA
                                   const RF_GLOBAL rf_tri* tris, rf_u32 root, rf_u32 wide_root, const rf_tile_ray* r,
                                   rf_u32 instance_id, const rf_vi* entered, rf_u32 range,
                                   rf_tile_hits* h RF_TSTAT_PARAM) {
-  int first = RF_RANGE_FIRST(range), last = RF_RANGE_LAST(range);
+  rf_u32 groups = RF_RANGE_MASK(RF_RANGE_FIRST(range), RF_RANGE_LAST(range));
   {
     const RF_GLOBAL rf_node* n = &nodes[root];
     const float c0[3] = {n->bmin[0] - r->o[0], n->bmin[1] - r->o[1], n->bmin[2] - r->o[2]};
@@ -394,18 +414,17 @@ RF_INLINE void rf_tile_trace_blas(const RF_GLOBAL rf_node* nodes, const RF_GLOBA
     if (rf_interval_box(c0, c1, r->lo, r->hi, h->tmax) == RF_FAR) return;
     RF_TSTAT(RF_TILE_STAT_BLAS_NODES, 1);
     if (wide_root == RF_INVALID) { /* the root is a leaf */
-      rf_tile_leaf(c0, c1, n->first, n->meta & RF_NODE_COUNT_MASK, tris, r, instance_id, entered, first, last,
+      rf_tile_leaf(c0, c1, n->first, n->meta & RF_NODE_COUNT_MASK, tris, r, instance_id, entered, groups,
                    h RF_TSTAT_ARG);
       return;
     }
-    if (!rf_tile_narrow(c0, c1, r->ix, r->iy, r->iz, h, 1u, &first, &last, RF_TILE_STAT_BLAS_LANE_BOXES RF_TSTAT_ARG))
-      return;
+    groups = rf_tile_keep_groups(c0, c1, r, h, groups RF_TSTAT_ARG);
+    if (groups == 0u) return;
   }
   rf_u32 stack_ref[RF_WIDE_STACK_SIZE];
   float stack_t[RF_WIDE_STACK_SIZE];
-  rf_u32 stack_range[RF_WIDE_STACK_SIZE];
-  int sp = rf_tile_push_wide(wide, wide_root, tris, r, h->tmax, RF_RANGE(first, last), stack_ref, stack_t,
-                             stack_range, 0);
+  rf_u32 stack_groups[RF_WIDE_STACK_SIZE];
+  int sp = rf_tile_push_wide(wide, wide_root, tris, r, h->tmax, groups, stack_ref, stack_t, stack_groups, 0);
   while (sp > 0) {
     --sp;
     if (stack_t[sp] > h->tmax) continue;
@@ -415,19 +434,16 @@ RF_INLINE void rf_tile_trace_blas(const RF_GLOBAL rf_node* nodes, const RF_GLOBA
     const int k = (int)(ref & 3u);
     const float c0[3] = {p->lo_x[k] - r->o[0], p->lo_y[k] - r->o[1], p->lo_z[k] - r->o[2]};
     const float c1[3] = {p->hi_x[k] - r->o[0], p->hi_y[k] - r->o[1], p->hi_z[k] - r->o[2]};
-    first = RF_RANGE_FIRST(stack_range[sp]);
-    last = RF_RANGE_LAST(stack_range[sp]);
+    const rf_u32 groups = stack_groups[sp];
     const rf_u32 count = p->count[k];
     if (count != 0u) {
-      rf_tile_leaf(c0, c1, p->child[k], count, tris, r, instance_id, entered, first, last, h RF_TSTAT_ARG);
+      rf_tile_leaf(c0, c1, p->child[k], count, tris, r, instance_id, entered, groups, h RF_TSTAT_ARG);
       continue;
     }
-    /* Interior: go on when a lane group of the range enters the box, with
-     * the range narrowed to those that do. */
-    if (!rf_tile_narrow(c0, c1, r->ix, r->iy, r->iz, h, 1u, &first, &last, RF_TILE_STAT_BLAS_LANE_BOXES RF_TSTAT_ARG))
-      continue;
-    sp = rf_tile_push_wide(wide, p->child[k], tris, r, h->tmax, RF_RANGE(first, last), stack_ref, stack_t,
-                           stack_range, sp);
+    /* Interior: go on with the lane groups that enter the box. */
+    const rf_u32 kept = rf_tile_keep_groups(c0, c1, r, h, groups RF_TSTAT_ARG);
+    if (kept != 0u)
+      sp = rf_tile_push_wide(wide, p->child[k], tris, r, h->tmax, kept, stack_ref, stack_t, stack_groups, sp);
   }
 }
 
