@@ -222,6 +222,41 @@ std::string message_of(const std::function<void()>& f) {
   return "(nothing thrown)";
 }
 
+// The streaming form hands over each view once, trace by trace (the 75-degree
+// view, alone in its trace, after the six it interrupts), with the bits of
+// the list form; an exception from the callback stops it there.
+TEST(Api, RenderViewsStreamsEachViewOnceTraceByTrace) {
+  const Scene scene = Scene::load(RAYFOLD_SOURCE_DIR "/scenes/atrium.glb");
+  const Vec3 eye = scene.default_camera(48, 30).eye();
+  std::vector<Camera> views;
+  for (int k = 0; k < 7; ++k)
+    views.push_back(Camera::look_at({eye[0] + 0.3 * k, eye[1], eye[2] - 0.5 * k}, {0.0, 2.0, 0.0}, {0.0, 1.0, 0.0},
+                                    k == 2 ? 75.0 : 50.0, 48, 30));
+  Renderer renderer(scene);
+  const std::vector<GBuffer> listed = renderer.render_views(views, Fold::xy, 4);
+  std::vector<size_t> order;
+  renderer.render_views(
+      views,
+      [&](size_t i, GBuffer&& g) {
+        order.push_back(i);
+        ASSERT_LT(i, views.size());
+        EXPECT_EQ(compare_hits(to_hits(listed[i]), to_hits(g), 48), "") << "view " << i;
+        EXPECT_EQ(g.views_in_trace, listed[i].views_in_trace) << "view " << i;
+      },
+      Fold::xy, 4);
+  // Traces of at most 4 (xy holds 8): {0, 1, 3, 4}, {2}, {5, 6}.
+  EXPECT_EQ(order, (std::vector<size_t>{0, 1, 3, 4, 2, 5, 6}));
+  int calls = 0;
+  EXPECT_THROW(renderer.render_views(
+                   views,
+                   [&](size_t, GBuffer&&) {
+                     if (++calls == 2) throw std::runtime_error("stop");
+                   },
+                   Fold::none, 0),
+               std::runtime_error);
+  EXPECT_EQ(calls, 2);
+}
+
 TEST(Api, RenderViewsEqualsEachViewAloneWhateverTheAlignment) {
   const Scene scene = Scene::load(RAYFOLD_SOURCE_DIR "/scenes/atrium.glb");
   const Camera base = scene.default_camera(48, 30);

@@ -145,15 +145,22 @@ void Renderer::render_into(GBuffer& g, const Camera& camera, Fold fold) {
 }
 
 std::vector<GBuffer> Renderer::render_views(const std::vector<Camera>& cameras, Fold fold, int align) {
+  std::vector<GBuffer> out(cameras.size());
+  render_views(cameras, [&](size_t i, GBuffer&& g) { out[i] = std::move(g); }, fold, align);
+  return out;
+}
+
+void Renderer::render_views(const std::vector<Camera>& cameras, const std::function<void(size_t, GBuffer&&)>& on_view,
+                            Fold fold, int align) {
   if (align < 0 || align > kMaxAlignedViews)
     throw InputError("", "align must be 0 (as many as a pass holds) to " + std::to_string(kMaxAlignedViews) + ", not " +
                              std::to_string(align));
-  std::vector<GBuffer> out(cameras.size());
-  if (cameras.empty()) return out;
+  if (cameras.empty()) return;
   core::FrameOptions frame;
   frame.fold = to_core(fold);
   frame.moved = impl_->moved();
   std::vector<core::Camera> views;
+  views.reserve(cameras.size());
   for (const Camera& c : cameras) views.push_back(c.core());
   const auto passes =
       core::plan_passes(impl_->core->scene_data(), views, align == 0 ? kMaxAlignedViews : align, frame.fold);
@@ -165,15 +172,15 @@ std::vector<GBuffer> Renderer::render_views(const std::vector<Camera>& cameras, 
     impl_->core->render_views_into(r, pass_views, 1, frame);
     const double ms = core::ms_since(t0) / static_cast<double>(pass.size());
     for (size_t k = 0; k < pass.size(); ++k) {
-      GBuffer& g = out[pass[k]];
+      GBuffer g;
       fill_gbuffer(g, core::view_result(r, k), cameras[pass[k]].width(), cameras[pass[k]].height(),
                    impl_->options.threads);
       g.views_in_trace = static_cast<int>(pass.size());
       g.trace_ms = r.median.trace_ms / static_cast<double>(pass.size());
       g.frame_ms = ms;
+      on_view(pass[k], std::move(g));
     }
   }
-  return out;
 }
 
 std::string Renderer::device_name() const { return impl_->core->device_name(); }

@@ -2,6 +2,7 @@
 // then per render culling, the top-level tree and the trace.
 #pragma once
 
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -57,6 +58,14 @@ class Renderer {
   // many as one trace holds (kMaxAlignedViews, divided by the fold's
   // mirrors: 2 for y or x, 4 for xy). InputError for another align.
   std::vector<GBuffer> render_views(const std::vector<Camera>& cameras, Fold fold = Fold::none, int align = 0);
+  // The same, handing each view to on_view (its index in cameras, its
+  // G-buffer) as soon as its trace is done, so that memory holds one trace's
+  // views whatever the list's length. Views come trace by trace, in list
+  // order within a trace, the traces ordered by their first view: a list of
+  // one size and intrinsics comes in list order. An exception from on_view
+  // stops the rendering and propagates.
+  void render_views(const std::vector<Camera>& cameras, const std::function<void(size_t, GBuffer&&)>& on_view,
+                    Fold fold = Fold::none, int align = 0);
 
   std::string device_name() const;  // "cpu reference" for the CPU backend
   std::string kernel() const;       // "tile", "single" or "cpu reference"
