@@ -1,5 +1,6 @@
-"""Runs the README's Python block as written, from the repository root (it
-names scenes/atrium.glb). Used by pip_install.sh in a fresh environment and
+"""Runs the README's Python blocks as written, in order in one namespace (a
+later block uses the names an earlier one made), from the repository root
+(they name scenes/atrium.glb). Used by pip_install.sh in a fresh environment and
 by the pytest suite."""
 import os
 import pathlib
@@ -10,11 +11,14 @@ ROOT = pathlib.Path(__file__).resolve().parents[2]
 
 def run():
     text = (ROOT / "README.md").read_text()
-    block = re.search(r"```python\n(.*?)```", text, re.S).group(1)
+    blocks = re.findall(r"```python\n(.*?)```", text, re.S)
+    assert blocks, "README.md has no Python block"
     here = os.getcwd()
     os.chdir(ROOT)
     try:
-        exec(compile(block, "README.md (Python block)", "exec"), {})
+        names = {}
+        for k, block in enumerate(blocks):
+            exec(compile(block, f"README.md (Python block {k + 1})", "exec"), names)
     finally:
         os.chdir(here)
 

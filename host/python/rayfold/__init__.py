@@ -26,4 +26,10 @@ from ._core import (
     __version__,
 )
 
+from ._streams import from_matrices as _from_matrices
+from ._streams import iter_views as _iter_views
+
+Camera.from_matrices = staticmethod(_from_matrices)
+Scene.iter_views = _iter_views
+
 __all__ = ["MISS", "Camera", "GBuffer", "InputError", "Renderer", "RuntimeFailure", "Scene", "__version__"]

@@ -1,0 +1,68 @@
+"""Many views: camera batches from numpy and G-buffers streamed one trace at
+a time, for jobs of 10^4 to 10^6 views whose cameras or G-buffers would not
+fit in memory at once."""
+import itertools
+
+import numpy as np
+
+from ._core import Camera, InputError
+
+# Views handed to one render_views call: a multiple of what one trace holds
+# in every fold (32 unfolded, 16 folded once, 8 folded twice), so that the
+# chunks cut no trace short.
+CHUNK_VIEWS = 32
+
+
+def iter_views(scene, cameras, fold="none", align=0, backend="opencl", device="", kernel="auto", threads=0):
+    """Yields the GBuffer of each camera, in the order given; each view's bits
+    equal scene.render(camera, fold=fold).
+
+    cameras may be any iterable, a generator too: it is read 32 views at a
+    time, and only those views' G-buffers are held, so memory stays flat
+    however many views there are. align as in render_views (views of the same
+    size and intrinsics within 32 of each other trace together). A GBuffer
+    the caller keeps stays valid; the next ones are new arrays."""
+    it = iter(cameras)
+    index = 0
+    while True:
+        chunk = list(itertools.islice(it, CHUNK_VIEWS))
+        if not chunk:
+            return
+        for k, c in enumerate(chunk):
+            if not isinstance(c, Camera):
+                raise TypeError(f"iter_views: camera {index + k} is a {type(c).__name__}, not a rayfold.Camera")
+        yield from scene.render_views(chunk, fold=fold, align=align, backend=backend, device=device, kernel=kernel,
+                                      threads=threads)
+        index += len(chunk)
+
+
+def _intrinsics(K, i):
+    if K[0, 1] != 0.0 or K[1, 0] != 0.0 or K[2, 0] != 0.0 or K[2, 1] != 0.0 or K[2, 2] != 1.0:
+        raise InputError(f"Camera.from_matrices: K[{i}] is not a pinhole matrix [[fx, 0, cx], [0, fy, cy], "
+                         f"[0, 0, 1]] (no skew): {K.tolist()}")
+    return float(K[0, 0]), float(K[1, 1]), float(K[0, 2]), float(K[1, 2])
+
+
+def from_matrices(camera_to_world, K, width, height, *, convention):
+    """A list of cameras from a batch of rigid camera-to-world matrices (B, 4, 4)
+    and pinhole intrinsics K, (B, 3, 3) or one (3, 3) for all, in pixels with
+    pixel centres at +0.5 (an OpenCV calibration adds 0.5 to cx and cy), as
+    Camera.from_matrix for each. convention: 'opencv' (COLMAP) or 'opengl'
+    (NeRF, Blender). InputError names the first camera that is not valid."""
+    c2w = np.asarray(camera_to_world, dtype=np.float64)
+    if c2w.ndim != 3 or c2w.shape[1:] != (4, 4):
+        raise InputError(f"Camera.from_matrices: camera_to_world must be (B, 4, 4), not {c2w.shape}")
+    k = np.asarray(K, dtype=np.float64)
+    if k.shape == (3, 3):
+        k = np.broadcast_to(k, (c2w.shape[0], 3, 3))
+    if k.shape != (c2w.shape[0], 3, 3):
+        raise InputError(f"Camera.from_matrices: K must be (3, 3) or ({c2w.shape[0]}, 3, 3) for "
+                         f"{c2w.shape[0]} matrices, not {np.shape(K)}")
+    cameras = []
+    for i in range(c2w.shape[0]):
+        fx, fy, cx, cy = _intrinsics(k[i], i)
+        try:
+            cameras.append(Camera.from_matrix(c2w[i], fx, fy, cx, cy, width, height, convention=convention))
+        except InputError as e:
+            raise InputError(f"Camera.from_matrices: camera {i}: {e}") from e
+    return cameras
