@@ -298,6 +298,54 @@ TEST(Cli, IdsManifestAndStatsRecordTheViewAndTheNodes) {
 // Dataset intrinsics in a camera list (fx, fy, cx, cy or K, in pixels with
 // pixel centres at +0.5): once refused. The same focal length as a vfov gives
 // the same bits, K the same as fx..cy, and --stats records what was given.
+// NeRF transforms.json through --cameras and COLMAP through --colmap: the same
+// pose and intrinsics as a camera list give its image bit for bit (NeRF); a
+// COLMAP model of that camera sees the same triangles; ignored keys are
+// announced; conflicts are refused.
+TEST(Cli, DatasetCamerasRenderAsTheCameraListOfTheirPoses) {
+  const fs::path d = work_dir();
+  const std::string pose_rows = "[[1, 0, 0, 0], [0, 1, 0, 2], [0, 0, 1, 14], [0, 0, 0, 1]]";
+  std::ofstream(d / "list.json") << R"({"width": 40, "height": 30, "fx": 35, "fy": 35, "cx": 20, "cy": 15,
+      "cameras": [{"camera_to_world": [1, 0, 0, 0,  0, 1, 0, 2,  0, 0, 1, 14,  0, 0, 0, 1]}]})";
+  std::ofstream(d / "transforms.json") << R"({"fl_x": 35, "cx": 20, "cy": 15, "aabb_scale": 4, "frames": [
+      {"file_path": "a", "transform_matrix": )" + pose_rows + R"(},
+      {"file_path": "b", "transform_matrix": )" + pose_rows + "}]}";
+  fs::create_directories(d / "colmap");
+  // The same camera in COLMAP's world-to-camera form: R = diag(1, -1, -1)
+  // (quaternion (0, 1, 0, 0)), t = -R eye = (0, 2, 14).
+  std::ofstream(d / "colmap" / "cameras.txt") << "1 PINHOLE 40 30 35 35 20 15\n";
+  std::ofstream(d / "colmap" / "images.txt") << "1 0 1 0 0 0 2 14 1 a.png\n\n";
+  CliRun r = rayfold("render --cameras " + (d / "list.json").string() + " -o " + (d / "list.exr").string());
+  ASSERT_EQ(r.code, 0) << r.err;
+  r = rayfold("render --cameras " + (d / "transforms.json").string() + " --size 40x30 -o " +
+              (d / "nerf_%d.exr").string());
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.err.find("transforms.json: ignored aabb_scale"), std::string::npos) << r.err;
+  r = rayfold("render --colmap " + (d / "colmap").string() + " -o " + (d / "colmap.exr").string());
+  ASSERT_EQ(r.code, 0) << r.err;
+  int w = 0, h = 0;
+  const auto listed = read_exr((d / "list.exr").string(), &w, &h);
+  for (const char* nerf : {"nerf_0.exr", "nerf_1.exr"})
+    EXPECT_EQ(testing::compare_hits(listed, read_exr((d / nerf).string(), &w, &h), w), "") << nerf;
+  const auto colmap = read_exr((d / "colmap.exr").string(), &w, &h);
+  ASSERT_EQ(colmap.size(), listed.size());
+  size_t same = 0;
+  for (size_t i = 0; i < listed.size(); ++i)
+    same += listed[i].instance == colmap[i].instance && listed[i].primitive == colmap[i].primitive;
+  EXPECT_GE(same, listed.size() - 2) << "COLMAP's pose sees other triangles";
+  // Conflicts and a transforms.json without a size: refused by name.
+  r = rayfold("render --colmap " + (d / "colmap").string() + " --size 40x30 -o " + (d / "x.exr").string());
+  EXPECT_EQ(r.code, 2) << r.err;
+  EXPECT_NE(r.err.find("--colmap: cameras.txt gives the image sizes"), std::string::npos) << r.err;
+  r = rayfold("render --cameras " + (d / "transforms.json").string() + " -o " + (d / "x.exr").string());
+  EXPECT_EQ(r.code, 2) << r.err;
+  EXPECT_NE(r.err.find("has no \"w\" and \"h\""), std::string::npos) << r.err;
+  r = rayfold("render --cameras " + (d / "list.json").string() + " --size 40x30 -o " + (d / "x.exr").string());
+  EXPECT_EQ(r.code, 2) << r.err;
+  EXPECT_NE(r.err.find("--size does not combine with it"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(d / "x.exr"));
+}
+
 TEST(Cli, CameraListsTakeIntrinsicsInPixels) {
   const fs::path d = work_dir();
   const std::string list = (d / "k.json").string();

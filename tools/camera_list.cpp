@@ -9,6 +9,7 @@
 #include <glm/geometric.hpp>
 #include <nlohmann/json.hpp>
 
+#include "scene/dataset_cameras.h"
 #include "util/errors.h"
 
 namespace rayfold::core::cli {
@@ -144,6 +145,42 @@ std::vector<View> read_camera_list(const std::string& path) {
       throw InputError(path, where + ": " + e.what());  // make_camera's reason, with the camera named
     }
   }
+  return views;
+}
+
+std::vector<View> read_cameras_file(const std::string& path, int width, int height, std::string* note) {
+  bool nerf = false, has_size = false;
+  {
+    std::ifstream f(path);
+    if (!f) throw InputError(path, "cannot open the camera list");
+    const json j = json::parse(f, nullptr, false);
+    nerf = j.is_object() && j.contains("frames") && !j.contains("cameras");
+    has_size = nerf && j.contains("w") && j.contains("h");
+  }
+  const bool size_given = width > 0 && height > 0;
+  if (!nerf) {
+    if (size_given) throw InputError(path, "gives the size of its views; --size does not combine with it");
+    return read_camera_list(path);
+  }
+  if (size_given && has_size)
+    throw InputError(path, "gives the image size (w, h); --size does not combine with it");
+  std::vector<std::string> ignored;
+  std::vector<View> views;
+  size_t i = 0;
+  for (DatasetView& v : read_nerf_cameras(path, width, height, &ignored)) views.push_back({v.camera, std::to_string(i++)});
+  if (note && !ignored.empty()) {
+    std::string keys;
+    for (const std::string& k : ignored) keys += (keys.empty() ? "" : ", ") + k;
+    *note = path + ": ignored " + keys + " (training settings and instant-ngp's own pose normalisation: the poses " +
+            "are rendered as written, in the scene's coordinates)";
+  }
+  return views;
+}
+
+std::vector<View> read_colmap_dir(const std::string& dir) {
+  std::vector<View> views;
+  size_t i = 0;
+  for (DatasetView& v : read_colmap_cameras(dir)) views.push_back({v.camera, std::to_string(i++)});
   return views;
 }
 

@@ -7,6 +7,7 @@
 #include "api/convert.h"
 #include "rayfold/errors.h"
 #include "scene/camera.h"
+#include "scene/dataset_cameras.h"
 
 namespace rayfold {
 namespace {
@@ -63,6 +64,21 @@ Camera Camera::from_matrix(const Matrix4& camera_to_world, const Intrinsics& k, 
   if (convention == CameraConvention::opencv) world_from_camera = world_from_camera * flip_yz();
   core::Intrinsics ki{k.fx, k.fy, k.cx, k.cy};
   return Camera(std::make_shared<core::Camera>(core::make_camera(world_from_camera, ki, width, height)));
+}
+
+std::vector<std::pair<std::string, Camera>> Camera::from_nerf(const std::string& path, int width, int height,
+                                                              std::vector<std::string>* ignored) {
+  std::vector<std::pair<std::string, Camera>> out;
+  for (core::DatasetView& v : core::read_nerf_cameras(path, width, height, ignored))
+    out.emplace_back(v.name, Camera(std::make_shared<core::Camera>(v.camera)));
+  return out;
+}
+
+std::vector<std::pair<std::string, Camera>> Camera::from_colmap(const std::string& dir) {
+  std::vector<std::pair<std::string, Camera>> out;
+  for (core::DatasetView& v : core::read_colmap_cameras(dir))
+    out.emplace_back(v.name, Camera(std::make_shared<core::Camera>(v.camera)));
+  return out;
 }
 
 int Camera::width() const { return impl_->width; }

@@ -251,6 +251,16 @@ NB_MODULE(_core, m) {
           "A camera from a rigid 4x4 camera-to-world matrix and pinhole intrinsics in pixels (pixel centres at "
           "+0.5). convention: 'opencv' (+x right, +y down, +z forward; COLMAP) or 'opengl' (+y up, -z forward; "
           "Blender, NeRF).")
+      .def_static(
+          "_read_nerf",
+          [](const std::string& path, int width, int height) {
+            std::vector<std::string> ignored;
+            auto views = rayfold::Camera::from_nerf(path, width, height, &ignored);
+            return std::make_pair(std::move(views), std::move(ignored));
+          },
+          "path"_a, "width"_a, "height"_a)
+      .def_static(
+          "_read_colmap", [](const std::string& dir) { return rayfold::Camera::from_colmap(dir); }, "dir"_a)
       .def_prop_ro("width", &rayfold::Camera::width)
       .def_prop_ro("height", &rayfold::Camera::height)
       .def_prop_ro(

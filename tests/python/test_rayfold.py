@@ -141,6 +141,33 @@ def test_from_matrices_equals_from_matrix_per_camera_and_names_the_bad_one(atriu
         rayfold.Camera.from_matrices(c2w, np.stack([K] * 2), 64, 40, convention="opencv")
 
 
+def test_dataset_cameras_see_what_their_files_say(tmp_path):
+    """A camera at (1, 2, 3) looking along +x (right +z, up +y), fx = fy = 100,
+    cx = 32, cy = 24 at 64x48 sees (11, 2.35, 3.85) at the centre of pixel
+    (40, 20), written as NeRF and as COLMAP."""
+    pose = [[0, 0, -1, 1], [0, 1, 0, 2], [1, 0, 0, 3], [0, 0, 0, 1]]
+    nerf = tmp_path / "transforms.json"
+    nerf.write_text(json.dumps({"fl_x": 100, "cx": 32, "cy": 24, "aabb_scale": 16,
+                                "frames": [{"file_path": "images/a.png", "transform_matrix": pose}]}))
+    with pytest.warns(UserWarning, match="ignored aabb_scale"):
+        cams, names = rayfold.Camera.from_nerf(nerf, width=64, height=48)
+    h = float(np.sqrt(0.5))
+    (tmp_path / "cameras.txt").write_text("1 PINHOLE 64 48 100 100 32 24\n")
+    (tmp_path / "images.txt").write_text(f"3 0 {h!r} 0 {h!r} -3 2 -1 1 a.png\n\n")
+    colmap_cams, colmap_names = rayfold.Camera.from_colmap(tmp_path)
+    assert names == ["images/a.png"] and colmap_names == ["a.png"]
+    point = np.array([11.0, 2.35, 3.85])
+    for c in cams + colmap_cams:
+        assert (c.width, c.height) == (64, 48)
+        to_point = (point - np.array(c.eye)) / np.linalg.norm(point - np.array(c.eye))
+        np.testing.assert_allclose(c.ray_directions()[20, 40], to_point, rtol=0, atol=1e-6)
+    with pytest.raises(rayfold.InputError, match="has no \"w\" and \"h\""):
+        rayfold.Camera.from_nerf(nerf)
+    (tmp_path / "cameras.txt").write_text("1 OPENCV 64 48 100 100 32 24 0.1 0 0 0\n")
+    with pytest.raises(rayfold.InputError, match="OPENCV, a model with lens distortion"):
+        rayfold.Camera.from_colmap(tmp_path)
+
+
 def test_every_fold_backend_and_kernel_gives_the_same_bits(atrium):
     camera = atrium.default_camera(48, 30)
     ref = atrium.render(camera, backend="cpu")

@@ -34,6 +34,8 @@ def small(argv):
     """The command at a small size: a given --size shrinks, the tracing
     commands without one get it."""
     out = list(argv)
+    if "--colmap" in out:  # the model gives the size (the fixture's is small)
+        return out
     if "--size" in out:
         out[out.index("--size") + 1] = SMALL
     elif len(out) > 1 and out[1] in ("render", "bench") and "--help" not in out:
@@ -50,8 +52,13 @@ def bin_dir(cli):
 
 @pytest.fixture(scope="module")
 def scenes(tmp_path_factory, bin_dir):
-    """scene.glb is the bundled scene; scene.gltf the same written as .gltf."""
+    """scene.glb is the bundled scene; scene.gltf the same written as .gltf;
+    sparse/0 a COLMAP text model of two small views of it; out/ a folder."""
     d = tmp_path_factory.mktemp("readme")
+    (d / "out").mkdir()  # the README makes it (mkdir -p out)
+    (d / "sparse" / "0").mkdir(parents=True)
+    (d / "sparse" / "0" / "cameras.txt").write_text("1 PINHOLE 96 54 60 60 48 27\n")
+    (d / "sparse" / "0" / "images.txt").write_text("1 0 1 0 0 0 2 14 1 a.jpg\n\n2 0 1 0 0 1 2 14 1 b.jpg\n\n")
     (d / "scene.glb").write_bytes((ROOT / "scenes" / "atrium.glb").read_bytes())
     subprocess.run([str(bin_dir / "rayfold-gen-scene"), "-o", str(d / "scene.gltf"), "--objects", "24",
                     "--triangles", "3000"], check=True, capture_output=True)

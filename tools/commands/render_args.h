@@ -19,7 +19,8 @@ struct RenderArgs {
   std::optional<glm::dvec3> eye, look_at, up;
   std::optional<double> vfov, ortho;
   bool size_given = false;
-  std::string cameras;           // --cameras FILE.json: one render per view
+  std::string cameras;           // --cameras FILE.json: one render per view (a camera list or transforms.json)
+  std::string colmap;            // --colmap DIR: one render per image of a COLMAP text model
   std::optional<double> stereo;  // --stereo B: a left and a right view
   int align = 0;                 // --align N: views per pass; 0 = all (as many as a pass holds), -1 = auto
   bool fold_auto = false;        // --fold auto

@@ -70,7 +70,10 @@ const char* kRenderUsage =
     "  --stats F.json         the camera, options, hit and miss counts, phase times, device buffers\n"
     "  --ids F.json           the id manifest: InstanceID -> the file's node name and mesh\n"
     "  --cameras F.json       render every view of a camera list, one output per view\n"
-    "                         (-o out/view_%04d.exr); see the README for the format\n"
+    "                         (-o out/view_%04d.exr); see the README for the format; a\n"
+    "                         NeRF / instant-ngp transforms.json (--size for one without w, h)\n"
+    "  --colmap DIR           render every image of a COLMAP text model (DIR/cameras.txt,\n"
+    "                         DIR/images.txt; PINHOLE and SIMPLE_PINHOLE cameras)\n"
     "  --stereo B             a parallel-axis stereo pair around the camera, eyes B apart\n"
     "                         along its right vector (outputs NAME-left.exr, NAME-right.exr)\n"
     "  --align N|all|auto     --cameras, --stereo: trace up to N views together (alignment;\n"
@@ -97,6 +100,8 @@ RenderArgs parse_render(cli::Args& args) {
       r.size_given = true;
     } else if (a == "--cameras") {
       r.cameras = args.value(a);
+    } else if (a == "--colmap") {
+      r.colmap = args.value(a);
     } else if (a == "--align") {
       const std::string v = args.value(a);
       r.align = v == "auto" ? -1 : v == "all" ? 0 : cli::parse_int(a, v, 1, RF_GROUP_LIMIT);
@@ -165,17 +170,20 @@ RenderArgs parse_render(cli::Args& args) {
   }
   if (r.eye.has_value() != r.look_at.has_value()) throw UsageError("--eye and --look-at go together");
   if (r.vfov && r.ortho) throw UsageError("--vfov and --ortho: a view is perspective or orthographic, not both");
-  if (!r.cameras.empty() || r.stereo) {
-    const char* what = !r.cameras.empty() ? "--cameras" : "--stereo";
-    if (!r.cameras.empty() && r.stereo) throw UsageError("--cameras and --stereo: one list of views at a time");
+  if (!r.cameras.empty() || !r.colmap.empty() || r.stereo) {
+    const char* what = !r.cameras.empty() ? "--cameras" : !r.colmap.empty() ? "--colmap" : "--stereo";
+    if ((!r.cameras.empty()) + (!r.colmap.empty()) + bool(r.stereo) > 1)
+      throw UsageError("--cameras, --colmap and --stereo: one list of views at a time");
     if (r.compare || r.frame.animate_frame >= 0 || r.frames != 1 || r.shift_x != 0.0 || r.shift_y != 0.0)
       throw UsageError(std::string(what) +
                        ": renders each view once; --compare, --animate, --frames and --shift "
                        "do not combine with it");
-    if (!r.cameras.empty() && (r.size_given || r.eye || r.vfov || r.ortho || r.up))
-      throw UsageError(
-          "--cameras: the file gives the size and every camera; --size, --eye, --look-at, --up, "
-          "--vfov and --ortho do not combine with it");
+    if ((!r.cameras.empty() || !r.colmap.empty()) && (r.eye || r.vfov || r.ortho || r.up))
+      throw UsageError(std::string(what) +
+                       ": the file gives every camera; --eye, --look-at, --up, --vfov and --ortho do not combine "
+                       "with it");
+    if (!r.colmap.empty() && r.size_given)
+      throw UsageError("--colmap: cameras.txt gives the image sizes; --size does not combine with it");
     if (r.ortho) throw UsageError("--stereo: a stereo pair is two perspective views");
   } else if (r.align != 0) {
     throw UsageError("--align: aligns the views of --cameras or --stereo");
@@ -377,9 +385,14 @@ int run_render(cli::Args& args) {
     spec.orthographic = true;
     spec.ymag = *r.ortho;
   }
-  if (!r.cameras.empty() || r.stereo) {
+  if (!r.cameras.empty() || !r.colmap.empty() || r.stereo) {
+    std::string note;
     std::vector<cli::View> views =
-        !r.cameras.empty() ? cli::read_camera_list(r.cameras) : cli::stereo_pair(spec, *r.stereo, r.width, r.height);
+        !r.cameras.empty()  ? cli::read_cameras_file(r.cameras, r.size_given ? r.width : 0,
+                                                     r.size_given ? r.height : 0, &note)
+        : !r.colmap.empty() ? cli::read_colmap_dir(r.colmap)
+                            : cli::stereo_pair(spec, *r.stereo, r.width, r.height);
+    if (!note.empty() && !r.quiet) progress.print(stderr, "note: " + note + "\n");
     return render_views(r, scene, views, progress, load_ms);
   }
   const Camera camera = make_camera(spec, r.width, r.height, r.shift_x, r.shift_y);

@@ -5,6 +5,9 @@
 
 #include <array>
 #include <memory>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "rayfold/types.h"
 
@@ -52,6 +55,18 @@ class Camera {
   // (can_fold_columns, can_fold_rows).
   static Camera from_matrix(const Matrix4& camera_to_world, const Intrinsics& intrinsics, int width, int height,
                             CameraConvention convention);
+
+  // A dataset's cameras with their image names, in the file's order; pinhole
+  // only, a distortion model refused by name. from_nerf: a NeRF /
+  // instant-ngp transforms.json (OpenGL axes; a file without "w" and "h"
+  // takes width x height when they are positive); keys that change no view
+  // (aabb_scale, scale, offset, ...) are listed in *ignored, any other
+  // unknown key is an InputError. from_colmap: a COLMAP text model in dir
+  // (cameras.txt with PINHOLE or SIMPLE_PINHOLE cameras, images.txt).
+  static std::vector<std::pair<std::string, Camera>> from_nerf(const std::string& path, int width = 0,
+                                                                int height = 0,
+                                                                std::vector<std::string>* ignored = nullptr);
+  static std::vector<std::pair<std::string, Camera>> from_colmap(const std::string& dir);
 
   int width() const;
   int height() const;

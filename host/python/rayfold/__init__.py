@@ -26,10 +26,14 @@ from ._core import (
     __version__,
 )
 
+from ._streams import from_colmap as _from_colmap
 from ._streams import from_matrices as _from_matrices
+from ._streams import from_nerf as _from_nerf
 from ._streams import iter_views as _iter_views
 
 Camera.from_matrices = staticmethod(_from_matrices)
+Camera.from_nerf = staticmethod(_from_nerf)
+Camera.from_colmap = staticmethod(_from_colmap)
 Scene.iter_views = _iter_views
 
 __all__ = ["MISS", "Camera", "GBuffer", "InputError", "Renderer", "RuntimeFailure", "Scene", "__version__"]

@@ -2,6 +2,8 @@
 a time, for jobs of 10^4 to 10^6 views whose cameras or G-buffers would not
 fit in memory at once."""
 import itertools
+import os
+import warnings
 
 import numpy as np
 
@@ -66,3 +68,28 @@ def from_matrices(camera_to_world, K, width, height, *, convention):
         except InputError as e:
             raise InputError(f"Camera.from_matrices: camera {i}: {e}") from e
     return cameras
+
+
+def from_nerf(path, width=0, height=0):
+    """The cameras of a NeRF / instant-ngp transforms.json and their frames'
+    file_path, as (cameras, names) in the file's order. transform_matrix is
+    camera-to-world in OpenGL axes; intrinsics from fl_x, fl_y, cx, cy (pixel
+    centres at +0.5) or camera_angle_x; the size from w and h, else width and
+    height (the original synthetic scenes have none). Keys that change no view
+    (aabb_scale, scale, offset, ...) are ignored with a warning naming them;
+    a distortion coefficient or another unknown key raises InputError."""
+    views, ignored = Camera._read_nerf(os.fspath(path), width, height)
+    if ignored:
+        warnings.warn(f"{os.fspath(path)}: ignored {', '.join(ignored)} (training settings and instant-ngp's own "
+                      "pose normalisation: the poses are rendered as written, in the scene's coordinates)",
+                      stacklevel=2)
+    return [c for _, c in views], [n for n, _ in views]
+
+
+def from_colmap(model_dir):
+    """The cameras of a COLMAP text model (model_dir/cameras.txt with PINHOLE or
+    SIMPLE_PINHOLE cameras, model_dir/images.txt) and their image names, as
+    (cameras, names) in images.txt's order. Models with distortion raise
+    InputError by name: undistort first (colmap image_undistorter)."""
+    views = Camera._read_colmap(os.fspath(model_dir))
+    return [c for _, c in views], [n for n, _ in views]

@@ -1,0 +1,39 @@
+// Cameras of the two dataset formats G-buffer users have: NeRF / instant-ngp
+// transforms.json and COLMAP text models. Pinhole only: a distortion model
+// or coefficient is refused by name (undistort the images first), never
+// dropped.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "scene/camera.h"
+
+namespace rayfold::core {
+
+struct DatasetView {
+  Camera camera;
+  std::string name;  // the frame's file_path, the COLMAP image's name
+};
+
+// A NeRF transforms.json: per frame a 4x4 camera-to-world "transform_matrix"
+// (OpenGL axes: +y up, looking down -z), intrinsics from "fl_x"/"fl_y" (or
+// one of them, square pixels), "cx"/"cy" (default: the image centre) or
+// "camera_angle_x" (and "camera_angle_y"), the size from "w"/"h"; every one
+// of these at the top or per frame (a frame's own wins). Principal points
+// are in pixels with centres at +0.5, as COLMAP writes them. Files without
+// "w" and "h" (the original synthetic scenes) take width x height when those
+// are positive. Keys that do not change a pinhole view (aabb_scale, scale,
+// offset and the like, instant-ngp's training settings) are ignored and
+// listed in *ignored; any other key, or a nonzero distortion coefficient, is
+// an InputError naming it and the frame.
+std::vector<DatasetView> read_nerf_cameras(const std::string& path, int width = 0, int height = 0,
+                                           std::vector<std::string>* ignored = nullptr);
+
+// A COLMAP text model: dir/cameras.txt (PINHOLE, SIMPLE_PINHOLE; other
+// models are refused by name) and dir/images.txt (world-to-camera rotation
+// quaternion and translation, OpenCV axes), in images.txt's order. COLMAP's
+// pixel centres are at +0.5 as rayfold's.
+std::vector<DatasetView> read_colmap_cameras(const std::string& dir);
+
+}  // namespace rayfold::core
