@@ -11,18 +11,14 @@
 
 #include "scene/dataset_cameras.h"
 #include "util/errors.h"
+#include "util/json_input.h"
 
 namespace rayfold::core::cli {
 namespace {
 
 using nlohmann::json;
 
-double number(const json& j, const std::string& where, const std::string& path) {
-  if (!j.is_number()) throw InputError(path, where + " must be a number");
-  const double v = j.get<double>();
-  if (!std::isfinite(v)) throw InputError(path, where + " must be finite");
-  return v;
-}
+double number(const json& j, const std::string& where, const std::string& path) { return json_number(j, where, path); }
 
 glm::dvec3 vec3(const json& j, const std::string& where, const std::string& path) {
   if (!j.is_array() || j.size() != 3) throw InputError(path, where + " must be an array of 3 numbers");
@@ -78,10 +74,7 @@ std::optional<Intrinsics> read_intrinsics(const json& j, const std::string& wher
 }  // namespace
 
 std::vector<View> read_camera_list(const std::string& path) {
-  std::ifstream f(path);
-  if (!f) throw InputError(path, "cannot open the camera list");
-  const json j = json::parse(f, nullptr, false);
-  if (j.is_discarded() || !j.is_object()) throw InputError(path, "is not a JSON object");
+  const json j = read_json_object(path, "camera list");
   const int width = side(j, "width", path), height = side(j, "height", path);
   const double vfov = j.contains("vfov") ? number(j["vfov"], "vfov", path) : 60.0;
   const std::optional<Intrinsics> list_k = read_intrinsics(j, "", path);
@@ -151,10 +144,8 @@ std::vector<View> read_camera_list(const std::string& path) {
 std::vector<View> read_cameras_file(const std::string& path, int width, int height, std::string* note) {
   bool nerf = false, has_size = false;
   {
-    std::ifstream f(path);
-    if (!f) throw InputError(path, "cannot open the camera list");
-    const json j = json::parse(f, nullptr, false);
-    nerf = j.is_object() && j.contains("frames") && !j.contains("cameras");
+    const json j = read_json_object(path, "camera list");
+    nerf = j.contains("frames") && !j.contains("cameras");
     has_size = nerf && j.contains("w") && j.contains("h");
   }
   const bool size_given = width > 0 && height > 0;

@@ -8,9 +8,8 @@
 #include <optional>
 #include <sstream>
 
-#include <nlohmann/json.hpp>
-
 #include "util/errors.h"
+#include "util/json_input.h"
 
 namespace rayfold::core {
 namespace {
@@ -33,12 +32,7 @@ bool one_of(const std::string& key, const char* const (&keys)[N]) {
   return std::find(std::begin(keys), std::end(keys), key) != std::end(keys);
 }
 
-double number(const json& j, const std::string& where, const std::string& path) {
-  if (!j.is_number()) throw InputError(path, where + " must be a number");
-  const double v = j.get<double>();
-  if (!std::isfinite(v)) throw InputError(path, where + " must be finite");
-  return v;
-}
+double number(const json& j, const std::string& where, const std::string& path) { return json_number(j, where, path); }
 
 // The keys of a top level or a frame: pinhole keys and "frames" or
 // "transform_matrix" / "file_path" are read; the ignored ones are noted; a
@@ -80,10 +74,7 @@ void check_keys(const json& j, const std::string& where, const std::string& path
 
 std::vector<DatasetView> read_nerf_cameras(const std::string& path, int width, int height,
                                            std::vector<std::string>* ignored) {
-  std::ifstream f(path);
-  if (!f) throw InputError(path, "cannot open the transforms file");
-  const json top = json::parse(f, nullptr, false);
-  if (top.is_discarded() || !top.is_object()) throw InputError(path, "is not a JSON object");
+  const json top = read_json_object(path, "transforms file");
   check_keys(top, "", path, false, ignored);
   if (!top.contains("frames") || !top["frames"].is_array() || top["frames"].empty())
     throw InputError(path, "\"frames\" must be a non-empty array");
