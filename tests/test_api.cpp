@@ -225,6 +225,28 @@ std::string message_of(const std::function<void()>& f) {
 // The streaming form hands over each view once, trace by trace (the 75-degree
 // view, alone in its trace, after the six it interrupts), with the bits of
 // the list form; an exception from the callback stops it there.
+// channels fills only the planes named, with the full render's values.
+TEST(Api, ChannelsFillOnlyThePlanesAskedFor) {
+  const Scene scene = Scene::load(RAYFOLD_SOURCE_DIR "/scenes/atrium.glb");
+  const Camera cam = scene.default_camera(48, 30);
+  Renderer renderer(scene);
+  const GBuffer all = renderer.render(cam, Fold::xy);
+  const GBuffer some = renderer.render(cam, Fold::xy, kDepth | kInstanceId);
+  EXPECT_EQ(some.channels, kDepth | kInstanceId);
+  EXPECT_EQ(all.channels, kAllChannels);
+  ASSERT_EQ(some.depth.size(), all.depth.size());
+  EXPECT_EQ(std::memcmp(some.depth.data(), all.depth.data(), all.depth.size() * sizeof(float)), 0);
+  EXPECT_EQ(some.instance_id, all.instance_id);
+  EXPECT_TRUE(some.normal.empty() && some.uv.empty() && some.primitive_id.empty());
+  EXPECT_EQ(some.hits, all.hits);
+  const std::vector<GBuffer> views = renderer.render_views({cam, cam}, Fold::none, 0, kPrimitiveId);
+  ASSERT_EQ(views.size(), 2u);
+  EXPECT_EQ(views[1].primitive_id, all.primitive_id);
+  EXPECT_TRUE(views[1].depth.empty());
+  EXPECT_THROW(renderer.render(cam, Fold::none, 0u), InputError);
+  EXPECT_THROW(renderer.render(cam, Fold::none, 64u), InputError);
+}
+
 TEST(Api, RenderViewsStreamsEachViewOnceTraceByTrace) {
   const Scene scene = Scene::load(RAYFOLD_SOURCE_DIR "/scenes/atrium.glb");
   const Vec3 eye = scene.default_camera(48, 30).eye();

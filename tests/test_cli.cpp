@@ -8,6 +8,9 @@
 #include <filesystem>
 #include <fstream>
 
+#include <cstring>
+
+#include <ImfChannelList.h>
 #include <ImfHeader.h>
 #include <ImfInputFile.h>
 #include <ImfStringVectorAttribute.h>
@@ -344,6 +347,33 @@ TEST(Cli, DatasetCamerasRenderAsTheCameraListOfTheirPoses) {
   EXPECT_EQ(r.code, 2) << r.err;
   EXPECT_NE(r.err.find("--size does not combine with it"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(d / "x.exr"));
+}
+
+// --channels writes only the channels named, with the full file's values.
+TEST(Cli, ChannelsWriteOnlyTheChannelsNamed) {
+  const fs::path d = work_dir();
+  CliRun r = rayfold("render --size 48x30 -o " + (d / "all.exr").string());
+  ASSERT_EQ(r.code, 0) << r.err;
+  r = rayfold("render --size 48x30 --channels Z,InstanceID -o " + (d / "some.exr").string());
+  ASSERT_EQ(r.code, 0) << r.err;
+  {
+    Imf::InputFile in((d / "some.exr").string().c_str());
+    std::vector<std::string> names;
+    for (auto c = in.header().channels().begin(); c != in.header().channels().end(); ++c) names.push_back(c.name());
+    EXPECT_EQ(names, (std::vector<std::string>{"InstanceID", "Z"}));
+  }
+  int w = 0, h = 0;
+  const auto all = read_exr((d / "all.exr").string(), &w, &h);
+  const auto some = read_exr((d / "some.exr").string(), &w, &h);
+  ASSERT_EQ(all.size(), some.size());
+  for (size_t i = 0; i < all.size(); ++i) {
+    ASSERT_EQ(std::memcmp(&all[i].z, &some[i].z, 4), 0) << "pixel " << i;
+    ASSERT_EQ(all[i].instance, some[i].instance) << "pixel " << i;
+  }
+  r = rayfold("render --size 48x30 --channels Z,Depth -o " + (d / "bad.exr").string());
+  EXPECT_EQ(r.code, 2) << r.err;
+  EXPECT_NE(r.err.find("unknown channel 'Depth' (Z, N, UV, InstanceID, PrimitiveID)"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(d / "bad.exr"));
 }
 
 TEST(Cli, CameraListsTakeIntrinsicsInPixels) {

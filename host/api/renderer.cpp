@@ -85,39 +85,61 @@ Renderer::~Renderer() = default;
 Renderer::Renderer(Renderer&&) noexcept = default;
 Renderer& Renderer::operator=(Renderer&&) noexcept = default;
 
-GBuffer Renderer::render(const Camera& camera, Fold fold) {
+GBuffer Renderer::render(const Camera& camera, Fold fold, unsigned channels) {
   GBuffer g;
-  render_into(g, camera, fold);
+  render_into(g, camera, fold, channels);
   return g;
 }
 
 namespace {
 
-// A core result (one view's) as the public planes, on `threads` threads: a
-// 720p frame's 30 MB of planes cost a fifth of the trace on one.
-void fill_gbuffer(GBuffer& g, const core::RenderResult& r, int width, int height, unsigned threads) {
+void check_channels(unsigned channels) {
+  if (channels == 0u || (channels & ~static_cast<unsigned>(kAllChannels)) != 0u)
+    throw InputError("", "channels must be a nonzero combination of kDepth, kNormal, kUv, kInstanceId and "
+                         "kPrimitiveId, not " + std::to_string(channels));
+}
+
+// A core result (one view's) as the public planes asked for, on `threads`
+// threads: a 720p frame's 30 MB of planes cost a fifth of the trace on one.
+void fill_gbuffer(GBuffer& g, const core::RenderResult& r, int width, int height, unsigned threads,
+                  unsigned channels) {
   const size_t n = r.hits.size();
   g.width = width;
   g.height = height;
-  g.depth.resize(n);
-  g.normal.resize(3 * n);
-  g.uv.resize(2 * n);
-  g.instance_id.resize(n);
-  g.primitive_id.resize(n);
+  g.channels = channels;
+  auto plane = [&](auto& v, unsigned bit, size_t per_pixel) {
+    if (channels & bit) {
+      v.resize(per_pixel * n);
+    } else {
+      v.clear();
+      v.shrink_to_fit();
+    }
+  };
+  plane(g.depth, kDepth, 1);
+  plane(g.normal, kNormal, 3);
+  plane(g.uv, kUv, 2);
+  plane(g.instance_id, kInstanceId, 1);
+  plane(g.primitive_id, kPrimitiveId, 1);
+  const bool depth = channels & kDepth, normal = channels & kNormal, uv = channels & kUv;
+  const bool instance = channels & kInstanceId, primitive = channels & kPrimitiveId;
   constexpr size_t kChunk = size_t{1} << 15;
   std::vector<size_t> chunk_hits((n + kChunk - 1) / kChunk, 0);
   core::parallel_for(n, threads, kChunk, [&](size_t begin, size_t end) {
     size_t hits = 0;
     for (size_t i = begin; i < end; ++i) {
       const rf_pixel_hit& h = r.hits[i];
-      g.depth[i] = h.z;
-      g.normal[3 * i] = h.nx;
-      g.normal[3 * i + 1] = h.ny;
-      g.normal[3 * i + 2] = h.nz;
-      g.uv[2 * i] = h.u;
-      g.uv[2 * i + 1] = h.v;
-      g.instance_id[i] = h.instance;
-      g.primitive_id[i] = h.primitive;
+      if (depth) g.depth[i] = h.z;
+      if (normal) {
+        g.normal[3 * i] = h.nx;
+        g.normal[3 * i + 1] = h.ny;
+        g.normal[3 * i + 2] = h.nz;
+      }
+      if (uv) {
+        g.uv[2 * i] = h.u;
+        g.uv[2 * i + 1] = h.v;
+      }
+      if (instance) g.instance_id[i] = h.instance;
+      if (primitive) g.primitive_id[i] = h.primitive;
       hits += h.instance != RF_INVALID;
     }
     chunk_hits[begin / kChunk] = hits;
@@ -133,25 +155,28 @@ void fill_gbuffer(GBuffer& g, const core::RenderResult& r, int width, int height
 
 }  // namespace
 
-void Renderer::render_into(GBuffer& g, const Camera& camera, Fold fold) {
+void Renderer::render_into(GBuffer& g, const Camera& camera, Fold fold, unsigned channels) {
+  check_channels(channels);
   const auto t0 = core::Clock::now();
   core::FrameOptions frame;
   frame.fold = to_core(fold);
   frame.moved = impl_->moved();
   core::RenderResult& r = impl_->result;
   impl_->core->render_into(r, camera.core(), 1, frame);
-  fill_gbuffer(g, r, camera.width(), camera.height(), impl_->options.threads);
+  fill_gbuffer(g, r, camera.width(), camera.height(), impl_->options.threads, channels);
   g.frame_ms = core::ms_since(t0);
 }
 
-std::vector<GBuffer> Renderer::render_views(const std::vector<Camera>& cameras, Fold fold, int align) {
+std::vector<GBuffer> Renderer::render_views(const std::vector<Camera>& cameras, Fold fold, int align,
+                                           unsigned channels) {
   std::vector<GBuffer> out(cameras.size());
-  render_views(cameras, [&](size_t i, GBuffer&& g) { out[i] = std::move(g); }, fold, align);
+  render_views(cameras, [&](size_t i, GBuffer&& g) { out[i] = std::move(g); }, fold, align, channels);
   return out;
 }
 
 void Renderer::render_views(const std::vector<Camera>& cameras, const std::function<void(size_t, GBuffer&&)>& on_view,
-                            Fold fold, int align) {
+                            Fold fold, int align, unsigned channels) {
+  check_channels(channels);
   if (align < 0 || align > kMaxAlignedViews)
     throw InputError("", "align must be 0 (as many as a pass holds) to " + std::to_string(kMaxAlignedViews) + ", not " +
                              std::to_string(align));
@@ -174,7 +199,7 @@ void Renderer::render_views(const std::vector<Camera>& cameras, const std::funct
     for (size_t k = 0; k < pass.size(); ++k) {
       GBuffer g;
       fill_gbuffer(g, core::view_result(r, k), cameras[pass[k]].width(), cameras[pass[k]].height(),
-                   impl_->options.threads);
+                   impl_->options.threads, channels);
       g.views_in_trace = static_cast<int>(pass.size());
       g.trace_ms = r.median.trace_ms / static_cast<double>(pass.size());
       g.frame_ms = ms;

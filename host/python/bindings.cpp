@@ -118,6 +118,43 @@ rayfold::CameraConvention parse_convention(const std::string& s) {
                                 s + "'");
 }
 
+// channels=: None for all, or the plane names as a list or one
+// comma-separated string.
+unsigned parse_channels(nb::handle channels) {
+  if (channels.is_none()) return rayfold::kAllChannels;
+  std::vector<std::string> names;
+  if (nb::isinstance<nb::str>(channels)) {
+    std::string all = nb::cast<std::string>(channels), item;
+    for (std::istringstream in(all); std::getline(in, item, ',');) names.push_back(item);
+  } else {
+    for (nb::handle item : channels) {
+      if (!nb::isinstance<nb::str>(item)) throw rayfold::InputError("", "channels: each name must be a str");
+      names.push_back(nb::cast<std::string>(item));
+    }
+  }
+  static const std::pair<const char*, unsigned> kNames[] = {{"depth", rayfold::kDepth},
+                                                            {"normal", rayfold::kNormal},
+                                                            {"uv", rayfold::kUv},
+                                                            {"instance_id", rayfold::kInstanceId},
+                                                            {"primitive_id", rayfold::kPrimitiveId}};
+  unsigned mask = 0;
+  for (std::string name : names) {
+    name.erase(0, name.find_first_not_of(' '));
+    name.erase(name.find_last_not_of(' ') + 1);
+    bool known = false;
+    for (const auto& [n, bit] : kNames)
+      if (name == n) {
+        mask |= bit;
+        known = true;
+      }
+    if (!known)
+      throw rayfold::InputError("", "channels: unknown plane '" + name +
+                                        "' (depth, normal, uv, instance_id, primitive_id)");
+  }
+  if (mask == 0) throw rayfold::InputError("", "channels: name at least one plane");
+  return mask;
+}
+
 rayfold::RendererOptions renderer_options(const std::string& backend, const std::string& device,
                                           const std::string& kernel, unsigned threads) {
   rayfold::RendererOptions o;
@@ -155,11 +192,16 @@ struct PyGBuffer {
 
 PyGBuffer to_python(rayfold::GBuffer&& g, const rayfold::Camera& camera) {
   const size_t h = g.height, w = g.width;
-  PyGBuffer p{to_numpy(std::move(g.depth), {h, w}),
-              to_numpy(std::move(g.normal), {h, w, 3}),
-              to_numpy(std::move(g.uv), {h, w, 2}),
-              to_numpy(std::move(g.instance_id), {h, w}),
-              to_numpy(std::move(g.primitive_id), {h, w}),
+  // A plane not asked for (channels=) is None.
+  auto plane = [&](auto&& v, unsigned bit, std::initializer_list<size_t> shape) -> nb::object {
+    if (!(g.channels & bit)) return nb::none();
+    return to_numpy(std::move(v), shape);
+  };
+  PyGBuffer p{plane(std::move(g.depth), rayfold::kDepth, {h, w}),
+              plane(std::move(g.normal), rayfold::kNormal, {h, w, 3}),
+              plane(std::move(g.uv), rayfold::kUv, {h, w, 2}),
+              plane(std::move(g.instance_id), rayfold::kInstanceId, {h, w}),
+              plane(std::move(g.primitive_id), rayfold::kPrimitiveId, {h, w}),
               g.width,
               g.height,
               fold_name(g.fold),
@@ -195,8 +237,9 @@ auto locked(PyScene& s, F&& f) {
 
 // Renders with the renderer `pick` returns (called under the scene's lock).
 template <class Pick>
-PyGBuffer render_locked(PyScene& s, Pick&& pick, const rayfold::Camera& camera, rayfold::Fold fold) {
-  rayfold::GBuffer g = locked(s, [&] { return pick().render(camera, fold); });
+PyGBuffer render_locked(PyScene& s, Pick&& pick, const rayfold::Camera& camera, rayfold::Fold fold,
+                        unsigned channels) {
+  rayfold::GBuffer g = locked(s, [&] { return pick().render(camera, fold, channels); });
   return to_python(std::move(g), camera);
 }
 
@@ -300,7 +343,9 @@ NB_MODULE(_core, m) {
         return s.str();
       });
 
-  nb::class_<PyGBuffer>(m, "GBuffer", "One render's hit info: numpy planes, rows from the top.")
+  nb::class_<PyGBuffer>(m, "GBuffer",
+                        "One render's hit info: numpy planes, rows from the top; a plane not asked for (channels=) "
+                        "is None.")
       .def_ro("depth", &PyGBuffer::depth, "(H, W) float32: distance from the eye along the pixel's ray; inf on a miss")
       .def_ro("normal", &PyGBuffer::normal, "(H, W, 3) float32: world-space unit geometric normal; 0 on a miss")
       .def_ro("uv", &PyGBuffer::uv, "(H, W, 2) float32: barycentrics of the triangle's 2nd and 3rd vertex")
@@ -414,39 +459,43 @@ NB_MODULE(_core, m) {
       .def(
           "render",
           [](PyScene& s, const rayfold::Camera& camera, const std::string& fold, const std::string& backend,
-             const std::string& device, const std::string& kernel, unsigned threads) {
+             const std::string& device, const std::string& kernel, unsigned threads, nb::handle channels) {
             const rayfold::RendererOptions o = renderer_options(backend, device, kernel, threads);
+            const unsigned mask = parse_channels(channels);
             const std::string key = backend + "|" + device + "|" + kernel + "|" + std::to_string(threads);
             auto cached = [&]() -> rayfold::Renderer& {
               std::unique_ptr<rayfold::Renderer>& r = s.renderers[key];
               if (!r) r = std::make_unique<rayfold::Renderer>(s.scene, o);
               return *r;
             };
-            return render_locked(s, cached, camera, parse_fold(fold));
+            return render_locked(s, cached, camera, parse_fold(fold), mask);
           },
           "camera"_a, "fold"_a = "none", "backend"_a = "opencl", "device"_a = "", "kernel"_a = "auto", "threads"_a = 0,
-          "Renders a G-buffer. The trees and kernels for these options are built on first use and kept. Releases "
-          "the GIL.")
+          "channels"_a = nb::none(),
+          "Renders a G-buffer. The trees and kernels for these options are built on first use and kept. channels: "
+          "the planes to fill (a list or 'depth,instance_id'; default all), the others None. Releases the GIL.")
       .def(
           "render_views",
           [](PyScene& s, const std::vector<rayfold::Camera>& cameras, const std::string& fold, int align,
-             const std::string& backend, const std::string& device, const std::string& kernel, unsigned threads) {
+             const std::string& backend, const std::string& device, const std::string& kernel, unsigned threads,
+             nb::handle channels) {
             const rayfold::RendererOptions o = renderer_options(backend, device, kernel, threads);
+            const unsigned mask = parse_channels(channels);
             const std::string key = backend + "|" + device + "|" + kernel + "|" + std::to_string(threads);
             std::vector<rayfold::GBuffer> gs = locked(s, [&] {
               std::unique_ptr<rayfold::Renderer>& r = s.renderers[key];
               if (!r) r = std::make_unique<rayfold::Renderer>(s.scene, o);
-              return r->render_views(cameras, parse_fold(fold), align);
+              return r->render_views(cameras, parse_fold(fold), align, mask);
             });
             std::vector<PyGBuffer> out;
             for (size_t i = 0; i < gs.size(); ++i) out.push_back(to_python(std::move(gs[i]), cameras[i]));
             return out;
           },
           "cameras"_a, "fold"_a = "none", "align"_a = 0, "backend"_a = "opencl", "device"_a = "", "kernel"_a = "auto",
-          "threads"_a = 0,
+          "threads"_a = 0, "channels"_a = nb::none(),
           "Renders a list of views, one GBuffer each. Views of the same size and intrinsics are traced together, up "
           "to align per trace (0: as many as one holds; 1: each alone); every view's bits equal render(view). "
-          "Releases the GIL.");
+          "channels as in render. Releases the GIL.");
 
   nb::class_<PyRenderer>(m, "Renderer", "A renderer of one scene with fixed options (Scene.render keeps these).")
       .def(
@@ -460,11 +509,12 @@ NB_MODULE(_core, m) {
           "scene"_a, "backend"_a = "opencl", "device"_a = "", "kernel"_a = "auto", "threads"_a = 0)
       .def(
           "render",
-          [](PyRenderer& r, const rayfold::Camera& camera, const std::string& fold) {
+          [](PyRenderer& r, const rayfold::Camera& camera, const std::string& fold, nb::handle channels) {
+            const unsigned mask = parse_channels(channels);
             return render_locked(
-                *r.scene, [&]() -> rayfold::Renderer& { return *r.renderer; }, camera, parse_fold(fold));
+                *r.scene, [&]() -> rayfold::Renderer& { return *r.renderer; }, camera, parse_fold(fold), mask);
           },
-          "camera"_a, "fold"_a = "none")
+          "camera"_a, "fold"_a = "none", "channels"_a = nb::none(), "channels as in Scene.render.")
       .def_prop_ro("device_name", [](PyRenderer& r) { return r.renderer->device_name(); })
       .def_prop_ro("kernel", [](PyRenderer& r) { return r.renderer->kernel(); });
 }

@@ -34,24 +34,28 @@ struct Channel {
   const char* name;
   Imf::PixelType type;
   size_t offset;
+  unsigned plane;  // rayfold::Channels
 };
 
 const Channel kChannels[] = {
-    {"Z", Imf::FLOAT, offsetof(rf_pixel_hit, z)},
-    {"N.X", Imf::FLOAT, offsetof(rf_pixel_hit, nx)},
-    {"N.Y", Imf::FLOAT, offsetof(rf_pixel_hit, ny)},
-    {"N.Z", Imf::FLOAT, offsetof(rf_pixel_hit, nz)},
-    {"U", Imf::FLOAT, offsetof(rf_pixel_hit, u)},
-    {"V", Imf::FLOAT, offsetof(rf_pixel_hit, v)},
-    {"InstanceID", Imf::UINT, offsetof(rf_pixel_hit, instance)},
-    {"PrimitiveID", Imf::UINT, offsetof(rf_pixel_hit, primitive)},
+    {"Z", Imf::FLOAT, offsetof(rf_pixel_hit, z), kDepth},
+    {"N.X", Imf::FLOAT, offsetof(rf_pixel_hit, nx), kNormal},
+    {"N.Y", Imf::FLOAT, offsetof(rf_pixel_hit, ny), kNormal},
+    {"N.Z", Imf::FLOAT, offsetof(rf_pixel_hit, nz), kNormal},
+    {"U", Imf::FLOAT, offsetof(rf_pixel_hit, u), kUv},
+    {"V", Imf::FLOAT, offsetof(rf_pixel_hit, v), kUv},
+    {"InstanceID", Imf::UINT, offsetof(rf_pixel_hit, instance), kInstanceId},
+    {"PrimitiveID", Imf::UINT, offsetof(rf_pixel_hit, primitive), kPrimitiveId},
 };
 
-Imf::FrameBuffer frame_buffer(const rf_pixel_hit* base, int width) {
+// Slices of the channels in `planes`; read_exr asks for all, and OpenEXR
+// fills a channel the file lacks with 0.
+Imf::FrameBuffer frame_buffer(const rf_pixel_hit* base, int width, unsigned planes = kAllChannels) {
   Imf::FrameBuffer fb;
   char* bytes = reinterpret_cast<char*>(const_cast<rf_pixel_hit*>(base));
   for (const Channel& c : kChannels)
-    fb.insert(c.name, Imf::Slice(c.type, bytes + c.offset, sizeof(rf_pixel_hit), sizeof(rf_pixel_hit) * width));
+    if (planes & c.plane)
+      fb.insert(c.name, Imf::Slice(c.type, bytes + c.offset, sizeof(rf_pixel_hit), sizeof(rf_pixel_hit) * width));
   return fb;
 }
 
@@ -141,8 +145,29 @@ class CheckedExrStream : public Imf::OStream {
 
 }  // namespace
 
+unsigned parse_exr_channels(const std::string& list) {
+  static const std::pair<const char*, unsigned> kNames[] = {
+      {"Z", kDepth}, {"N", kNormal}, {"UV", kUv}, {"InstanceID", kInstanceId}, {"PrimitiveID", kPrimitiveId}};
+  unsigned mask = 0;
+  size_t start = 0;
+  while (start <= list.size()) {
+    const size_t end = std::min(list.find(',', start), list.size());
+    const std::string name = list.substr(start, end - start);
+    bool known = false;
+    for (const auto& [n, bit] : kNames)
+      if (name == n) {
+        mask |= bit;
+        known = true;
+      }
+    if (!known)
+      throw InputError("", "--channels: unknown channel '" + name + "' (Z, N, UV, InstanceID, PrimitiveID)");
+    start = end + 1;
+  }
+  return mask;
+}
+
 void write_exr(const std::string& path, const std::vector<rf_pixel_hit>& hits, int width, int height,
-               const ExrMetadata* metadata) {
+               const ExrMetadata* metadata, unsigned channels) {
   RF_CHECK(hits.size() == static_cast<size_t>(width) * height, "hit buffer does not match the image size");
   // ZIP compression of a 1280x720 G-buffer takes ten times the trace on one
   // thread; OpenEXR compresses blocks in parallel on its global pool
@@ -157,10 +182,11 @@ void write_exr(const std::string& path, const std::vector<rf_pixel_hit>& hits, i
   try {
     Imf::Header header(width, height);
     header.compression() = Imf::ZIP_COMPRESSION;
-    for (const Channel& c : kChannels) header.channels().insert(c.name, Imf::Channel(c.type));
+    for (const Channel& c : kChannels)
+      if (channels & c.plane) header.channels().insert(c.name, Imf::Channel(c.type));
     if (metadata) add_metadata(header, *metadata, width, height);
     Imf::OutputFile out(stream, header, Imf::globalThreadCount());
-    out.setFrameBuffer(frame_buffer(hits.data(), width));
+    out.setFrameBuffer(frame_buffer(hits.data(), width, channels));
     out.writePixels(height);
   } catch (const std::exception& e) {
     throw RuntimeFailure(path + ": cannot write the EXR file: " + e.what());

@@ -9,6 +9,7 @@
 #include <glm/mat4x4.hpp>
 
 #include "device_layout.h"
+#include "rayfold/gbuffer.h"
 
 namespace rayfold::core {
 
@@ -43,8 +44,14 @@ struct ExrMetadata {
 //   rayfold:instanceNames       string vector indexed by InstanceID
 //   rayfold:<name>              each of metadata.strings
 // Throws RuntimeFailure naming the file on failure; never leaves a partial file.
+// channels (rayfold::Channels) picks the channels written: Z, N.X/N.Y/N.Z,
+// U/V, InstanceID, PrimitiveID.
 void write_exr(const std::string& path, const std::vector<rf_pixel_hit>& hits, int width, int height,
-               const ExrMetadata* metadata = nullptr);
+               const ExrMetadata* metadata = nullptr, unsigned channels = kAllChannels);
+
+// The EXR channel names of --channels (Z, N, UV, InstanceID, PrimitiveID,
+// comma-separated) as rayfold::Channels; InputError naming an unknown one.
+unsigned parse_exr_channels(const std::string& list);
 
 // Normals mapped to colour ((n + 1) / 2), misses black. RuntimeFailure
 // naming the file on failure.

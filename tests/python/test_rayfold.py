@@ -168,6 +168,27 @@ def test_dataset_cameras_see_what_their_files_say(tmp_path):
         rayfold.Camera.from_colmap(tmp_path)
 
 
+def test_channels_fill_only_the_planes_asked_for(atrium):
+    camera = atrium.default_camera(48, 30)
+    full = atrium.render(camera, fold="xy")
+    for channels in ["depth,instance_id", ["depth", "instance_id"], ("instance_id", "depth")]:
+        g = atrium.render(camera, fold="xy", channels=channels)
+        assert g.normal is None and g.uv is None and g.primitive_id is None
+        np.testing.assert_array_equal(bits(g.depth), bits(full.depth))
+        np.testing.assert_array_equal(g.instance_id, full.instance_id)
+    (g,) = atrium.render_views([camera], channels="primitive_id")
+    np.testing.assert_array_equal(g.primitive_id, full.primitive_id)
+    assert g.depth is None
+    (g,) = list(atrium.iter_views([camera], channels=["uv"]))
+    np.testing.assert_array_equal(bits(g.uv), bits(full.uv))
+    r = rayfold.Renderer(atrium)
+    assert r.render(camera, channels="normal").depth is None
+    with pytest.raises(rayfold.InputError, match="unknown plane 'Z'"):
+        atrium.render(camera, channels="Z")
+    with pytest.raises(rayfold.InputError, match="at least one"):
+        atrium.render(camera, channels=[])
+
+
 def test_every_fold_backend_and_kernel_gives_the_same_bits(atrium):
     camera = atrium.default_camera(48, 30)
     ref = atrium.render(camera, backend="cpu")

@@ -66,6 +66,8 @@ const char* kRenderUsage =
     "  --frames N             trace N times and report the medians (default 1)\n"
     "  -o, --output F.exr     OpenEXR hit info: Z N.X N.Y N.Z U V InstanceID PrimitiveID;\n"
     "                         a frame field (out/frame_%04d.exr) writes every frame\n"
+    "  --channels C,...       the EXR channels written: Z, N (N.X, N.Y, N.Z), UV (U, V),\n"
+    "                         InstanceID, PrimitiveID (default: all eight)\n"
     "  --png F.png            normal-shaded preview, misses black\n"
     "  --stats F.json         the camera, options, hit and miss counts, phase times, device buffers\n"
     "  --ids F.json           the id manifest: InstanceID -> the file's node name and mesh\n"
@@ -102,6 +104,12 @@ RenderArgs parse_render(cli::Args& args) {
       r.cameras = args.value(a);
     } else if (a == "--colmap") {
       r.colmap = args.value(a);
+    } else if (a == "--channels") {
+      try {
+        r.channels = parse_exr_channels(args.value(a));
+      } catch (const InputError& e) {
+        throw UsageError(e.what());
+      }
     } else if (a == "--align") {
       const std::string v = args.value(a);
       r.align = v == "auto" ? -1 : v == "all" ? 0 : cli::parse_int(a, v, 1, RF_GROUP_LIMIT);
@@ -294,7 +302,8 @@ int render_views(RenderArgs r, const Scene& scene, const std::vector<cli::View>&
       const RenderResult vr = view_result(result, k);
       const ExrMetadata metadata = exr_metadata(v.camera, scene, r);
       const int w = v.camera.width, h = v.camera.height;
-      if (!r.exr.empty()) write_exr(view_output("-o", r.exr, v, stereo, views.size()), vr.hits, w, h, &metadata);
+      if (!r.exr.empty()) write_exr(view_output("-o", r.exr, v, stereo, views.size()), vr.hits, w, h, &metadata,
+                                  r.channels);
       if (!r.png.empty()) write_png(view_output("--png", r.png, v, stereo, views.size()), vr.hits, w, h);
       if (!r.stats.empty())
         write_stats(view_output("--stats", r.stats, v, stereo, views.size()), r, scene, v.camera, renderer, vr, load_ms,
@@ -440,7 +449,7 @@ int run_render(cli::Args& args) {
     result = renderer.render(camera, r.frames, frame_options);
     progress.stage("writing");
     const auto w0 = Clock::now();
-    if (!r.exr.empty()) write_exr(r.exr, result.hits, r.width, r.height, &metadata);
+    if (!r.exr.empty()) write_exr(r.exr, result.hits, r.width, r.height, &metadata, r.channels);
     if (!r.png.empty()) write_png(r.png, result.hits, r.width, r.height);
     write_ms += ms_since(w0);
     for (const std::string* out : {&r.exr, &r.png})
@@ -459,7 +468,7 @@ int run_render(cli::Args& args) {
       if (sequence || last) {
         const auto w0 = Clock::now();
         if (!r.exr.empty())
-          write_exr(frame_name("output", r.exr, f, nullptr), result.hits, r.width, r.height, &metadata);
+          write_exr(frame_name("output", r.exr, f, nullptr), result.hits, r.width, r.height, &metadata, r.channels);
         if (!r.png.empty()) write_png(frame_name("output", r.png, f, nullptr), result.hits, r.width, r.height);
         write_ms += ms_since(w0);
       }

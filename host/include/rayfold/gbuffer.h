@@ -16,6 +16,18 @@ namespace rayfold {
 // output is bit for bit the same in every mode; only the work differs.
 enum class Fold { none, y, x, xy };
 
+// The channels a render fills, as bit flags (kAllChannels by default): a
+// job that needs depth and masks asks for kDepth | kInstanceId and gets the
+// other planes empty, skipping their copies.
+enum Channels : unsigned {
+  kDepth = 1u,
+  kNormal = 2u,
+  kUv = 4u,
+  kInstanceId = 8u,
+  kPrimitiveId = 16u,
+  kAllChannels = 31u,
+};
+
 struct GBuffer {
   int width = 0, height = 0;
   // Distance from the eye along the pixel's ray (Camera::ray_direction), in
@@ -30,6 +42,7 @@ struct GBuffer {
   std::vector<float> uv;
   std::vector<uint32_t> instance_id;   // Scene instance index, kMiss on a miss
   std::vector<uint32_t> primitive_id;  // triangle index within the mesh, kMiss on a miss
+  unsigned channels = kAllChannels;    // the planes filled (Channels); the others are empty
 
   Fold fold = Fold::none;  // the fold traced (one the camera allows; Camera::can_fold_columns)
   size_t rays = 0;         // rays traced

@@ -48,16 +48,19 @@ class Renderer {
   // Traces one view. Instances moved since the last render (Scene::
   // set_transform) are placed anew; meshes or instances added rebuild the
   // trees. Not safe to call from two threads at once.
-  GBuffer render(const Camera& camera, Fold fold = Fold::none);
+  // channels (Channels) names the planes filled; InputError for none or an
+  // unknown bit.
+  GBuffer render(const Camera& camera, Fold fold = Fold::none, unsigned channels = kAllChannels);
   // The same into `out`, reusing its planes when the size matches.
-  void render_into(GBuffer& out, const Camera& camera, Fold fold = Fold::none);
+  void render_into(GBuffer& out, const Camera& camera, Fold fold = Fold::none, unsigned channels = kAllChannels);
   // Traces several views, one GBuffer each in the same order. Views with the
   // same image size and intrinsics are traced together, up to `align` per
   // trace (alignment: one traversal answers every view of it); each view's
   // bits are those of render(view) alone. align 1 traces each alone, 0 as
   // many as one trace holds (kMaxAlignedViews, divided by the fold's
   // mirrors: 2 for y or x, 4 for xy). InputError for another align.
-  std::vector<GBuffer> render_views(const std::vector<Camera>& cameras, Fold fold = Fold::none, int align = 0);
+  std::vector<GBuffer> render_views(const std::vector<Camera>& cameras, Fold fold = Fold::none, int align = 0,
+                                    unsigned channels = kAllChannels);
   // The same, handing each view to on_view (its index in cameras, its
   // G-buffer) as soon as its trace is done, so that memory holds one trace's
   // views whatever the list's length. Views come trace by trace, in list
@@ -65,7 +68,7 @@ class Renderer {
   // one size and intrinsics comes in list order. An exception from on_view
   // stops the rendering and propagates.
   void render_views(const std::vector<Camera>& cameras, const std::function<void(size_t, GBuffer&&)>& on_view,
-                    Fold fold = Fold::none, int align = 0);
+                    Fold fold = Fold::none, int align = 0, unsigned channels = kAllChannels);
 
   std::string device_name() const;  // "cpu reference" for the CPU backend
   std::string kernel() const;       // "tile", "single" or "cpu reference"
