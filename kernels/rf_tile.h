@@ -573,8 +573,10 @@ RF_INLINE void rf_tile_write_group(const RF_GLOBAL rf_u32* rays, rf_u32 begin, r
   rf_vf z[RF_LANE_GROUPS], nx[RF_LANE_GROUPS], ny[RF_LANE_GROUPS], nz[RF_LANE_GROUPS];
   for (int j = 0; j < RF_LANE_GROUPS; ++j) {
     const rf_vi hit = h->instance[j] != (rf_vu)(RF_INVALID);
-    if (!rf_lanes_any(hit)) {
-      z[j] = (rf_vf)(RF_INF);
+    const rf_vf dz = (rf_vf)(-1.0f);
+    if (!rf_lanes_any(hit) || cam->no_normals) {
+      const rf_vf len_d = sqrt(tc->dx[j] * tc->dx[j] + tc->dy[j] * tc->dy[j] + dz * dz);
+      z[j] = select((rf_vf)(RF_INF), (h->t[j] * len_d) * depth_scale, hit);
       nx[j] = ny[j] = nz[j] = (rf_vf)(0.0f);
       continue;
     }
@@ -627,7 +629,6 @@ RF_INLINE void rf_tile_write_group(const RF_GLOBAL rf_u32* rays, rf_u32 begin, r
     nx[j] = select(wx / len, (rf_vf)(0.0f), zero);
     ny[j] = select(wy / len, (rf_vf)(0.0f), zero);
     nz[j] = select(wz / len, (rf_vf)(0.0f), zero);
-    const rf_vf dz = (rf_vf)(-1.0f);
     const rf_vf len_d = sqrt(tc->dx[j] * tc->dx[j] + tc->dy[j] * tc->dy[j] + dz * dz);
     z[j] = select((rf_vf)(RF_INF), (h->t[j] * len_d) * depth_scale, hit);
   }

@@ -220,7 +220,10 @@ typedef struct {
  * The last four fields describe the pass, not the camera: views traced
  * together (all with these rays; their instances differ) and the group
  * layout above. view_rep has bit v * S set for every view v, so a ray's
- * groups are its slot mask times view_rep. One view, unfolded: 1, 0, 0, 1. */
+ * groups are its slot mask times view_rep. One view, unfolded: 1, 0, 0, 1.
+ * no_normals, nonzero, writes a zero normal for every pixel instead of
+ * computing it (a render that asked for no normal plane: the normal's
+ * divisions and square root were a tenth of an interior's trace). */
 typedef struct {
   float scale_x, scale_y;
   rf_i32 kx0, ky0;
@@ -232,6 +235,7 @@ typedef struct {
   rf_u32 group_shift;
   rf_u32 slot_mirrors;
   rf_u32 view_rep;
+  rf_u32 no_normals;
 } rf_camera;
 
 #endif /* RF_TYPES_H */

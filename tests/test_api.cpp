@@ -245,6 +245,26 @@ TEST(Api, ChannelsFillOnlyThePlanesAskedFor) {
   EXPECT_TRUE(views[1].depth.empty());
   EXPECT_THROW(renderer.render(cam, Fold::none, 0u), InputError);
   EXPECT_THROW(renderer.render(cam, Fold::none, 64u), InputError);
+  // Without the normal plane the tracers skip the normal: every other plane
+  // is still the full render's, on each backend and kernel, in every fold.
+  const unsigned no_normal = kAllChannels & ~static_cast<unsigned>(kNormal);
+  for (auto [backend, kernel] : {std::pair{Backend::cpu, Kernel::automatic}, std::pair{Backend::opencl, Kernel::tile},
+                                 std::pair{Backend::opencl, Kernel::single}}) {
+    RendererOptions o;
+    o.backend = backend;
+    o.kernel = kernel;
+    Renderer r(scene, o);
+    for (Fold f : {Fold::none, Fold::xy}) {
+      const GBuffer g = r.render(cam, f, no_normal);
+      const std::string what = "backend " + std::to_string(int(backend)) + " kernel " + std::to_string(int(kernel)) +
+                               " fold " + std::to_string(int(f));
+      EXPECT_TRUE(g.normal.empty()) << what;
+      EXPECT_EQ(std::memcmp(g.depth.data(), all.depth.data(), all.depth.size() * sizeof(float)), 0) << what;
+      EXPECT_EQ(std::memcmp(g.uv.data(), all.uv.data(), all.uv.size() * sizeof(float)), 0) << what;
+      EXPECT_EQ(g.instance_id, all.instance_id) << what;
+      EXPECT_EQ(g.primitive_id, all.primitive_id) << what;
+    }
+  }
 }
 
 TEST(Api, RenderViewsStreamsEachViewOnceTraceByTrace) {

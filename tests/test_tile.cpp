@@ -4,6 +4,8 @@
 // sizes, shifted windows, animated frames and the real scenes.
 #include <gtest/gtest.h>
 
+#include <cstring>
+
 #include <algorithm>
 #include <filesystem>
 #include <memory>
@@ -120,6 +122,34 @@ TEST(TileKernel, OddAndTinySizesAndShifts) {
   }
   for (auto [sx, sy] : std::vector<std::pair<double, double>>{{0.3, 0.0}, {0.0, -0.45}, {-0.7, 0.2}, {1.2, 1.1}}) {
     EXPECT_EQ(r.differences(make_camera(*scene.camera, 97, 61, sx, sy)), "") << "shift " << sx << "," << sy;
+  }
+}
+
+// FrameOptions::normals off: every tracer writes zero normals (it skips the
+// normal's arithmetic) and every other field of the render with normals.
+TEST(TileKernel, NormalsOffWriteZeroNormalsAndTheSameRest) {
+  const Scene scene = load_gltf(std::string(RAYFOLD_SOURCE_DIR) + "/scenes/atrium.glb");
+  ThreeWays r(scene);
+  const Camera cam = make_camera(*scene.camera, 97, 41);
+  for (FoldMode fold : {FoldMode::none, FoldMode::xy}) {
+    FrameOptions with;
+    with.fold = fold;
+    FrameOptions without = with;
+    without.normals = false;
+    for (Renderer* renderer : {r.cpu.get(), r.single.get(), r.tile.get()}) {
+      const std::vector<rf_pixel_hit> a = renderer->render(cam, 1, with).hits;
+      const std::vector<rf_pixel_hit> b = renderer->render(cam, 1, without).hits;
+      ASSERT_EQ(a.size(), b.size());
+      size_t hits = 0;
+      for (size_t i = 0; i < a.size(); ++i) {
+        ASSERT_TRUE(b[i].nx == 0.0f && b[i].ny == 0.0f && b[i].nz == 0.0f) << renderer->kernel_label() << " " << i;
+        rf_pixel_hit expect = a[i];
+        expect.nx = expect.ny = expect.nz = 0.0f;
+        ASSERT_EQ(std::memcmp(&expect, &b[i], sizeof expect), 0) << renderer->kernel_label() << " pixel " << i;
+        hits += a[i].instance != RF_INVALID;
+      }
+      EXPECT_GT(hits, a.size() / 4) << renderer->kernel_label();
+    }
   }
 }
 

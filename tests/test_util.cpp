@@ -88,7 +88,7 @@ std::vector<rf_pixel_hit> brute_force(const Scene& scene, const SceneData& data,
       // rf_write_pixel finds the triangle through an index; hand it this one.
       best.tri = 0;
       rf_write_pixel(&out[static_cast<size_t>(y) * cam.width + x], &best, len_d, 1.0f, best_tri ? best_tri : nullptr,
-                     data.normal_xforms.data());
+                     data.normal_xforms.data(), 0u);
     }
   return out;
 }

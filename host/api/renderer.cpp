@@ -161,6 +161,7 @@ void Renderer::render_into(GBuffer& g, const Camera& camera, Fold fold, unsigned
   core::FrameOptions frame;
   frame.fold = to_core(fold);
   frame.moved = impl_->moved();
+  frame.normals = (channels & kNormal) != 0;
   core::RenderResult& r = impl_->result;
   impl_->core->render_into(r, camera.core(), 1, frame);
   fill_gbuffer(g, r, camera.width(), camera.height(), impl_->options.threads, channels);
@@ -184,6 +185,7 @@ void Renderer::render_views(const std::vector<Camera>& cameras, const std::funct
   core::FrameOptions frame;
   frame.fold = to_core(fold);
   frame.moved = impl_->moved();
+  frame.normals = (channels & kNormal) != 0;
   std::vector<core::Camera> views;
   views.reserve(cameras.size());
   for (const Camera& c : cameras) views.push_back(c.core());

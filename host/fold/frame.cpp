@@ -81,6 +81,7 @@ rf_camera frame_camera(const Camera& camera, const Frame& frame) {
   params.slot_mirrors = fold_slot_mirrors(frame.fold);
   params.view_rep = 0;
   for (uint32_t v = 0; v < params.views; ++v) params.view_rep |= 1u << (v << params.group_shift);
+  params.no_normals = frame.normals ? 0u : 1u;
   return params;
 }
 
@@ -96,6 +97,7 @@ Frame build_frame(const Scene& scene, const SceneData& data, const std::vector<C
            "more (view, mirror) groups than one pass holds");
   Frame frame;
   frame.fold = options.fold;
+  frame.normals = options.normals;
   frame.node_base = static_cast<uint32_t>(data.blas.nodes.size());
   std::vector<Xform> world_from_trace, trace_from_world;
   for (const Camera& camera : cameras) {

@@ -25,6 +25,7 @@ struct FrameOptions {
   // tree_from_world and normal matrix are computed again from the scene. A
   // moved transform that is singular hides the instance for the frame.
   std::vector<uint32_t> moved{};
+  bool normals = true;  // false: the kernels write zero normals (rf_camera.no_normals)
 };
 
 struct FrameStats {
@@ -61,6 +62,7 @@ struct Frame {
   uint32_t tlas_root = RF_INVALID;     // RF_INVALID: nothing to trace
   std::vector<rf_node> tlas_nodes;     // to be placed at node_base
   std::vector<rf_instance> instances;  // in TLAS leaf order
+  bool normals = true;                 // FrameOptions::normals
   // Normal matrices of every scene instance when animation moved some this
   // frame; empty when SceneData's still hold.
   std::vector<rf_normal_xform> normal_xforms;

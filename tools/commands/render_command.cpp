@@ -199,6 +199,8 @@ RenderArgs parse_render(cli::Args& args) {
   if (r.fold_auto && r.compare) throw UsageError("--compare: compares a fold with none; name the fold");
   check_outputs(
       {{"-o", &r.exr, ".exr"}, {"--png", &r.png, ".png"}, {"--stats", &r.stats, ".json"}, {"--ids", &r.ids, ".json"}});
+  // No output reads the normal: the kernels skip it.
+  r.frame.normals = (r.channels & rayfold::kNormal) != 0 || !r.png.empty();
   if (r.compare && r.fold_given && r.frame.fold == FoldMode::none)
     throw UsageError(
         "--compare --fold none: --compare checks a fold against none; name y, x or xy (or leave --fold "
