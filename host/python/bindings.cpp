@@ -19,6 +19,7 @@
 #include <sstream>
 
 #include "rayfold/rayfold.h"
+#include "util/channels.h"
 
 namespace nb = nanobind;
 using namespace nb::literals;
@@ -119,40 +120,16 @@ rayfold::CameraConvention parse_convention(const std::string& s) {
 }
 
 // channels=: None for all, or the plane names as a list or one
-// comma-separated string.
+// comma-separated string (util/channels.h).
 unsigned parse_channels(nb::handle channels) {
   if (channels.is_none()) return rayfold::kAllChannels;
-  std::vector<std::string> names;
-  if (nb::isinstance<nb::str>(channels)) {
-    std::string all = nb::cast<std::string>(channels), item;
-    for (std::istringstream in(all); std::getline(in, item, ',');) names.push_back(item);
-  } else {
-    for (nb::handle item : channels) {
-      if (!nb::isinstance<nb::str>(item)) throw rayfold::InputError("", "channels: each name must be a str");
-      names.push_back(nb::cast<std::string>(item));
-    }
+  if (nb::isinstance<nb::str>(channels)) return rayfold::core::parse_channels(nb::cast<std::string>(channels));
+  std::string list;
+  for (nb::handle item : channels) {
+    if (!nb::isinstance<nb::str>(item)) throw rayfold::InputError("", "channels: each name must be a str");
+    list += (list.empty() ? "" : ",") + nb::cast<std::string>(item);
   }
-  static const std::pair<const char*, unsigned> kNames[] = {{"depth", rayfold::kDepth},
-                                                            {"normal", rayfold::kNormal},
-                                                            {"uv", rayfold::kUv},
-                                                            {"instance_id", rayfold::kInstanceId},
-                                                            {"primitive_id", rayfold::kPrimitiveId}};
-  unsigned mask = 0;
-  for (std::string name : names) {
-    name.erase(0, name.find_first_not_of(' '));
-    name.erase(name.find_last_not_of(' ') + 1);
-    bool known = false;
-    for (const auto& [n, bit] : kNames)
-      if (name == n) {
-        mask |= bit;
-        known = true;
-      }
-    if (!known)
-      throw rayfold::InputError("", "channels: unknown plane '" + name +
-                                        "' (depth, normal, uv, instance_id, primitive_id)");
-  }
-  if (mask == 0) throw rayfold::InputError("", "channels: name at least one plane");
-  return mask;
+  return rayfold::core::parse_channels(list);
 }
 
 rayfold::RendererOptions renderer_options(const std::string& backend, const std::string& device,

@@ -145,27 +145,6 @@ class CheckedExrStream : public Imf::OStream {
 
 }  // namespace
 
-unsigned parse_exr_channels(const std::string& list) {
-  static const std::pair<const char*, unsigned> kNames[] = {
-      {"Z", kDepth}, {"N", kNormal}, {"UV", kUv}, {"InstanceID", kInstanceId}, {"PrimitiveID", kPrimitiveId}};
-  unsigned mask = 0;
-  size_t start = 0;
-  while (start <= list.size()) {
-    const size_t end = std::min(list.find(',', start), list.size());
-    const std::string name = list.substr(start, end - start);
-    bool known = false;
-    for (const auto& [n, bit] : kNames)
-      if (name == n) {
-        mask |= bit;
-        known = true;
-      }
-    if (!known)
-      throw InputError("", "--channels: unknown channel '" + name + "' (Z, N, UV, InstanceID, PrimitiveID)");
-    start = end + 1;
-  }
-  return mask;
-}
-
 void write_exr(const std::string& path, const std::vector<rf_pixel_hit>& hits, int width, int height,
                const ExrMetadata* metadata, unsigned channels) {
   RF_CHECK(hits.size() == static_cast<size_t>(width) * height, "hit buffer does not match the image size");

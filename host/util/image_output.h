@@ -49,9 +49,6 @@ struct ExrMetadata {
 void write_exr(const std::string& path, const std::vector<rf_pixel_hit>& hits, int width, int height,
                const ExrMetadata* metadata = nullptr, unsigned channels = kAllChannels);
 
-// The EXR channel names of --channels (Z, N, UV, InstanceID, PrimitiveID,
-// comma-separated) as rayfold::Channels; InputError naming an unknown one.
-unsigned parse_exr_channels(const std::string& list);
 
 // Normals mapped to colour ((n + 1) / 2), misses black. RuntimeFailure
 // naming the file on failure.

@@ -183,8 +183,10 @@ def test_channels_fill_only_the_planes_asked_for(atrium):
     np.testing.assert_array_equal(bits(g.uv), bits(full.uv))
     r = rayfold.Renderer(atrium)
     assert r.render(camera, channels="normal").depth is None
-    with pytest.raises(rayfold.InputError, match="unknown plane 'Z'"):
-        atrium.render(camera, channels="Z")
+    g = atrium.render(camera, channels="Z,InstanceID")  # the EXR names work too
+    assert g.normal is None and g.depth is not None and g.instance_id is not None
+    with pytest.raises(rayfold.InputError, match="unknown channel 'colour'"):
+        atrium.render(camera, channels="colour")
     with pytest.raises(rayfold.InputError, match="at least one"):
         atrium.render(camera, channels=[])
 

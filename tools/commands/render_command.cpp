@@ -8,6 +8,7 @@
 #include "camera_list.h"
 #include "commands/common.h"
 #include "commands/render_args.h"
+#include "util/channels.h"
 #include "commands/render_outputs.h"
 #include "fold/view_passes.h"
 #include "progress.h"
@@ -106,7 +107,7 @@ RenderArgs parse_render(cli::Args& args) {
       r.colmap = args.value(a);
     } else if (a == "--channels") {
       try {
-        r.channels = parse_exr_channels(args.value(a));
+        r.channels = parse_channels(args.value(a));
       } catch (const InputError& e) {
         throw UsageError(e.what());
       }
