@@ -7,12 +7,12 @@
  * one depth scale per view of the pass. */
 #define RF_CAMERA_ARGS                                                                                            \
   float scale_x, float scale_y, int kx0, int ky0, int width, int height, int xpair, int ypair, float frac_x,      \
-      float frac_y, int ortho, uint views, uint group_shift, uint slot_mirrors, uint view_rep, uint no_normals,   \
+      float frac_y, int ortho, uint views, uint group_shift, uint slot_mirrors, uint view_rep, uint write_flags,  \
       __global const float *depth_scales
 
 RF_INLINE rf_camera rf_make_camera(float scale_x, float scale_y, int kx0, int ky0, int width, int height, int xpair,
                                    int ypair, float frac_x, float frac_y, int ortho, uint views, uint group_shift,
-                                   uint slot_mirrors, uint view_rep, uint no_normals) {
+                                   uint slot_mirrors, uint view_rep, uint write_flags) {
   rf_camera cam;
   cam.scale_x = scale_x;
   cam.scale_y = scale_y;
@@ -29,13 +29,13 @@ RF_INLINE rf_camera rf_make_camera(float scale_x, float scale_y, int kx0, int ky
   cam.group_shift = group_shift;
   cam.slot_mirrors = slot_mirrors;
   cam.view_rep = view_rep;
-  cam.no_normals = no_normals;
+  cam.write_flags = write_flags;
   return cam;
 }
 
 #define RF_MAKE_CAMERA()                                                                                           \
   rf_make_camera(scale_x, scale_y, kx0, ky0, width, height, xpair, ypair, frac_x, frac_y, ortho, views, group_shift, \
-                 slot_mirrors, view_rep, no_normals)
+                 slot_mirrors, view_rep, write_flags)
 
 /* The single-ray kernel: one work-item per ray-list entry. */
 __kernel void rf_trace_primary(__global const rf_node* nodes, __global const rf_tri* tris,

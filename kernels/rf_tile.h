@@ -574,9 +574,12 @@ RF_INLINE void rf_tile_write_group(const RF_GLOBAL rf_u32* rays, rf_u32 begin, r
   for (int j = 0; j < RF_LANE_GROUPS; ++j) {
     const rf_vi hit = h->instance[j] != (rf_vu)(RF_INVALID);
     const rf_vf dz = (rf_vf)(-1.0f);
-    if (!rf_lanes_any(hit) || cam->no_normals) {
-      const rf_vf len_d = sqrt(tc->dx[j] * tc->dx[j] + tc->dy[j] * tc->dy[j] + dz * dz);
-      z[j] = select((rf_vf)(RF_INF), (h->t[j] * len_d) * depth_scale, hit);
+    const rf_vf len_d = (cam->write_flags & RF_WRITE_PLANAR_DEPTH)
+                            ? (rf_vf)(1.0f)
+                            : sqrt(tc->dx[j] * tc->dx[j] + tc->dy[j] * tc->dy[j] + dz * dz);
+    /* Planar: t * depth_scale, as the scalar code (t * 1 is t). */
+    z[j] = select((rf_vf)(RF_INF), (h->t[j] * len_d) * depth_scale, hit);
+    if (!rf_lanes_any(hit) || (cam->write_flags & RF_WRITE_NO_NORMALS)) {
       nx[j] = ny[j] = nz[j] = (rf_vf)(0.0f);
       continue;
     }
@@ -629,8 +632,6 @@ RF_INLINE void rf_tile_write_group(const RF_GLOBAL rf_u32* rays, rf_u32 begin, r
     nx[j] = select(wx / len, (rf_vf)(0.0f), zero);
     ny[j] = select(wy / len, (rf_vf)(0.0f), zero);
     nz[j] = select(wz / len, (rf_vf)(0.0f), zero);
-    const rf_vf len_d = sqrt(tc->dx[j] * tc->dx[j] + tc->dy[j] * tc->dy[j] + dz * dz);
-    z[j] = select((rf_vf)(RF_INF), (h->t[j] * len_d) * depth_scale, hit);
   }
   const float* zs = (const float*)z;
   const float* xs = (const float*)nx;

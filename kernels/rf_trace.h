@@ -195,7 +195,7 @@ RF_INLINE void rf_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_
  * depth_scale the power of two that takes trace units to world units. */
 RF_INLINE void rf_write_pixel(RF_GLOBAL rf_pixel_hit* px, const rf_hit* h, float len_d, float depth_scale,
                               const RF_GLOBAL rf_tri* tris, const RF_GLOBAL rf_normal_xform* normal_xforms,
-                              rf_u32 no_normals) {
+                              rf_u32 write_flags) {
   if (h->instance == RF_INVALID) {
     px->z = RF_INF;
     px->nx = 0.0f;
@@ -208,8 +208,8 @@ RF_INLINE void rf_write_pixel(RF_GLOBAL rf_pixel_hit* px, const rf_hit* h, float
     return;
   }
   float n[3] = {0.0f, 0.0f, 0.0f};
-  if (!no_normals) rf_geometric_normal(&tris[h->tri], &normal_xforms[h->instance], n);
-  px->z = (h->t * len_d) * depth_scale;
+  if (!(write_flags & RF_WRITE_NO_NORMALS)) rf_geometric_normal(&tris[h->tri], &normal_xforms[h->instance], n);
+  px->z = (write_flags & RF_WRITE_PLANAR_DEPTH) ? h->t * depth_scale : (h->t * len_d) * depth_scale;
   px->nx = n[0];
   px->ny = n[1];
   px->nz = n[2];
@@ -293,7 +293,7 @@ RF_INLINE void rf_write_answers(const rf_camera_ray* ray, const rf_hit* hits, co
   RF_FOR_EACH_GROUP(g, ray->groups) {
     const rf_u32 view = g >> cam->group_shift;
     const size_t at = rf_group_pixel_index(ray->x, ray->y, g, cam);
-    rf_write_pixel(&out[at], &hits[g], len_d, depth_scales[view], tris, normal_xforms, cam->no_normals);
+    rf_write_pixel(&out[at], &hits[g], len_d, depth_scales[view], tris, normal_xforms, cam->write_flags);
   }
 }
 

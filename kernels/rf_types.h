@@ -221,9 +221,16 @@ typedef struct {
  * together (all with these rays; their instances differ) and the group
  * layout above. view_rep has bit v * S set for every view v, so a ray's
  * groups are its slot mask times view_rep. One view, unfolded: 1, 0, 0, 1.
- * no_normals, nonzero, writes a zero normal for every pixel instead of
- * computing it (a render that asked for no normal plane: the normal's
- * divisions and square root were a tenth of an interior's trace). */
+ * write_flags change what a pixel's hit info holds:
+ *   RF_WRITE_NO_NORMALS   a zero normal instead of the computed one (a
+ *                         render that asked for no normal plane: the
+ *                         normal's divisions and square root were a tenth
+ *                         of an interior's trace)
+ *   RF_WRITE_PLANAR_DEPTH z is the depth along the camera's axis (t times
+ *                         the depth scale, d's z being -1: one rounding)
+ *                         instead of the distance along the ray */
+#define RF_WRITE_NO_NORMALS 1u
+#define RF_WRITE_PLANAR_DEPTH 2u
 typedef struct {
   float scale_x, scale_y;
   rf_i32 kx0, ky0;
@@ -235,7 +242,7 @@ typedef struct {
   rf_u32 group_shift;
   rf_u32 slot_mirrors;
   rf_u32 view_rep;
-  rf_u32 no_normals;
+  rf_u32 write_flags;
 } rf_camera;
 
 #endif /* RF_TYPES_H */

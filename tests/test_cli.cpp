@@ -13,6 +13,7 @@
 #include <ImfChannelList.h>
 #include <ImfHeader.h>
 #include <ImfInputFile.h>
+#include <ImfStringAttribute.h>
 #include <ImfStringVectorAttribute.h>
 #include <nlohmann/json.hpp>
 
@@ -347,6 +348,33 @@ TEST(Cli, DatasetCamerasRenderAsTheCameraListOfTheirPoses) {
   EXPECT_EQ(r.code, 2) << r.err;
   EXPECT_NE(r.err.find("--size does not combine with it"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(d / "x.exr"));
+}
+
+// --depth planar: Z along the camera's axis, never more than the distance,
+// equal to it at the image centre; the header says which Z it is.
+TEST(Cli, PlanarDepthIsRecordedAndAtMostTheDistance) {
+  const fs::path d = work_dir();
+  CliRun r = rayfold("render --size 48x30 -o " + (d / "distance.exr").string());
+  ASSERT_EQ(r.code, 0) << r.err;
+  r = rayfold("render --size 48x30 --depth planar -o " + (d / "planar.exr").string());
+  ASSERT_EQ(r.code, 0) << r.err;
+  int w = 0, h = 0;
+  const auto dist = read_exr((d / "distance.exr").string(), &w, &h);
+  const auto planar = read_exr((d / "planar.exr").string(), &w, &h);
+  size_t shorter = 0;
+  for (size_t i = 0; i < dist.size(); ++i) {
+    if (dist[i].instance == RF_INVALID) continue;
+    ASSERT_LE(planar[i].z, dist[i].z * (1 + 1e-6f)) << "pixel " << i;
+    shorter += planar[i].z < dist[i].z * (1 - 1e-4f);
+  }
+  EXPECT_GT(shorter, dist.size() / 2);
+  Imf::InputFile in((d / "planar.exr").string().c_str());
+  const auto* depth = in.header().findTypedAttribute<Imf::StringAttribute>("rayfold:depth");
+  ASSERT_NE(depth, nullptr);
+  EXPECT_NE(depth->value().find("--depth planar"), std::string::npos) << depth->value();
+  r = rayfold("render --size 48x30 --depth z -o " + (d / "bad.exr").string());
+  EXPECT_EQ(r.code, 2) << r.err;
+  EXPECT_NE(r.err.find("--depth: 'distance'"), std::string::npos) << r.err;
 }
 
 // --channels writes only the channels named, with the full file's values.

@@ -6,6 +6,8 @@
 
 #include <cstring>
 
+#include <glm/geometric.hpp>
+
 #include <algorithm>
 #include <filesystem>
 #include <memory>
@@ -149,6 +151,44 @@ TEST(TileKernel, NormalsOffWriteZeroNormalsAndTheSameRest) {
         hits += a[i].instance != RF_INVALID;
       }
       EXPECT_GT(hits, a.size() / 4) << renderer->kernel_label();
+    }
+  }
+}
+
+// FrameOptions::planar_depth: every tracer writes the same bits, each z the
+// ray distance times the cosine of the pixel's ray to the camera axis, and
+// the rest of the pixel as the distance render's.
+TEST(TileKernel, PlanarDepthIsTheDistanceAlongTheCameraAxis) {
+  const Scene scene = load_gltf(std::string(RAYFOLD_SOURCE_DIR) + "/scenes/atrium.glb");
+  ThreeWays r(scene);
+  const Camera cam = make_camera(*scene.camera, 97, 41);
+  for (FoldMode fold : {FoldMode::none, FoldMode::xy}) {
+    FrameOptions distance;
+    distance.fold = fold;
+    FrameOptions planar = distance;
+    planar.planar_depth = true;
+    const std::vector<rf_pixel_hit> ref = r.cpu->render(cam, 1, planar).hits;
+    for (Renderer* renderer : {r.cpu.get(), r.single.get(), r.tile.get()}) {
+      const std::vector<rf_pixel_hit> a = renderer->render(cam, 1, distance).hits;
+      const std::vector<rf_pixel_hit> b = renderer->render(cam, 1, planar).hits;
+      ASSERT_EQ(std::memcmp(b.data(), ref.data(), b.size() * sizeof(rf_pixel_hit)), 0) << renderer->kernel_label();
+      size_t hits = 0;
+      for (int y = 0; y < cam.height; ++y)
+        for (int x = 0; x < cam.width; ++x) {
+          const size_t i = static_cast<size_t>(y) * cam.width + x;
+          rf_pixel_hit rest = b[i];
+          rest.z = a[i].z;
+          ASSERT_EQ(std::memcmp(&rest, &a[i], sizeof rest), 0) << renderer->kernel_label() << " pixel " << i;
+          if (a[i].instance == RF_INVALID) {
+            EXPECT_EQ(b[i].z, RF_INF);
+            continue;
+          }
+          const glm::dvec3 d = exact_direction(cam, x, y);
+          const double cosine = -d.z / glm::length(d);
+          EXPECT_NEAR(b[i].z, a[i].z * cosine, 1e-6 * a[i].z) << renderer->kernel_label() << " pixel " << i;
+          ++hits;
+        }
+      EXPECT_GT(hits, b.size() / 4);
     }
   }
 }

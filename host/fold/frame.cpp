@@ -81,7 +81,7 @@ rf_camera frame_camera(const Camera& camera, const Frame& frame) {
   params.slot_mirrors = fold_slot_mirrors(frame.fold);
   params.view_rep = 0;
   for (uint32_t v = 0; v < params.views; ++v) params.view_rep |= 1u << (v << params.group_shift);
-  params.no_normals = frame.normals ? 0u : 1u;
+  params.write_flags = (frame.normals ? 0u : RF_WRITE_NO_NORMALS) | (frame.planar_depth ? RF_WRITE_PLANAR_DEPTH : 0u);
   return params;
 }
 
@@ -98,6 +98,7 @@ Frame build_frame(const Scene& scene, const SceneData& data, const std::vector<C
   Frame frame;
   frame.fold = options.fold;
   frame.normals = options.normals;
+  frame.planar_depth = options.planar_depth;
   frame.node_base = static_cast<uint32_t>(data.blas.nodes.size());
   std::vector<Xform> world_from_trace, trace_from_world;
   for (const Camera& camera : cameras) {

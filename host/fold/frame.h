@@ -25,7 +25,8 @@ struct FrameOptions {
   // tree_from_world and normal matrix are computed again from the scene. A
   // moved transform that is singular hides the instance for the frame.
   std::vector<uint32_t> moved{};
-  bool normals = true;  // false: the kernels write zero normals (rf_camera.no_normals)
+  bool normals = true;         // false: the kernels write zero normals (RF_WRITE_NO_NORMALS)
+  bool planar_depth = false;  // true: z along the camera's axis (RF_WRITE_PLANAR_DEPTH)
 };
 
 struct FrameStats {
@@ -63,6 +64,7 @@ struct Frame {
   std::vector<rf_node> tlas_nodes;     // to be placed at node_base
   std::vector<rf_instance> instances;  // in TLAS leaf order
   bool normals = true;                 // FrameOptions::normals
+  bool planar_depth = false;           // FrameOptions::planar_depth
   // Normal matrices of every scene instance when animation moved some this
   // frame; empty when SceneData's still hold.
   std::vector<rf_normal_xform> normal_xforms;

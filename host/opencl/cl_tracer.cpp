@@ -217,7 +217,7 @@ double ClTracer::trace(const rf_camera& cam, KernelKind kind) {
     kernel.setArg(a++, cam.group_shift);
     kernel.setArg(a++, cam.slot_mirrors);
     kernel.setArg(a++, cam.view_rep);
-    kernel.setArg(a++, cam.no_normals);
+    kernel.setArg(a++, cam.write_flags);
     kernel.setArg(a++, depth_scales_);
     kernel.setArg(a++, host_out_ ? host_hits_ : hits_);
     if (kind == KernelKind::tile && tile_stats_) {

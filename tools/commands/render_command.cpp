@@ -67,6 +67,8 @@ const char* kRenderUsage =
     "  --frames N             trace N times and report the medians (default 1)\n"
     "  -o, --output F.exr     OpenEXR hit info: Z N.X N.Y N.Z U V InstanceID PrimitiveID;\n"
     "                         a frame field (out/frame_%04d.exr) writes every frame\n"
+    "  --depth distance|planar  Z as the distance along the pixel's ray (default) or the\n"
+    "                         depth along the camera's axis (Nuke's and Blender's Z)\n"
     "  --channels C,...       the EXR channels written: Z, N (N.X, N.Y, N.Z), UV (U, V),\n"
     "                         InstanceID, PrimitiveID (default: all eight)\n"
     "  --png F.png            normal-shaded preview, misses black\n"
@@ -105,6 +107,12 @@ RenderArgs parse_render(cli::Args& args) {
       r.cameras = args.value(a);
     } else if (a == "--colmap") {
       r.colmap = args.value(a);
+    } else if (a == "--depth") {
+      const std::string v = args.value(a);
+      if (v != "distance" && v != "planar")
+        throw UsageError("--depth: 'distance' (along the ray, the default) or 'planar' (along the camera's axis), "
+                         "not '" + v + "'");
+      r.frame.planar_depth = v == "planar";
     } else if (a == "--channels") {
       try {
         r.channels = parse_channels(args.value(a));

@@ -20,7 +20,10 @@ ExrMetadata exr_metadata(const Camera& camera, const Scene& scene, const RenderA
   m.strings = {{"version", RAYFOLD_VERSION},
                {"scene", args.scene},
                {"fold", fold_name(args.frame.fold)},
-               {"depth", "Z is the distance from the eye along the pixel's ray (not camera-space z); +inf on a miss"},
+               {"depth", args.frame.planar_depth
+                             ? "Z is the depth along the camera's axis (camera-space -z, --depth planar); +inf on a miss"
+                             : "Z is the distance from the eye along the pixel's ray (not camera-space z); +inf on a "
+                               "miss"},
                {"miss", "InstanceID and PrimitiveID are 4294967295 on a miss"}};
   return m;
 }
