@@ -37,19 +37,6 @@ MIN_HIT_AGREEMENT = 0.995
 MAX_MEDIAN_DEPTH_ERROR = 1e-5
 
 
-def world_triangles(scene):
-    """(T, 3, 3) float32 world-space triangles of every instance, as rendered."""
-    parts = []
-    for inst in range(scene.instance_count):
-        mesh = scene.instance_mesh(inst)
-        p = np.asarray(scene.mesh_positions(mesh), dtype=np.float64).reshape(-1, 3)
-        idx = np.asarray(scene.mesh_triangles(mesh), dtype=np.int64).reshape(-1, 3)
-        m = np.asarray(scene.transform(inst), dtype=np.float64)
-        w = p @ m[:3, :3].T + m[:3, 3]
-        parts.append(w[idx])
-    return np.concatenate(parts).astype(np.float32) if parts else np.zeros((0, 3, 3), np.float32)
-
-
 def cameras_from(path, width, height):
     with open(path) as f:
         report = json.load(f)
@@ -144,7 +131,7 @@ def main():
     scene = rayfold.Scene(args.scene)
     cams = cameras_from(args.cameras, width, height)
     renderer = rayfold.Renderer(scene, threads=args.threads)
-    tris = world_triangles(scene)
+    tris = scene.world_triangles().triangles
 
     peers, skipped = [], []
     for cls, pkg in ((Mitsuba, "mitsuba"), (Open3D, "open3d-cpu")):

@@ -38,9 +38,18 @@ def first_hits(origin, dirs, tris):
 
 
 def test_world_triangles_are_what_rayfold_renders(atrium_path):
+    """Scene.world_triangles (what the bench hands the peers) against brute
+    force on the rendered depths, and its row map against the G-buffer's ids:
+    the row of a hit's (instance, primitive) is a triangle through the hit."""
     scene = rayfold.Scene(atrium_path)
-    tris = bench.world_triangles(scene)
-    assert tris.shape == (scene.triangle_count, 3, 3)
+    world = scene.world_triangles()
+    tris = world.triangles
+    assert tris.shape == (scene.triangle_count, 3, 3) and tris.dtype == np.float32
+    assert world.first_row[0] == 0 and world.first_row[-1] == len(tris)
+    for inst in range(scene.instance_count):
+        rows = slice(world.first_row[inst], world.first_row[inst + 1])
+        assert np.all(world.instance_id[rows] == inst)
+        np.testing.assert_array_equal(world.primitive_id[rows], np.arange(rows.stop - rows.start))
     cam = scene.default_camera(48, 27)
     g = scene.render(cam, backend="cpu")
     dirs = np.asarray(cam.ray_directions(), dtype=np.float32).reshape(-1, 3)
@@ -52,6 +61,15 @@ def test_world_triangles_are_what_rayfold_renders(atrium_path):
     np.testing.assert_array_equal(np.isfinite(got), np.isfinite(want))
     both = np.isfinite(want)
     assert np.max(np.abs(got[both] - want[both]) / want[both]) < 1e-4
+    # Each hit pixel's triangle, found through first_row, holds its hit point.
+    hit = g.instance_id.reshape(-1) != rayfold.MISS
+    rows = world.first_row[g.instance_id.reshape(-1)[hit]] + g.primitive_id.reshape(-1)[hit]
+    t = tris[rows].astype(np.float64)
+    points = np.asarray(cam.eye) + g.depth.reshape(-1)[hit, None] * dirs[hit].astype(np.float64)
+    n = np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    off_plane = np.abs(np.einsum("ij,ij->i", points - t[:, 0], n)) / g.depth.reshape(-1)[hit]
+    assert hit.sum() > 100 and np.max(off_plane) < 1e-4
 
 
 def test_agreement_sees_a_disagreement():

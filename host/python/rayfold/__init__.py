@@ -26,6 +26,8 @@ from ._core import (
     __version__,
 )
 
+from ._geometry import WorldTriangles
+from ._geometry import world_triangles as _world_triangles
 from ._streams import from_colmap as _from_colmap
 from ._streams import from_matrices as _from_matrices
 from ._streams import from_nerf as _from_nerf
@@ -35,5 +37,7 @@ Camera.from_matrices = staticmethod(_from_matrices)
 Camera.from_nerf = staticmethod(_from_nerf)
 Camera.from_colmap = staticmethod(_from_colmap)
 Scene.iter_views = _iter_views
+Scene.world_triangles = _world_triangles
 
-__all__ = ["MISS", "Camera", "GBuffer", "InputError", "Renderer", "RuntimeFailure", "Scene", "__version__"]
+__all__ = ["MISS", "Camera", "GBuffer", "InputError", "Renderer", "RuntimeFailure", "Scene", "WorldTriangles",
+           "__version__"]
