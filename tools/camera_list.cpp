@@ -73,8 +73,9 @@ std::optional<Intrinsics> read_intrinsics(const json& j, const std::string& wher
 
 }  // namespace
 
-std::vector<View> read_camera_list(const std::string& path) {
-  const json j = read_json_object(path, "camera list");
+namespace {
+
+std::vector<View> read_camera_list(const json& j, const std::string& path) {
   const int width = side(j, "width", path), height = side(j, "height", path);
   const double vfov = j.contains("vfov") ? number(j["vfov"], "vfov", path) : 60.0;
   const std::optional<Intrinsics> list_k = read_intrinsics(j, "", path);
@@ -141,24 +142,28 @@ std::vector<View> read_camera_list(const std::string& path) {
   return views;
 }
 
+}  // namespace
+
+std::vector<View> read_camera_list(const std::string& path) {
+  return read_camera_list(read_json_object(path, "camera list"), path);
+}
+
 std::vector<View> read_cameras_file(const std::string& path, int width, int height, std::string* note) {
-  bool nerf = false, has_size = false;
-  {
-    const json j = read_json_object(path, "camera list");
-    nerf = j.contains("frames") && !j.contains("cameras");
-    has_size = nerf && j.contains("w") && j.contains("h");
-  }
+  const json j = read_json_object(path, "camera list");
+  const bool nerf = j.contains("frames") && !j.contains("cameras");
+  const bool has_size = nerf && j.contains("w") && j.contains("h");
   const bool size_given = width > 0 && height > 0;
   if (!nerf) {
     if (size_given) throw InputError(path, "gives the size of its views; --size does not combine with it");
-    return read_camera_list(path);
+    return read_camera_list(j, path);
   }
   if (size_given && has_size)
     throw InputError(path, "gives the image size (w, h); --size does not combine with it");
   std::vector<std::string> ignored;
   std::vector<View> views;
   size_t i = 0;
-  for (DatasetView& v : read_nerf_cameras(path, width, height, &ignored)) views.push_back({v.camera, std::to_string(i++)});
+  for (DatasetView& v : read_nerf_cameras(j, path, width, height, &ignored))
+    views.push_back({v.camera, std::to_string(i++)});
   if (note && !ignored.empty()) {
     std::string keys;
     for (const std::string& k : ignored) keys += (keys.empty() ? "" : ", ") + k;

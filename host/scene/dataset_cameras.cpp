@@ -74,7 +74,11 @@ void check_keys(const json& j, const std::string& where, const std::string& path
 
 std::vector<DatasetView> read_nerf_cameras(const std::string& path, int width, int height,
                                            std::vector<std::string>* ignored) {
-  const json top = read_json_object(path, "transforms file");
+  return read_nerf_cameras(read_json_object(path, "transforms file"), path, width, height, ignored);
+}
+
+std::vector<DatasetView> read_nerf_cameras(const json& top, const std::string& path, int width, int height,
+                                           std::vector<std::string>* ignored) {
   check_keys(top, "", path, false, ignored);
   if (!top.contains("frames") || !top["frames"].is_array() || top["frames"].empty())
     throw InputError(path, "\"frames\" must be a non-empty array");

@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json_fwd.hpp>
+
 #include "scene/camera.h"
 
 namespace rayfold::core {
@@ -29,6 +31,9 @@ struct DatasetView {
 // an InputError naming it and the frame.
 std::vector<DatasetView> read_nerf_cameras(const std::string& path, int width = 0, int height = 0,
                                            std::vector<std::string>* ignored = nullptr);
+// The same from the file's parsed top-level object (path names it in errors).
+std::vector<DatasetView> read_nerf_cameras(const nlohmann::json& top, const std::string& path, int width, int height,
+                                           std::vector<std::string>* ignored);
 
 // A COLMAP text model: dir/cameras.txt (PINHOLE, SIMPLE_PINHOLE; other
 // models are refused by name) and dir/images.txt (world-to-camera rotation
