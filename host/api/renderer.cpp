@@ -47,6 +47,7 @@ struct Renderer::Impl {
   uint64_t built_version = 0;  // SceneState::structure_version the trees were built for
   uint64_t built_clock = 0;    // SceneState::clock then: later set_transforms are moves
   core::RenderResult result;   // its hit buffer is reused render to render
+  bool planar_depth = false;   // RendererOptions::depth
 
   void build() {
     core.reset();
@@ -78,6 +79,7 @@ Renderer::Renderer(const Scene& scene, const RendererOptions& options) : impl_(s
   impl_->options.device_hint = options.device;
   impl_->options.kernel = to_core(options.kernel);
   impl_->options.threads = options.threads;
+  impl_->planar_depth = options.depth == Depth::planar;
   impl_->build();
 }
 
@@ -162,6 +164,7 @@ void Renderer::render_into(GBuffer& g, const Camera& camera, Fold fold, unsigned
   frame.fold = to_core(fold);
   frame.moved = impl_->moved();
   frame.normals = (channels & kNormal) != 0;
+  frame.planar_depth = impl_->planar_depth;
   core::RenderResult& r = impl_->result;
   impl_->core->render_into(r, camera.core(), 1, frame);
   fill_gbuffer(g, r, camera.width(), camera.height(), impl_->options.threads, channels);
@@ -186,6 +189,7 @@ void Renderer::render_views(const std::vector<Camera>& cameras, const std::funct
   frame.fold = to_core(fold);
   frame.moved = impl_->moved();
   frame.normals = (channels & kNormal) != 0;
+  frame.planar_depth = impl_->planar_depth;
   std::vector<core::Camera> views;
   views.reserve(cameras.size());
   for (const Camera& c : cameras) views.push_back(c.core());

@@ -133,7 +133,8 @@ unsigned parse_channels(nb::handle channels) {
 }
 
 rayfold::RendererOptions renderer_options(const std::string& backend, const std::string& device,
-                                          const std::string& kernel, unsigned threads) {
+                                          const std::string& kernel, unsigned threads,
+                                          const std::string& depth = "distance") {
   rayfold::RendererOptions o;
   if (backend == "opencl")
     o.backend = rayfold::Backend::opencl;
@@ -149,6 +150,13 @@ rayfold::RendererOptions renderer_options(const std::string& backend, const std:
     o.kernel = rayfold::Kernel::single;
   else
     throw rayfold::InputError("", "kernel must be 'auto', 'tile' or 'single', not '" + kernel + "'");
+  if (depth == "distance")
+    o.depth = rayfold::Depth::distance;
+  else if (depth == "planar")
+    o.depth = rayfold::Depth::planar;
+  else
+    throw rayfold::InputError("", "depth must be 'distance' (along the ray) or 'planar' (along the camera's axis), "
+                                  "not '" + depth + "'");
   o.device = device;
   o.threads = threads;
   return o;
@@ -436,10 +444,12 @@ NB_MODULE(_core, m) {
       .def(
           "render",
           [](PyScene& s, const rayfold::Camera& camera, const std::string& fold, const std::string& backend,
-             const std::string& device, const std::string& kernel, unsigned threads, nb::handle channels) {
-            const rayfold::RendererOptions o = renderer_options(backend, device, kernel, threads);
+             const std::string& device, const std::string& kernel, unsigned threads, nb::handle channels,
+             const std::string& depth) {
+            const rayfold::RendererOptions o = renderer_options(backend, device, kernel, threads, depth);
             const unsigned mask = parse_channels(channels);
-            const std::string key = backend + "|" + device + "|" + kernel + "|" + std::to_string(threads);
+            const std::string key =
+                backend + "|" + device + "|" + kernel + "|" + std::to_string(threads) + "|" + depth;
             auto cached = [&]() -> rayfold::Renderer& {
               std::unique_ptr<rayfold::Renderer>& r = s.renderers[key];
               if (!r) r = std::make_unique<rayfold::Renderer>(s.scene, o);
@@ -448,17 +458,19 @@ NB_MODULE(_core, m) {
             return render_locked(s, cached, camera, parse_fold(fold), mask);
           },
           "camera"_a, "fold"_a = "none", "backend"_a = "opencl", "device"_a = "", "kernel"_a = "auto", "threads"_a = 0,
-          "channels"_a = nb::none(),
+          "channels"_a = nb::none(), "depth"_a = "distance",
           "Renders a G-buffer. The trees and kernels for these options are built on first use and kept. channels: "
-          "the planes to fill (a list or 'depth,instance_id'; default all), the others None. Releases the GIL.")
+          "the planes to fill (a list or 'depth,instance_id'; default all), the others None. depth: 'distance' "
+          "along each pixel's ray, or 'planar' along the camera's axis. Releases the GIL.")
       .def(
           "render_views",
           [](PyScene& s, const std::vector<rayfold::Camera>& cameras, const std::string& fold, int align,
              const std::string& backend, const std::string& device, const std::string& kernel, unsigned threads,
-             nb::handle channels) {
-            const rayfold::RendererOptions o = renderer_options(backend, device, kernel, threads);
+             nb::handle channels, const std::string& depth) {
+            const rayfold::RendererOptions o = renderer_options(backend, device, kernel, threads, depth);
             const unsigned mask = parse_channels(channels);
-            const std::string key = backend + "|" + device + "|" + kernel + "|" + std::to_string(threads);
+            const std::string key =
+                backend + "|" + device + "|" + kernel + "|" + std::to_string(threads) + "|" + depth;
             std::vector<rayfold::GBuffer> gs = locked(s, [&] {
               std::unique_ptr<rayfold::Renderer>& r = s.renderers[key];
               if (!r) r = std::make_unique<rayfold::Renderer>(s.scene, o);
@@ -469,21 +481,22 @@ NB_MODULE(_core, m) {
             return out;
           },
           "cameras"_a, "fold"_a = "none", "align"_a = 0, "backend"_a = "opencl", "device"_a = "", "kernel"_a = "auto",
-          "threads"_a = 0, "channels"_a = nb::none(),
+          "threads"_a = 0, "channels"_a = nb::none(), "depth"_a = "distance",
           "Renders a list of views, one GBuffer each. Views of the same size and intrinsics are traced together, up "
           "to align per trace (0: as many as one holds; 1: each alone); every view's bits equal render(view). "
-          "channels as in render. Releases the GIL.");
+          "channels and depth as in render. Releases the GIL.");
 
   nb::class_<PyRenderer>(m, "Renderer", "A renderer of one scene with fixed options (Scene.render keeps these).")
       .def(
           "__init__",
           [](PyRenderer* self, std::shared_ptr<PyScene> scene, const std::string& backend, const std::string& device,
-             const std::string& kernel, unsigned threads) {
-            const rayfold::RendererOptions o = renderer_options(backend, device, kernel, threads);
+             const std::string& kernel, unsigned threads, const std::string& depth) {
+            const rayfold::RendererOptions o = renderer_options(backend, device, kernel, threads, depth);
             auto renderer = locked(*scene, [&] { return std::make_unique<rayfold::Renderer>(scene->scene, o); });
             new (self) PyRenderer{std::move(scene), std::move(renderer)};
           },
-          "scene"_a, "backend"_a = "opencl", "device"_a = "", "kernel"_a = "auto", "threads"_a = 0)
+          "scene"_a, "backend"_a = "opencl", "device"_a = "", "kernel"_a = "auto", "threads"_a = 0,
+          "depth"_a = "distance")
       .def(
           "render",
           [](PyRenderer& r, const rayfold::Camera& camera, const std::string& fold, nb::handle channels) {

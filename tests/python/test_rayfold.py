@@ -191,6 +191,31 @@ def test_channels_fill_only_the_planes_asked_for(atrium):
         atrium.render(camera, channels=[])
 
 
+def test_planar_depth_is_the_distance_along_the_camera_axis(atrium):
+    """depth='planar': the distance times the cosine of each pixel's ray to the
+    camera's axis, the same bits on every backend and kernel and through every
+    call, the other planes unchanged."""
+    camera = atrium.default_camera(48, 30)
+    dist = atrium.render(camera, fold="xy")
+    planar = atrium.render(camera, fold="xy", depth="planar")
+    axis = -camera.camera_to_world[:3, 2]
+    cosine = camera.ray_directions() @ axis
+    hit = np.isfinite(dist.depth)
+    assert hit.sum() > 200
+    np.testing.assert_allclose(planar.depth[hit], dist.depth[hit] * cosine[hit], rtol=1e-6)
+    assert np.all(np.isinf(planar.depth[~hit]))
+    np.testing.assert_array_equal(planar.instance_id, dist.instance_id)
+    np.testing.assert_array_equal(bits(planar.normal), bits(dist.normal))
+    for g in [atrium.render(camera, fold="none", depth="planar", backend="cpu"),
+              atrium.render(camera, depth="planar", kernel="single"),
+              atrium.render_views([camera], depth="planar")[0],
+              next(atrium.iter_views([camera], depth="planar")),
+              rayfold.Renderer(atrium, depth="planar").render(camera)]:
+        np.testing.assert_array_equal(bits(g.depth), bits(planar.depth))
+    with pytest.raises(rayfold.InputError, match="depth must be 'distance'"):
+        atrium.render(camera, depth="z")
+
+
 def test_every_fold_backend_and_kernel_gives_the_same_bits(atrium):
     camera = atrium.default_camera(48, 30)
     ref = atrium.render(camera, backend="cpu")
