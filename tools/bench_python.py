@@ -10,7 +10,8 @@ Every peer's depth is checked against rayfold's on every view before anything
 is timed (hit/miss and depth agreement); a peer that disagrees is reported and
 not timed. Times are wall clock from Python after a warm-up, median over
 frames, per view, then the median over views: rayfold's `Renderer.render`
-(the whole G-buffer into numpy, every fold mode, the fastest reported), the
+(the whole G-buffer into numpy, every fold mode, the fastest reported; and
+with channels="depth", the distances alone as the peers return them), the
 peers' intersection call on prebuilt rays (ray building is not counted).
 
 usage: bench_python.py SCENE --cameras PEERS.json [--size WxH] [--threads N]
@@ -141,6 +142,7 @@ def main():
             skipped.append(f"{cls.name}: cannot be imported ({e}); not timed (pip install {pkg})")
 
     ours_ms = {f: [] for f in FOLDS}
+    depth_ms = {f: [] for f in FOLDS}
     peer_ms = {p.name: [] for p in peers}
     checks = {p.name: [] for p in peers}
     for cam in cams:
@@ -149,6 +151,10 @@ def main():
             ms, g = timed(lambda: renderer.render(cam, fold=f), args.frames, args.warmup)
             ours_ms[f].append(ms)
             depth = g.depth.reshape(-1)
+            ms, d = timed(lambda: renderer.render(cam, fold=f, channels="depth"), args.frames, args.warmup)
+            depth_ms[f].append(ms)
+            if not np.array_equal(d.depth.view(np.uint32), g.depth.view(np.uint32)):
+                sys.exit(f"bench_python.py: channels='depth' changed the depth (fold {f}): a rayfold bug")
         origin = np.asarray(cam.eye, dtype=np.float32)
         dirs = np.asarray(cam.ray_directions(), dtype=np.float32)
         for p in peers:
@@ -161,9 +167,12 @@ def main():
 
     best_fold = min(FOLDS, key=lambda f: statistics.median(ours_ms[f]))
     ours = statistics.median(ours_ms[best_fold])
+    ours_depth = min(statistics.median(depth_ms[f]) for f in FOLDS)
     mpix = width * height / 1e3
     rows = [{"variant": f"rayfold Renderer.render, fold {f}", "ms": statistics.median(ours_ms[f]),
              "mpixels_per_s": mpix / statistics.median(ours_ms[f])} for f in FOLDS]
+    rows += [{"variant": f"rayfold Renderer.render, channels='depth', fold {f}", "ms": statistics.median(depth_ms[f]),
+              "mpixels_per_s": mpix / statistics.median(depth_ms[f])} for f in FOLDS]
     failed = []
     for p in peers:
         worst_hit = min(h for h, _ in checks[p.name])
@@ -174,15 +183,18 @@ def main():
             continue
         ms = statistics.median(peer_ms[p.name])
         rows.append({"variant": p.name, "ms": ms, "mpixels_per_s": mpix / ms, "ratio": ms / ours,
-                     "hit_agreement": worst_hit, "median_depth_difference": worst_err})
+                     "ratio_depth_only": ms / ours_depth, "hit_agreement": worst_hit,
+                     "median_depth_difference": worst_err})
 
     name = os.path.splitext(os.path.basename(args.scene))[0]
     lines = [f"Scene `{name}`: {len(tris)} triangles; {width}x{height}, {len(cams)} views from {args.cameras}, "
              f"median of {args.frames} frames after {args.warmup}, {args.threads} threads, wall clock from Python.",
-             "", "| variant | ms/frame | Mpixels/s | rayfold's fastest fold against it |", "|---|---|---|---|"]
+             "", "| variant | ms/frame | Mpixels/s | rayfold's fastest fold against it: G-buffer | depth only |",
+             "|---|---|---|---|---|"]
     for r in rows:
         ratio = f"**{r['ratio']:.2f}x**" if "ratio" in r else ""
-        lines.append(f"| {r['variant']} | {r['ms']:.1f} | {r['mpixels_per_s']:.1f} | {ratio} |")
+        ratio_depth = f"**{r['ratio_depth_only']:.2f}x**" if "ratio_depth_only" in r else ""
+        lines.append(f"| {r['variant']} | {r['ms']:.1f} | {r['mpixels_per_s']:.1f} | {ratio} | {ratio_depth} |")
     for note in skipped + failed:
         lines.append(f"\n{note}")
     md = "\n".join(lines) + "\n"
