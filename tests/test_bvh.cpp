@@ -171,13 +171,13 @@ TEST(Bvh, FlatTreeKeepsPairsAlignedAfterTheirParents) {
 // axes (first on ties, axes in order), or at the object median where no
 // boundary separates anything; a node is a leaf exactly when it has one
 // primitive or SAH prefers it and it fits.
-TEST(Bvh, EverySplitIsTheCheapestBinBoundary) {
+TEST(Bvh, EverySplitIsTheCheapestBinOrSweepBoundary) {
   Rng rng(78);
   const std::vector<Aabb> boxes = clustered_boxes(rng, 40000);
   const BuildOptions opt;
   const BuildTree tree = build_sah(boxes, opt, 2);
   check_tree(tree, boxes);
-  size_t sah_splits = 0, medians = 0;
+  size_t sah_splits = 0, sweeps = 0, medians = 0;
   // Each node's primitive range, recovered top-down.
   std::vector<std::pair<uint32_t, uint32_t>> range(tree.nodes.size());
   range[0] = {0, static_cast<uint32_t>(tree.order.size())};
@@ -222,6 +222,40 @@ TEST(Bvh, EverySplitIsTheCheapestBinBoundary) {
       const float f = (b.centre()[a] - centres.lo[a]) * (opt.bins / (centres.hi[a] - centres.lo[a]));
       return !(f > 0.0f) ? 0 : f >= opt.bins - 1 ? opt.bins - 1 : static_cast<int>(f);
     };
+    const float parent_area = std::max(bounds.half_area(), 1e-30f);
+    if (count >= 2 && count <= opt.sweep_size) {
+      // Every boundary of the primitives ordered by centre, ties by index.
+      float best_sum = INFINITY;
+      std::vector<uint32_t> best_left;
+      for (int a = 0; a < 3; ++a) {
+        std::vector<uint32_t> prims(tree.order.begin() + first, tree.order.begin() + first + count);
+        std::sort(prims.begin(), prims.end(), [&](uint32_t p, uint32_t q) {
+          const float cp = boxes[p].centre()[a], cq = boxes[q].centre()[a];
+          return cp < cq || (cp == cq && p < q);
+        });
+        for (uint32_t j = 1; j < count; ++j) {
+          Aabb left, right;
+          for (uint32_t k = 0; k < count; ++k) (k < j ? left : right).grow(boxes[prims[k]]);
+          const float sum = left.half_area() * static_cast<float>(j) + right.half_area() * static_cast<float>(count - j);
+          if (sum < best_sum) {
+            best_sum = sum;
+            best_left.assign(prims.begin(), prims.begin() + j);
+          }
+        }
+      }
+      const float cost = opt.traversal_cost + opt.intersection_cost * best_sum / parent_area;
+      const bool leaf = cost >= opt.intersection_cost * count && count <= opt.max_leaf_size;
+      ASSERT_EQ(n.is_leaf(), leaf) << "node " << i << " of " << count << " primitives, best cost " << cost;
+      if (leaf) continue;
+      sweeps++;
+      // As sets: the children's own splits reorder them.
+      std::vector<uint32_t> left(tree.order.begin() + first, tree.order.begin() + first + range[n.left].second);
+      std::sort(left.begin(), left.end());
+      std::sort(best_left.begin(), best_left.end());
+      ASSERT_EQ(left, best_left) << "node " << i << ": the left child is not the cheapest boundary's left side";
+      continue;
+    }
+    // The bins: prices compare as area times count summed over both sides.
     float best = INFINITY;
     int best_axis = -1, best_bin = 0;
     for (int a = 0; a < 3; ++a) {
@@ -240,16 +274,15 @@ TEST(Bvh, EverySplitIsTheCheapestBinBoundary) {
           }
         }
         if (nl == 0 || nr == 0) continue;
-        const float cost = opt.traversal_cost + opt.intersection_cost *
-                                                    (left.half_area() * nl + right.half_area() * nr) /
-                                                    std::max(bounds.half_area(), 1e-30f);
-        if (cost < best) {
-          best = cost;
+        const float sum = left.half_area() * static_cast<float>(nl) + right.half_area() * static_cast<float>(nr);
+        if (sum < best) {
+          best = sum;
           best_axis = a;
           best_bin = b;
         }
       }
     }
+    if (best_axis >= 0) best = opt.traversal_cost + opt.intersection_cost * best / parent_area;
     const bool prefers_leaf = best_axis < 0 || best >= opt.intersection_cost * count;
     const bool leaf = count <= 1 || (prefers_leaf && count <= opt.max_leaf_size);
     ASSERT_EQ(n.is_leaf(), leaf) << "node " << i << " of " << count << " primitives, best cost " << best;
@@ -267,6 +300,7 @@ TEST(Bvh, EverySplitIsTheCheapestBinBoundary) {
     }
   }
   EXPECT_GT(sah_splits, 1000u);
+  EXPECT_GT(sweeps, 1000u);
   EXPECT_GT(medians, 10u);  // the dozens of duplicates
 }
 

@@ -84,7 +84,7 @@ int main(int argc, char** argv) {
   using namespace rayfold::core;
   return cli::guarded_main([&] {
     const char* usage =
-        "usage: rayfold-stats SCENE [--eye X,Y,Z --look-at X,Y,Z] [--size WxH] [--fold MODE] [--no-braid]\n"
+        "usage: rayfold-stats SCENE [--eye X,Y,Z --look-at X,Y,Z [--up X,Y,Z]] [--size WxH] [--fold MODE] [--no-braid]\n"
         "                     [--braid-items N] [--braid-min N] [--braid-loose R] [--vfov DEG] [--depth-sources]\n"
         "Traversal counters per ray and per pixel: the single-ray kernel's on the CPU reference, the tile\n"
         "kernel's on the OpenCL device (default 320x180, the file's camera or a framing view).\n"
@@ -108,6 +108,8 @@ int main(int argc, char** argv) {
         spec.eye = cli::parse_vec3(a, args.value(a));
       else if (a == "--look-at")
         spec.look_at = cli::parse_vec3(a, args.value(a));
+      else if (a == "--up")
+        spec.up = cli::parse_vec3(a, args.value(a));
       else if (a == "--depth-sources")
         depth_sources = true;
       else if (a == "--vfov")

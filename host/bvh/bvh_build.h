@@ -20,6 +20,10 @@ struct BuildNode {
 struct BuildOptions {
   int bins = 16;
   uint32_t max_leaf_size = 8;
+  // Nodes of at most this many primitives (up to 16) are split at the best
+  // of every boundary between them ordered by centre (ties by primitive
+  // index) on each axis; larger ones at the best bin boundary.
+  uint32_t sweep_size = 4;
   float traversal_cost = 1.0f;     // SAH cost of one box-pair test
   float intersection_cost = 1.0f;  // SAH cost of one primitive test
   // Past this depth splits become object medians, so that trees of up to
