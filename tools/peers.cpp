@@ -15,6 +15,7 @@
 #include "reference/hit_compare.h"
 #include "renderer.h"
 #include "scene/gltf_loader.h"
+#include "util/timer.h"
 
 namespace rayfold::core {
 namespace {
@@ -50,7 +51,9 @@ PeerRow make_row(const std::string& variant, const std::string& fold) {
 }  // namespace
 
 PeerReport run_peers(const PeerOptions& opt) {
+  const auto load_start = Clock::now();
   const Scene scene = load_gltf(opt.scene);
+  const double load_ms = ms_since(load_start);
   const std::vector<CameraSpec> path = camera_path(scene, opt);
 
   struct Ours {
@@ -72,6 +75,7 @@ PeerReport run_peers(const PeerOptions& opt) {
   const bool time_cpu = opt.variants.count("cpu") != 0;
   const FoldMode folds[] = {FoldMode::none, FoldMode::y, FoldMode::x, FoldMode::xy};
   std::vector<std::unique_ptr<Renderer>> renderers;
+  double first_renderer_ms = 0.0;
   for (const Ours& o : ours) {
     RendererOptions ro;
     ro.backend = o.backend;
@@ -79,7 +83,9 @@ PeerReport run_peers(const PeerOptions& opt) {
     ro.precision = o.precision;
     ro.threads = opt.threads;
     ro.device_hint = opt.device_hint;
+    const auto start = Clock::now();
     renderers.push_back(std::make_unique<Renderer>(scene, ro));
+    if (renderers.size() == 1) first_renderer_ms = ms_since(start);
   }
   const SceneData& data = renderers[0]->scene_data();
   const size_t timed_renderers = time_cpu ? renderers.size() : renderers.size() - 1;
@@ -96,13 +102,14 @@ PeerReport run_peers(const PeerOptions& opt) {
   rep.instances = scene.instances.size();
   rep.views_note = opt.views_note;
   rep.cameras = path;
-  rep.rayfold_build_ms = data.blas.build_ms;
   const double triangles = std::max<double>(1.0, static_cast<double>(rep.triangles));
   {
-    // The renderer's build again, alone, for its peak memory: deterministic,
-    // so it is the same build.
+    // The renderer's trees again, alone: their time without the device's
+    // set-up beside them (a Renderer overlaps the two), and their peak
+    // memory. Deterministic, so they are the same trees.
     const PeakMemory memory;
-    const BlasSet again = build_blas_set(scene, BuildOptions{}, opt.threads);
+    const SceneData again = prepare_scene(scene, opt.threads, BraidOptions{});
+    rep.rayfold_build_ms = again.blas.build_ms;
     rep.rayfold_build_bytes = static_cast<double>(memory.peak_bytes()) / triangles;
   }
 
@@ -115,6 +122,22 @@ PeerReport run_peers(const PeerOptions& opt) {
     rep.embree_high_build_bytes = static_cast<double>(embree->build_peak_bytes(EmbreeScene::flat_high)) / triangles;
   } else
     rep.embree_note = "rayfold was built without Embree: its rows are skipped (install libembree-dev and reconfigure).";
+
+  // Time to the first G-buffer of view 0: rayfold's load, renderer (trees,
+  // device, programs) and first frame (its kernels' first launch included)
+  // of the first timed variant, against Embree's default flat build and its
+  // first rtcIntersect16 frame.
+  if (!path.empty() && timed_renderers > 0) {
+    const Camera cam = make_camera(path[0], opt.width, opt.height);
+    const auto start = Clock::now();
+    renderers[0]->render(cam, 1, FrameOptions{});
+    rep.rayfold_first_gbuffer = {load_ms, first_renderer_ms, ms_since(start)};
+    if (embree) {
+      embree->set_camera(cam);
+      std::vector<rf_pixel_hit> hits;
+      rep.embree_first_gbuffer = {0.0, rep.embree_build_ms, embree->trace16(hits, EmbreeScene::flat)};
+    }
+  }
 
   std::vector<Accumulator> acc;
   for (size_t r = 0; r < timed_renderers; ++r)
@@ -223,6 +246,16 @@ std::string peers_markdown(const PeerReport& r) {
       << " (default quality), " << fmt("%.0f", r.embree_high_build_ms) << " ms" << bytes(r.embree_high_build_bytes)
       << " (high)";
   s << ". Peak: the resident set's high-water mark during the build, less where it started.\n";
+  const FirstGbuffer& a = r.rayfold_first_gbuffer;
+  if (a.total() > 0.0) {
+    s << "First G-buffer (view 0): rayfold " << fmt("%.0f", a.total()) << " ms (load " << fmt("%.0f", a.load_ms)
+      << ", renderer " << fmt("%.0f", a.build_ms) << ", first frame " << fmt("%.0f", a.frame_ms) << ")";
+    const FirstGbuffer& e = r.embree_first_gbuffer;
+    if (e.total() > 0.0)
+      s << "; Embree flat " << fmt("%.0f", e.total()) << " ms (build " << fmt("%.0f", e.build_ms) << ", first frame "
+        << fmt("%.0f", e.frame_ms) << "; its load not counted)";
+    s << ".\n";
+  }
   s << "\nTimes: rayfold per frame is ray list + trace + readback; Embree's is the trace into host memory. "
        "Exact rows are checked bit for bit against the CPU reference's unfolded image first. "
        "Accuracy against the double-precision reference: share of pixels whose (instance, primitive) differs, "
@@ -276,6 +309,11 @@ std::string peers_json(const PeerReport& r) {
                             {"vfov", c.vfov_degrees}});
   j["rayfold_build_ms"] = r.rayfold_build_ms;
   j["embree_build_ms"] = r.embree_build_ms;
+  auto first = [](const FirstGbuffer& f) {
+    return nlohmann::json{{"load_ms", f.load_ms}, {"build_ms", f.build_ms}, {"frame_ms", f.frame_ms}, {"total_ms", f.total()}};
+  };
+  j["rayfold_first_gbuffer"] = first(r.rayfold_first_gbuffer);
+  j["embree_first_gbuffer"] = first(r.embree_first_gbuffer);
   j["embree_high_build_ms"] = r.embree_high_build_ms;
   j["rayfold_build_bytes_per_triangle"] = r.rayfold_build_bytes;
   j["embree_build_bytes_per_triangle"] = r.embree_build_bytes;

@@ -37,6 +37,13 @@ struct PeerRow {
   size_t mismatched_pixels = 0;  // exact rows: pixels that differ from it, over all views (must be 0)
 };
 
+// Time from nothing to one G-buffer: the file's load, the trees (rayfold:
+// the whole renderer, device and programs included) and the first frame, ms.
+struct FirstGbuffer {
+  double load_ms = 0.0, build_ms = 0.0, frame_ms = 0.0;
+  double total() const { return load_ms + build_ms + frame_ms; }
+};
+
 struct PeerReport {
   std::string scene, device, embree_note, views_note;
   std::vector<CameraSpec> cameras;  // the views traced
@@ -50,6 +57,9 @@ struct PeerReport {
   // counted each time, as Embree's flat scene holds them; tools/peak_memory.h;
   // 0 where it cannot be measured), bytes.
   double rayfold_build_bytes = 0.0, embree_build_bytes = 0.0, embree_high_build_bytes = 0.0;
+  // rayfold's first timed variant; Embree's default flat scene, whose load
+  // (it has none of its own: it is handed rayfold's triangles) is 0.
+  FirstGbuffer rayfold_first_gbuffer, embree_first_gbuffer;
   std::vector<PeerRow> rows;
   // False when an exact row differs from the CPU reference: no figure of
   // the report is then valid.
