@@ -3,8 +3,6 @@
 #include <algorithm>
 #include <cstdio>
 #include <cstring>
-#include <future>
-#include <utility>
 
 #include <unistd.h>
 
@@ -23,27 +21,13 @@ double median(std::vector<double> values) {
   return values[values.size() / 2];
 }
 
-Renderer::Renderer(const Scene& scene, const RendererOptions& options) : scene_(scene), options_(options) {
-  // The device and its programs need nothing from the trees, and most of
-  // their set-up is waiting (loading the OpenCL libraries, the kernel
-  // cache): they come up on a thread of their own while the trees build.
-  // A failed build still waits for it (the future's destructor), and its
-  // error is the one reported.
-  using DeviceAndTracer = std::pair<std::unique_ptr<ClDevice>, std::unique_ptr<ClTracer>>;
-  std::future<DeviceAndTracer> device;
-  if (options_.backend == Backend::opencl)
-    device = std::async(std::launch::async, [this] {
-      auto d = std::make_unique<ClDevice>(options_.device_hint);
-      auto t = std::make_unique<ClTracer>(*d, options_.precision);
-      return DeviceAndTracer(std::move(d), std::move(t));
-    });
-  data_ = prepare_scene(scene, options.threads, options.braid);
+Renderer::Renderer(const Scene& scene, const RendererOptions& options)
+    : scene_(scene), options_(options), data_(prepare_scene(scene, options.threads, options.braid)) {
   nodes_ = data_.blas.nodes;
   kernel_reason_ = "the CPU backend";
   if (options_.backend == Backend::opencl) {
-    DeviceAndTracer ready = device.get();
-    device_ = std::move(ready.first);
-    tracer_ = std::move(ready.second);
+    device_ = std::make_unique<ClDevice>(options_.device_hint);
+    tracer_ = std::make_unique<ClTracer>(*device_, options_.precision);
     // PoCL runs one work-item per thread, so only the tile kernel uses the
     // CPU's vector units; on other devices the faster one is measured.
     const bool cpu = device_->info().is_cpu;

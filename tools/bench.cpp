@@ -9,7 +9,6 @@
 #include <glm/gtc/matrix_transform.hpp>
 #include <nlohmann/json.hpp>
 
-#include "bvh/scene_data.h"
 #include "reference/hit_compare.h"
 #include "scene/gltf_loader.h"
 #include "util/errors.h"
@@ -143,8 +142,7 @@ BenchReport run_bench(const BenchOptions& opt, const std::function<void(size_t, 
   rep.instances = scene.instances.size();
   rep.meshes = scene.meshes.size();
   rep.triangles = scene.triangle_count();
-  // Built again alone: the renderer's build ran beside its device's set-up.
-  rep.prebuild_ms = prepare_scene(scene, opt.renderer.threads, opt.renderer.braid).blas.build_ms;
+  rep.prebuild_ms = renderer.blas_build_ms();
   for (const Method& m : kMethods) rep.rows.push_back({m.name, m.fold, m.cull});
 
   const size_t pixels = static_cast<size_t>(opt.width) * opt.height;

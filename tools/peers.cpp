@@ -104,9 +104,9 @@ PeerReport run_peers(const PeerOptions& opt) {
   rep.cameras = path;
   const double triangles = std::max<double>(1.0, static_cast<double>(rep.triangles));
   {
-    // The renderer's trees again, alone: their time without the device's
-    // set-up beside them (a Renderer overlaps the two), and their peak
-    // memory. Deterministic, so they are the same trees.
+    // The renderer's trees again, alone, for their time and peak memory
+    // without the renderer's other set-up. Deterministic, so they are the
+    // same trees.
     const PeakMemory memory;
     const SceneData again = prepare_scene(scene, opt.threads, BraidOptions{});
     rep.rayfold_build_ms = again.blas.build_ms;
