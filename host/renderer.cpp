@@ -10,6 +10,7 @@
 #include "util/timer.h"
 
 #include "fold/ray_list.h"
+#include "rays/ray_queries.h"
 #include "reference/cpu_tracer.h"
 #include "util/parallel.h"
 
@@ -221,6 +222,31 @@ void Renderer::render_views_into(RenderResult& result, const std::vector<Camera>
       result.warnings.push_back(cameras.size() == 1 ? text : "view " + std::to_string(v) + ": " + text);
   }
   result.median = median_times(result.frames);
+}
+
+void Renderer::intersect(const float* origins, const float* directions, size_t n, float tmin, float tmax,
+                         bool any_hit, const FrameOptions& frame_options, rf_pixel_hit* out) {
+  check_query_rays(origins, directions, n, tmin, tmax);
+  if (n == 0) return;
+  const Frame frame = build_query_frame(scene_, data_, origins, n, frame_options);
+  const unsigned flags = frame.normals ? 0u : RF_WRITE_NO_NORMALS;
+  TraceInputs in;
+  if (tracer_) {
+    ensure_capacity(1, RF_MIRRORS);
+    tracer_->upload_frame(frame);
+  } else {
+    in = host_inputs(frame);
+  }
+  constexpr size_t kChunk = size_t{1} << 20;  // 64 MiB of rays and answers
+  std::vector<rf_query_ray> chunk;
+  for (size_t begin = 0; begin < n; begin += kChunk) {
+    const size_t end = std::min(n, begin + kChunk);
+    to_trace_space(origins, directions, begin, end, tmin, tmax, frame, chunk);
+    if (tracer_)
+      tracer_->trace_queries(chunk, any_hit, flags, out + begin);
+    else
+      trace_queries_cpu(in, chunk, any_hit, flags, out + begin, options_.threads);
+  }
 }
 
 TraceInputs Renderer::host_inputs(const Frame& frame) {

@@ -107,6 +107,14 @@ class Renderer {
   void render_views_into(RenderResult& result, const std::vector<Camera>& cameras, int frames = 1,
                          const FrameOptions& frame_options = {});
 
+  // Ray queries (rays/ray_queries.h): for each of n world-space rays
+  // (origins, directions n x 3) its closest hit with tmin < t <= tmax, or
+  // with any_hit the first one found, as a pixel's hit info (z = t along the
+  // given direction). In chunks, so memory stays bounded for any n. The
+  // frame options' moved and normals apply. InputError for a bad ray.
+  void intersect(const float* origins, const float* directions, size_t n, float tmin, float tmax, bool any_hit,
+                 const FrameOptions& frame_options, rf_pixel_hit* out);
+
   const SceneData& scene_data() const { return data_; }
   std::string device_name() const;
   // The OpenCL kernel that traces (KernelChoice resolved for the device;

@@ -48,6 +48,16 @@ __kernel void rf_trace_primary(__global const rf_node* nodes, __global const rf_
   rf_trace_entry(rays[i], &cam, depth_scales, nodes, tris, instances, normal_xforms, tlas_root, out);
 }
 
+/* Ray queries: one work-item per ray; any_hit for occlusion. */
+__kernel void rf_trace_queries(__global const rf_node* nodes, __global const rf_tri* tris,
+                               __global const rf_instance* instances, __global const rf_normal_xform* normal_xforms,
+                               uint tlas_root, __global const rf_query_ray* rays, uint ray_count, uint any_hit,
+                               uint write_flags, __global rf_pixel_hit* out) {
+  const uint i = get_global_id(0);
+  if (i >= ray_count) return;
+  rf_trace_query(&rays[i], nodes, tris, instances, normal_xforms, tlas_root, any_hit != 0u, write_flags, &out[i]);
+}
+
 /* The tile kernel (rf_tile.h): one work-item per tile of the ray list; tile t
  * covers rays[tiles[t] .. tiles[t + 1]). PoCL runs it fastest with one
  * work-item per work-group: the SIMD is inside the work-item. */

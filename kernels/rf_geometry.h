@@ -100,6 +100,18 @@ RF_INLINE void rf_ray_to_object_from(rf_ray* out, const RF_GLOBAL float* m, floa
   rf_ray_init(out, px, py, pz, ex, ey, ez);
 }
 
+/* The same for a ray from any trace-space point (ray queries). */
+RF_INLINE void rf_ray_to_object_at(rf_ray* out, const RF_GLOBAL float* m, float ox, float oy, float oz, float dx,
+                                   float dy, float dz) {
+  const float px = ((m[0] * ox + m[1] * oy) + m[2] * oz) + m[3];
+  const float py = ((m[4] * ox + m[5] * oy) + m[6] * oz) + m[7];
+  const float pz = ((m[8] * ox + m[9] * oy) + m[10] * oz) + m[11];
+  const float ex = m[0] * dx + m[1] * dy + m[2] * dz;
+  const float ey = m[4] * dx + m[5] * dy + m[6] * dz;
+  const float ez = m[8] * dx + m[9] * dy + m[10] * dz;
+  rf_ray_init(out, px, py, pz, ex, ey, ez);
+}
+
 /* Slab test. Returns the (widened) entry distance, or RF_FAR when the ray misses
  * the box or enters it beyond tmax. A negative tmax means "skip". */
 RF_INLINE float rf_intersect_box(const RF_GLOBAL rf_node* n, const rf_ray* r, float tmax) {

@@ -49,9 +49,10 @@ RF_INLINE int rf_hit_is_closer(float t, rf_u32 instance, rf_u32 prim, const rf_h
  * or beyond the widened entry and unchanged [Stress.*, Scale.*]. */
 RF_INLINE float rf_hit_distance(float t, float leaf_entry) { return t < leaf_entry ? leaf_entry : t; }
 
-/* Closest hit of one object-space ray in one bottom-level tree. */
+/* Closest hit of one object-space ray in one bottom-level tree, beyond
+ * tmin (0 for camera rays); any_hit: stop at the first hit (occlusion). */
 RF_INLINE void rf_trace_blas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_tri* tris, rf_u32 root, const rf_ray* r,
-                             rf_u32 instance_id, rf_hit* best) {
+                             rf_u32 instance_id, float tmin, int any_hit, rf_hit* best) {
   rf_u32 stack_node[RF_STACK_SIZE];
   float stack_t[RF_STACK_SIZE];
   int sp = 0;
@@ -67,7 +68,7 @@ RF_INLINE void rf_trace_blas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_
         const rf_u32 ti = n->first + k;
         RF_STAT(triangles);
         float t, u, v;
-        if (!rf_intersect_triangle(&tris[ti], r, &t, &u, &v) || !(t > 0.0f)) continue;
+        if (!rf_intersect_triangle(&tris[ti], r, &t, &u, &v) || !(t > tmin)) continue;
         t = rf_hit_distance(t, node_t);
         if (rf_hit_is_closer(t, instance_id, tris[ti].prim, best)) {
           best->t = t;
@@ -76,6 +77,7 @@ RF_INLINE void rf_trace_blas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_
           best->instance = instance_id;
           best->prim = tris[ti].prim;
           best->tri = ti;
+          if (any_hit) return;
         }
       }
     } else {
@@ -118,17 +120,23 @@ RF_INLINE float rf_group_bound(rf_u32 meta, rf_u32 ray_groups, const rf_hit* hit
   return bound;
 }
 
-/* Closest hit per group of one camera-space ray through the top-level tree:
- * from the eye along (dx, dy, dz), or, orthographic, from (ox, oy, 0).
- * ray_groups: bit g set when the ray answers group g. */
+/* How rf_trace_tlas's ray starts in trace space. */
+#define RF_ORIGIN_EYE 0   /* at the eye, 0 (perspective cameras) */
+#define RF_ORIGIN_PLANE 1 /* at (ox, oy, 0) on the image plane (orthographic) */
+#define RF_ORIGIN_ANY 2   /* at (ox, oy, oz) (ray queries) */
+
+/* Closest hit per group of one trace-space ray through the top-level tree,
+ * from the origin `origin` names along (dx, dy, dz), beyond tmin; any_hit:
+ * stop at the first hit. ray_groups: bit g set when the ray answers group g. */
 RF_INLINE void rf_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_tri* tris,
-                             const RF_GLOBAL rf_instance* instances, rf_u32 tlas_root, rf_i32 ortho, float ox,
-                             float oy, float dx, float dy, float dz, rf_u32 ray_groups, rf_hit* hits) {
+                             const RF_GLOBAL rf_instance* instances, rf_u32 tlas_root, rf_i32 origin, float ox,
+                             float oy, float oz, float dx, float dy, float dz, float tmin, int any_hit,
+                             rf_u32 ray_groups, rf_hit* hits) {
   rf_u32 stack_node[RF_STACK_SIZE];
   float stack_t[RF_STACK_SIZE];
   int sp = 0;
   rf_ray r;
-  rf_ray_init(&r, ox, oy, 0.0f, dx, dy, dz);
+  rf_ray_init(&r, ox, oy, oz, dx, dy, dz);
   /* With re-braiding, one instance enters the top level as several subtrees
    * that a ray meets at different times; a small direct-mapped cache keeps
    * the object-space rays of recent (instance, group) pairs. Reuse gives the
@@ -156,13 +164,16 @@ RF_INLINE void rf_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_
         const rf_u32 slot = key & (rf_u32)(RF_RAY_CACHE - 1);
         if (ro_key[slot] != key) {
           RF_STAT(setups);
-          if (ortho)
+          if (origin == RF_ORIGIN_ANY)
+            rf_ray_to_object_at(&ro_cache[slot], inst->tree_from_trace, ox, oy, oz, dx, dy, dz);
+          else if (origin == RF_ORIGIN_PLANE)
             rf_ray_to_object_from(&ro_cache[slot], inst->tree_from_trace, ox, oy, dx, dy, dz);
           else
             rf_ray_to_object(&ro_cache[slot], inst->tree_from_trace, dx, dy, dz);
           ro_key[slot] = key;
         }
-        rf_trace_blas(nodes, tris, inst->blas_root, &ro_cache[slot], inst->instance_id, &hits[g]);
+        rf_trace_blas(nodes, tris, inst->blas_root, &ro_cache[slot], inst->instance_id, tmin, any_hit, &hits[g]);
+        if (any_hit && hits[g].instance != RF_INVALID) return;
       }
     } else {
       const rf_u32 c = first;
@@ -307,10 +318,26 @@ RF_INLINE void rf_trace_entry(rf_u32 entry, const rf_camera* cam, const RF_GLOBA
   rf_hit hits[RF_MAX_GROUPS];
   RF_FOR_EACH_GROUP(g, ray.groups) { rf_hit_reset(&hits[g]); }
   if (tlas_root != RF_INVALID)
-    rf_trace_tlas(nodes, tris, instances, tlas_root, cam->ortho, cam->ortho ? ray.dx : 0.0f,
-                  cam->ortho ? ray.dy : 0.0f, cam->ortho ? 0.0f : ray.dx, cam->ortho ? 0.0f : ray.dy, -1.0f, ray.groups,
-                  hits);
+    rf_trace_tlas(nodes, tris, instances, tlas_root, cam->ortho ? RF_ORIGIN_PLANE : RF_ORIGIN_EYE,
+                  cam->ortho ? ray.dx : 0.0f, cam->ortho ? ray.dy : 0.0f, 0.0f, cam->ortho ? 0.0f : ray.dx,
+                  cam->ortho ? 0.0f : ray.dy, -1.0f, 0.0f, 0, ray.groups, hits);
   rf_write_answers(&ray, hits, cam, depth_scales, tris, normal_xforms, out);
+}
+
+/* Answers one ray query (scene.intersect, scene.occluded): its closest hit
+ * with tmin < t <= tmax, or with any_hit the first one found, written as a
+ * pixel's hit info with z = t along the given (unnormalised) direction. */
+RF_INLINE void rf_trace_query(const RF_GLOBAL rf_query_ray* q, const RF_GLOBAL rf_node* nodes,
+                              const RF_GLOBAL rf_tri* tris, const RF_GLOBAL rf_instance* instances,
+                              const RF_GLOBAL rf_normal_xform* normal_xforms, rf_u32 tlas_root, int any_hit,
+                              rf_u32 write_flags, RF_GLOBAL rf_pixel_hit* out) {
+  rf_hit hit;
+  rf_hit_reset(&hit);
+  hit.t = q->tmax;
+  if (tlas_root != RF_INVALID)
+    rf_trace_tlas(nodes, tris, instances, tlas_root, RF_ORIGIN_ANY, q->o[0], q->o[1], q->o[2], q->d[0], q->d[1],
+                  q->d[2], q->tmin, any_hit, 1u, &hit);
+  rf_write_pixel(out, &hit, 1.0f, 1.0f, tris, normal_xforms, write_flags);
 }
 
 #endif /* RF_TRACE_H */

@@ -168,6 +168,19 @@ typedef struct {
   rf_u32 primitive;
 } rf_pixel_hit;
 
+/* One ray query (scene.intersect, scene.occluded), 32 bytes, trace space:
+ *   bytes  0..11  o     origin
+ *   bytes 12..15  tmin  a hit counts from beyond this ray parameter ...
+ *   bytes 16..27  d     direction, not normalised: t is along it
+ *   bytes 28..31  tmax  ... up to and including this one
+ * Its answer is an rf_pixel_hit whose z is t (+inf on a miss). */
+typedef struct {
+  float o[3];
+  float tmin;
+  float d[3];
+  float tmax;
+} rf_query_ray;
+
 /* One entry of the compacted ray list, 4 bytes:
  *   bits  0..14  pixel column x of the traced ray
  *   bits 15..29  pixel row y

@@ -1,5 +1,6 @@
 #include "rayfold/renderer.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "api/scene_state.h"
@@ -86,6 +87,65 @@ Renderer::Renderer(const Scene& scene, const RendererOptions& options) : impl_(s
 Renderer::~Renderer() = default;
 Renderer::Renderer(Renderer&&) noexcept = default;
 Renderer& Renderer::operator=(Renderer&&) noexcept = default;
+
+namespace {
+
+// Answers in chunks: the core's 32-byte hits of one chunk at a time.
+template <class Take>
+void query_chunks(core::Renderer& r, const float* origins, const float* directions, size_t n, float tmin, float tmax,
+                  bool any_hit, const core::FrameOptions& options, Take&& take) {
+  constexpr size_t kChunk = size_t{1} << 20;
+  std::vector<rf_pixel_hit> hits;
+  if (n == 0) r.intersect(origins, directions, 0, tmin, tmax, any_hit, options, nullptr);  // checks tmin, tmax
+  for (size_t begin = 0; begin < n; begin += kChunk) {
+    const size_t count = std::min(kChunk, n - begin);
+    hits.resize(count);
+    r.intersect(origins + 3 * begin, directions + 3 * begin, count, tmin, tmax, any_hit, options, hits.data());
+    take(begin, hits);
+  }
+}
+
+}  // namespace
+
+RayHits Renderer::intersect(const float* origins, const float* directions, size_t n, float tmin, float tmax) {
+  core::FrameOptions options;
+  options.moved = impl_->moved();
+  RayHits out;
+  out.t.resize(n);
+  out.normal.resize(3 * n);
+  out.uv.resize(2 * n);
+  out.instance_id.resize(n);
+  out.primitive_id.resize(n);
+  query_chunks(*impl_->core, origins, directions, n, tmin, tmax, false, options,
+               [&](size_t begin, const std::vector<rf_pixel_hit>& hits) {
+                 for (size_t k = 0; k < hits.size(); ++k) {
+                   const rf_pixel_hit& h = hits[k];
+                   const size_t i = begin + k;
+                   out.t[i] = h.z;
+                   out.normal[3 * i] = h.nx;
+                   out.normal[3 * i + 1] = h.ny;
+                   out.normal[3 * i + 2] = h.nz;
+                   out.uv[2 * i] = h.u;
+                   out.uv[2 * i + 1] = h.v;
+                   out.instance_id[i] = h.instance;
+                   out.primitive_id[i] = h.primitive;
+                 }
+               });
+  return out;
+}
+
+std::vector<uint8_t> Renderer::occluded(const float* origins, const float* directions, size_t n, float tmin,
+                                        float tmax) {
+  core::FrameOptions options;
+  options.moved = impl_->moved();
+  options.normals = false;
+  std::vector<uint8_t> out(n);
+  query_chunks(*impl_->core, origins, directions, n, tmin, tmax, true, options,
+               [&](size_t begin, const std::vector<rf_pixel_hit>& hits) {
+                 for (size_t k = 0; k < hits.size(); ++k) out[begin + k] = hits[k].instance != RF_INVALID;
+               });
+  return out;
+}
 
 GBuffer Renderer::render(const Camera& camera, Fold fold, unsigned channels) {
   GBuffer g;

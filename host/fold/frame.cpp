@@ -158,9 +158,12 @@ Frame build_frame(const Scene& scene, const SceneData& data, const std::vector<C
     for (int r = 0; r < 3; ++r) {
       // Orthographic origins go through the transform too (the rounding of
       // m0 * ox + m1 * oy + m3 is within 2^-22 of its terms' sum).
+      // Ray queries start anywhere within query_origin_bound.
+      const double q = options.query_origin_bound;
       origin = std::max(origin, std::fabs(double(base.tree_from_trace[4 * r + 3])) +
-                                    std::fabs(double(base.tree_from_trace[4 * r])) * plane_x +
-                                    std::fabs(double(base.tree_from_trace[4 * r + 1])) * plane_y);
+                                    std::fabs(double(base.tree_from_trace[4 * r])) * (plane_x + q) +
+                                    std::fabs(double(base.tree_from_trace[4 * r + 1])) * (plane_y + q) +
+                                    std::fabs(double(base.tree_from_trace[4 * r + 2])) * q);
       stretch = std::max(stretch, std::fabs(trace_from_tree[0][r]) + std::fabs(trace_from_tree[1][r]) +
                                       std::fabs(trace_from_tree[2][r]));
     }

@@ -49,6 +49,7 @@ ClTracer::Programs& ClTracer::programs_for(int groups) {
   build_ms_ += ms_since(start);
   p.single = cl::Kernel(p.program, "rf_trace_primary");
   p.tile = cl::Kernel(p.program, "rf_trace_tiles");
+  p.queries = cl::Kernel(p.program, "rf_trace_queries");
   programs_.push_back(p);
   return programs_.back();
 }
@@ -237,6 +238,41 @@ double ClTracer::trace(const rf_camera& cam, KernelKind kind) {
   } catch (const cl::Error& e) {
     throw RuntimeFailure(std::string(kernel_name(kind)) + " trace kernel failed on '" + device_.info().name +
                          "': " + cl_error_text(e));
+  }
+  return ms_since(t0);
+}
+
+double ClTracer::trace_queries(const std::vector<rf_query_ray>& rays, bool any_hit, unsigned write_flags,
+                               rf_pixel_hit* out) {
+  if (rays.empty()) return 0.0;
+  Programs& programs = programs_for(RF_MIRRORS);
+  const auto t0 = Clock::now();
+  try {
+    if (rays.size() > query_capacity_) {
+      query_rays_ = cl::Buffer(device_.context(), CL_MEM_READ_ONLY, rays.size() * sizeof(rf_query_ray));
+      query_hits_ = cl::Buffer(device_.context(), CL_MEM_WRITE_ONLY, rays.size() * sizeof(rf_pixel_hit));
+      query_capacity_ = rays.size();
+    }
+    cl::CommandQueue& q = device_.queue();
+    q.enqueueWriteBuffer(query_rays_, CL_FALSE, 0, rays.size() * sizeof(rf_query_ray), rays.data());
+    cl::Kernel& kernel = programs.queries;
+    int a = 0;
+    kernel.setArg(a++, nodes_);
+    kernel.setArg(a++, tris_);
+    kernel.setArg(a++, instances_);
+    kernel.setArg(a++, normal_xforms_);
+    kernel.setArg(a++, tlas_root_);
+    kernel.setArg(a++, query_rays_);
+    kernel.setArg(a++, static_cast<uint32_t>(rays.size()));
+    kernel.setArg(a++, static_cast<uint32_t>(any_hit ? 1u : 0u));
+    kernel.setArg(a++, static_cast<uint32_t>(write_flags));
+    kernel.setArg(a++, query_hits_);
+    constexpr size_t kGroup = 64;
+    const size_t global = (rays.size() + kGroup - 1) / kGroup * kGroup;
+    q.enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(global), cl::NDRange(kGroup));
+    q.enqueueReadBuffer(query_hits_, CL_TRUE, 0, rays.size() * sizeof(rf_pixel_hit), out);
+  } catch (const cl::Error& e) {
+    throw RuntimeFailure("ray query kernel failed on '" + device_.info().name + "': " + cl_error_text(e));
   }
   return ms_since(t0);
 }

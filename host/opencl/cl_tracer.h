@@ -62,6 +62,9 @@ class ClTracer {
   // does it ahead, outside any timing).
   double trace(const rf_camera& camera, KernelKind kernel);
   void prepare_groups(int groups);
+  // Answers ray queries (rays/ray_queries.h) through the frame uploaded
+  // last, one rf_pixel_hit per ray into out (z = t); ms of kernel time.
+  double trace_queries(const std::vector<rf_query_ray>& rays, bool any_hit, unsigned write_flags, rf_pixel_hit* out);
   // Milliseconds spent building programs so far: about 2 s on a machine's
   // first use of this rayfold version with PoCL, about 0.1 s once PoCL's
   // cache ($XDG_CACHE_HOME/pocl or ~/.cache/pocl) holds them.
@@ -86,7 +89,7 @@ class ClTracer {
   struct Programs {
     int groups = 0;
     cl::Program program;
-    cl::Kernel single, tile;
+    cl::Kernel single, tile, queries;
   };
   Programs& programs_for(int groups);
 
@@ -106,6 +109,8 @@ class ClTracer {
   int slot_ = 0;
   bool tile_stats_ = false;
   cl::Buffer stats_;
+  cl::Buffer query_rays_, query_hits_;  // grown as queries need
+  size_t query_capacity_ = 0;
   cl::Buffer host_hits_;  // over bound host memory (CPU devices)
   rf_pixel_hit* host_out_ = nullptr;
   size_t host_count_ = 0;

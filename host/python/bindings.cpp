@@ -228,6 +228,42 @@ PyGBuffer render_locked(PyScene& s, Pick&& pick, const rayfold::Camera& camera, 
   return to_python(std::move(g), camera);
 }
 
+// A query's rays as float32 arrays of shape (..., 3), both alike; the
+// leading shape is the answers'.
+struct QueryArrays {
+  InArray<float> origins, directions;
+  std::vector<size_t> shape;  // without the trailing 3
+  size_t count = 0;
+};
+
+QueryArrays query_arrays(nb::handle origins, nb::handle directions) {
+  QueryArrays q{as_array<float>(origins, "float32", "origins"), as_array<float>(directions, "float32", "directions"),
+                {}, 0};
+  auto dims = [](const InArray<float>& a) {
+    std::vector<size_t> d(a.ndim());
+    for (size_t i = 0; i < a.ndim(); ++i) d[i] = a.shape(i);
+    return d;
+  };
+  const std::vector<size_t> o = dims(q.origins), d = dims(q.directions);
+  if (o.empty() || o.back() != 3)
+    throw rayfold::InputError("", "origins must have shape (..., 3), not " + shape_text(o.size(), o.data()));
+  if (d != o)
+    throw rayfold::InputError("", "directions must have the shape of origins, " + shape_text(o.size(), o.data()) +
+                                      ", not " + shape_text(d.size(), d.data()));
+  q.shape.assign(o.begin(), o.end() - 1);
+  q.count = q.origins.size() / 3;
+  return q;
+}
+
+template <class T>
+nb::object shaped(std::vector<T>&& v, const std::vector<size_t>& lead, size_t per_ray) {
+  std::vector<size_t> shape = lead;
+  if (per_ray > 1) shape.push_back(per_ray);
+  auto* heap = new std::vector<T>(std::move(v));
+  nb::capsule owner(heap, [](void* p) noexcept { delete static_cast<std::vector<T>*>(p); });
+  return nb::cast(nb::ndarray<nb::numpy, T>(heap->data(), shape.size(), shape.data(), owner));
+}
+
 }  // namespace
 
 NB_MODULE(_core, m) {
@@ -350,7 +386,8 @@ NB_MODULE(_core, m) {
       .def_ro("warnings", &PyGBuffer::warnings)
       .def_ro("camera", &PyGBuffer::camera);
 
-  nb::class_<PyScene>(m, "Scene", "Meshes and instances, from a glTF 2.0 file or built in memory.")
+  auto scene_class = nb::class_<PyScene>(m, "Scene", "Meshes and instances, from a glTF 2.0 file or built in memory.");
+  scene_class
       .def(
           "__init__",
           [](PyScene* self, std::optional<std::filesystem::path> path, int scene, int camera,
@@ -485,6 +522,55 @@ NB_MODULE(_core, m) {
           "Renders a list of views, one GBuffer each. Views of the same size and intrinsics are traced together, up "
           "to align per trace (0: as many as one holds; 1: each alone); every view's bits equal render(view). "
           "channels and depth as in render. Releases the GIL.");
+
+  auto scene_renderer = [](PyScene& s, const std::string& backend, const std::string& device, unsigned threads)
+      -> rayfold::Renderer& {
+    const rayfold::RendererOptions o = renderer_options(backend, device, "auto", threads, "distance");
+    const std::string key = backend + "|" + device + "|auto|" + std::to_string(threads) + "|distance";
+    std::unique_ptr<rayfold::Renderer>& r = s.renderers[key];
+    if (!r) r = std::make_unique<rayfold::Renderer>(s.scene, o);
+    return *r;
+  };
+  scene_class.def(
+      "intersect",
+      [scene_renderer](PyScene& s, nb::handle origins, nb::handle directions, float tmin, float tmax,
+                       const std::string& backend, const std::string& device, unsigned threads) {
+        const QueryArrays q = query_arrays(origins, directions);
+        rayfold::RayHits h = locked(s, [&] {
+          return scene_renderer(s, backend, device, threads)
+              .intersect(q.origins.data(), q.directions.data(), q.count, tmin, tmax);
+        });
+        nb::dict out;
+        out["t"] = shaped(std::move(h.t), q.shape, 1);
+        out["instance_id"] = shaped(std::move(h.instance_id), q.shape, 1);
+        out["primitive_id"] = shaped(std::move(h.primitive_id), q.shape, 1);
+        out["uv"] = shaped(std::move(h.uv), q.shape, 2);
+        out["normal"] = shaped(std::move(h.normal), q.shape, 3);
+        return out;
+      },
+      "origins"_a, "directions"_a, "tmin"_a = 0.0f, "tmax"_a = INFINITY, "backend"_a = "opencl", "device"_a = "",
+      "threads"_a = 0,
+      "The closest hit of each ray with tmin < t <= tmax. origins, directions: (..., 3) world space (float64 is "
+      "rounded once to float32); directions need not be unit length, t is along them. Returns a dict of arrays "
+      "of the leading shape: t (inf on a miss), instance_id and primitive_id (MISS on a miss), uv (..., 2), "
+      "normal (..., 3), as a G-buffer's. The same bits on every backend. InputError names the first ray whose "
+      "origin or direction is not finite or whose direction is zero. Releases the GIL.");
+  scene_class.def(
+      "occluded",
+      [scene_renderer](PyScene& s, nb::handle origins, nb::handle directions, float tmin, float tmax,
+                       const std::string& backend, const std::string& device, unsigned threads) {
+        const QueryArrays q = query_arrays(origins, directions);
+        std::vector<uint8_t> hit = locked(s, [&] {
+          return scene_renderer(s, backend, device, threads)
+              .occluded(q.origins.data(), q.directions.data(), q.count, tmin, tmax);
+        });
+        nb::object flags = shaped(std::move(hit), q.shape, 1);
+        return flags.attr("astype")("bool");
+      },
+      "origins"_a, "directions"_a, "tmin"_a = 0.0f, "tmax"_a = INFINITY, "backend"_a = "opencl", "device"_a = "",
+      "threads"_a = 0,
+      "Whether each ray has any hit with tmin < t <= tmax (bool array of the leading shape); each ray stops at "
+      "the first hit found. Inputs as intersect. Releases the GIL.");
 
   nb::class_<PyRenderer>(m, "Renderer", "A renderer of one scene with fixed options (Scene.render keeps these).")
       .def(

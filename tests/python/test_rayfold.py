@@ -530,3 +530,51 @@ def test_unnamed_nodes_are_node_n_in_instance_names(tmp_path):
     path = tmp_path / "unnamed.gltf"
     path.write_text(json.dumps(gltf))
     assert rayfold.Scene(str(path)).instance_names == ["named", "node 1"]
+
+
+def test_intersect_from_camera_rays_finds_the_render_hits(atrium):
+    """Rays from camera.ray_directions() against the camera's own render: the
+    same triangle but where the rounded double direction is another float ray
+    than the render's (edges), t the depth within a few roundings."""
+    camera = atrium.default_camera(160, 90)
+    g = atrium.render(camera, backend="cpu")
+    d = camera.ray_directions()
+    o = np.broadcast_to(camera.ray_origins(), d.shape)
+    h = atrium.intersect(o, d, backend="opencl")
+    assert h["t"].shape == (90, 160) and h["normal"].shape == (90, 160, 3) and h["uv"].shape == (90, 160, 2)
+    assert h["t"].dtype == np.float32 and h["instance_id"].dtype == np.uint32
+    same = (h["instance_id"] == g.instance_id) & (h["primitive_id"] == g.primitive_id)
+    assert same.mean() > 0.99
+    hit = same & (g.instance_id != rayfold.MISS)
+    assert hit.sum() > 1000
+    assert np.max(np.abs(h["t"][hit] - g.depth[hit]) / g.depth[hit]) < 1e-4
+    np.testing.assert_array_equal(h["normal"][hit & (h["uv"][..., 0] == g.uv[..., 0])],
+                                  g.normal[hit & (h["uv"][..., 0] == g.uv[..., 0])])
+    cpu = atrium.intersect(o, d, backend="cpu")
+    for k in h:
+        np.testing.assert_array_equal(bits(cpu[k]), bits(h[k]), err_msg=k)
+    occluded = atrium.occluded(o, d)
+    assert occluded.dtype == np.bool_
+    np.testing.assert_array_equal(occluded, h["instance_id"] != rayfold.MISS)
+
+
+def test_intersect_rules_and_bad_rays():
+    s = triangle_scene()  # the back quad at z = 0, facing +z
+    o = np.array([[-0.8, 0.0, 3.0]])
+    h = s.intersect(o, [[0.0, 0.0, -2.0]], backend="cpu")
+    assert h["t"][0] == 1.5 and h["instance_id"][0] == 0  # t along the direction as given
+    assert s.intersect(o, [[0.0, 0.0, -1.0]], tmax=2.9)["instance_id"][0] == rayfold.MISS
+    assert s.intersect(o, [[0.0, 0.0, -1.0]], tmax=3.0)["t"][0] == 3.0
+    assert not s.occluded(o, [[0.0, 0.0, -1.0]], tmin=3.0)[0]
+    read_only = np.array([[-0.8, 0.0, 3.0]], np.float64)
+    read_only.setflags(write=False)
+    assert s.intersect(read_only, np.array([[0.0, 0.0, -1.0]]))["t"][0] == 3.0
+    assert s.intersect(np.zeros((0, 3)), np.zeros((0, 3)))["t"].shape == (0,)
+    with pytest.raises(rayfold.InputError, match="ray 1: direction is zero"):
+        s.intersect([[0, 0, 1], [0, 0, 1]], [[0, 0, -1], [0, 0, 0]])
+    with pytest.raises(rayfold.InputError, match="ray 0: origin is not finite"):
+        s.occluded([[np.nan, 0, 1]], [[0, 0, -1]])
+    with pytest.raises(rayfold.InputError, match="shape"):
+        s.intersect([[0, 0, 1]], [[0, 0, -1], [0, 0, -1]])
+    with pytest.raises(rayfold.InputError, match="tmin"):
+        s.intersect([[0, 0, 1]], [[0, 0, -1]], tmin=2.0, tmax=1.0)

@@ -2,7 +2,9 @@
 // then per render culling, the top-level tree and the trace.
 #pragma once
 
+#include <cstdint>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -37,6 +39,15 @@ struct RendererOptions {
   Kernel kernel = Kernel::automatic;
   unsigned threads = 0;  // host threads for tree builds and the CPU backend; 0: all cores
   Depth depth = Depth::distance;  // planar: one rounding of the ray parameter, in every tracer
+};
+
+// The answers to ray queries (Renderer::intersect), ray by ray.
+struct RayHits {
+  std::vector<float> t;                 // ray parameter along the given direction (not normalised); +inf on a miss
+  std::vector<float> normal;            // 3 per ray: world-space geometric normal as GBuffer's; 0 on a miss
+  std::vector<float> uv;                // 2 per ray: barycentrics of the second and third vertex; 0 on a miss
+  std::vector<uint32_t> instance_id;    // Scene instance index, kMiss on a miss
+  std::vector<uint32_t> primitive_id;   // triangle index within the mesh, kMiss on a miss
 };
 
 // The most views one trace answers unfolded (32 transform groups).
@@ -76,6 +87,20 @@ class Renderer {
   // stops the rendering and propagates.
   void render_views(const std::vector<Camera>& cameras, const std::function<void(size_t, GBuffer&&)>& on_view,
                     Fold fold = Fold::none, int align = 0, unsigned channels = kAllChannels);
+
+  // The closest hit of each of n world-space rays with tmin < t <= tmax:
+  // origins and directions are n x 3 floats, row-major; t is along the
+  // direction as given. The same triangle test and tie rule as a render, on
+  // every backend the same bits; rays of any number, in bounded memory.
+  // InputError naming the first bad ray (a coordinate not finite, a zero
+  // direction) or for tmin, tmax outside 0 <= tmin <= tmax (tmax may be
+  // +inf). Not safe to call from two threads at once.
+  RayHits intersect(const float* origins, const float* directions, size_t n, float tmin = 0.0f,
+                    float tmax = std::numeric_limits<float>::infinity());
+  // Whether each ray has any hit with tmin < t <= tmax (1) or none (0); each
+  // ray stops at the first hit it finds. Inputs as intersect.
+  std::vector<uint8_t> occluded(const float* origins, const float* directions, size_t n, float tmin = 0.0f,
+                                float tmax = std::numeric_limits<float>::infinity());
 
   std::string device_name() const;  // "cpu reference" for the CPU backend
   std::string kernel() const;       // "tile", "single" or "cpu reference"

@@ -1,0 +1,335 @@
+// Ray queries (Renderer::intersect): rays from anywhere against brute force
+// in floats (the same test and tie rule, bit for bit) and in doubles, the
+// OpenCL kernel against the CPU reference, the interval and occlusion
+// rules, scaling by powers of two, and bad rays.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+#include "rayfold/errors.h"
+#include "rays/ray_queries.h"
+#include "rf_trace.h"
+#include "test_util.h"
+
+namespace rayfold::core {
+namespace {
+
+using testing::Rng;
+
+struct Rays {
+  std::vector<float> o, d;
+  size_t size() const { return o.size() / 3; }
+};
+
+// Origins inside the bounds (some inside objects) and a little beyond;
+// half the directions toward a random point of a random instance's
+// triangle, the others anywhere, a tenth of those along an axis; lengths
+// from 1e-3 to 1e3.
+Rays random_rays(Rng& rng, const Scene& scene, size_t n) {
+  Rays r;
+  const Aabb b = scene.world_bounds();
+  const glm::vec3 e = b.extent();
+  for (size_t i = 0; i < n; ++i) {
+    for (int k = 0; k < 3; ++k) r.o.push_back(rng.uniformf(b.lo[k] - 0.2f * e[k], b.hi[k] + 0.2f * e[k]));
+    float d[3];
+    do {
+      for (float& c : d) c = rng.uniformf(-1.0f, 1.0f);
+    } while (d[0] * d[0] + d[1] * d[1] + d[2] * d[2] < 1e-4f);
+    const Instance& inst = scene.instances[rng.below(static_cast<int>(scene.instances.size()))];
+    const Mesh& mesh = scene.meshes[inst.mesh];
+    if (rng.below(2) == 0 && mesh.triangle_count() > 0) {
+      const size_t t = static_cast<size_t>(rng.below(static_cast<int>(mesh.triangle_count())));
+      const float a = rng.uniformf(0.0f, 1.0f), c = rng.uniformf(0.0f, 1.0f - a);
+      const glm::dvec3 p = glm::dvec3(mesh.positions[mesh.indices[3 * t]]) * double(1 - a - c) +
+                           glm::dvec3(mesh.positions[mesh.indices[3 * t + 1]]) * double(a) +
+                           glm::dvec3(mesh.positions[mesh.indices[3 * t + 2]]) * double(c);
+      const glm::dvec3 w = glm::dvec3(inst.world_from_object * glm::dvec4(p, 1.0));
+      for (int k = 0; k < 3; ++k) d[k] = static_cast<float>(w[k] - r.o[3 * i + k]);
+    } else if (rng.below(5) == 0) {
+      const int axis = rng.below(3);
+      for (int k = 0; k < 3; ++k) d[k] = k == axis ? (rng.below(2) ? 1.0f : -1.0f) : 0.0f;
+    }
+    const float len = std::exp2(rng.uniformf(-10.0f, 10.0f));
+    for (float c : d) r.d.push_back(c * len);
+  }
+  return r;
+}
+
+// Every ray against every triangle of every instance in object space, with
+// the kernels' own ray transform, triangle test and tie rule: what the trees
+// must reproduce bit for bit (object space differs from tree space by
+// powers of two only).
+std::vector<rf_pixel_hit> brute_force(const Scene& scene, const SceneData& data, const Rays& rays, float tmin,
+                                      float tmax) {
+  std::vector<rf_instance> insts;
+  for (size_t i = 0; i < scene.instances.size(); ++i) {
+    if (!data.renderable[i]) continue;
+    rf_instance inst{};
+    Xform object_from_world;
+    if (!affine_inverse(scene.instances[i].world_from_object, &object_from_world)) continue;
+    to_rows3x4(object_from_world, inst.tree_from_trace);
+    inst.instance_id = static_cast<uint32_t>(i);
+    insts.push_back(inst);
+  }
+  std::vector<rf_pixel_hit> out(rays.size());
+  for (size_t q = 0; q < rays.size(); ++q) {
+    rf_hit best;
+    rf_hit_reset(&best);
+    best.t = tmax;
+    const float* o = &rays.o[3 * q];
+    const float* d = &rays.d[3 * q];
+    for (const rf_instance& inst : insts) {
+      rf_ray r;
+      rf_ray_to_object_at(&r, inst.tree_from_trace, o[0], o[1], o[2], d[0], d[1], d[2]);
+      const Mesh& mesh = scene.meshes[scene.instances[inst.instance_id].mesh];
+      for (size_t t = 0; t < mesh.triangle_count(); ++t) {
+        rf_tri tri{};
+        for (int k = 0; k < 3; ++k) {
+          tri.v0[k] = mesh.positions[mesh.indices[3 * t]][k];
+          tri.v1[k] = mesh.positions[mesh.indices[3 * t + 1]][k];
+          tri.v2[k] = mesh.positions[mesh.indices[3 * t + 2]][k];
+        }
+        rf_tri_set_normal(&tri);
+        float th, u, v;
+        if (!rf_intersect_triangle(&tri, &r, &th, &u, &v) || !(th > tmin)) continue;
+        if (rf_hit_is_closer(th, inst.instance_id, static_cast<uint32_t>(t), &best)) {
+          best.t = th;
+          best.u = u;
+          best.v = v;
+          best.instance = inst.instance_id;
+          best.prim = static_cast<uint32_t>(t);
+        }
+      }
+    }
+    rf_pixel_hit& h = out[q];
+    h.z = best.instance == RF_INVALID ? INFINITY : best.t;
+    h.u = best.instance == RF_INVALID ? 0.0f : best.u;
+    h.v = best.instance == RF_INVALID ? 0.0f : best.v;
+    h.instance = best.instance;
+    h.primitive = best.prim;
+  }
+  return out;
+}
+
+std::vector<rf_pixel_hit> query(Renderer& r, const Rays& rays, float tmin = 0.0f, float tmax = INFINITY,
+                                bool any_hit = false) {
+  std::vector<rf_pixel_hit> out(rays.size());
+  r.intersect(rays.o.data(), rays.d.data(), rays.size(), tmin, tmax, any_hit, FrameOptions{}, out.data());
+  return out;
+}
+
+// "" when every field is the same bits; else the first difference and the count.
+std::string differences(const std::vector<rf_pixel_hit>& a, const std::vector<rf_pixel_hit>& b, bool normals) {
+  size_t count = 0;
+  std::string first;
+  for (size_t i = 0; i < a.size(); ++i) {
+    rf_pixel_hit x = a[i], y = b[i];
+    if (!normals) x.nx = x.ny = x.nz = y.nx = y.ny = y.nz = 0.0f;
+    if (std::memcmp(&x, &y, sizeof x) == 0) continue;
+    if (count++ == 0) {
+      char buf[240];
+      std::snprintf(buf, sizeof buf, "ray %zu: (%u, %u, t %.9g, u %.9g, v %.9g) against (%u, %u, t %.9g, u %.9g, v %.9g)",
+                    i, x.instance, x.primitive, x.z, x.u, x.v, y.instance, y.primitive, y.z, y.u, y.v);
+      first = buf;
+    }
+  }
+  return count ? first + " (" + std::to_string(count) + " rays differ)" : "";
+}
+
+TEST(RayQuery, EqualsBruteForceBitForBitOnRandomScenes) {
+  Rng rng(4711);
+  size_t hits = 0, rays_total = 0;
+  for (int s = 0; s < 6; ++s) {
+    const Scene scene = testing::random_scene(rng, 1 + rng.below(4), 1 + rng.below(12), 20 + rng.below(200));
+    RendererOptions opt;
+    opt.backend = Backend::cpu;
+    Renderer renderer(scene, opt);
+    const Rays rays = random_rays(rng, scene, 3000);
+    const std::vector<rf_pixel_hit> got = query(renderer, rays);
+    EXPECT_EQ(differences(brute_force(scene, renderer.scene_data(), rays, 0.0f, INFINITY), got, false), "")
+        << "scene " << s;
+    for (const rf_pixel_hit& h : got) hits += h.instance != RF_INVALID;
+    rays_total += rays.size();
+  }
+  EXPECT_GT(hits, rays_total / 10) << "too few rays hit for the test to mean anything";
+}
+
+TEST(RayQuery, OpenClKernelEqualsTheCpuReference) {
+  Rng rng(99);
+  for (int s = 0; s < 4; ++s) {
+    const Scene scene = testing::random_scene(rng, 1 + rng.below(4), 1 + rng.below(12), 20 + rng.below(300));
+    RendererOptions opt;
+    opt.backend = Backend::cpu;
+    Renderer cpu(scene, opt);
+    opt.backend = Backend::opencl;
+    Renderer cl(scene, opt);
+    const Rays rays = random_rays(rng, scene, 5000);
+    EXPECT_EQ(differences(query(cpu, rays), query(cl, rays), true), "") << "scene " << s;
+    EXPECT_EQ(differences(query(cpu, rays, 0.0f, INFINITY, true), query(cl, rays, 0.0f, INFINITY, true), true), "")
+        << "scene " << s << ", occlusion";
+  }
+}
+
+// The exact (double) hit of the same float ray on every triangle in world
+// space: rayfold's triangle is the closest on all but near ties, its t
+// within a few float roundings.
+TEST(RayQuery, AgreesWithADoubleReference) {
+  Rng rng(321);
+  const Scene scene = testing::random_scene(rng, 3, 8, 200);
+  RendererOptions opt;
+  opt.backend = Backend::cpu;
+  Renderer renderer(scene, opt);
+  const Rays rays = random_rays(rng, scene, 4000);
+  const std::vector<rf_pixel_hit> got = query(renderer, rays);
+  size_t both = 0, same = 0, close = 0;
+  for (size_t q = 0; q < rays.size(); ++q) {
+    const glm::dvec3 o(rays.o[3 * q], rays.o[3 * q + 1], rays.o[3 * q + 2]);
+    const glm::dvec3 d(rays.d[3 * q], rays.d[3 * q + 1], rays.d[3 * q + 2]);
+    double best = INFINITY;
+    uint32_t bi = RF_INVALID, bp = RF_INVALID;
+    for (size_t i = 0; i < scene.instances.size(); ++i) {
+      const Mesh& mesh = scene.meshes[scene.instances[i].mesh];
+      const Xform& w = scene.instances[i].world_from_object;
+      for (size_t t = 0; t < mesh.triangle_count(); ++t) {
+        glm::dvec3 v[3];
+        for (int k = 0; k < 3; ++k) v[k] = glm::dvec3(w * glm::dvec4(glm::dvec3(mesh.positions[mesh.indices[3 * t + k]]), 1.0));
+        const glm::dvec3 e1 = v[1] - v[0], e2 = v[2] - v[0], p = glm::cross(d, e2);
+        const double det = glm::dot(e1, p);
+        if (det == 0.0) continue;
+        const glm::dvec3 s = o - v[0];
+        const double u = glm::dot(s, p) / det;
+        const glm::dvec3 qv = glm::cross(s, e1);
+        const double vv = glm::dot(d, qv) / det, th = glm::dot(e2, qv) / det;
+        if (u < 0 || vv < 0 || u + vv > 1 || !(th > 0) || th >= best) continue;
+        best = th;
+        bi = static_cast<uint32_t>(i);
+        bp = static_cast<uint32_t>(t);
+      }
+    }
+    if (bi == RF_INVALID || got[q].instance == RF_INVALID) continue;
+    ++both;
+    if (got[q].instance != bi || got[q].primitive != bp) continue;
+    ++same;
+    close += std::fabs(got[q].z - best) <= 1e-4 * best;
+  }
+  ASSERT_GT(both, 500u);
+  EXPECT_GE(same, both * 99 / 100) << same << " of " << both << " rays on the double reference's triangle";
+  EXPECT_GE(close, same * 999 / 1000) << close << " of " << same << " within 1e-4 of the double t";
+}
+
+// One square at z = -5 facing +z, rays from the origin down -z.
+Scene square_at_minus_five() {
+  Scene scene;
+  Mesh m;
+  m.positions = {{-1, -1, -5}, {1, -1, -5}, {1, 1, -5}, {-1, 1, -5}};
+  m.indices = {0, 1, 2, 0, 2, 3};
+  scene.meshes.push_back(m);
+  Instance inst;
+  inst.mesh = 0;
+  scene.instances.push_back(inst);
+  return scene;
+}
+
+TEST(RayQuery, IntervalAndOcclusionRules) {
+  const Scene scene = square_at_minus_five();
+  for (Backend b : {Backend::cpu, Backend::opencl}) {
+    RendererOptions opt;
+    opt.backend = b;
+    Renderer r(scene, opt);
+    const Rays unit{{0.25f, 0.125f, 0.0f}, {0.0f, 0.0f, -1.0f}};
+    const Rays twice{{0.25f, 0.125f, 0.0f}, {0.0f, 0.0f, -2.0f}};
+    EXPECT_EQ(query(r, unit)[0].z, 5.0f);
+    EXPECT_EQ(query(r, twice)[0].z, 2.5f) << "t is along the direction as given";
+    EXPECT_EQ(query(r, unit, 0.0f, 5.0f)[0].z, 5.0f) << "tmax is included";
+    EXPECT_EQ(query(r, unit, 0.0f, 4.99f)[0].instance, RF_INVALID);
+    EXPECT_EQ(query(r, unit, 5.0f)[0].instance, RF_INVALID) << "tmin is excluded";
+    EXPECT_EQ(query(r, unit, 4.99f)[0].z, 5.0f);
+    EXPECT_EQ(query(r, unit, 0.0f, 4.99f, true)[0].instance, RF_INVALID);
+    EXPECT_NE(query(r, unit, 0.0f, INFINITY, true)[0].instance, RF_INVALID);
+    const rf_pixel_hit h = query(r, unit)[0];
+    EXPECT_EQ(h.nz, 1.0f) << "the G-buffer's normal";
+    const Rays away{{0.25f, 0.125f, 0.0f}, {0.0f, 0.0f, 1.0f}};
+    EXPECT_EQ(query(r, away)[0].z, INFINITY);
+    EXPECT_EQ(query(r, away)[0].primitive, RF_INVALID);
+  }
+}
+
+TEST(RayQuery, ScalingSceneAndRaysByPowersOfTwoKeepsEveryBit) {
+  Rng rng(17);
+  const Scene scene = testing::random_scene(rng, 2, 6, 150);
+  const Rays rays = random_rays(rng, scene, 2000);
+  RendererOptions opt;
+  opt.backend = Backend::cpu;
+  Renderer base(scene, opt);
+  const std::vector<rf_pixel_hit> expected = query(base, rays);
+  for (int k : {-40, -3, 5, 60}) {
+    Scene scaled = scene;
+    for (Instance& inst : scaled.instances) inst.world_from_object = uniform_scale(k) * inst.world_from_object;
+    Rays r = rays;
+    for (float& c : r.o) c = std::ldexp(c, k);
+    for (float& c : r.d) c = std::ldexp(c, k);
+    Renderer renderer(scaled, opt);
+    EXPECT_EQ(differences(expected, query(renderer, r), true), "") << "2^" << k;
+  }
+}
+
+TEST(RayQuery, AnswersDoNotDependOnOrderOrBatching) {
+  Rng rng(5);
+  const Scene scene = testing::random_scene(rng, 3, 10, 200);
+  RendererOptions opt;
+  opt.backend = Backend::opencl;
+  Renderer r(scene, opt);
+  const Rays rays = random_rays(rng, scene, 3000);
+  const std::vector<rf_pixel_hit> all = query(r, rays);
+  std::vector<size_t> order(rays.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::reverse(order.begin(), order.end());
+  Rays reversed;
+  for (size_t i : order) {
+    reversed.o.insert(reversed.o.end(), rays.o.begin() + 3 * i, rays.o.begin() + 3 * i + 3);
+    reversed.d.insert(reversed.d.end(), rays.d.begin() + 3 * i, rays.d.begin() + 3 * i + 3);
+  }
+  const std::vector<rf_pixel_hit> back = query(r, reversed);
+  std::vector<rf_pixel_hit> unreversed(rays.size());
+  for (size_t k = 0; k < order.size(); ++k) unreversed[order[k]] = back[k];
+  EXPECT_EQ(differences(all, unreversed, true), "");
+  // The first 10 rays alone: another top level (its box padding follows the
+  // batch's origins), the same answers.
+  Rays ten{{rays.o.begin(), rays.o.begin() + 30}, {rays.d.begin(), rays.d.begin() + 30}};
+  EXPECT_EQ(differences({all.begin(), all.begin() + 10}, query(r, ten), true), "");
+}
+
+TEST(RayQuery, BadRaysNameTheFirst) {
+  const Scene scene = square_at_minus_five();
+  RendererOptions opt;
+  opt.backend = Backend::cpu;
+  Renderer r(scene, opt);
+  auto error = [&](Rays rays, float tmin = 0.0f, float tmax = INFINITY) -> std::string {
+    try {
+      query(r, rays, tmin, tmax);
+    } catch (const rayfold::InputError& e) {
+      return e.what();
+    }
+    return "";
+  };
+  Rays ok{{0, 0, 0, 0, 0, 0, 0, 0, 0}, {0, 0, -1, 0, 0, -1, 0, 0, -1}};
+  EXPECT_EQ(error(ok), "");
+  Rays nan_origin = ok;
+  nan_origin.o[4] = NAN;
+  EXPECT_NE(error(nan_origin).find("ray 1: origin is not finite"), std::string::npos) << error(nan_origin);
+  Rays zero = ok;
+  zero.d[6] = zero.d[7] = zero.d[8] = 0.0f;
+  EXPECT_NE(error(zero).find("ray 2: direction is zero"), std::string::npos) << error(zero);
+  Rays inf_dir = ok;
+  inf_dir.d[0] = INFINITY;
+  EXPECT_NE(error(inf_dir).find("ray 0: direction is not finite"), std::string::npos) << error(inf_dir);
+  EXPECT_NE(error(ok, 2.0f, 1.0f).find("0 <= tmin <= tmax"), std::string::npos);
+  EXPECT_NE(error(ok, -1.0f).find("0 <= tmin <= tmax"), std::string::npos);
+  EXPECT_NE(error(ok, NAN).find("0 <= tmin <= tmax"), std::string::npos);
+  EXPECT_EQ(error(Rays{}), "") << "no rays: no answers, no error";
+}
+
+}  // namespace
+}  // namespace rayfold::core
