@@ -87,3 +87,25 @@ def test_cameras_come_from_a_peers_report(tmp_path):
     (tmp_path / "none.json").write_text("{}")
     with pytest.raises(SystemExit, match="no 'cameras' list"):
         bench.cameras_from(str(tmp_path / "none.json"), 64, 36)
+
+
+def test_intersect_on_incoherent_rays_agrees_with_a_float64_brute_force(atrium_path):
+    """tools/bench_rays.py's incoherent rays through scene.intersect against
+    every triangle in float64: the same hits and misses but for near ties,
+    t within a few float roundings."""
+    import sys
+    sys.path.insert(0, str(ROOT / "tools"))
+    rays_spec = importlib.util.spec_from_file_location("bench_rays", ROOT / "tools" / "bench_rays.py")
+    bench_rays = importlib.util.module_from_spec(rays_spec)
+    rays_spec.loader.exec_module(bench_rays)
+    scene = rayfold.Scene(atrium_path)
+    o, d = bench_rays.incoherent_rays(scene, 300, seed=7)
+    tris = scene.world_triangles().triangles
+    expected = np.array([first_hits(o[i], d[i:i + 1], tris)[0] for i in range(len(o))])
+    for backend in ("cpu", "opencl"):
+        t = scene.intersect(o, d, backend=backend)["t"]
+        hit, err = bench.agreement(expected, t)
+        assert hit >= 0.99 and err < 1e-6, (backend, hit, err)
+        both = np.isfinite(t) & np.isfinite(expected)
+        assert both.sum() > 200
+        assert np.quantile(np.abs(t[both] - expected[both]) / expected[both], 0.99) < 1e-4
