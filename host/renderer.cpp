@@ -198,14 +198,7 @@ void Renderer::render_views_into(RenderResult& result, const std::vector<Camera>
   result.warnings.clear();
   for (size_t v = 0; v < cameras.size(); ++v) {
     std::vector<std::string>& w = result.view_warnings[v];
-    if (result.views[v].out_of_range != 0)
-      w.push_back(std::to_string(result.views[v].out_of_range) +
-                  " instances not rendered: at this view their size and the scene's extent are more than the float "
-                  "range apart");
-    if (data_.blas.unresolvable_triangles != 0)
-      w.push_back(std::to_string(data_.blas.unresolvable_triangles) +
-                  " triangles are smaller than 2^-60 of their mesh's extent, below what the triangle test resolves: "
-                  "they may be missed");
+    add_range_warnings(result.views[v].out_of_range, "rendered: at this view", w);
     if (result.views[v].trace_exponent < -125)
       w.push_back(
           "the view's distances are below 2^-125 world units: depths are subnormal floats with fewer bits, "
@@ -224,11 +217,24 @@ void Renderer::render_views_into(RenderResult& result, const std::vector<Camera>
   result.median = median_times(result.frames);
 }
 
-void Renderer::intersect(const float* origins, const float* directions, size_t n, float tmin, float tmax,
-                         bool any_hit, const FrameOptions& frame_options, rf_pixel_hit* out) {
+void Renderer::add_range_warnings(size_t out_of_range, const char* where, std::vector<std::string>& w) const {
+  if (out_of_range != 0)
+    w.push_back(std::to_string(out_of_range) + " instances not " + where +
+                " their size and the scene's extent are more than the float range apart");
+  if (data_.blas.unresolvable_triangles != 0)
+    w.push_back(std::to_string(data_.blas.unresolvable_triangles) +
+                " triangles are smaller than 2^-60 of their mesh's extent, below what the triangle test resolves: "
+                "they may be missed");
+}
+
+std::vector<std::string> Renderer::intersect(const float* origins, const float* directions, size_t n, float tmin,
+                                             float tmax, bool any_hit, const FrameOptions& frame_options,
+                                             rf_pixel_hit* out) {
   check_query_rays(origins, directions, n, tmin, tmax);
-  if (n == 0) return;
+  if (n == 0) return {};
   const Frame frame = build_query_frame(scene_, data_, origins, n, frame_options);
+  std::vector<std::string> warnings;
+  add_range_warnings(frame.views[0].out_of_range, "traced: in world space", warnings);
   const unsigned flags = frame.normals ? 0u : RF_WRITE_NO_NORMALS;
   TraceInputs in;
   if (tracer_) {
@@ -247,6 +253,7 @@ void Renderer::intersect(const float* origins, const float* directions, size_t n
     else
       trace_queries_cpu(in, chunk, any_hit, flags, out + begin, options_.threads);
   }
+  return warnings;
 }
 
 TraceInputs Renderer::host_inputs(const Frame& frame) {

@@ -112,8 +112,9 @@ class Renderer {
   // with any_hit the first one found, as a pixel's hit info (z = t along the
   // given direction). In chunks, so memory stays bounded for any n. The
   // frame options' moved and normals apply. InputError for a bad ray.
-  void intersect(const float* origins, const float* directions, size_t n, float tmin, float tmax, bool any_hit,
-                 const FrameOptions& frame_options, rf_pixel_hit* out);
+  // Returns what the answers may have lost, in words (as a render's).
+  std::vector<std::string> intersect(const float* origins, const float* directions, size_t n, float tmin, float tmax,
+                                     bool any_hit, const FrameOptions& frame_options, rf_pixel_hit* out);
 
   const SceneData& scene_data() const { return data_; }
   std::string device_name() const;
@@ -146,6 +147,9 @@ class Renderer {
   double program_build_ms() const;
 
  private:
+  // The warnings of instances lost to the float range (`where` says how)
+  // and of triangles below what the test resolves.
+  void add_range_warnings(size_t out_of_range, const char* where, std::vector<std::string>& w) const;
   // Device buffers for this many pixels (every view's) and top-level groups.
   void ensure_capacity(size_t pixels, int groups);
   // The CPU reference's inputs for a frame: its top level placed after the

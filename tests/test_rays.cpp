@@ -301,6 +301,28 @@ TEST(RayQuery, AnswersDoNotDependOnOrderOrBatching) {
   EXPECT_EQ(differences({all.begin(), all.begin() + 10}, query(r, ten), true), "");
 }
 
+TEST(RayQuery, InstancesBeyondTheFloatRangeAreReported) {
+  // Sizes 2^260 apart cannot share a trace space: the small one is not
+  // traced, and the answers say so.
+  Scene mixed;
+  mixed.meshes.push_back(testing::closed_cube(1));
+  mixed.instances.push_back({0, uniform_scale(120), "huge"});
+  mixed.instances.push_back({0, uniform_scale(-140), "subnormal"});
+  RendererOptions cpu;
+  cpu.backend = Backend::cpu;
+  Renderer r(mixed, cpu);
+  const Rays rays{{0.0f, 0.0f, 0.0f}, {0.0f, 0.0f, -1.0f}};
+  rf_pixel_hit h;
+  const std::vector<std::string> w = r.intersect(rays.o.data(), rays.d.data(), 1, 0.0f, INFINITY, false, {}, &h);
+  EXPECT_EQ(h.instance, 0u);
+  ASSERT_EQ(w.size(), 1u);
+  EXPECT_NE(w[0].find("1 instances not traced"), std::string::npos) << w[0];
+  Scene one = mixed;
+  one.instances.pop_back();
+  Renderer fine(one, cpu);
+  EXPECT_TRUE(fine.intersect(rays.o.data(), rays.d.data(), 1, 0.0f, INFINITY, false, {}, &h).empty());
+}
+
 TEST(RayQuery, BadRaysNameTheFirst) {
   const Scene scene = square_at_minus_five();
   RendererOptions opt;

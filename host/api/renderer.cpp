@@ -91,18 +91,24 @@ Renderer& Renderer::operator=(Renderer&&) noexcept = default;
 namespace {
 
 // Answers in chunks: the core's 32-byte hits of one chunk at a time.
+// Returns the warnings, each once.
 template <class Take>
-void query_chunks(core::Renderer& r, const float* origins, const float* directions, size_t n, float tmin, float tmax,
-                  bool any_hit, const core::FrameOptions& options, Take&& take) {
+std::vector<std::string> query_chunks(core::Renderer& r, const float* origins, const float* directions, size_t n,
+                                      float tmin, float tmax, bool any_hit, const core::FrameOptions& options,
+                                      Take&& take) {
   constexpr size_t kChunk = size_t{1} << 20;
   std::vector<rf_pixel_hit> hits;
+  std::vector<std::string> warnings;
   if (n == 0) r.intersect(origins, directions, 0, tmin, tmax, any_hit, options, nullptr);  // checks tmin, tmax
   for (size_t begin = 0; begin < n; begin += kChunk) {
     const size_t count = std::min(kChunk, n - begin);
     hits.resize(count);
-    r.intersect(origins + 3 * begin, directions + 3 * begin, count, tmin, tmax, any_hit, options, hits.data());
+    for (std::string& w :
+         r.intersect(origins + 3 * begin, directions + 3 * begin, count, tmin, tmax, any_hit, options, hits.data()))
+      if (std::find(warnings.begin(), warnings.end(), w) == warnings.end()) warnings.push_back(std::move(w));
     take(begin, hits);
   }
+  return warnings;
 }
 
 }  // namespace
@@ -116,8 +122,8 @@ RayHits Renderer::intersect(const float* origins, const float* directions, size_
   out.uv.resize(2 * n);
   out.instance_id.resize(n);
   out.primitive_id.resize(n);
-  query_chunks(*impl_->core, origins, directions, n, tmin, tmax, false, options,
-               [&](size_t begin, const std::vector<rf_pixel_hit>& hits) {
+  out.warnings = query_chunks(*impl_->core, origins, directions, n, tmin, tmax, false, options,
+                              [&](size_t begin, const std::vector<rf_pixel_hit>& hits) {
                  for (size_t k = 0; k < hits.size(); ++k) {
                    const rf_pixel_hit& h = hits[k];
                    const size_t i = begin + k;
@@ -135,15 +141,17 @@ RayHits Renderer::intersect(const float* origins, const float* directions, size_
 }
 
 std::vector<uint8_t> Renderer::occluded(const float* origins, const float* directions, size_t n, float tmin,
-                                        float tmax) {
+                                        float tmax, std::vector<std::string>* warnings) {
   core::FrameOptions options;
   options.moved = impl_->moved();
   options.normals = false;
   std::vector<uint8_t> out(n);
-  query_chunks(*impl_->core, origins, directions, n, tmin, tmax, true, options,
-               [&](size_t begin, const std::vector<rf_pixel_hit>& hits) {
-                 for (size_t k = 0; k < hits.size(); ++k) out[begin + k] = hits[k].instance != RF_INVALID;
-               });
+  std::vector<std::string> w = query_chunks(
+      *impl_->core, origins, directions, n, tmin, tmax, true, options,
+      [&](size_t begin, const std::vector<rf_pixel_hit>& hits) {
+        for (size_t k = 0; k < hits.size(); ++k) out[begin + k] = hits[k].instance != RF_INVALID;
+      });
+  if (warnings) *warnings = std::move(w);
   return out;
 }
 

@@ -255,6 +255,13 @@ QueryArrays query_arrays(nb::handle origins, nb::handle directions) {
   return q;
 }
 
+// A query's warnings as Python RuntimeWarnings (a query returns arrays,
+// with no object to carry them as a G-buffer does).
+void warn_all(const std::vector<std::string>& warnings) {
+  for (const std::string& w : warnings)
+    if (PyErr_WarnEx(PyExc_RuntimeWarning, ("rayfold: " + w).c_str(), 1) != 0) throw nb::python_error();
+}
+
 template <class T>
 nb::object shaped(std::vector<T>&& v, const std::vector<size_t>& lead, size_t per_ray) {
   std::vector<size_t> shape = lead;
@@ -540,6 +547,7 @@ NB_MODULE(_core, m) {
           return scene_renderer(s, backend, device, threads)
               .intersect(q.origins.data(), q.directions.data(), q.count, tmin, tmax);
         });
+        warn_all(h.warnings);
         nb::dict out;
         out["t"] = shaped(std::move(h.t), q.shape, 1);
         out["instance_id"] = shaped(std::move(h.instance_id), q.shape, 1);
@@ -554,16 +562,19 @@ NB_MODULE(_core, m) {
       "rounded once to float32); directions need not be unit length, t is along them. Returns a dict of arrays "
       "of the leading shape: t (inf on a miss), instance_id and primitive_id (MISS on a miss), uv (..., 2), "
       "normal (..., 3), as a G-buffer's. The same bits on every backend. InputError names the first ray whose "
-      "origin or direction is not finite or whose direction is zero. Releases the GIL.");
+      "origin or direction is not finite or whose direction is zero; what the answers may have lost (as "
+      "GBuffer.warnings) comes as a RuntimeWarning. Releases the GIL.");
   scene_class.def(
       "occluded",
       [scene_renderer](PyScene& s, nb::handle origins, nb::handle directions, float tmin, float tmax,
                        const std::string& backend, const std::string& device, unsigned threads) {
         const QueryArrays q = query_arrays(origins, directions);
+        std::vector<std::string> warnings;
         std::vector<uint8_t> hit = locked(s, [&] {
           return scene_renderer(s, backend, device, threads)
-              .occluded(q.origins.data(), q.directions.data(), q.count, tmin, tmax);
+              .occluded(q.origins.data(), q.directions.data(), q.count, tmin, tmax, &warnings);
         });
+        warn_all(warnings);
         nb::object flags = shaped(std::move(hit), q.shape, 1);
         return flags.attr("astype")("bool");
       },

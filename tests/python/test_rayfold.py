@@ -578,3 +578,14 @@ def test_intersect_rules_and_bad_rays():
         s.intersect([[0, 0, 1]], [[0, 0, -1], [0, 0, -1]])
     with pytest.raises(rayfold.InputError, match="tmin"):
         s.intersect([[0, 0, 1]], [[0, 0, -1]], tmin=2.0, tmax=1.0)
+
+
+def test_intersect_warns_of_instances_it_cannot_trace():
+    s = rayfold.Scene()
+    cube = s.add_mesh(np.array([[-1, -1, -1], [1, -1, -1], [0, 1, -1]], np.float32), [[0, 1, 2]])
+    s.add_instance(cube, np.diag([2.0 ** 120] * 3 + [1.0]))
+    s.add_instance(cube, np.diag([2.0 ** -140] * 3 + [1.0]))
+    with pytest.warns(RuntimeWarning, match="1 instances not traced"):
+        s.intersect([[0, 0, 0]], [[0, 0, -1]], backend="cpu")
+    with pytest.warns(RuntimeWarning, match="1 instances not traced"):
+        s.occluded([[0, 0, 0]], [[0, 0, -1]], backend="cpu")

@@ -48,6 +48,9 @@ struct RayHits {
   std::vector<float> uv;                // 2 per ray: barycentrics of the second and third vertex; 0 on a miss
   std::vector<uint32_t> instance_id;    // Scene instance index, kMiss on a miss
   std::vector<uint32_t> primitive_id;   // triangle index within the mesh, kMiss on a miss
+  // What the answers may have lost, in words (as GBuffer::warnings): empty
+  // within rayfold's exact range.
+  std::vector<std::string> warnings;
 };
 
 // The most views one trace answers unfolded (32 transform groups).
@@ -98,9 +101,11 @@ class Renderer {
   RayHits intersect(const float* origins, const float* directions, size_t n, float tmin = 0.0f,
                     float tmax = std::numeric_limits<float>::infinity());
   // Whether each ray has any hit with tmin < t <= tmax (1) or none (0); each
-  // ray stops at the first hit it finds. Inputs as intersect.
+  // ray stops at the first hit it finds. Inputs as intersect; warnings, when
+  // given, receives RayHits::warnings.
   std::vector<uint8_t> occluded(const float* origins, const float* directions, size_t n, float tmin = 0.0f,
-                                float tmax = std::numeric_limits<float>::infinity());
+                                float tmax = std::numeric_limits<float>::infinity(),
+                                std::vector<std::string>* warnings = nullptr);
 
   std::string device_name() const;  // "cpu reference" for the CPU backend
   std::string kernel() const;       // "tile", "single" or "cpu reference"
