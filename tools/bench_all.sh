@@ -8,6 +8,8 @@
 #   bench_python.py -> out/bench/<scene>-python.md/.json (rayfold from Python against Mitsuba 3
 #                      and Open3D on the peers report's random views; with $BENCH_PYTHON, a
 #                      Python that has them and rayfold: make bench makes one)
+#   bench_rays.py   -> out/bench/<scene>-rays.md/.json (scene.intersect against the same peers on
+#                      1M incoherent rays and on the random views' rays as arrays; same Python)
 #   chart_peers.py  -> out/bench/<scene>-peers.png/.svg
 #   rayfold-stats   -> out/bench/<scene>-stats.txt  (traversal counters per pixel, both kernels, none and xy)
 #   rayfold bench --align -> out/bench/<scene>-align.md/.json (views alone against aligned, the cost
@@ -55,6 +57,8 @@ run() {
   if [ -n "$python_peers" ]; then
     "$python_peers" tools/bench_python.py "$file" --cameras "$out/$name-peers.json" "${py_args[@]}" \
       --json "$out/$name-python.json" --md "$out/$name-python.md"
+    "$python_peers" tools/bench_rays.py "$file" --cameras "$out/$name-peers.json" "${py_args[@]}" \
+      --json "$out/$name-rays.json" > "$out/$name-rays.md"
   fi
   /usr/bin/python3 tools/chart_peers.py "$out/$name-peers.json" "$out/$name-peers"
   : > "$out/$name-stats.txt"
@@ -83,6 +87,10 @@ if [ -e "${peer_reports[0]}" ]; then
   python_reports=("$out"/*-python.json)
   if [ -e "${python_reports[0]}" ]; then
     /usr/bin/python3 tools/bench_tables.py --python "${python_reports[@]}" >> "$out/summary.md"
+  fi
+  ray_reports=("$out"/*-rays.json)
+  if [ -e "${ray_reports[0]}" ]; then
+    /usr/bin/python3 tools/bench_tables.py --rays "${ray_reports[@]}" >> "$out/summary.md"
   fi
   echo; cat "$out/summary.md"
 fi

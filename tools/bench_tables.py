@@ -226,6 +226,46 @@ def stats_table(paths):
             print(f"| {name} | {fold} | " + " | ".join(single.groups()) + " | " + " | ".join(tile.groups()) + " |")
 
 
+# Issue 21's targets for scene.intersect: against Open3D and Mitsuba, on
+# incoherent rays and on camera rays passed as arrays.
+RAYS_TARGETS = {"Open3D RaycastingScene.cast_rays": 2.0, "Mitsuba 3 ray_intersect (llvm_ad_rgb)": 1.0}
+
+
+def rays_table(paths):
+    """scene.intersect against Open3D and Mitsuba (tools/bench_rays.py):
+    per scene, the incoherent rays and the median over the views' rays."""
+    reports = [json.load(open(p)) for p in paths]
+    if not reports:
+        return
+    r0 = reports[0]
+    peers = list(RAYS_TARGETS)
+    print(f"\nRay queries from Python: scene.intersect ({r0['backend']}) on 1M incoherent rays (origins uniform in "
+          f"the bounds, uniform directions) and on each random view's rays as arrays, {r0['threads']} threads, "
+          "each peer's t checked first; ratio: the peer's time over rayfold's.\n")
+    print("| scene | workload | rayfold Mrays/s | " + " | ".join(f"vs {p}" for p in peers) + " |")
+    print("|---|---|---|" + "---|" * len(peers))
+    short = []
+    for r in reports:
+        inc = [x for x in r["rows"] if x["workload"] == "incoherent"]
+        cams = [x for x in r["rows"] if x["workload"] != "incoherent"]
+        for label, rows in (("incoherent", inc), (f"camera rays, median of {len(cams)} views", cams)):
+            if not rows:
+                continue
+            cells = []
+            for p in peers:
+                ratios = [x[p]["ratio"] for x in rows if p in x]
+                if not ratios:
+                    cells.append("-")
+                    continue
+                ratio = median(ratios)
+                cells.append(f"**{ratio:.2f}x**")
+                if ratio < RAYS_TARGETS[p]:
+                    short.append(f"{r['scene']} {label.split(',')[0]} vs {p.split()[0]}")
+            mrays = median([x["rayfold_mrays_per_s"] for x in rows])
+            print(f"| {r['scene']} | {label} | {mrays:.1f} | " + " | ".join(cells) + " |")
+    print(f"\nTargets (2x Open3D, 1x Mitsuba): {'met' if not short else 'NOT met on ' + '; '.join(short)}.")
+
+
 def main():
     if len(sys.argv) < 2:
         sys.exit("usage: bench_tables.py REPORT.json...  |  bench_tables.py --peers REPORT-peers.json...")
@@ -235,6 +275,9 @@ def main():
         return
     if sys.argv[1] == "--python":
         python_table(sys.argv[2:])
+        return
+    if sys.argv[1] == "--rays":
+        rays_table(sys.argv[2:])
         return
     if sys.argv[1] == "--stats":
         stats_table(sys.argv[2:])
