@@ -24,23 +24,29 @@ uint64_t Rng::next() {
 
 double Rng::uniform(double lo, double hi) { return lo + (hi - lo) * (next() >> 11) * 0x1p-53; }
 
-std::vector<rf_pixel_hit> brute_force(const Scene& scene, const SceneData& data, const Camera& camera) {
-  const rf_camera& cam = camera.params;
-  // Per instance: object_from_camera in floats, with the mesh's own
-  // coordinates rather than the trees' power-of-two-scaled ones (the same
-  // geometry written another way: scaling by powers of two is exact, so the
-  // bits must agree with every tracer's).
+namespace {
+
+// Every instance with its object_from_trace rows (the mesh's own
+// coordinates rather than the trees' power-of-two-scaled ones: the same
+// geometry written another way; scaling by powers of two is exact, so the
+// bits must agree with every tracer's), and every mesh's triangles.
+struct BruteScene {
   std::vector<rf_instance> insts;
+  std::vector<std::vector<rf_tri>> mesh_tris;
+};
+
+BruteScene brute_scene(const Scene& scene, const SceneData& data, const Xform& world_from_trace) {
+  BruteScene b;
   for (size_t i = 0; i < scene.instances.size(); ++i) {
     if (!data.renderable[i]) continue;
     rf_instance inst{};
     Xform object_from_world;
     if (!affine_inverse(scene.instances[i].world_from_object, &object_from_world)) continue;
-    to_rows3x4(object_from_world * camera.world_from_camera, inst.tree_from_trace);
+    to_rows3x4(object_from_world * world_from_trace, inst.tree_from_trace);
     inst.instance_id = static_cast<uint32_t>(i);
-    insts.push_back(inst);
+    b.insts.push_back(inst);
   }
-  std::vector<std::vector<rf_tri>> mesh_tris(scene.meshes.size());
+  b.mesh_tris.resize(scene.meshes.size());
   for (size_t m = 0; m < scene.meshes.size(); ++m) {
     const Mesh& mesh = scene.meshes[m];
     for (size_t t = 0; t < mesh.triangle_count(); ++t) {
@@ -52,9 +58,44 @@ std::vector<rf_pixel_hit> brute_force(const Scene& scene, const SceneData& data,
       }
       tri.prim = static_cast<uint32_t>(t);
       rf_tri_set_normal(&tri);
-      mesh_tris[m].push_back(tri);
+      b.mesh_tris[m].push_back(tri);
     }
   }
+  return b;
+}
+
+// The closest hit beyond tmin (best starts as the caller's bound) over
+// every triangle, each instance's ray from make_ray(instance), written out
+// with len_d and the G-buffer's normal.
+template <class MakeRay>
+void brute_closest(const BruteScene& b, const Scene& scene, const SceneData& data, float tmin, rf_hit best,
+                   float len_d, MakeRay&& make_ray, rf_pixel_hit* out) {
+  const rf_tri* best_tri = nullptr;
+  for (const rf_instance& inst : b.insts) {
+    const rf_ray r = make_ray(inst);
+    for (const rf_tri& tri : b.mesh_tris[scene.instances[inst.instance_id].mesh]) {
+      float t, u, v;
+      if (rf_intersect_triangle(&tri, &r, &t, &u, &v) && t > tmin &&
+          rf_hit_is_closer(t, inst.instance_id, tri.prim, &best)) {
+        best.t = t;
+        best.u = u;
+        best.v = v;
+        best.instance = inst.instance_id;
+        best.prim = tri.prim;
+        best_tri = &tri;
+      }
+    }
+  }
+  // rf_write_pixel finds the triangle through an index; hand it this one.
+  best.tri = 0;
+  rf_write_pixel(out, &best, len_d, 1.0f, best_tri, data.normal_xforms.data(), 0u);
+}
+
+}  // namespace
+
+std::vector<rf_pixel_hit> brute_force(const Scene& scene, const SceneData& data, const Camera& camera) {
+  const rf_camera& cam = camera.params;
+  const BruteScene b = brute_scene(scene, data, camera.world_from_camera);
   std::vector<rf_pixel_hit> out(static_cast<size_t>(cam.width) * cam.height);
   for (int y = 0; y < cam.height; ++y)
     for (int x = 0; x < cam.width; ++x) {
@@ -64,32 +105,35 @@ std::vector<rf_pixel_hit> brute_force(const Scene& scene, const SceneData& data,
       const float dx = cam.ortho ? 0.0f : px, dy = cam.ortho ? 0.0f : py, dz = -1.0f;
       rf_hit best;
       rf_hit_reset(&best);
-      const rf_tri* best_tri = nullptr;
-      for (const rf_instance& inst : insts) {
+      const float len_d = cam.ortho ? 1.0f : RF_SQRT(dx * dx + dy * dy + dz * dz);
+      brute_closest(b, scene, data, 0.0f, best, len_d, [&](const rf_instance& inst) {
         rf_ray r;
         if (cam.ortho)
           rf_ray_to_object_from(&r, inst.tree_from_trace, px, py, dx, dy, dz);
         else
           rf_ray_to_object(&r, inst.tree_from_trace, dx, dy, dz);
-        for (const rf_tri& tri : mesh_tris[scene.instances[inst.instance_id].mesh]) {
-          float t, u, v;
-          if (rf_intersect_triangle(&tri, &r, &t, &u, &v) && t > 0.0f &&
-              rf_hit_is_closer(t, inst.instance_id, tri.prim, &best)) {
-            best.t = t;
-            best.u = u;
-            best.v = v;
-            best.instance = inst.instance_id;
-            best.prim = tri.prim;
-            best_tri = &tri;
-          }
-        }
-      }
-      const float len_d = cam.ortho ? 1.0f : RF_SQRT(dx * dx + dy * dy + dz * dz);
-      // rf_write_pixel finds the triangle through an index; hand it this one.
-      best.tri = 0;
-      rf_write_pixel(&out[static_cast<size_t>(y) * cam.width + x], &best, len_d, 1.0f, best_tri ? best_tri : nullptr,
-                     data.normal_xforms.data(), 0u);
+        return r;
+      }, &out[static_cast<size_t>(y) * cam.width + x]);
     }
+  return out;
+}
+
+std::vector<rf_pixel_hit> brute_force_rays(const Scene& scene, const SceneData& data, const float* origins,
+                                           const float* directions, size_t n, float tmin, float tmax) {
+  const BruteScene b = brute_scene(scene, data, Xform(1.0));
+  std::vector<rf_pixel_hit> out(n);
+  for (size_t q = 0; q < n; ++q) {
+    const float* o = origins + 3 * q;
+    const float* d = directions + 3 * q;
+    rf_hit best;
+    rf_hit_reset(&best);
+    best.t = tmax;
+    brute_closest(b, scene, data, tmin, best, 1.0f, [&](const rf_instance& inst) {
+      rf_ray r;
+      rf_ray_to_object_at(&r, inst.tree_from_trace, o[0], o[1], o[2], d[0], d[1], d[2]);
+      return r;
+    }, &out[q]);
+  }
   return out;
 }
 

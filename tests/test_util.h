@@ -33,6 +33,10 @@ class Rng {
 // Every pixel's closest hit by testing every triangle of every instance with
 // the shared triangle test and tie rule: what the trees must reproduce.
 std::vector<rf_pixel_hit> brute_force(const Scene& scene, const SceneData& data, const Camera& camera);
+// The same for ray queries: n world-space rays (origins, directions n x 3),
+// hits with tmin < t <= tmax, z = t (Renderer::intersect's answers).
+std::vector<rf_pixel_hit> brute_force_rays(const Scene& scene, const SceneData& data, const float* origins,
+                                           const float* directions, size_t n, float tmin, float tmax);
 
 // "" when equal bit for bit, else a description of the first difference and
 // the number of differing pixels.
