@@ -73,8 +73,9 @@ std::string differences(const std::vector<rf_pixel_hit>& a, const std::vector<rf
     if (std::memcmp(&x, &y, sizeof x) == 0) continue;
     if (count++ == 0) {
       char buf[240];
-      std::snprintf(buf, sizeof buf, "ray %zu: (%u, %u, t %.9g, u %.9g, v %.9g) against (%u, %u, t %.9g, u %.9g, v %.9g)",
-                    i, x.instance, x.primitive, x.z, x.u, x.v, y.instance, y.primitive, y.z, y.u, y.v);
+      std::snprintf(buf, sizeof buf,
+                    "ray %zu: (%u, %u, t %.9g, u %.9g, v %.9g) against (%u, %u, t %.9g, u %.9g, v %.9g)", i, x.instance,
+                    x.primitive, x.z, x.u, x.v, y.instance, y.primitive, y.z, y.u, y.v);
       first = buf;
     }
   }
@@ -91,8 +92,8 @@ TEST(RayQuery, EqualsBruteForceBitForBitOnRandomScenes) {
     Renderer renderer(scene, opt);
     const Rays rays = random_rays(rng, scene, 3000);
     const std::vector<rf_pixel_hit> got = query(renderer, rays);
-    const std::vector<rf_pixel_hit> expected = testing::brute_force_rays(
-        scene, renderer.scene_data(), rays.o.data(), rays.d.data(), rays.size(), 0.0f, INFINITY);
+    const std::vector<rf_pixel_hit> expected = testing::brute_force_rays(scene, renderer.scene_data(), rays.o.data(),
+                                                                         rays.d.data(), rays.size(), 0.0f, INFINITY);
     EXPECT_EQ(differences(expected, got), "") << "scene " << s;
     for (const rf_pixel_hit& h : got) hits += h.instance != RF_INVALID;
     rays_total += rays.size();
@@ -138,7 +139,8 @@ TEST(RayQuery, AgreesWithADoubleReference) {
       const Xform& w = scene.instances[i].world_from_object;
       for (size_t t = 0; t < mesh.triangle_count(); ++t) {
         glm::dvec3 v[3];
-        for (int k = 0; k < 3; ++k) v[k] = glm::dvec3(w * glm::dvec4(glm::dvec3(mesh.positions[mesh.indices[3 * t + k]]), 1.0));
+        for (int k = 0; k < 3; ++k)
+          v[k] = glm::dvec3(w * glm::dvec4(glm::dvec3(mesh.positions[mesh.indices[3 * t + k]]), 1.0));
         const glm::dvec3 e1 = v[1] - v[0], e2 = v[2] - v[0], p = glm::cross(d, e2);
         const double det = glm::dot(e1, p);
         if (det == 0.0) continue;

@@ -73,8 +73,8 @@ void to_trace_space(const float* origins, const float* directions, size_t begin,
   }
 }
 
-void trace_queries_cpu(const TraceInputs& in, const std::vector<rf_query_ray>& rays, bool any_hit,
-                       unsigned write_flags, rf_pixel_hit* out, unsigned threads) {
+void trace_queries_cpu(const TraceInputs& in, const std::vector<rf_query_ray>& rays, bool any_hit, unsigned write_flags,
+                       rf_pixel_hit* out, unsigned threads) {
   parallel_for(rays.size(), threads, 256, [&](size_t begin, size_t end) {
     for (size_t i = begin; i < end; ++i)
       rf_trace_query(&rays[i], in.nodes, in.tris, in.instances, in.normal_xforms, in.tlas_root, any_hit ? 1 : 0,

@@ -34,7 +34,7 @@ void to_trace_space(const float* origins, const float* directions, size_t begin,
                     const Frame& frame, std::vector<rf_query_ray>& out);
 
 // The CPU reference's answers, one rf_pixel_hit per ray (z = t).
-void trace_queries_cpu(const TraceInputs& in, const std::vector<rf_query_ray>& rays, bool any_hit,
-                       unsigned write_flags, rf_pixel_hit* out, unsigned threads);
+void trace_queries_cpu(const TraceInputs& in, const std::vector<rf_query_ray>& rays, bool any_hit, unsigned write_flags,
+                       rf_pixel_hit* out, unsigned threads);
 
 }  // namespace rayfold::core
