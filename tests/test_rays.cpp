@@ -194,6 +194,12 @@ TEST(RayQuery, IntervalAndOcclusionRules) {
     EXPECT_EQ(query(r, unit, 4.99f)[0].z, 5.0f);
     EXPECT_EQ(query(r, unit, 0.0f, 4.99f, true)[0].instance, RF_INVALID);
     EXPECT_NE(query(r, unit, 0.0f, INFINITY, true)[0].instance, RF_INVALID);
+    // Any finite length: t scales with it exactly (5 / 2^k).
+    for (float len : {0x1p-120f, 0x1p-60f, 0x1p60f, 0x1p126f}) {
+      const Rays scaled{{0.25f, 0.125f, 0.0f}, {0.0f, 0.0f, -len}};
+      EXPECT_EQ(query(r, scaled)[0].z, 5.0f / len) << "direction length " << len;
+      EXPECT_EQ(query(r, scaled, 0.0f, 4.0f / len)[0].instance, RF_INVALID) << "direction length " << len;
+    }
     const rf_pixel_hit h = query(r, unit)[0];
     EXPECT_EQ(h.nz, 1.0f) << "the G-buffer's normal";
     const Rays away{{0.25f, 0.125f, 0.0f}, {0.0f, 0.0f, 1.0f}};
