@@ -208,6 +208,20 @@ TEST(RayQuery, IntervalAndOcclusionRules) {
   }
 }
 
+TEST(RayQuery, TheFastBuildAnswersWithAnInfiniteTmax) {
+  // The fast build assumes finite math: an infinite tmax must not reach
+  // its comparisons.
+  RendererOptions opt;
+  opt.backend = Backend::opencl;
+  opt.precision = KernelPrecision::fast;
+  Renderer r(square_at_minus_five(), opt);
+  const Rays unit{{0.25f, 0.125f, 0.0f}, {0.0f, 0.0f, -1.0f}};
+  const rf_pixel_hit h = query(r, unit)[0];
+  EXPECT_EQ(h.instance, 0u);
+  EXPECT_NEAR(h.z, 5.0f, 1e-5f);
+  EXPECT_EQ(query(r, unit, 0.0f, 4.5f)[0].instance, RF_INVALID);
+}
+
 TEST(RayQuery, ScalingSceneAndRaysByPowersOfTwoKeepsEveryBit) {
   Rng rng(17);
   const Scene scene = testing::random_scene(rng, 2, 6, 150);
