@@ -230,6 +230,11 @@ void Renderer::add_range_warnings(size_t out_of_range, const char* where, std::v
 std::vector<std::string> Renderer::intersect(const float* origins, const float* directions, size_t n, float tmin,
                                              float tmax, bool any_hit, const FrameOptions& frame_options,
                                              rf_pixel_hit* out) {
+  // The fast build (-cl-fast-relaxed-math) assumes finite math, which the
+  // query traversal's bounds and axis-aligned rays break (it missed every
+  // hit, or crashed, where the exact build answers).
+  if (tracer_ && options_.precision == KernelPrecision::fast)
+    throw InputError("", "ray queries run on the exact build only; this renderer was made with the fast one");
   check_query_rays(origins, directions, n, tmin, tmax);
   if (n == 0) return {};
   const Frame frame = build_query_frame(scene_, data_, origins, n, frame_options);

@@ -111,7 +111,8 @@ class Renderer {
   // (origins, directions n x 3) its closest hit with tmin < t <= tmax, or
   // with any_hit the first one found, as a pixel's hit info (z = t along the
   // given direction). In chunks, so memory stays bounded for any n. The
-  // frame options' moved and normals apply. InputError for a bad ray.
+  // frame options' moved and normals apply. InputError for a bad ray, or
+  // on a renderer of the fast build (KernelPrecision::fast).
   // Returns what the answers may have lost, in words (as a render's).
   std::vector<std::string> intersect(const float* origins, const float* directions, size_t n, float tmin, float tmax,
                                      bool any_hit, const FrameOptions& frame_options, rf_pixel_hit* out);

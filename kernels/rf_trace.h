@@ -333,9 +333,7 @@ RF_INLINE void rf_trace_query(const RF_GLOBAL rf_query_ray* q, const RF_GLOBAL r
                               rf_u32 write_flags, RF_GLOBAL rf_pixel_hit* out) {
   rf_hit hit;
   rf_hit_reset(&hit);
-  /* RF_FAR for an infinite tmax: the traversal's bounds stay finite (the
-   * fast build assumes finite math). */
-  hit.t = rf_minf(q->tmax, RF_FAR);
+  hit.t = q->tmax;
   if (tlas_root != RF_INVALID)
     rf_trace_tlas(nodes, tris, instances, tlas_root, RF_ORIGIN_ANY, q->o[0], q->o[1], q->o[2], q->d[0], q->d[1],
                   q->d[2], q->tmin, any_hit, 1u, &hit);
