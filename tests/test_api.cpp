@@ -6,6 +6,8 @@
 
 #include <cmath>
 #include <cstring>
+#include <filesystem>
+#include <fstream>
 
 #include "rayfold/rayfold.h"
 #include "test_util.h"
@@ -393,6 +395,107 @@ TEST(Api, BadInputsThrowWithTheReason) {
   RendererOptions o;
   o.device = "no device is called this";
   EXPECT_NE(message_of<RuntimeFailure>([&] { Renderer r(s, o); }).find("no device is called this"), std::string::npos);
+}
+
+std::filesystem::path work_dir(const std::string& name) {
+  const std::filesystem::path d = std::filesystem::path(::testing::TempDir()) / ("rayfold_api_" + name);
+  std::filesystem::remove_all(d);
+  std::filesystem::create_directories(d);
+  return d;
+}
+
+bool same_bits(const std::vector<float>& a, const std::vector<float>& b) {
+  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(float)) == 0;
+}
+
+// A camera sent as bytes (Python's pickle, rayfold.batch) is the same
+// camera: the same bytes again and the same render, for a look-at, an
+// off-grid matrix and an orthographic camera; other bytes are refused.
+TEST(Api, CameraBytesKeepEveryValueAndRefuseOthers) {
+  const Scene scene = Scene::load(RAYFOLD_SOURCE_DIR "/scenes/atrium.glb");
+  const Matrix4 pose = {0.6, 0, 0.8, 1.5, 0, 1, 0, 1.2, -0.8, 0, 0.6, 4.0, 0, 0, 0, 1};
+  const Camera cameras[] = {
+      Camera::look_at({0.3, 1.1, 4.7}, {0, 1, 0}, {0, 1, 0}, 55, 40, 30),
+      Camera::from_matrix(pose, {31.3, 29.9, 20.17, 14.9}, 40, 30, CameraConvention::opengl),
+      Camera::orthographic({0, 1, 6}, {0, 1, 0}, {0, 1, 0}, 2.5, 40, 30)};
+  Renderer renderer(scene);
+  for (const Camera& c : cameras) {
+    const std::string bytes = c.to_bytes();
+    const Camera back = Camera::from_bytes(bytes);
+    EXPECT_EQ(back.to_bytes(), bytes);
+    const GBuffer a = renderer.render(c, Fold::xy), b = renderer.render(back, Fold::xy);
+    EXPECT_TRUE(same_bits(a.depth, b.depth) && a.instance_id == b.instance_id && same_bits(a.normal, b.normal));
+    EXPECT_EQ(a.fold, b.fold);
+  }
+  const std::string bytes = cameras[0].to_bytes();
+  EXPECT_NE(message_of<InputError>([&] { Camera::from_bytes(bytes.substr(1)); }).find("not a camera"),
+            std::string::npos);
+  std::string other = bytes;
+  other[5] = 2;  // another format version
+  EXPECT_NE(message_of<InputError>([&] { Camera::from_bytes(other); }).find("format 1"), std::string::npos);
+}
+
+// write_exr then read_exr gives back every plane the G-buffer has, bit for
+// bit, and only those; a G-buffer whose planes do not fit its size is refused.
+TEST(Api, ExrFilesReadBackBitForBitWithThePlanesWritten) {
+  const std::filesystem::path d = work_dir("exr");
+  const Scene scene = Scene::load(RAYFOLD_SOURCE_DIR "/scenes/atrium.glb");
+  const Camera cam = scene.default_camera(48, 30);
+  Renderer renderer(scene);
+  const GBuffer all = renderer.render(cam, Fold::xy);
+  write_exr((d / "all.exr").string(), all, cam, scene);
+  const GBuffer back = read_exr((d / "all.exr").string());
+  EXPECT_EQ(back.channels, kAllChannels);
+  EXPECT_EQ(back.width, 48);
+  EXPECT_EQ(back.height, 30);
+  EXPECT_TRUE(same_bits(back.depth, all.depth) && same_bits(back.normal, all.normal) && same_bits(back.uv, all.uv));
+  EXPECT_EQ(back.instance_id, all.instance_id);
+  EXPECT_EQ(back.primitive_id, all.primitive_id);
+  EXPECT_EQ(back.hits, all.hits);
+  const GBuffer some = renderer.render(cam, Fold::none, kDepth | kPrimitiveId);
+  write_exr((d / "some.exr").string(), some, cam, scene);
+  const GBuffer some_back = read_exr((d / "some.exr").string());
+  EXPECT_EQ(some_back.channels, kDepth | kPrimitiveId);
+  EXPECT_TRUE(same_bits(some_back.depth, all.depth));
+  EXPECT_EQ(some_back.primitive_id, all.primitive_id);
+  EXPECT_TRUE(some_back.normal.empty() && some_back.instance_id.empty());
+  GBuffer cut = all;
+  cut.uv.pop_back();
+  EXPECT_NE(message_of<InputError>([&] { write_exr((d / "cut.exr").string(), cut, cam, scene); })
+                .find("uv plane holds 2879 values, not the 2880"),
+            std::string::npos);
+  EXPECT_NE(message_of<InputError>([&] {
+              write_exr((d / "small.exr").string(), all, scene.default_camera(24, 30), scene);
+            }).find("48x30, its camera 24x30"),
+            std::string::npos);
+  EXPECT_FALSE(std::filesystem::exists(d / "cut.exr") || std::filesystem::exists(d / "small.exr"));
+  EXPECT_NE(message_of<InputError>([&] { read_exr((d / "none.exr").string()); }).find("none.exr"),
+            std::string::npos);
+}
+
+// Camera::from_file tells a camera list from a transforms.json by content.
+TEST(Api, CameraFilesAreReadByWhatTheyHold) {
+  const std::filesystem::path d = work_dir("camera_files");
+  std::ofstream(d / "list.json") << R"({"width": 40, "height": 30, "cameras": [
+      {"eye": [0, 1, 5], "look_at": [0, 1, 0]}, {"eye": [1, 1, 5], "look_at": [0, 1, 0], "fx": 30, "fy": 30,
+      "cx": 20, "cy": 15}]})";
+  const auto list = Camera::from_file((d / "list.json").string());
+  ASSERT_EQ(list.size(), 2u);
+  EXPECT_EQ(list[0].first, "0");
+  EXPECT_EQ(list[1].first, "1");
+  EXPECT_EQ(list[1].second.intrinsics().fx, 30.0);
+  EXPECT_EQ(list[0].second.to_bytes(),
+            Camera::look_at({0, 1, 5}, {0, 1, 0}, {0, 1, 0}, 60, 40, 30).to_bytes());
+  std::ofstream(d / "transforms.json") << R"({"camera_angle_x": 0.9, "frames": [{"file_path": "a.png",
+      "transform_matrix": [[1, 0, 0, 0], [0, 1, 0, 1], [0, 0, 1, 5], [0, 0, 0, 1]]}]})";
+  const auto nerf = Camera::from_file((d / "transforms.json").string(), 40, 30);
+  ASSERT_EQ(nerf.size(), 1u);
+  EXPECT_EQ(nerf[0].first, "a.png");
+  EXPECT_EQ(nerf[0].second.width(), 40);
+  EXPECT_NE(message_of<InputError>([&] {
+              Camera::from_file((d / "list.json").string(), 40, 30);
+            }).find("width and height does not combine"),
+            std::string::npos);
 }
 
 }  // namespace

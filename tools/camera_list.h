@@ -13,16 +13,7 @@ struct View {
   std::string label;  // "0", "1", ... for a camera list; "left", "right" for a stereo pair
 };
 
-// Reads {"width": W, "height": H, "vfov": DEG, "convention": "opengl"|"opencv",
-//        "cameras": [{"eye": [x,y,z], "look_at": [x,y,z], "up": [x,y,z]}
-//                    or {"camera_to_world": [16 numbers, row-major]}, each
-//                    with an optional "vfov"]}.
-// vfov defaults to 60, up to +Y, convention (of camera_to_world) to opengl.
-// Throws InputError(path, ...) naming the member that is wrong, also for a
-// key a camera does not have (fx, fy, cx, cy are not read yet).
-std::vector<View> read_camera_list(const std::string& path);
-
-// --cameras FILE: the camera list above, or a NeRF / instant-ngp
+// --cameras FILE: a camera list (scene/camera_list.h), or a NeRF / instant-ngp
 // transforms.json (a JSON object with "frames"; scene/dataset_cameras.h).
 // width and height: --size when given, else 0; only a transforms.json
 // without "w" and "h" takes them, anything else refuses them. A line about

@@ -1,12 +1,15 @@
 #include "rayfold/camera.h"
 
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 
 #include <glm/geometric.hpp>
 
 #include "api/convert.h"
 #include "rayfold/errors.h"
 #include "scene/camera.h"
+#include "scene/camera_list.h"
 #include "scene/dataset_cameras.h"
 
 namespace rayfold {
@@ -79,6 +82,70 @@ std::vector<std::pair<std::string, Camera>> Camera::from_colmap(const std::strin
   for (core::DatasetView& v : core::read_colmap_cameras(dir))
     out.emplace_back(v.name, Camera(std::make_shared<core::Camera>(v.camera)));
   return out;
+}
+
+std::vector<std::pair<std::string, Camera>> Camera::from_file(const std::string& path, int width, int height,
+                                                              std::vector<std::string>* ignored) {
+  std::vector<std::pair<std::string, Camera>> out;
+  for (core::DatasetView& v : core::read_cameras_any(path, width, height, ignored, "width and height"))
+    out.emplace_back(v.name, Camera(std::make_shared<core::Camera>(v.camera)));
+  return out;
+}
+
+namespace {
+
+// "rfcam", a format version byte, then the fields in this order, native
+// byte order: world_from_camera and camera_from_world (16 doubles each,
+// column-major), width and height (int32), vfov_degrees, the device's
+// rf_camera (its documented bytes), scale_x, scale_y, frac_x, frac_y.
+constexpr char kCameraMagic[] = "rfcam\x01";
+constexpr size_t kCameraBytes = sizeof(kCameraMagic) - 1 + 32 * sizeof(double) + 2 * sizeof(int32_t) +
+                                sizeof(double) + sizeof(rf_camera) + 4 * sizeof(double);
+
+}  // namespace
+
+std::string Camera::to_bytes() const {
+  const core::Camera& c = *impl_;
+  std::string out(kCameraMagic, sizeof(kCameraMagic) - 1);
+  auto put = [&](const void* p, size_t n) { out.append(static_cast<const char*>(p), n); };
+  put(&c.world_from_camera[0][0], 16 * sizeof(double));
+  put(&c.camera_from_world[0][0], 16 * sizeof(double));
+  const int32_t size[2] = {c.width, c.height};
+  put(size, sizeof(size));
+  put(&c.vfov_degrees, sizeof(double));
+  put(&c.params, sizeof(rf_camera));
+  const double exact[4] = {c.scale_x, c.scale_y, c.frac_x, c.frac_y};
+  put(exact, sizeof(exact));
+  return out;
+}
+
+Camera Camera::from_bytes(const std::string& bytes) {
+  const size_t magic = sizeof(kCameraMagic) - 1;
+  if (bytes.size() != kCameraBytes || bytes.compare(0, magic, kCameraMagic, magic) != 0)
+    throw InputError("", "Camera.from_bytes: " + std::to_string(bytes.size()) +
+                             " bytes that are not a camera of this rayfold version (" + std::to_string(kCameraBytes) +
+                             " bytes starting \"rfcam\" and format 1)");
+  auto c = std::make_shared<core::Camera>();
+  size_t at = magic;
+  auto get = [&](void* p, size_t n) {
+    std::memcpy(p, bytes.data() + at, n);
+    at += n;
+  };
+  get(&c->world_from_camera[0][0], 16 * sizeof(double));
+  get(&c->camera_from_world[0][0], 16 * sizeof(double));
+  int32_t size[2];
+  get(size, sizeof(size));
+  c->width = size[0];
+  c->height = size[1];
+  get(&c->vfov_degrees, sizeof(double));
+  get(&c->params, sizeof(rf_camera));
+  double exact[4];
+  get(exact, sizeof(exact));
+  c->scale_x = exact[0];
+  c->scale_y = exact[1];
+  c->frac_x = exact[2];
+  c->frac_y = exact[3];
+  return Camera(std::move(c));
 }
 
 int Camera::width() const { return impl_->width; }

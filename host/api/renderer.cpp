@@ -1,5 +1,7 @@
 #include "rayfold/renderer.h"
 
+#include "api/convert.h"
+
 #include <algorithm>
 #include <cmath>
 
@@ -13,15 +15,6 @@
 namespace rayfold {
 namespace {
 
-core::FoldMode to_core(Fold f) {
-  switch (f) {
-    case Fold::y: return core::FoldMode::y;
-    case Fold::x: return core::FoldMode::x;
-    case Fold::xy: return core::FoldMode::xy;
-    default: return core::FoldMode::none;
-  }
-}
-
 Fold from_core(core::FoldMode f) {
   switch (f) {
     case core::FoldMode::y: return Fold::y;
@@ -30,6 +23,8 @@ Fold from_core(core::FoldMode f) {
     default: return Fold::none;
   }
 }
+
+using detail::to_core;
 
 core::KernelChoice to_core(Kernel k) {
   switch (k) {
@@ -172,11 +167,12 @@ void check_channels(unsigned channels) {
 // A core result (one view's) as the public planes asked for, on `threads`
 // threads: a 720p frame's 30 MB of planes cost a fifth of the trace on one.
 void fill_gbuffer(GBuffer& g, const core::RenderResult& r, int width, int height, unsigned threads,
-                  unsigned channels) {
+                  unsigned channels, Depth depth_kind) {
   const size_t n = r.hits.size();
   g.width = width;
   g.height = height;
   g.channels = channels;
+  g.depth_kind = depth_kind;
   auto plane = [&](auto& v, unsigned bit, size_t per_pixel) {
     if (channels & bit) {
       v.resize(per_pixel * n);
@@ -235,7 +231,7 @@ void Renderer::render_into(GBuffer& g, const Camera& camera, Fold fold, unsigned
   frame.planar_depth = impl_->planar_depth;
   core::RenderResult& r = impl_->result;
   impl_->core->render_into(r, camera.core(), 1, frame);
-  fill_gbuffer(g, r, camera.width(), camera.height(), impl_->options.threads, channels);
+  fill_gbuffer(g, r, camera.width(), camera.height(), impl_->options.threads, channels, impl_->planar_depth ? Depth::planar : Depth::distance);
   g.frame_ms = core::ms_since(t0);
 }
 
@@ -273,7 +269,7 @@ void Renderer::render_views(const std::vector<Camera>& cameras, const std::funct
     for (size_t k = 0; k < pass.size(); ++k) {
       GBuffer g;
       fill_gbuffer(g, core::view_result(r, k), cameras[pass[k]].width(), cameras[pass[k]].height(),
-                   impl_->options.threads, channels);
+                   impl_->options.threads, channels, impl_->planar_depth ? Depth::planar : Depth::distance);
       g.views_in_trace = static_cast<int>(pass.size());
       g.trace_ms = r.median.trace_ms / static_cast<double>(pass.size());
       g.frame_ms = ms;

@@ -173,6 +173,7 @@ struct PyGBuffer {
   std::vector<std::string> warnings;
   rayfold::Camera camera;
   int views_in_trace = 1;
+  rayfold::Depth depth_kind = rayfold::Depth::distance;
 };
 
 PyGBuffer to_python(rayfold::GBuffer&& g, const rayfold::Camera& camera) {
@@ -196,8 +197,41 @@ PyGBuffer to_python(rayfold::GBuffer&& g, const rayfold::Camera& camera) {
               g.frame_ms,
               std::move(g.warnings),
               camera,
-              g.views_in_trace};
+              g.views_in_trace,
+              g.depth_kind};
   return p;
+}
+
+// A plane of a GBuffer back as a flat vector (None: empty, not asked for).
+template <class T>
+std::vector<T> plane_values(const nb::object& plane, const char* dtype, const char* what) {
+  if (plane.is_none()) return {};
+  const InArray<T> a = as_array<T>(plane, dtype, what);
+  return std::vector<T>(a.data(), a.data() + a.size());
+}
+
+// The public G-buffer of a Python one, for write_exr.
+rayfold::GBuffer from_python(const PyGBuffer& p) {
+  rayfold::GBuffer g;
+  g.width = p.width;
+  g.height = p.height;
+  g.depth = plane_values<float>(p.depth, "float32", "depth");
+  g.normal = plane_values<float>(p.normal, "float32", "normal");
+  g.uv = plane_values<float>(p.uv, "float32", "uv");
+  g.instance_id = plane_values<uint32_t>(p.instance_id, "uint32", "instance_id");
+  g.primitive_id = plane_values<uint32_t>(p.primitive_id, "uint32", "primitive_id");
+  const std::pair<const nb::object*, unsigned> planes[] = {{&p.depth, rayfold::kDepth},
+                                                          {&p.normal, rayfold::kNormal},
+                                                          {&p.uv, rayfold::kUv},
+                                                          {&p.instance_id, rayfold::kInstanceId},
+                                                          {&p.primitive_id, rayfold::kPrimitiveId}};
+  g.channels = 0;
+  for (const auto& [plane, bit] : planes)
+    if (!plane->is_none()) g.channels |= bit;
+  g.fold = p.fold == "y" ? rayfold::Fold::y : p.fold == "x" ? rayfold::Fold::x : p.fold == "xy" ? rayfold::Fold::xy
+                                                                                                 : rayfold::Fold::none;
+  g.depth_kind = p.depth_kind;
+  return g;
 }
 
 // A scene and what renders it: renderers by options, reused across calls;
@@ -331,7 +365,24 @@ NB_MODULE(_core, m) {
           },
           "path"_a, "width"_a, "height"_a)
       .def_static(
+          "_read_file",
+          [](const std::string& path, int width, int height) {
+            std::vector<std::string> ignored;
+            auto views = rayfold::Camera::from_file(path, width, height, &ignored);
+            return std::make_pair(std::move(views), std::move(ignored));
+          },
+          "path"_a, "width"_a, "height"_a)
+      .def_static(
           "_read_colmap", [](const std::string& dir) { return rayfold::Camera::from_colmap(dir); }, "dir"_a)
+      .def("__getstate__",
+           [](const rayfold::Camera& c) {
+             const std::string b = c.to_bytes();
+             return nb::bytes(b.data(), b.size());
+           })
+      .def("__setstate__",
+           [](rayfold::Camera& c, const nb::bytes& state) {
+             new (&c) rayfold::Camera(rayfold::Camera::from_bytes(std::string(state.c_str(), state.size())));
+           })
       .def_prop_ro("width", &rayfold::Camera::width)
       .def_prop_ro("height", &rayfold::Camera::height)
       .def_prop_ro(
@@ -391,7 +442,22 @@ NB_MODULE(_core, m) {
       .def_ro("views_in_trace", &PyGBuffer::views_in_trace,
               "views traced together with this one, itself included (Scene.render_views)")
       .def_ro("warnings", &PyGBuffer::warnings)
-      .def_ro("camera", &PyGBuffer::camera);
+      .def_ro("camera", &PyGBuffer::camera)
+      .def_prop_ro(
+          "depth_kind",
+          [](const PyGBuffer& g) { return g.depth_kind == rayfold::Depth::planar ? "planar" : "distance"; },
+          "what depth measures: 'distance' along the pixel's ray or 'planar' along the camera's axis")
+      .def(
+          "write_exr",
+          [](const PyGBuffer& g, const std::filesystem::path& path, const PyScene& scene) {
+            const rayfold::GBuffer core = from_python(g);
+            nb::gil_scoped_release release;
+            rayfold::write_exr(path.string(), core, g.camera, scene.scene);
+          },
+          "path"_a, "scene"_a,
+          "Writes the planes this G-buffer has as `rayfold render -o` writes a view (channels Z, N.X, N.Y, N.Z, U, "
+          "V, InstanceID, PrimitiveID; the camera and scene's instance names in the header). The file appears "
+          "whole or not at all. Releases the GIL.");
 
   auto scene_class = nb::class_<PyScene>(m, "Scene", "Meshes and instances, from a glTF 2.0 file or built in memory.");
   scene_class
@@ -582,6 +648,30 @@ NB_MODULE(_core, m) {
       "threads"_a = 0,
       "Whether each ray has any hit with tmin < t <= tmax (bool array of the leading shape); each ray stops at "
       "the first hit found. Inputs as intersect. Releases the GIL.");
+
+  m.def(
+      "read_exr",
+      [](const std::filesystem::path& path) {
+        rayfold::GBuffer g = [&] {
+          nb::gil_scoped_release release;
+          return rayfold::read_exr(path.string());
+        }();
+        const size_t h = g.height, w = g.width;
+        nb::dict out;
+        auto put = [&](const char* name, auto&& v, unsigned bit, std::initializer_list<size_t> shape) {
+          if (g.channels & bit) out[name] = to_numpy(std::move(v), shape);
+        };
+        put("depth", std::move(g.depth), rayfold::kDepth, {h, w});
+        put("normal", std::move(g.normal), rayfold::kNormal, {h, w, 3});
+        put("uv", std::move(g.uv), rayfold::kUv, {h, w, 2});
+        put("instance_id", std::move(g.instance_id), rayfold::kInstanceId, {h, w});
+        put("primitive_id", std::move(g.primitive_id), rayfold::kPrimitiveId, {h, w});
+        return out;
+      },
+      "path"_a,
+      "The planes of an EXR rayfold wrote (GBuffer.write_exr, rayfold render -o), bit for bit, as a dict with the "
+      "GBuffer's plane names and shapes (depth, normal, uv, instance_id, primitive_id), holding the planes the "
+      "file has. InputError naming the file otherwise.");
 
   nb::class_<PyRenderer>(m, "Renderer", "A renderer of one scene with fixed options (Scene.render keeps these).")
       .def(

@@ -145,6 +145,23 @@ class CheckedExrStream : public Imf::OStream {
 
 }  // namespace
 
+ExrMetadata view_metadata(const Camera& camera, const Scene& scene, const std::string& scene_label,
+                          const std::string& fold, bool planar_depth, const std::string& version) {
+  ExrMetadata m;
+  const Intrinsics k = intrinsics(camera);
+  m.view = ExrMetadata::View{camera.world_from_camera, k.fx, k.fy, k.cx, k.cy, is_orthographic(camera)};
+  for (const Instance& i : scene.instances) m.instance_names.push_back(i.name);
+  m.strings = {{"version", version},
+               {"scene", scene_label},
+               {"fold", fold},
+               {"depth", planar_depth
+                             ? "Z is the depth along the camera's axis (camera-space -z, --depth planar); +inf on a miss"
+                             : "Z is the distance from the eye along the pixel's ray (not camera-space z); +inf on a "
+                               "miss"},
+               {"miss", "InstanceID and PrimitiveID are 4294967295 on a miss"}};
+  return m;
+}
+
 void write_exr(const std::string& path, const std::vector<rf_pixel_hit>& hits, int width, int height,
                const ExrMetadata* metadata, unsigned channels) {
   RF_CHECK(hits.size() == static_cast<size_t>(width) * height, "hit buffer does not match the image size");
@@ -174,9 +191,14 @@ void write_exr(const std::string& path, const std::vector<rf_pixel_hit>& hits, i
   file.commit();
 }
 
-std::vector<rf_pixel_hit> read_exr(const std::string& path, int* width, int* height) {
+std::vector<rf_pixel_hit> read_exr(const std::string& path, int* width, int* height, unsigned* channels) {
   try {
     Imf::InputFile in(path.c_str());
+    if (channels) {
+      *channels = kAllChannels;
+      for (const Channel& c : kChannels)
+        if (!in.header().channels().findChannel(c.name)) *channels &= ~c.plane;
+    }
     const Imath::Box2i dw = in.header().dataWindow();
     *width = dw.max.x - dw.min.x + 1;
     *height = dw.max.y - dw.min.y + 1;

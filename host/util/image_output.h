@@ -10,6 +10,8 @@
 
 #include "device_layout.h"
 #include "rayfold/gbuffer.h"
+#include "scene/camera.h"
+#include "scene/scene.h"
 
 namespace rayfold::core {
 
@@ -27,6 +29,13 @@ struct ExrMetadata {
   std::vector<std::string> instance_names;                   // by InstanceID
   std::vector<std::pair<std::string, std::string>> strings;  // more string attributes, named "rayfold:<first>"
 };
+
+// The metadata of one view's EXR, the same from the CLI and the API: the
+// camera's pose and intrinsics, the scene's instance names, and the strings
+// version, scene (a label: the file's path), fold (the one asked for) and
+// what the depth and ids mean.
+ExrMetadata view_metadata(const Camera& camera, const Scene& scene, const std::string& scene_label,
+                          const std::string& fold, bool planar_depth, const std::string& version);
 
 // One part, channels Z, N.X, N.Y, N.Z, U, V (FLOAT), InstanceID, PrimitiveID
 // (UINT). With metadata, the header also carries:
@@ -54,7 +63,9 @@ void write_exr(const std::string& path, const std::vector<rf_pixel_hit>& hits, i
 // naming the file on failure.
 void write_png(const std::string& path, const std::vector<rf_pixel_hit>& hits, int width, int height);
 
-// Reads back what write_exr wrote (for tests and tools); InputError on failure.
-std::vector<rf_pixel_hit> read_exr(const std::string& path, int* width, int* height);
+// Reads back what write_exr wrote; InputError naming the file on failure.
+// *channels (when given): the planes the file has (all of a plane's
+// channels); the others read as 0.
+std::vector<rf_pixel_hit> read_exr(const std::string& path, int* width, int* height, unsigned* channels = nullptr);
 
 }  // namespace rayfold::core

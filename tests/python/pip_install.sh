@@ -8,6 +8,9 @@ rm -rf "$work" && mkdir -p "$work"
 # A copy without build folders, as a clean checkout would be.
 tar -C "$source" --exclude='./build*' --exclude=./.git --exclude=./out --exclude=./.gpu -cf - . | (mkdir -p "$work/src" && tar -C "$work/src" -xf -)
 CMAKE_BUILD_PARALLEL_LEVEL=$(nproc) "$work/venv/bin/python" -m pip install -q "$work/src"
+# The console script rayfold-batch comes with the package (Ray is the
+# batch extra's; --help needs none).
+"$work/venv/bin/rayfold-batch" --help >/dev/null
 # The README's Python lines, as written, in the fresh environment.
 "$work/venv/bin/python" "$source/tests/python/run_readme.py"
 cd "$work"

@@ -9,6 +9,7 @@ import pathlib
 import re
 import shlex
 import subprocess
+import sys
 
 import pytest
 
@@ -102,8 +103,9 @@ def test_every_option_the_readme_names_is_documented_by_help(cli, bin_dir):
         if (bin_dir / tool).exists():
             r = subprocess.run([str(bin_dir / tool), "--help"], capture_output=True, text=True)
             helps += r.stdout + r.stderr
+    helps += subprocess.run([sys.executable, "-m", "rayfold.batch", "--help"], capture_output=True, text=True).stdout
     options = set(re.findall(r"(?<![\w-])(--[a-z][a-z-]+)", README))
-    # Options of other programs the README quotes (pip, cmake, make).
-    foreign = {"--prefix", "--build", "--install", "--target", "--peers", "--help", "--version"}
+    # Options of other programs the README quotes (pip, cmake, make, ray start).
+    foreign = {"--prefix", "--build", "--install", "--target", "--peers", "--help", "--version", "--head"}
     missing = sorted(o for o in options - foreign if o not in helps)
     assert not missing, f"options the README names that no --help documents: {missing}"

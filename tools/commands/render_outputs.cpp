@@ -13,19 +13,7 @@
 namespace rayfold::core::commands {
 
 ExrMetadata exr_metadata(const Camera& camera, const Scene& scene, const RenderArgs& args) {
-  ExrMetadata m;
-  const Intrinsics k = intrinsics(camera);
-  m.view = ExrMetadata::View{camera.world_from_camera, k.fx, k.fy, k.cx, k.cy, is_orthographic(camera)};
-  for (const Instance& i : scene.instances) m.instance_names.push_back(i.name);
-  m.strings = {{"version", RAYFOLD_VERSION},
-               {"scene", args.scene},
-               {"fold", fold_name(args.frame.fold)},
-               {"depth", args.frame.planar_depth
-                             ? "Z is the depth along the camera's axis (camera-space -z, --depth planar); +inf on a miss"
-                             : "Z is the distance from the eye along the pixel's ray (not camera-space z); +inf on a "
-                               "miss"},
-               {"miss", "InstanceID and PrimitiveID are 4294967295 on a miss"}};
-  return m;
+  return view_metadata(camera, scene, args.scene, fold_name(args.frame.fold), args.frame.planar_depth, RAYFOLD_VERSION);
 }
 
 nlohmann::json camera_json(const Camera& camera) {

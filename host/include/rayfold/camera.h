@@ -67,6 +67,14 @@ class Camera {
                                                                 int height = 0,
                                                                 std::vector<std::string>* ignored = nullptr);
   static std::vector<std::pair<std::string, Camera>> from_colmap(const std::string& dir);
+  // A rayfold camera list (the CLI's --cameras FILE.json; README "Camera
+  // lists") or a NeRF transforms.json, told apart by content (an object
+  // with "frames" and no "cameras" is the latter), with the views' names
+  // ("0", "1", ... in a list); width, height and *ignored as from_nerf, a
+  // list refuses a size. InputError names the file and what is wrong.
+  static std::vector<std::pair<std::string, Camera>> from_file(const std::string& path, int width = 0,
+                                                                int height = 0,
+                                                                std::vector<std::string>* ignored = nullptr);
 
   int width() const;
   int height() const;
@@ -86,6 +94,13 @@ class Camera {
   // principal point lies on the half-pixel grid in that axis.
   bool can_fold_columns() const;
   bool can_fold_rows() const;
+
+  // The camera as bytes, every value it holds bit for bit, and back: for
+  // sending cameras between processes (Python's pickle, rayfold.batch).
+  // from_bytes throws InputError for bytes that are not a camera of this
+  // format version.
+  std::string to_bytes() const;
+  static Camera from_bytes(const std::string& bytes);
 
   const core::Camera& core() const { return *impl_; }
 

@@ -28,6 +28,12 @@ enum Channels : unsigned {
   kAllChannels = 31u,
 };
 
+// What a G-buffer's depth plane holds.
+enum class Depth {
+  distance,  // along the pixel's ray from the eye (Camera::ray_direction)
+  planar,    // along the camera's axis (camera-space -z; Nuke's and Blender's Z, a NeRF's depth map)
+};
+
 struct GBuffer {
   int width = 0, height = 0;
   // Distance from the eye along the pixel's ray (Camera::ray_direction), in
@@ -43,6 +49,7 @@ struct GBuffer {
   std::vector<uint32_t> instance_id;   // Scene instance index, kMiss on a miss
   std::vector<uint32_t> primitive_id;  // triangle index within the mesh, kMiss on a miss
   unsigned channels = kAllChannels;    // the planes filled (Channels); the others are empty
+  Depth depth_kind = Depth::distance;  // what `depth` measures (RendererOptions::depth)
 
   Fold fold = Fold::none;  // the fold traced (one the camera allows; Camera::can_fold_columns)
   size_t rays = 0;         // rays traced

@@ -8,6 +8,7 @@
 
 #include "rayfold/camera.h"
 #include "rayfold/errors.h"
+#include "rayfold/exr.h"
 #include "rayfold/gbuffer.h"
 #include "rayfold/renderer.h"
 #include "rayfold/scene.h"

@@ -27,12 +27,6 @@ enum class Kernel {
   single,     // one ray per work-item (fastest on GPUs)
 };
 
-// What a G-buffer's depth plane holds.
-enum class Depth {
-  distance,  // along the pixel's ray from the eye (Camera::ray_direction)
-  planar,    // along the camera's axis (camera-space -z; Nuke's and Blender's Z, a NeRF's depth map)
-};
-
 struct RendererOptions {
   Backend backend = Backend::opencl;
   std::string device;  // the first OpenCL device whose platform or name contains this; "" the first one

@@ -24,11 +24,13 @@ from ._core import (
     RuntimeFailure,
     Scene,
     __version__,
+    read_exr,
 )
 
 from ._geometry import WorldTriangles
 from ._geometry import world_triangles as _world_triangles
 from ._streams import from_colmap as _from_colmap
+from ._streams import from_file as _from_file
 from ._streams import from_matrices as _from_matrices
 from ._streams import from_nerf as _from_nerf
 from ._streams import iter_views as _iter_views
@@ -36,8 +38,9 @@ from ._streams import iter_views as _iter_views
 Camera.from_matrices = staticmethod(_from_matrices)
 Camera.from_nerf = staticmethod(_from_nerf)
 Camera.from_colmap = staticmethod(_from_colmap)
+Camera.from_file = staticmethod(_from_file)
 Scene.iter_views = _iter_views
 Scene.world_triangles = _world_triangles
 
 __all__ = ["MISS", "Camera", "GBuffer", "InputError", "Renderer", "RuntimeFailure", "Scene", "WorldTriangles",
-           "__version__"]
+           "__version__", "read_exr"]

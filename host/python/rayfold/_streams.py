@@ -81,10 +81,31 @@ def from_nerf(path, width=0, height=0):
     (aabb_scale, scale, offset, ...) are ignored with a warning naming them;
     a distortion coefficient or another unknown key raises InputError."""
     views, ignored = Camera._read_nerf(os.fspath(path), width, height)
+    _warn_ignored(path, ignored)
+    return [c for _, c in views], [n for n, _ in views]
+
+
+def _warn_ignored(path, ignored):
     if ignored:
         warnings.warn(f"{os.fspath(path)}: ignored {', '.join(ignored)} (training settings and instant-ngp's own "
                       "pose normalisation: the poses are rendered as written, in the scene's coordinates)",
-                      stacklevel=2)
+                      stacklevel=3)
+
+
+def from_file(path, width=0, height=0):
+    """The cameras a file holds and their names, as (cameras, names) in the
+    file's order, told apart by content as `rayfold render --cameras` does:
+    a rayfold camera list (names "0", "1", ...), a NeRF / instant-ngp
+    transforms.json (an object with "frames"; width and height as from_nerf),
+    or, for a directory, a COLMAP text model (as from_colmap). InputError
+    names the file and what is wrong."""
+    if os.path.isdir(path):
+        if width or height:
+            raise InputError(f"{os.fspath(path)}: a COLMAP model gives its image sizes; width and height do not "
+                             "combine with it")
+        return from_colmap(path)
+    views, ignored = Camera._read_file(os.fspath(path), width, height)
+    _warn_ignored(path, ignored)
     return [c for _, c in views], [n for n, _ in views]
 
 

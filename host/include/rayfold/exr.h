@@ -1,0 +1,26 @@
+// G-buffers as OpenEXR files, the format `rayfold render -o` writes
+// (README "Outputs": channels Z, N.X, N.Y, N.Z, U, V, InstanceID,
+// PrimitiveID, and the camera and instance names in the header).
+#pragma once
+
+#include <string>
+
+#include "rayfold/camera.h"
+#include "rayfold/gbuffer.h"
+#include "rayfold/scene.h"
+
+namespace rayfold {
+
+// Writes the planes g has (g.channels) as the CLI writes a view, with
+// camera's pose and intrinsics and scene's instance names in the header.
+// The file appears whole or not at all (a temporary renamed into place,
+// removed on failure or on SIGINT/SIGTERM/SIGHUP in the CLI). Throws
+// InputError for a G-buffer whose planes do not match its size or camera,
+// RuntimeFailure naming the file when it cannot be written.
+void write_exr(const std::string& path, const GBuffer& g, const Camera& camera, const Scene& scene);
+
+// Reads what write_exr or the CLI wrote: the planes the file has
+// (channels), bit for bit. InputError naming the file otherwise.
+GBuffer read_exr(const std::string& path);
+
+}  // namespace rayfold

@@ -1,0 +1,415 @@
+"""Many views of one scene on a Ray cluster: this machine's, started for the
+job and stopped after it, or a running one (address=). Each worker is a Ray
+actor holding one Renderer; it writes its views' EXRs itself.
+
+    rayfold-batch scene.glb --cameras cams.json -o out/view_%06d.exr --workers 2
+
+    import rayfold.batch
+    summary = rayfold.batch.render("scene.glb", cameras, "out/view_%06d.exr", workers=2)
+
+Nothing is lost. A view's file appears whole or not at all. Each written view
+is recorded in the manifest, OUT_DIR/rayfold-manifest/ (one JSON-lines file
+per worker process, so that no two processes append to one file), with its
+size, its SHA-256 and a key of what it shows (the scene file's bytes, the
+camera's, fold, channels, depth, rayfold's version). A rerun skips every view
+whose file still matches its record and renders only the rest. The unfinished
+views of a worker that dies are retried on a fresh one. A view that fails is
+reported with its index and reason while the rest complete.
+
+Needs Ray (pip install rayfold[batch])."""
+import argparse
+import dataclasses
+import glob
+import hashlib
+import json
+import os
+import resource
+import socket
+import sys
+import time
+
+from ._core import Camera, InputError, RuntimeFailure, Scene, __version__
+from ._streams import from_file
+
+MANIFEST_DIR = "rayfold-manifest"
+# Views a worker renders per call: a multiple of what one trace holds in
+# every fold (as iter_views), and few enough that a lost worker costs little.
+BATCH_VIEWS = 32
+
+
+@dataclasses.dataclass
+class Summary:
+    """What a batch did. written: views whose file is complete (rendered now
+    or kept from an earlier run); failed: (view index, reason) for the rest."""
+    views: int
+    rendered: int
+    kept: int
+    failed: list
+    warnings: list            # (view index, warning) as GBuffer.warnings
+    seconds: float             # the whole call
+    startup_seconds: float     # of which starting Ray and the workers (their scene loaded)
+    workers: int
+    workers_lost: int          # workers that died and were replaced
+    views_retried: int         # views rendered again after their worker died
+    driver_peak_rss_mb: float
+    worker_peak_rss_mb: float  # the largest of any worker's
+
+    @property
+    def written(self):
+        return self.rendered + self.kept
+
+    @property
+    def views_per_second(self):
+        """Once the workers are up."""
+        busy = self.seconds - self.startup_seconds
+        return self.rendered / busy if busy > 0 else 0.0
+
+    def line(self):
+        s = (f"rayfold-batch: {self.written} of {self.views} views written ({self.rendered} rendered, "
+             f"{self.kept} kept from an earlier run), {len(self.failed)} failed; "
+             f"{self.views_per_second:.1f} views/s on {self.workers} worker{'s' if self.workers != 1 else ''} "
+             f"after {self.startup_seconds:.1f} s starting them")
+        if self.workers_lost:
+            s += f"; {self.workers_lost} worker(s) lost and replaced, {self.views_retried} view(s) retried"
+        return s
+
+
+def _peak_rss_mb():
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+
+
+def _sha256(path):
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def _output_paths(pattern, count):
+    try:
+        paths = [pattern % i for i in range(min(count, 2))]
+    except (TypeError, ValueError):
+        raise InputError(f"output pattern {pattern!r} must hold one integer field such as %06d (the view's index)")
+    if count > 1 and paths[0] == paths[1]:
+        raise InputError(f"output pattern {pattern!r} must hold one integer field such as %06d (the view's index)")
+    if not pattern.endswith(".exr"):
+        raise InputError(f"output pattern {pattern!r}: rayfold-batch writes EXR files; end it in .exr")
+    paths = [pattern % i for i in range(count)]
+    if os.path.dirname(paths[0]) != os.path.dirname(paths[-1]):
+        raise InputError(f"output pattern {pattern!r}: the index goes in the file's name, not its folder (one "
+                         "folder holds a job's views and its manifest)")
+    return paths
+
+
+def _read_manifest(directory):
+    """path (relative to the output folder) -> the last record for it. A
+    line cut short by a killed worker is no record."""
+    records = {}
+    if not os.path.isdir(directory):
+        return records
+    for name in sorted(os.listdir(directory)):
+        if not name.endswith(".jsonl"):
+            continue
+        with open(os.path.join(directory, name), encoding="utf-8") as f:
+            for line in f:
+                try:
+                    r = json.loads(line)
+                except json.JSONDecodeError:
+                    continue
+                if isinstance(r, dict) and {"path", "bytes", "sha256", "key"} <= r.keys():
+                    records[r["path"]] = r
+    return records
+
+
+def _complete(path, key, records, verify):
+    r = records.get(os.path.basename(path))
+    if r is None or r["key"] != key:
+        return False
+    try:
+        if os.path.getsize(path) != r["bytes"]:
+            return False
+    except OSError:
+        return False
+    return not verify or _sha256(path) == r["sha256"]
+
+
+class _Worker:
+    """One Renderer on one scene; renders lists of views and records each."""
+
+    def __init__(self, scene_path, render_options, manifest_dir):
+        self.scene = Scene(scene_path)
+        self.options = render_options
+        os.makedirs(manifest_dir, exist_ok=True)
+        self.part_path = os.path.join(manifest_dir, f"{socket.gethostname()}-{os.getpid()}.jsonl")
+        self.part = open(self.part_path, "a", encoding="utf-8")
+
+    def where(self):
+        return socket.gethostname(), os.getpid()
+
+    def _write(self, index, g, path, key):
+        g.write_exr(path, self.scene)
+        record = {"view": index, "path": os.path.basename(path), "bytes": os.path.getsize(path),
+                  "sha256": _sha256(path), "key": key}
+        self.part.write(json.dumps(record) + "\n")
+        self.part.flush()  # a worker killed later keeps this view; fsync once per batch
+        return list(g.warnings)
+
+    def render(self, views):
+        """views: (index, camera, path, key) tuples of one size and
+        intrinsics. Returns (done indices, failures, warnings, peak RSS MB)."""
+        done, failures, warnings = [], [], []
+        try:
+            gbuffers = self.scene.render_views([v[1] for v in views], **self.options)
+        except (InputError, RuntimeFailure):
+            gbuffers = None  # one view spoils the trace: each alone, to name it
+        for k, (index, camera, path, key) in enumerate(views):
+            try:
+                g = gbuffers[k] if gbuffers is not None else self.scene.render(camera, **{
+                    o: v for o, v in self.options.items() if o != "align"})
+                warnings += [(index, w) for w in self._write(index, g, path, key)]
+                done.append(index)
+            except (InputError, RuntimeFailure, OSError) as e:
+                failures.append((index, str(e)))
+            if gbuffers is not None:
+                gbuffers[k] = None  # each G-buffer freed once written
+        self.part.flush()
+        os.fsync(self.part.fileno())
+        return done, failures, warnings, _peak_rss_mb()
+
+
+def _remove_temporaries(batch, pid):
+    """What a killed worker was writing: the temporaries of its batch's
+    views that carry its pid (the files' own names never appeared)."""
+    for _, _, path, _ in batch:
+        folder, name = os.path.split(path)
+        for temp in glob.glob(os.path.join(glob.escape(folder), f".{glob.escape(name)}.rayfold-{pid}-*.tmp")):
+            try:
+                os.remove(temp)
+            except FileNotFoundError:
+                pass
+
+
+def _read_cameras(cameras, width, height):
+    if isinstance(cameras, (str, os.PathLike)):
+        return from_file(cameras, width, height)[0]
+    cameras = list(cameras)
+    for i, c in enumerate(cameras):
+        if not isinstance(c, Camera):
+            raise TypeError(f"rayfold.batch: camera {i} is a {type(c).__name__}, not a rayfold.Camera")
+    return cameras
+
+
+def _batches(cameras, todo, batch_views):
+    """The views to render in batches of one size and intrinsics each (so
+    that alignment applies inside a batch), in index order within each."""
+    groups = {}
+    for i in todo:
+        c = cameras[i]
+        groups.setdefault((c.width, c.height, c.intrinsics, c.is_orthographic), []).append(i)
+    out = []
+    for indices in groups.values():
+        out += [indices[k:k + batch_views] for k in range(0, len(indices), batch_views)]
+    return out
+
+
+class _Progress:
+    def __init__(self, total, enabled):
+        self.total, self.enabled = total, enabled and total > 0
+        self.tty = sys.stderr.isatty()
+        self.t0 = self.last = time.monotonic()
+
+    def show(self, done, retried, final=False):
+        if not self.enabled:
+            return
+        now = time.monotonic()
+        if not final and now - self.last < (0.2 if self.tty else 5.0):
+            return
+        self.last = now
+        rate = done / (now - self.t0) if now > self.t0 else 0.0
+        bar = "#" * int(30 * done / self.total)
+        text = f"  [{bar:<30}] {done}/{self.total} views, {rate:.1f}/s" + (f", {retried} retried" if retried else "")
+        sys.stderr.write(("\r" + text + ("\n" if final else "")) if self.tty else text + "\n")
+        sys.stderr.flush()
+
+
+def render(scene, cameras, out, *, workers=1, address=None, fold="none", align=0, channels=None,
+           depth="distance", backend="opencl", device="", kernel="auto", verify=True, retries=3,
+           batch_views=BATCH_VIEWS, width=0, height=0, progress=True):
+    """Renders every camera's view of the glTF file `scene` to out % index
+    (an .exr pattern such as 'dir/view_%06d.exr') on `workers` Ray actors,
+    each with its share of the cluster's cores; returns a Summary. cameras:
+    a list of rayfold.Camera, or a file as Camera.from_file reads it (width,
+    height as there). Views already complete from an earlier run (manifest,
+    size and, with verify, SHA-256) are kept. address: a running Ray cluster
+    ('auto' or host:port); None starts one on this machine for the job, or
+    uses the session this process already has. Each view's pixels equal
+    Scene.render_views(cameras, fold=fold, ...) bit for bit. InputError for
+    bad input before anything is rendered."""
+    try:
+        import ray
+    except ImportError as e:
+        raise RuntimeFailure("rayfold.batch needs Ray: pip install 'rayfold[batch]' (or pip install ray)") from e
+    t0 = time.monotonic()
+    scene_path = os.fspath(scene)
+    if not isinstance(scene, (str, os.PathLike)):
+        raise TypeError("rayfold.batch.render: scene is the glTF file's path (each worker loads it)")
+    Scene(scene_path)  # bad input fails here, naming the file, before a cluster starts
+    cameras = _read_cameras(cameras, width, height)
+    if not cameras:
+        raise InputError("rayfold.batch.render: no cameras")
+    if workers < 1 or batch_views < 1 or retries < 0:
+        raise InputError(f"rayfold.batch.render: workers ({workers}) and batch_views ({batch_views}) must be at "
+                         f"least 1, retries ({retries}) at least 0")
+    paths = [os.path.abspath(p) for p in _output_paths(os.fspath(out), len(cameras))]
+    out_dir = os.path.dirname(paths[0])
+    if not os.path.isdir(out_dir):
+        raise InputError(f"{out_dir}: the output folder does not exist")
+    manifest_dir = os.path.join(out_dir, MANIFEST_DIR)
+    options = dict(fold=fold, align=align, backend=backend, device=device, kernel=kernel, channels=channels,
+                   depth=depth)
+    # What a view's file shows: a rerun keeps the file only when all of it is the same.
+    common = json.dumps([_sha256(scene_path), fold, str(channels), depth, __version__]).encode()
+    keys = [hashlib.sha256(common + c.__getstate__()).hexdigest() for c in cameras]
+
+    records = _read_manifest(manifest_dir)
+    todo = [i for i in range(len(cameras)) if not _complete(paths[i], keys[i], records, verify)]
+    kept = len(cameras) - len(todo)
+
+    if not todo:  # nothing to render: no cluster
+        return Summary(len(cameras), 0, kept, [], [], time.monotonic() - t0, 0.0, workers, 0, 0, _peak_rss_mb(),
+                       0.0)
+    started = not ray.is_initialized()
+    if started:
+        ray.init(address=address, include_dashboard=False, logging_level="ERROR", log_to_driver=False)
+    failed, warnings = [], []
+    rendered = lost = retried = 0
+    worker_peak = startup = 0.0
+    try:
+        cores = max(1.0, ray.cluster_resources().get("CPU", 1.0) // workers)
+        actor_class = ray.remote(_Worker).options(
+            num_cpus=cores, max_restarts=0,
+            # PoCL runs a thread per core it sees: the cores Ray gives the worker.
+            runtime_env={"env_vars": {"POCL_MAX_PTHREAD_COUNT": str(int(cores))}})
+        worker_options = dict(options, threads=int(cores))
+
+        def new_worker():
+            return actor_class.remote(scene_path, worker_options, manifest_dir)
+
+        pool = [new_worker() for _ in range(min(workers, len(todo)))]
+        hosts = ray.get([w.where.remote() for w in pool])
+        startup = time.monotonic() - t0
+        idle = list(range(len(pool)))
+        pending = [[(i, cameras[i], paths[i], keys[i]) for i in b] for b in _batches(cameras, todo, batch_views)]
+        pending.reverse()  # popped from the end: index order
+        attempts = {}
+        in_flight = {}
+        bar = _Progress(len(todo), progress)
+        while pending or in_flight:
+            while idle and pending:
+                slot, batch = idle.pop(), pending.pop()
+                in_flight[pool[slot].render.remote(batch)] = (slot, batch)
+            ready, _ = ray.wait(list(in_flight), num_returns=1)
+            slot, batch = in_flight.pop(ready[0])
+            try:
+                done, bad, warned, peak = ray.get(ready[0])
+            except ray.exceptions.RayActorError:
+                # The worker died: what it recorded is done, the rest goes again.
+                lost += 1
+                _remove_temporaries(batch, hosts[slot][1])
+                pool[slot] = new_worker()
+                hosts[slot] = ray.get(pool[slot].where.remote())
+                idle.append(slot)
+                records = _read_manifest(manifest_dir)
+                rest = [v for v in batch if not _complete(v[2], v[3], records, verify)]
+                rendered += len(batch) - len(rest)
+                key = rest[0][0] if rest else None
+                attempts[key] = attempts.get(key, 0) + 1
+                if rest and attempts[key] > retries:
+                    failed += [(v[0], f"its worker died {attempts[key]} times") for v in rest]
+                elif rest:
+                    retried += len(rest)
+                    pending.append(rest)
+                bar.show(rendered + len(failed), retried)
+                continue
+            idle.append(slot)
+            rendered += len(done)
+            failed += bad
+            warnings += warned
+            worker_peak = max(worker_peak, peak)
+            bar.show(rendered + len(failed), retried)
+        bar.show(rendered + len(failed), retried, final=True)
+        for actor in pool:
+            ray.kill(actor)
+    finally:
+        if started:
+            ray.shutdown()
+    return Summary(len(cameras), rendered, kept, sorted(failed), sorted(warnings), time.monotonic() - t0, startup,
+                   workers, lost, retried, _peak_rss_mb(), worker_peak)
+
+
+def main(argv=None):
+    """rayfold-batch: exit 0 when every view is written, 1 when some failed
+    (listed), 2 for bad input, 3 when the run could not go on."""
+    p = argparse.ArgumentParser(prog="rayfold-batch", description=(
+        "Renders every view of a camera file to one EXR each on a Ray cluster: this machine's, started for the "
+        "job, or a running one (--address). A rerun keeps the views already written and renders the rest."))
+    p.add_argument("scene", help="glTF 2.0 file (.glb or .gltf)")
+    views = p.add_mutually_exclusive_group(required=True)
+    views.add_argument("--cameras", metavar="FILE", help="a rayfold camera list or a NeRF transforms.json")
+    views.add_argument("--colmap", metavar="DIR", help="a COLMAP text model (cameras.txt, images.txt)")
+    p.add_argument("-o", "--output", required=True, metavar="PATTERN",
+                   help="output EXR per view, with the view's index as an integer field: out/view_%%06d.exr")
+    p.add_argument("--workers", type=int, default=1, help="Ray actors, each with its share of the cores (1)")
+    p.add_argument("--address", help="a running Ray cluster (auto, or host:port); default: start one here")
+    p.add_argument("--fold", default="none", choices=["none", "y", "x", "xy"])
+    p.add_argument("--align", type=int, default=0, help="views traced together (0: as many as a trace holds)")
+    p.add_argument("--channels", help="the planes written, for example depth,instance_id (default all)")
+    p.add_argument("--depth", default="distance", choices=["distance", "planar"])
+    p.add_argument("--backend", default="opencl", choices=["opencl", "cpu"])
+    p.add_argument("--device", default="", help="the first OpenCL device whose platform or name holds this")
+    p.add_argument("--size", metavar="WxH", help="image size for a transforms.json without w and h")
+    p.add_argument("--retries", type=int, default=3, help="times a view whose worker died is tried again (3)")
+    p.add_argument("--no-verify", action="store_true",
+                   help="keep views from an earlier run on their size alone, without reading them for the SHA-256")
+    p.add_argument("--summary", metavar="FILE.json", help="also write the summary as JSON")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    a = p.parse_args(argv)
+    try:
+        width = height = 0
+        if a.size:
+            try:
+                width, height = (int(v) for v in a.size.lower().split("x"))
+            except ValueError:
+                raise InputError(f"--size {a.size!r}: expected WxH, for example 640x480")
+        cameras = a.cameras if a.cameras else a.colmap
+        s = render(a.scene, cameras, a.output, workers=a.workers, address=a.address, fold=a.fold, align=a.align,
+                   channels=a.channels, depth=a.depth, backend=a.backend, device=a.device, verify=not a.no_verify,
+                   retries=a.retries, width=width, height=height, progress=not a.quiet)
+    except (InputError, TypeError) as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    except (RuntimeFailure, OSError) as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 3
+    except KeyboardInterrupt:
+        print("error: interrupted; every view written so far is complete and recorded, a rerun renders the rest",
+              file=sys.stderr)
+        return 130
+    for index, reason in s.failed:
+        print(f"error: view {index}: {reason}", file=sys.stderr)
+    for index, warning in s.warnings:
+        print(f"warning: view {index}: {warning}", file=sys.stderr)
+    print(s.line(), file=sys.stderr)
+    if a.summary:
+        d = dataclasses.asdict(s)
+        d.update(written=s.written, views_per_second=s.views_per_second)
+        tmp = a.summary + ".tmp"
+        with open(tmp, "w", encoding="utf-8") as f:
+            json.dump(d, f, indent=1)
+        os.replace(tmp, a.summary)
+    return 0 if not s.failed else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,185 @@
+"""rayfold-batch on Ray's local cluster, which each run starts and stops
+itself: every view bit-identical to render_views, a worker killed mid-run,
+resume, failures by view, bad input, flat memory."""
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+import rayfold
+
+ray = pytest.importorskip("ray", reason="rayfold.batch needs Ray (tools/python-env.sh installs it for make test)")
+import rayfold.batch  # noqa: E402
+
+PLANES = ("depth", "normal", "uv", "instance_id", "primitive_id")
+
+
+def camera_list(path, count, width=64, height=48, intrinsics_every=0):
+    """count views around the atrium; every intrinsics_every-th with its own
+    fx, fy, cx, cy (a second group of intrinsics)."""
+    cams = []
+    for i in range(count):
+        c = {"eye": [(0.37 * i) % 3 - 1.5, 1.0 + (0.13 * i) % 0.8, 4.5], "look_at": [0, 1, 0]}
+        if intrinsics_every and i % intrinsics_every == 0:
+            c.update(fx=0.9 * height, fy=0.9 * height, cx=width / 2, cy=height / 2)
+        cams.append(c)
+    with open(path, "w") as f:
+        json.dump({"width": width, "height": height, "cameras": cams}, f)
+    return rayfold.Camera.from_file(path)[0]
+
+
+def batch_cli(atrium_path, *args, timeout=600):
+    return subprocess.run([sys.executable, "-m", "rayfold.batch", atrium_path, *map(str, args)],
+                          capture_output=True, text=True, timeout=timeout)
+
+
+def summary(path):
+    with open(path) as f:
+        return json.load(f)
+
+
+def assert_views_equal(scene, cameras, pattern, fold, indices=None):
+    expected = scene.render_views(cameras, fold=fold)
+    for i in (range(len(cameras)) if indices is None else indices):
+        got = rayfold.read_exr(pattern % i)
+        for p in PLANES:
+            assert got[p].tobytes() == getattr(expected[i], p).tobytes(), f"view {i}, plane {p}"
+
+
+def test_every_view_equals_render_views_from_python_and_the_cli(atrium_path, tmp_path, cli):
+    scene = rayfold.Scene(atrium_path)
+    cameras = camera_list(tmp_path / "c.json", 70, intrinsics_every=3)
+    pattern = str(tmp_path / "py" / "v_%04d.exr")
+    os.makedirs(tmp_path / "py")
+    s = rayfold.batch.render(atrium_path, cameras, pattern, workers=2, fold="xy", progress=False)
+    assert (s.rendered, s.kept, s.failed, s.workers_lost) == (70, 0, [], 0)
+    assert_views_equal(scene, cameras, pattern, "xy")
+    # The CLI, from the camera file, against rayfold render of the same list.
+    os.makedirs(tmp_path / "cli")
+    r = batch_cli(atrium_path, "--cameras", tmp_path / "c.json", "-o", tmp_path / "cli" / "v_%04d.exr",
+                  "--fold", "y", "--channels", "depth,instance_id", "--workers", "1", "-q")
+    assert r.returncode == 0, r.stderr
+    assert "70 of 70 views written" in r.stderr, r.stderr
+    os.makedirs(tmp_path / "render")
+    subprocess.run([cli, "render", atrium_path, "-q", "--cameras", tmp_path / "c.json", "-o",
+                    tmp_path / "render" / "v_%04d.exr"], check=True)
+    for i in range(70):
+        got = rayfold.read_exr(tmp_path / "cli" / f"v_{i:04d}.exr")
+        assert sorted(got) == ["depth", "instance_id"]
+        want = rayfold.read_exr(tmp_path / "render" / f"v_{i:04d}.exr")
+        for p in ("depth", "instance_id"):
+            assert got[p].tobytes() == want[p].tobytes(), f"view {i}, plane {p}"
+
+
+def test_a_killed_worker_has_its_views_retried_and_nothing_is_lost(atrium_path, tmp_path):
+    scene = rayfold.Scene(atrium_path)
+    cameras = camera_list(tmp_path / "c.json", 1500, 96, 72)
+    os.makedirs(tmp_path / "out")
+    pattern = str(tmp_path / "out" / "v_%05d.exr")
+    p = subprocess.Popen([sys.executable, "-m", "rayfold.batch", atrium_path, "--cameras", tmp_path / "c.json",
+                          "-o", pattern, "--workers", "2", "-q", "--summary", tmp_path / "s.json"],
+                         stderr=subprocess.PIPE, text=True)
+    manifest = tmp_path / "out" / rayfold.batch.MANIFEST_DIR
+    victim = None
+    deadline = time.monotonic() + 300
+    while victim is None and time.monotonic() < deadline and p.poll() is None:
+        for name in (os.listdir(manifest) if manifest.is_dir() else []):
+            if os.path.getsize(manifest / name) > 0:  # this worker has written views: kill it mid-run
+                victim = int(name.rsplit("-", 1)[1].split(".")[0])
+                break
+        time.sleep(0.05)
+    assert victim is not None, "no worker wrote a view"
+    os.kill(victim, signal.SIGKILL)
+    _, err = p.communicate(timeout=600)
+    assert p.returncode == 0, err
+    s = summary(tmp_path / "s.json")
+    assert s["workers_lost"] == 1, err
+    assert s["written"] == 1500 and s["failed"] == [], err
+    assert 0 < s["views_retried"] <= rayfold.batch.BATCH_VIEWS, err  # at most the batch it held
+    assert sorted(os.listdir(tmp_path / "out")) == sorted(
+        [f"v_{i:05d}.exr" for i in range(1500)] + [rayfold.batch.MANIFEST_DIR]), "a stray or missing file"
+    assert_views_equal(scene, cameras, pattern, "none")
+
+
+def test_a_rerun_renders_only_what_is_missing_changed_or_damaged(atrium_path, tmp_path):
+    cameras = camera_list(tmp_path / "c.json", 40)
+    pattern = str(tmp_path / "v_%03d.exr")
+    s = rayfold.batch.render(atrium_path, cameras, pattern, progress=False)
+    assert s.rendered == 40
+    os.remove(pattern % 3)
+    os.remove(pattern % 17)
+    with open(pattern % 5, "r+b") as f:  # same size, one bit changed
+        f.seek(2000)
+        b = f.read(1)
+        f.seek(2000)
+        f.write(bytes([b[0] ^ 1]))
+    s = rayfold.batch.render(atrium_path, cameras, pattern, progress=False)
+    assert (s.rendered, s.kept) == (3, 37)
+    assert_views_equal(rayfold.Scene(atrium_path), cameras, pattern, "none")
+    # Nothing to do: no cluster is started.
+    s = rayfold.batch.render(atrium_path, cameras, pattern, progress=False)
+    assert (s.rendered, s.kept, s.startup_seconds) == (0, 40, 0.0)
+    # A record holds what its file shows: a moved camera renders that view
+    # again, another fold (the same bits) every view.
+    cameras[7] = rayfold.Camera.look_at((0.5, 1.5, 4.0), (0, 1, 0), (0, 1, 0), 50, 64, 48)
+    s = rayfold.batch.render(atrium_path, cameras, pattern, progress=False)
+    assert (s.rendered, s.kept) == (1, 39)
+    s = rayfold.batch.render(atrium_path, cameras, pattern, fold="xy", progress=False)
+    assert (s.rendered, s.kept) == (40, 0)
+    assert_views_equal(rayfold.Scene(atrium_path), cameras, pattern, "none")
+
+
+def test_a_view_that_cannot_be_written_is_named_and_the_rest_complete(atrium_path, tmp_path):
+    camera_list(tmp_path / "c.json", 12)
+    os.makedirs(tmp_path / "out" / "v_04.exr")  # a folder where view 4's file goes
+    r = batch_cli(atrium_path, "--cameras", tmp_path / "c.json", "-o", tmp_path / "out" / "v_%02d.exr", "-q",
+                  "--summary", tmp_path / "s.json")
+    assert r.returncode == 1, r.stderr
+    assert "error: view 4: " in r.stderr and "v_04.exr" in r.stderr, r.stderr
+    s = summary(tmp_path / "s.json")
+    assert s["written"] == 11 and [f[0] for f in s["failed"]] == [4], s
+    assert all(os.path.isfile(tmp_path / "out" / f"v_{i:02d}.exr") for i in range(12) if i != 4)
+
+
+def test_bad_input_fails_first_naming_what_is_wrong(atrium_path, tmp_path):
+    camera_list(tmp_path / "c.json", 3)
+    cases = [
+        ([tmp_path / "missing.glb", "--cameras", tmp_path / "c.json", "-o", tmp_path / "v_%d.exr"], "missing.glb"),
+        ([atrium_path, "--cameras", tmp_path / "c.json", "-o", tmp_path / "v.exr"], "one integer field"),
+        ([atrium_path, "--cameras", tmp_path / "c.json", "-o", tmp_path / "v_%d.png"], "end it in .exr"),
+        ([atrium_path, "--cameras", tmp_path / "c.json", "-o", tmp_path / "no" / "v_%d.exr"], "does not exist"),
+        ([atrium_path, "--cameras", tmp_path / "c.json", "-o", tmp_path / "%d" / "v.exr"], "file's name"),
+        ([atrium_path, "--cameras", tmp_path / "nope.json", "-o", tmp_path / "v_%d.exr"], "nope.json"),
+        ([atrium_path, "--cameras", tmp_path / "c.json", "-o", tmp_path / "v_%d.exr", "--workers", "0"], "workers"),
+    ]
+    for args, what in cases:
+        r = subprocess.run([sys.executable, "-m", "rayfold.batch", *map(str, args)], capture_output=True, text=True,
+                           timeout=120)
+        assert r.returncode == 2 and what in r.stderr, (args, r.returncode, r.stderr)
+    with open(tmp_path / "c.json", "w") as f:
+        json.dump({"width": 8, "height": 8, "cameras": [{"eye": [0, 0, 1], "look_at": [0, 0, 0], "fov": 3}]}, f)
+    r = batch_cli(atrium_path, "--cameras", tmp_path / "c.json", "-o", tmp_path / "v_%d.exr")
+    assert r.returncode == 2 and "cameras[0]: unknown key \"fov\"" in r.stderr, r.stderr
+    assert os.listdir(tmp_path) == ["c.json"]
+
+
+def test_memory_stays_flat_from_100_to_10000_views(atrium_path, tmp_path):
+    peaks = {}
+    for count in (100, 10000):
+        d = tmp_path / str(count)
+        os.makedirs(d)
+        camera_list(d / "c.json", count)
+        r = batch_cli(atrium_path, "--cameras", d / "c.json", "-o", d / "v_%05d.exr", "--workers", "2", "-q",
+                      "--no-verify", "--summary", d / "s.json")
+        assert r.returncode == 0, r.stderr
+        s = summary(d / "s.json")
+        assert s["written"] == count
+        peaks[count] = (s["driver_peak_rss_mb"], s["worker_peak_rss_mb"])
+    (d100, w100), (d10k, w10k) = peaks[100], peaks[10000]
+    assert d10k <= 2 * d100 and w10k <= 2 * w100, f"peak RSS MB (driver, worker): 100 views {peaks[100]}, " \
+                                                   f"10,000 views {peaks[10000]}"
