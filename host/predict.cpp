@@ -59,7 +59,7 @@ std::vector<Prediction> Renderer::predict(const std::vector<Camera>& views, cons
     FrameOptions fo;
     fo.fold = fold;
     const auto t0 = Clock::now();
-    pr.frame = build_frame(scene_, data_, pr.pass, rays, fo);
+    pr.frame = build_frame(scene_, *data_, pr.pass, rays, fo);
     pr.update_ms = ms_since(t0);
     pr.cam = frame_camera(first, pr.frame);
     // Parallel rays always trace with the single-ray kernel (render_views_into).

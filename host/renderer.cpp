@@ -23,8 +23,12 @@ double median(std::vector<double> values) {
 }
 
 Renderer::Renderer(const Scene& scene, const RendererOptions& options)
-    : scene_(scene), options_(options), data_(prepare_scene(scene, options.threads, options.braid)) {
-  nodes_ = data_.blas.nodes;
+    : Renderer(scene, options,
+               std::make_shared<const SceneData>(prepare_scene(scene, options.threads, options.braid))) {}
+
+Renderer::Renderer(const Scene& scene, const RendererOptions& options, std::shared_ptr<const SceneData> prebuilt)
+    : scene_(scene), options_(options), data_(std::move(prebuilt)) {
+  nodes_ = data_->blas.nodes;
   kernel_reason_ = "the CPU backend";
   if (options_.backend == Backend::opencl) {
     device_ = std::make_unique<ClDevice>(options_.device_hint);
@@ -71,7 +75,7 @@ void Renderer::ensure_capacity(size_t pixels, int groups) {
   if (!tracer_ || (pixels <= pixel_capacity_ && groups <= group_capacity_)) return;
   pixels = std::max(pixels, pixel_capacity_);
   groups = std::max({groups, group_capacity_, RF_MIRRORS});
-  tracer_->upload_scene(data_, max_tlas_nodes(data_, groups), max_tlas_items(data_, groups), pixels, pixels);
+  tracer_->upload_scene(*data_, max_tlas_nodes(*data_, groups), max_tlas_items(*data_, groups), pixels, pixels);
   pixel_capacity_ = pixels;
   group_capacity_ = groups;
   for (CachedRays& r : rays_) r.uploaded = false;  // the new buffers hold no rays yet
@@ -136,7 +140,7 @@ void Renderer::render_views_into(RenderResult& result, const std::vector<Camera>
     const RayList& rays = ray_list(camera.params, options.fold);
     times.ray_list_ms = ms_since(t0);
     result.rays = rays.entries.size();
-    const Frame frame = build_frame(scene_, data_, cameras, rays, options);
+    const Frame frame = build_frame(scene_, *data_, cameras, rays, options);
     times.cull_ms = frame.stats.cull_ms;
     times.tlas_ms = frame.stats.tlas_ms;
     result.frame_stats = frame.stats;
@@ -221,8 +225,8 @@ void Renderer::add_range_warnings(size_t out_of_range, const char* where, std::v
   if (out_of_range != 0)
     w.push_back(std::to_string(out_of_range) + " instances not " + where +
                 " their size and the scene's extent are more than the float range apart");
-  if (data_.blas.unresolvable_triangles != 0)
-    w.push_back(std::to_string(data_.blas.unresolvable_triangles) +
+  if (data_->blas.unresolvable_triangles != 0)
+    w.push_back(std::to_string(data_->blas.unresolvable_triangles) +
                 " triangles are smaller than 2^-60 of their mesh's extent, below what the triangle test resolves: "
                 "they may be missed");
 }
@@ -237,7 +241,7 @@ std::vector<std::string> Renderer::intersect(const float* origins, const float* 
     throw InputError("", "ray queries run on the exact build only; this renderer was made with the fast one");
   check_query_rays(origins, directions, n, tmin, tmax);
   if (n == 0) return {};
-  const Frame frame = build_query_frame(scene_, data_, origins, n, frame_options);
+  const Frame frame = build_query_frame(scene_, *data_, origins, n, frame_options);
   std::vector<std::string> warnings;
   add_range_warnings(frame.views[0].out_of_range, "traced: in world space", warnings);
   const unsigned flags = frame.normals ? 0u : RF_WRITE_NO_NORMALS;
@@ -267,11 +271,11 @@ TraceInputs Renderer::host_inputs(const Frame& frame) {
   TraceInputs in;
   in.nodes = nodes_.data();
   in.node_count = nodes_.size();
-  in.tris = data_.blas.tris.data();
-  in.tri_count = data_.blas.tris.size();
+  in.tris = data_->blas.tris.data();
+  in.tri_count = data_->blas.tris.size();
   in.instances = frame.instances.data();
   in.instance_count = frame.instances.size();
-  const std::vector<rf_normal_xform>& normals = frame.normal_xforms.empty() ? data_.normal_xforms : frame.normal_xforms;
+  const std::vector<rf_normal_xform>& normals = frame.normal_xforms.empty() ? data_->normal_xforms : frame.normal_xforms;
   in.normal_xforms = normals.data();
   in.normal_xform_count = normals.size();
   in.tlas_root = frame.tlas_root;

@@ -95,6 +95,10 @@ class Renderer {
   // Builds the bottom-level trees and, for OpenCL, the kernels. The scene must
   // outlive the renderer.
   Renderer(const Scene& scene, const RendererOptions& options);
+  // With trees built before (prepare_scene of this scene with options.braid,
+  // or read from a scene file), shared with whoever else holds them: builds
+  // none.
+  Renderer(const Scene& scene, const RendererOptions& options, std::shared_ptr<const SceneData> prebuilt);
   ~Renderer();
 
   RenderResult render(const Camera& camera, int frames = 1, const FrameOptions& frame_options = {});
@@ -117,7 +121,8 @@ class Renderer {
   std::vector<std::string> intersect(const float* origins, const float* directions, size_t n, float tmin, float tmax,
                                      bool any_hit, const FrameOptions& frame_options, rf_pixel_hit* out);
 
-  const SceneData& scene_data() const { return data_; }
+  const SceneData& scene_data() const { return *data_; }
+  const std::shared_ptr<const SceneData>& shared_scene_data() const { return data_; }
   std::string device_name() const;
   // The OpenCL kernel that traces (KernelChoice resolved for the device;
   // before the first frame of a measured choice, the tile kernel);
@@ -142,7 +147,7 @@ class Renderer {
   // From now on trace with this kernel (a choice made by predict); why: for
   // kernel_reason().
   void set_kernel(KernelKind kernel, const std::string& why);
-  double blas_build_ms() const { return data_.blas.build_ms; }
+  double blas_build_ms() const { return data_->blas.build_ms; }
   // The OpenCL programs' build so far (ClTracer::program_build_ms); 0 on the
   // CPU backend.
   double program_build_ms() const;
@@ -163,7 +168,7 @@ class Renderer {
 
   const Scene& scene_;
   RendererOptions options_;
-  SceneData data_;
+  std::shared_ptr<const SceneData> data_;  // read-only once built
   std::vector<rf_node> nodes_;  // BLAS nodes, then the current frame's TLAS
   std::unique_ptr<ClDevice> device_;
   std::unique_ptr<ClTracer> tracer_;

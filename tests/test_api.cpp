@@ -9,6 +9,8 @@
 #include <filesystem>
 #include <fstream>
 
+#include "api/scene_state.h"
+#include "bvh/scene_file.h"
 #include "rayfold/rayfold.h"
 #include "test_util.h"
 
@@ -496,6 +498,93 @@ TEST(Api, CameraFilesAreReadByWhatTheyHold) {
               Camera::from_file((d / "list.json").string(), 40, 30);
             }).find("width and height does not combine"),
             std::string::npos);
+}
+
+// A scene saved with its trees and loaded back renders the original's bits
+// in every backend, kernel and fold, also with an instance moved before the
+// save and another after the load; the loaded renderer takes the saved
+// trees (the very arrays, not a rebuild).
+TEST(Api, SavedScenesRenderTheOriginalsBitsWithTheirTrees) {
+  core::testing::Rng rng(23);
+  const core::Scene soup = core::testing::random_scene(rng, 3, 8, 60);
+  Scene scene = to_public(soup);
+  const Matrix4 moved = {0, -1, 0, 0.5, 1, 0, 0, 0.25, 0, 0, 1, -0.5, 0, 0, 0, 1};
+  scene.set_transform(3, moved);
+  const std::filesystem::path d = work_dir("saved");
+  scene.save((d / "s.rfscene").string());
+  const Scene loaded = Scene::load((d / "s.rfscene").string());
+  EXPECT_EQ(loaded.instance_names(), scene.instance_names());
+  EXPECT_EQ(Scene::from_bytes(loaded.to_bytes()).to_bytes(), loaded.to_bytes());
+  EXPECT_EQ(loaded.state()->trees->blas.nodes.size(), scene.state()->trees->blas.nodes.size());
+  for (int view = 0; view < 2; ++view) {
+    const core::CameraSpec spec = core::testing::random_camera(rng, soup.world_bounds());
+    const Camera camera =
+        Camera::look_at({spec.eye.x, spec.eye.y, spec.eye.z}, {spec.look_at.x, spec.look_at.y, spec.look_at.z},
+                        {spec.up.x, spec.up.y, spec.up.z}, spec.vfov_degrees, 33, 21);
+    for (auto [backend, kernel] : {std::pair{Backend::cpu, Kernel::automatic}, std::pair{Backend::opencl, Kernel::tile},
+                                   std::pair{Backend::opencl, Kernel::single}}) {
+      RendererOptions o;
+      o.backend = backend;
+      o.kernel = kernel;
+      Renderer original(scene, o), from_file(loaded, o);
+      for (Fold f : kFolds)
+        EXPECT_EQ(compare_hits(to_hits(original.render(camera, f)), to_hits(from_file.render(camera, f)), 33), "")
+            << "view " << view << " backend " << int(backend) << " kernel " << int(kernel) << " fold " << int(f);
+    }
+  }
+  // Moved after the load: as the original moved the same way.
+  Scene copy = Scene::from_bytes(scene.to_bytes());
+  const Matrix4 again = {1, 0, 0, -0.75, 0, 1, 0, 0.5, 0, 0, 1, 0, 0, 0, 0, 1};
+  scene.set_transform(5, again);
+  copy.set_transform(5, again);
+  const Camera camera = Camera::look_at({0.5, 0.7, 9}, {0, 0, 0}, {0, 1, 0}, 70, 33, 21);
+  Renderer a(scene), b(copy);
+  EXPECT_EQ(compare_hits(to_hits(a.render(camera, Fold::xy)), to_hits(b.render(camera, Fold::xy)), 33), "");
+  EXPECT_NE(message_of<InputError>([&] {
+              LoadOptions o;
+              o.camera = 0;
+              Scene::load((d / "s.rfscene").string(), o);
+            }).find("options do not apply"),
+            std::string::npos);
+}
+
+// Damaged, cut or foreign bytes are refused, saying which; so are bytes
+// whose checksum holds but whose trees point outside their arrays or round
+// a cycle (a writer's bug, or a crafted file), which a kernel would follow.
+TEST(Api, SceneBytesThatAreNotWholeAreRefusedSayingWhy) {
+  const Scene scene = Scene::load(RAYFOLD_SOURCE_DIR "/scenes/atrium.glb");
+  const std::string bytes = scene.to_bytes();
+  auto why = [](const std::string& b) { return message_of<InputError>([&] { Scene::from_bytes(b, "x.rfscene"); }); };
+  for (size_t at : {size_t{0}, size_t{16}, size_t{20}, size_t{24}, size_t{40}, bytes.size() / 2, bytes.size() - 1}) {
+    std::string flipped = bytes;
+    flipped[at] ^= 0x10;
+    EXPECT_NE(why(flipped).find("x.rfscene"), std::string::npos) << "byte " << at;
+  }
+  std::string flipped = bytes;
+  flipped[bytes.size() / 2] ^= 1;
+  EXPECT_NE(why(flipped).find("checksum does not match"), std::string::npos);
+  for (size_t n : {size_t{0}, size_t{10}, size_t{40}, bytes.size() - 9, bytes.size() - 1})
+    EXPECT_NE(why(bytes.substr(0, n)).find("x.rfscene"), std::string::npos) << n << " bytes";
+  EXPECT_NE(why(bytes + "x").find("payload bytes"), std::string::npos);
+  std::string format = bytes;
+  format[16] = 9;
+  EXPECT_NE(why(format).find("format 9"), std::string::npos);
+
+  core::SceneFile file{scene.state()->scene, *scene.state()->trees, "", {}};
+  EXPECT_NE(why(core::scene_file_bytes(file, "0.0.1")).find("written by rayfold 0.0.1"), std::string::npos);
+  core::SceneFile bad = file;
+  const uint32_t root = bad.data.blas.roots[0];
+  bad.data.blas.nodes[root].first = static_cast<uint32_t>(bad.data.blas.nodes.size());
+  EXPECT_NE(why(core::scene_file_bytes(bad, RAYFOLD_VERSION_STRING)).find("points outside"), std::string::npos);
+  bad = file;
+  for (rf_wide_node& w : bad.data.wide_nodes)
+    for (int k = 0; k < 4; ++k)
+      if (w.count[k] == 0) w.child[k] = static_cast<uint32_t>(&w - bad.data.wide_nodes.data());  // itself
+  EXPECT_NE(why(core::scene_file_bytes(bad, RAYFOLD_VERSION_STRING)).find("cycle"), std::string::npos);
+  bad = file;
+  bad.data.braid_offsets.pop_back();
+  EXPECT_NE(why(core::scene_file_bytes(bad, RAYFOLD_VERSION_STRING)).find("do not match"), std::string::npos);
+  EXPECT_NO_THROW(Scene::from_bytes(core::scene_file_bytes(file, RAYFOLD_VERSION_STRING)));
 }
 
 }  // namespace

@@ -40,7 +40,7 @@ def default_scenes():
 def random_views(scene, count, width, height, seed):
     """Eyes on a sphere around the scene's bounds looking at points near its
     centre: views nobody chose."""
-    lo, hi = scene.bounds()[:3], scene.bounds()[3:]
+    lo, hi = scene.bounds[:3], scene.bounds[3:]
     centre = [(a + b) / 2 for a, b in zip(lo, hi)]
     radius = max(b - a for a, b in zip(lo, hi))
     rng = random.Random(seed)

@@ -47,9 +47,16 @@ struct Renderer::Impl {
 
   void build() {
     core.reset();
-    core = std::make_unique<core::Renderer>(state->scene, options);
+    if (state->trees && state->trees_version == state->structure_version) {
+      core = std::make_unique<core::Renderer>(state->scene, options, state->trees);
+    } else {
+      core = std::make_unique<core::Renderer>(state->scene, options);
+      state->trees = core->shared_scene_data();
+      state->trees_version = state->structure_version;
+      state->trees_clock = state->clock;
+    }
+    built_clock = state->trees_clock;  // instances set_transform moved since are moves
     built_version = state->structure_version;
-    built_clock = state->clock;
   }
 
   // Instances set_transform moved since the trees were built; rebuilds when
@@ -62,6 +69,7 @@ struct Renderer::Impl {
       if (state->moved_at[i] > built_clock) out.push_back(static_cast<uint32_t>(i));
     for (uint32_t i : out)
       if (!core->scene_data().renderable[i] && !state->scene.meshes[state->scene.instances[i].mesh].indices.empty()) {
+        state->trees.reset();  // they lack this instance's tree space too
         build();
         return {};
       }

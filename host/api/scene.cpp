@@ -1,12 +1,17 @@
 #include "rayfold/scene.h"
 
+#include <cmath>
+#include <fstream>
 #include <sstream>
 
 #include "api/convert.h"
 #include "api/scene_state.h"
+#include "bvh/scene_file.h"
 #include "rayfold/errors.h"
+#include "rayfold/version.h"
 #include "scene/camera.h"
 #include "scene/gltf_loader.h"
+#include "util/atomic_file.h"
 
 namespace rayfold {
 namespace detail {
@@ -38,6 +43,21 @@ void check_mesh(const detail::SceneState& s, uint32_t mesh) {
 Scene::Scene() : state_(std::make_shared<detail::SceneState>()) {}
 
 Scene Scene::load(const std::string& path, const LoadOptions& options) {
+  {
+    std::ifstream in(path, std::ios::binary);
+    char head[16] = {};
+    if (in && in.read(head, sizeof(head)) && core::is_scene_file(head, sizeof(head))) {
+      const LoadOptions defaults;
+      if (options.scene != defaults.scene || options.camera != defaults.camera || !std::isnan(options.time))
+        throw InputError(path, "is a rayfold scene file: it holds one posed scene, so scene, camera and time "
+                               "options do not apply (set them when saving it from the glTF file)");
+      std::ostringstream bytes;
+      in.seekg(0);
+      bytes << in.rdbuf();
+      if (!in && !in.eof()) throw InputError(path, "cannot be read");
+      return from_bytes(bytes.str(), path);
+    }
+  }
   Scene s;
   core::LoadOptions lo;
   lo.scene = options.scene;
@@ -50,6 +70,35 @@ Scene Scene::load(const std::string& path, const LoadOptions& options) {
   s.state_->moved_at.assign(s.state_->scene.instances.size(), 0);
   return s;
 }
+
+std::string Scene::to_bytes() const {
+  detail::SceneState& s = *state_;
+  if (!s.trees || s.trees_version != s.structure_version || s.trees_clock != s.clock) {
+    s.trees = std::make_shared<const core::SceneData>(core::prepare_scene(s.scene));
+    s.trees_version = s.structure_version;
+    s.trees_clock = s.clock;
+  }
+  core::SceneFile file{s.scene, *s.trees, s.path, s.warnings};
+  return core::scene_file_bytes(file, RAYFOLD_VERSION_STRING);
+}
+
+Scene Scene::from_bytes(const std::string& bytes, const std::string& what) {
+  return from_bytes(bytes.data(), bytes.size(), what);
+}
+
+Scene Scene::from_bytes(const char* bytes, size_t size, const std::string& what) {
+  core::SceneFile file = core::read_scene_file(bytes, size, what, RAYFOLD_VERSION_STRING);
+  Scene s;
+  detail::SceneState& st = *s.state_;
+  st.scene = std::move(file.scene);
+  st.path = std::move(file.source);
+  st.warnings = std::move(file.warnings);
+  st.moved_at.assign(st.scene.instances.size(), 0);
+  st.trees = std::make_shared<const core::SceneData>(std::move(file.data));
+  return s;
+}
+
+void Scene::save(const std::string& path) const { core::write_text_file(path, to_bytes()); }
 
 uint32_t Scene::add_mesh(const float* positions, size_t vertex_count, const uint32_t* indices, size_t index_count,
                          const std::string& name) {

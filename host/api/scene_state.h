@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "bvh/scene_data.h"
 #include "scene/gltf_loader.h"
 #include "scene/scene.h"
 
@@ -22,6 +23,12 @@ struct SceneState {
   // Per instance, the clock value of its last set_transform (0: as added).
   std::vector<uint64_t> moved_at;
   uint64_t clock = 0;
+  // The trees, for the structure_version and clock they were built at (by
+  // the first renderer, Scene::to_bytes or read by Scene::from_bytes): every
+  // renderer shares them instead of building, moving instances set_transform
+  // moved since.
+  std::shared_ptr<const core::SceneData> trees;
+  uint64_t trees_version = 0, trees_clock = 0;
 };
 
 }  // namespace rayfold::detail

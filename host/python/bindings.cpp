@@ -481,7 +481,48 @@ NB_MODULE(_core, m) {
           },
           "path"_a = nb::none(), "scene"_a = -1, "camera"_a = -1, "time"_a = nb::none(),
           "Loads a .gltf or .glb file (scene, camera: the file's indices; time: seconds into its animations), or "
-          "makes an empty scene without a path.")
+          "a scene file Scene.save wrote, trees and all; without a path, makes an empty scene.")
+      .def(
+          "to_bytes",
+          [](PyScene& s) {
+            const std::string b = locked(s, [&] { return s.scene.to_bytes(); });
+            return nb::bytes(b.data(), b.size());
+          },
+          "The scene and its bottom-level trees (built now, once) as versioned, checksummed bytes; "
+          "Scene.from_bytes reads them back without building a tree. Pickling a Scene uses them.")
+      .def_static(
+          "from_bytes",
+          [](const nb::bytes& b) {
+            auto out = std::make_shared<PyScene>();
+            {
+              nb::gil_scoped_release release;  // b stays alive: the caller holds it
+              out->scene = rayfold::Scene::from_bytes(b.c_str(), b.size());
+            }
+            return out;
+          },
+          "bytes"_a,
+          "A scene from Scene.to_bytes, its trees as they were built; InputError for bytes cut short, damaged or "
+          "written by another rayfold version or machine.")
+      .def(
+          "save",
+          [](PyScene& s, const std::filesystem::path& path) { locked(s, [&] { s.scene.save(path.string()); }); },
+          "path"_a,
+          "Writes to_bytes to a file, whole or not at all; Scene(path) loads it back without building a tree.")
+      .def("__getstate__",
+           [](PyScene& s) {
+             const std::string b = locked(s, [&] { return s.scene.to_bytes(); });
+             return nb::bytes(b.data(), b.size());
+           })
+      .def("__setstate__",
+           [](PyScene* self, const nb::bytes& b) {
+             rayfold::Scene loaded;
+             {
+               nb::gil_scoped_release release;
+               loaded = rayfold::Scene::from_bytes(b.c_str(), b.size());
+             }
+             new (self) PyScene();
+             self->scene = std::move(loaded);
+           })
       .def(
           "add_mesh",
           [](PyScene& s, nb::handle positions, nb::handle indices, const std::string& name) {

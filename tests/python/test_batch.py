@@ -62,7 +62,7 @@ def test_every_view_equals_render_views_from_python_and_the_cli(atrium_path, tmp
     # The CLI, from the camera file, against rayfold render of the same list.
     os.makedirs(tmp_path / "cli")
     r = batch_cli(atrium_path, "--cameras", tmp_path / "c.json", "-o", tmp_path / "cli" / "v_%04d.exr",
-                  "--fold", "y", "--channels", "depth,instance_id", "--workers", "1", "-q")
+                  "--fold", "y", "--channels", "depth,instance_id", "--workers", "1", "-q", "--send", "file")
     assert r.returncode == 0, r.stderr
     assert "70 of 70 views written" in r.stderr, r.stderr
     os.makedirs(tmp_path / "render")
@@ -74,6 +74,23 @@ def test_every_view_equals_render_views_from_python_and_the_cli(atrium_path, tmp
         want = rayfold.read_exr(tmp_path / "render" / f"v_{i:04d}.exr")
         for p in ("depth", "instance_id"):
             assert got[p].tobytes() == want[p].tobytes(), f"view {i}, plane {p}"
+
+
+def test_a_scene_built_in_memory_and_moved_reaches_the_workers_as_trees(tmp_path):
+    scene = rayfold.Scene()
+    mesh = scene.add_mesh(np.array([[-1, -1, 0], [1, -1, 0], [0, 1, 0], [0, 0, 1]], np.float32),
+                          np.array([[0, 1, 2], [0, 1, 3], [1, 2, 3]], np.uint32))
+    for k in range(5):
+        scene.add_instance(mesh, np.array([[1, 0, 0, 2.5 * k - 5], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]))
+    scene.render(rayfold.Camera.look_at((0, 0, 9), (0, 0, 0), (0, 1, 0), 60, 16, 16))  # trees built
+    scene.set_transform(2, np.array([[0, -1, 0, 0], [1, 0, 0, 1], [0, 0, 1, 0.5], [0, 0, 0, 1]]))  # and moved
+    cameras = [rayfold.Camera.look_at((0.3 * k - 1, 0.5, 9), (0, 0, 0), (0, 1, 0), 60, 48, 32) for k in range(9)]
+    pattern = str(tmp_path / "v_%d.exr")
+    s = rayfold.batch.render(scene, cameras, pattern, workers=2, fold="xy", progress=False)
+    assert (s.rendered, s.failed) == (9, [])
+    assert_views_equal(scene, cameras, pattern, "xy")
+    with pytest.raises(rayfold.InputError, match="needs the scene's path"):
+        rayfold.batch.render(scene, cameras, pattern, send="file")
 
 
 def test_a_killed_worker_has_its_views_retried_and_nothing_is_lost(atrium_path, tmp_path):

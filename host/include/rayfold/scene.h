@@ -30,9 +30,25 @@ class Scene {
  public:
   Scene();  // empty, to be filled with add_mesh and add_instance
 
-  // Loads a .gltf or .glb file. Throws InputError naming the file and what is
-  // wrong; non-fatal oddities (points and lines skipped) go to warnings().
+  // Loads a .gltf or .glb file, or a scene file save() wrote (told apart by
+  // its first bytes; options then must be the defaults). Throws InputError
+  // naming the file and what is wrong; non-fatal oddities (points and lines
+  // skipped) go to warnings().
   static Scene load(const std::string& path, const LoadOptions& options = {});
+
+  // The scene and its bottom-level trees as bytes, in a versioned,
+  // checksummed format (host/bvh/scene_file.h); the trees are built now if
+  // no earlier call built them, and kept. from_bytes reads such bytes back,
+  // trees and all, so a Renderer of it builds none (and renders the bits of
+  // the original); InputError, naming `what`, for bytes cut short, damaged,
+  // or written by another rayfold version or machine. save writes the
+  // bytes to a file (whole or not at all; RuntimeFailure naming it).
+  // A scene from a file keeps path() and warnings(), but not its
+  // animations (set_time).
+  std::string to_bytes() const;
+  static Scene from_bytes(const std::string& bytes, const std::string& what = "scene bytes");
+  static Scene from_bytes(const char* bytes, size_t size, const std::string& what = "scene bytes");
+  void save(const std::string& path) const;
 
   // Adds a mesh: positions x, y, z per vertex (object space), three vertex
   // indices per triangle; returns its index. Throws InputError for indices

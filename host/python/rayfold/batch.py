@@ -46,7 +46,7 @@ class Summary:
     kept: int
     failed: list
     warnings: list            # (view index, warning) as GBuffer.warnings
-    seconds: float             # the whole call
+    seconds: float             # the whole call, but stopping the cluster
     startup_seconds: float     # of which starting Ray and the workers (their scene loaded)
     workers: int
     workers_lost: int          # workers that died and were replaced
@@ -137,8 +137,9 @@ def _complete(path, key, records, verify):
 class _Worker:
     """One Renderer on one scene; renders lists of views and records each."""
 
-    def __init__(self, scene_path, render_options, manifest_dir):
-        self.scene = Scene(scene_path)
+    def __init__(self, scene, render_options, manifest_dir):
+        # The trees as bytes (from Ray's object store, once per node), or the file's path.
+        self.scene = Scene.from_bytes(scene) if isinstance(scene, bytes) else Scene(scene)
         self.options = render_options
         os.makedirs(manifest_dir, exist_ok=True)
         self.part_path = os.path.join(manifest_dir, f"{socket.gethostname()}-{os.getpid()}.jsonl")
@@ -235,10 +236,14 @@ class _Progress:
 
 def render(scene, cameras, out, *, workers=1, address=None, fold="none", align=0, channels=None,
            depth="distance", backend="opencl", device="", kernel="auto", verify=True, retries=3,
-           batch_views=BATCH_VIEWS, width=0, height=0, progress=True):
-    """Renders every camera's view of the glTF file `scene` to out % index
-    (an .exr pattern such as 'dir/view_%06d.exr') on `workers` Ray actors,
-    each with its share of the cluster's cores; returns a Summary. cameras:
+           batch_views=BATCH_VIEWS, width=0, height=0, progress=True, send="trees"):
+    """Renders every camera's view of `scene` (a rayfold.Scene, or the path
+    of a glTF or scene file) to out % index (an .exr pattern such as
+    'dir/view_%06d.exr') on `workers` Ray actors, each with its share of the
+    cluster's cores; returns a Summary. send: 'trees' builds the trees here
+    once and hands them to the workers through Ray's object store
+    (Scene.to_bytes; once per node), 'file' has each worker load the path
+    and build its own (every machine then needs the file). cameras:
     a list of rayfold.Camera, or a file as Camera.from_file reads it (width,
     height as there). Views already complete from an earlier run (manifest,
     size and, with verify, SHA-256) are kept. address: a running Ray cluster
@@ -251,10 +256,18 @@ def render(scene, cameras, out, *, workers=1, address=None, fold="none", align=0
     except ImportError as e:
         raise RuntimeFailure("rayfold.batch needs Ray: pip install 'rayfold[batch]' (or pip install ray)") from e
     t0 = time.monotonic()
-    scene_path = os.fspath(scene)
-    if not isinstance(scene, (str, os.PathLike)):
-        raise TypeError("rayfold.batch.render: scene is the glTF file's path (each worker loads it)")
-    Scene(scene_path)  # bad input fails here, naming the file, before a cluster starts
+    if send not in ("trees", "file"):
+        raise InputError(f"rayfold.batch.render: send must be 'trees' or 'file', not {send!r}")
+    if isinstance(scene, Scene):
+        if send == "file":
+            raise InputError("rayfold.batch.render: send='file' needs the scene's path, not a Scene")
+        loaded, scene_path = scene, None
+    elif isinstance(scene, (str, os.PathLike)):
+        scene_path = os.path.abspath(os.fspath(scene))
+        loaded = Scene(scene_path)  # bad input fails here, naming the file, before a cluster starts
+    else:
+        raise TypeError(f"rayfold.batch.render: scene is a rayfold.Scene or a file's path, not a "
+                        f"{type(scene).__name__}")
     cameras = _read_cameras(cameras, width, height)
     if not cameras:
         raise InputError("rayfold.batch.render: no cameras")
@@ -269,7 +282,9 @@ def render(scene, cameras, out, *, workers=1, address=None, fold="none", align=0
     options = dict(fold=fold, align=align, backend=backend, device=device, kernel=kernel, channels=channels,
                    depth=depth)
     # What a view's file shows: a rerun keeps the file only when all of it is the same.
-    common = json.dumps([_sha256(scene_path), fold, str(channels), depth, __version__]).encode()
+    scene_bytes = None if scene_path else loaded.to_bytes()
+    scene_digest = _sha256(scene_path) if scene_path else hashlib.sha256(scene_bytes).hexdigest()
+    common = json.dumps([scene_digest, fold, str(channels), depth, __version__]).encode()
     keys = [hashlib.sha256(common + c.__getstate__()).hexdigest() for c in cameras]
 
     records = _read_manifest(manifest_dir)
@@ -279,12 +294,15 @@ def render(scene, cameras, out, *, workers=1, address=None, fold="none", align=0
     if not todo:  # nothing to render: no cluster
         return Summary(len(cameras), 0, kept, [], [], time.monotonic() - t0, 0.0, workers, 0, 0, _peak_rss_mb(),
                        0.0)
+    if send == "trees" and scene_bytes is None:
+        scene_bytes = loaded.to_bytes()  # the trees, built here once
     started = not ray.is_initialized()
     if started:
         ray.init(address=address, include_dashboard=False, logging_level="ERROR", log_to_driver=False)
     failed, warnings = [], []
     rendered = lost = retried = 0
     worker_peak = startup = 0.0
+    finished = None
     try:
         cores = max(1.0, ray.cluster_resources().get("CPU", 1.0) // workers)
         actor_class = ray.remote(_Worker).options(
@@ -293,8 +311,12 @@ def render(scene, cameras, out, *, workers=1, address=None, fold="none", align=0
             runtime_env={"env_vars": {"POCL_MAX_PTHREAD_COUNT": str(int(cores))}})
         worker_options = dict(options, threads=int(cores))
 
+        # Ray hands an object-store argument over resolved: the bytes.
+        scene_arg = ray.put(scene_bytes) if send == "trees" else scene_path
+        del scene_bytes
+
         def new_worker():
-            return actor_class.remote(scene_path, worker_options, manifest_dir)
+            return actor_class.remote(scene_arg, worker_options, manifest_dir)
 
         pool = [new_worker() for _ in range(min(workers, len(todo)))]
         hosts = ray.get([w.where.remote() for w in pool])
@@ -339,12 +361,13 @@ def render(scene, cameras, out, *, workers=1, address=None, fold="none", align=0
             worker_peak = max(worker_peak, peak)
             bar.show(rendered + len(failed), retried)
         bar.show(rendered + len(failed), retried, final=True)
+        finished = time.monotonic()  # the cluster's stop is not the job's
         for actor in pool:
             ray.kill(actor)
     finally:
         if started:
             ray.shutdown()
-    return Summary(len(cameras), rendered, kept, sorted(failed), sorted(warnings), time.monotonic() - t0, startup,
+    return Summary(len(cameras), rendered, kept, sorted(failed), sorted(warnings), finished - t0, startup,
                    workers, lost, retried, _peak_rss_mb(), worker_peak)
 
 
@@ -354,7 +377,7 @@ def main(argv=None):
     p = argparse.ArgumentParser(prog="rayfold-batch", description=(
         "Renders every view of a camera file to one EXR each on a Ray cluster: this machine's, started for the "
         "job, or a running one (--address). A rerun keeps the views already written and renders the rest."))
-    p.add_argument("scene", help="glTF 2.0 file (.glb or .gltf)")
+    p.add_argument("scene", help="glTF 2.0 file (.glb or .gltf), or a scene file rayfold saved (Scene.save)")
     views = p.add_mutually_exclusive_group(required=True)
     views.add_argument("--cameras", metavar="FILE", help="a rayfold camera list or a NeRF transforms.json")
     views.add_argument("--colmap", metavar="DIR", help="a COLMAP text model (cameras.txt, images.txt)")
@@ -370,6 +393,9 @@ def main(argv=None):
     p.add_argument("--device", default="", help="the first OpenCL device whose platform or name holds this")
     p.add_argument("--size", metavar="WxH", help="image size for a transforms.json without w and h")
     p.add_argument("--retries", type=int, default=3, help="times a view whose worker died is tried again (3)")
+    p.add_argument("--send", default="trees", choices=["trees", "file"],
+                   help="trees: build the trees once here and send them through Ray's object store (default); "
+                        "file: each worker loads the scene file and builds its own")
     p.add_argument("--no-verify", action="store_true",
                    help="keep views from an earlier run on their size alone, without reading them for the SHA-256")
     p.add_argument("--summary", metavar="FILE.json", help="also write the summary as JSON")
@@ -385,7 +411,7 @@ def main(argv=None):
         cameras = a.cameras if a.cameras else a.colmap
         s = render(a.scene, cameras, a.output, workers=a.workers, address=a.address, fold=a.fold, align=a.align,
                    channels=a.channels, depth=a.depth, backend=a.backend, device=a.device, verify=not a.no_verify,
-                   retries=a.retries, width=width, height=height, progress=not a.quiet)
+                   retries=a.retries, width=width, height=height, progress=not a.quiet, send=a.send)
     except (InputError, TypeError) as e:
         print(f"error: {e}", file=sys.stderr)
         return 2

@@ -2,6 +2,8 @@
 // types, GLB header, matrix with TRS), buffers, and required extensions.
 #include "scene/gltf/loader.h"
 
+#include "bvh/scene_file.h"
+
 namespace rayfold::core::gltf {
 
 namespace {
@@ -196,6 +198,8 @@ void Loader::read_model() {
     if (!f) fail(std::string("cannot open the file (") + std::strerror(errno) + ")");
     bytes.assign(std::istreambuf_iterator<char>(f), {});
     if (bytes.empty()) fail("the file is empty");
+    if (is_scene_file(bytes.data(), bytes.size()))
+      fail("is a rayfold scene file (Scene.save), not glTF: rayfold.Scene, Scene::load and rayfold-batch read it");
     binary_ = bytes.size() >= 4 && std::memcmp(bytes.data(), "glTF", 4) == 0;
     if (!binary_) check_json_start(bytes);
   }

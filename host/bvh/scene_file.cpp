@@ -1,0 +1,371 @@
+#include "bvh/scene_file.h"
+
+#include <cstdint>
+#include <algorithm>
+#include <cstring>
+#include <type_traits>
+
+#include "util/errors.h"
+
+namespace rayfold::core {
+namespace {
+
+constexpr char kMagic[16] = "rayfold-scene\n";  // and two NULs
+constexpr size_t kHeader = 16 + 4 + 4 + 8;
+
+uint32_t layout_signature() {
+  return static_cast<uint32_t>(sizeof(rf_node)) | static_cast<uint32_t>(sizeof(rf_tri)) << 8 |
+         static_cast<uint32_t>(sizeof(rf_wide_node)) << 16 | static_cast<uint32_t>(sizeof(rf_normal_xform)) << 24;
+}
+
+// FNV-1a over 8-byte words (then the last bytes one by one): a damaged
+// file's check at a few GB/s rather than byte-wise FNV's one.
+uint64_t fnv1a(const char* p, size_t n) {
+  uint64_t h = 0xcbf29ce484222325ull;
+  size_t i = 0;
+  for (; i + 8 <= n; i += 8) {
+    uint64_t word;
+    std::memcpy(&word, p + i, 8);
+    h = (h ^ word) * 0x100000001b3ull;
+  }
+  for (; i < n; ++i) h = (h ^ static_cast<unsigned char>(p[i])) * 0x100000001b3ull;
+  return h;
+}
+
+// Counts the bytes (out == nullptr), then writes them into a buffer of
+// that size: one allocation for a scene of any size.
+class Writer {
+ public:
+  explicit Writer(char* out = nullptr) : out_(out) {}
+  template <class T>
+  void put(const T& v) {
+    static_assert(std::is_trivially_copyable_v<T>);
+    append(&v, sizeof(T));
+  }
+  // Items without padding: device structs (their bytes documented in
+  // kernels/rf_types.h), GLM vectors and matrices, integers.
+  template <class T>
+  void put_all(const std::vector<T>& v) {
+    put<uint64_t>(v.size());
+    append(v.data(), v.size() * sizeof(T));
+  }
+  void put_string(const std::string& s) {
+    put<uint64_t>(s.size());
+    append(s.data(), s.size());
+  }
+  void put_spec(const CameraSpec& c) {
+    put(c.eye);
+    put(c.look_at);
+    put(c.up);
+    put(c.vfov_degrees);
+    put<uint8_t>(c.orthographic);
+    put(c.ymag);
+  }
+  size_t size() const { return size_; }
+
+ private:
+  void append(const void* p, size_t n) {
+    if (out_ && n) std::memcpy(out_ + size_, p, n);
+    size_ += n;
+  }
+  char* out_;
+  size_t size_ = 0;
+};
+
+class Reader {
+ public:
+  Reader(const char* p, size_t n, const std::string& what) : p_(p), end_(p + n), what_(what) {}
+
+  template <class T>
+  T get() {
+    T v;
+    take(&v, sizeof(T));
+    return v;
+  }
+  template <class T>
+  std::vector<T> get_all() {
+    const uint64_t n = get<uint64_t>();
+    if (n > static_cast<uint64_t>(end_ - p_) / sizeof(T)) fail("a list runs past the end");
+    std::vector<T> v(n);
+    take(v.data(), n * sizeof(T));
+    return v;
+  }
+  std::string get_string() {
+    const uint64_t n = get<uint64_t>();
+    if (n > static_cast<uint64_t>(end_ - p_)) fail("a name runs past the end");
+    std::string s(p_, n);
+    p_ += n;
+    return s;
+  }
+  CameraSpec get_spec() {
+    CameraSpec c;
+    c.eye = get<glm::dvec3>();
+    c.look_at = get<glm::dvec3>();
+    c.up = get<glm::dvec3>();
+    c.vfov_degrees = get<double>();
+    c.orthographic = get<uint8_t>() != 0;
+    c.ymag = get<double>();
+    return c;
+  }
+  // A count of items of at least min_bytes each that the rest can hold.
+  size_t count(size_t min_bytes) {
+    const uint64_t n = get<uint64_t>();
+    if (n > static_cast<uint64_t>(end_ - p_) / min_bytes) fail("a list runs past the end");
+    return static_cast<size_t>(n);
+  }
+  bool done() const { return p_ == end_; }
+  [[noreturn]] void fail(const std::string& why) const {
+    throw InputError(what_, "is not a whole rayfold scene file: " + why);
+  }
+
+ private:
+  void take(void* dst, size_t n) {
+    if (n > static_cast<size_t>(end_ - p_)) fail("it ends early");
+    std::memcpy(dst, p_, n);
+    p_ += n;
+  }
+  const char* p_;
+  const char* end_;
+  std::string what_;
+};
+
+}  // namespace
+
+bool is_scene_file(const char* bytes, size_t size) {
+  return size >= sizeof(kMagic) && std::memcmp(bytes, kMagic, sizeof(kMagic)) == 0;
+}
+
+namespace {
+
+void write_payload(Writer& w, const SceneFile& f, const std::string& rayfold_version) {
+  w.put_string(rayfold_version);
+  const Scene& s = f.scene;
+  w.put<uint64_t>(s.meshes.size());
+  for (const Mesh& m : s.meshes) {
+    w.put_string(m.name);
+    w.put_all(m.positions);
+    w.put_all(m.indices);
+  }
+  w.put<uint64_t>(s.instances.size());
+  for (const Instance& i : s.instances) {
+    w.put(i.mesh);
+    w.put(i.world_from_object);
+    w.put_string(i.name);
+    w.put(i.node);
+  }
+  w.put<uint8_t>(s.camera.has_value());
+  if (s.camera) w.put_spec(*s.camera);
+  w.put<uint64_t>(s.cameras.size());
+  for (const Scene::FileCamera& c : s.cameras) {
+    w.put_string(c.name);
+    w.put(c.node);
+    w.put<uint8_t>(c.perspective);
+    w.put_spec(c.spec);
+  }
+  w.put<uint64_t>(s.scene_names.size());
+  for (const std::string& n : s.scene_names) w.put_string(n);
+  w.put(s.scene_index);
+  w.put_string(f.source);
+  w.put<uint64_t>(f.warnings.size());
+  for (const std::string& n : f.warnings) w.put_string(n);
+
+  const SceneData& d = f.data;
+  w.put_all(d.blas.nodes);
+  w.put_all(d.blas.tris);
+  w.put_all(d.blas.roots);
+  w.put_all(d.blas.bounds);
+  w.put_all(d.blas.tree_exponents);
+  w.put<uint64_t>(d.blas.unresolvable_triangles);
+  w.put(d.blas.build_ms);
+  w.put(d.blas.sah_cost);
+  w.put(d.blas.max_depth);
+  w.put_all(d.braid_offsets);
+  w.put_all(d.braid_nodes);
+  w.put_all(d.wide_nodes);
+  w.put_all(d.braid_wide);
+  w.put_all(d.tree_from_world);
+  w.put_all(std::vector<uint8_t>(d.renderable.begin(), d.renderable.end()));
+  w.put_all(d.normal_xforms);
+  w.put(d.world_bounds);
+  w.put(d.max_tree_scale);
+  w.put<uint64_t>(d.hidden_instances);
+
+}
+
+}  // namespace
+
+std::string scene_file_bytes(const SceneFile& f, const std::string& rayfold_version) {
+  Writer count;
+  write_payload(count, f, rayfold_version);
+  const size_t length = count.size();
+  std::string out(kHeader + length + 8, '\0');
+  std::memcpy(out.data(), kMagic, sizeof(kMagic));
+  const uint32_t format = kSceneFormat, layout = layout_signature();
+  const uint64_t length64 = length;
+  std::memcpy(out.data() + 16, &format, 4);
+  std::memcpy(out.data() + 20, &layout, 4);
+  std::memcpy(out.data() + 24, &length64, 8);
+  Writer w(out.data() + kHeader);
+  write_payload(w, f, rayfold_version);
+  const uint64_t sum = fnv1a(out.data() + kHeader, length);
+  std::memcpy(out.data() + kHeader + length, &sum, 8);
+  return out;
+}
+
+SceneFile read_scene_file(const char* bytes, size_t size, const std::string& what,
+                          const std::string& rayfold_version) {
+  Reader head(bytes, size, what);
+  if (!is_scene_file(bytes, size)) head.fail("it does not start with \"rayfold-scene\"");
+  if (size < kHeader + 8) head.fail("it ends early");
+  uint32_t format, layout;
+  uint64_t length;
+  std::memcpy(&format, bytes + 16, 4);
+  std::memcpy(&layout, bytes + 20, 4);
+  std::memcpy(&length, bytes + 24, 8);
+  if (format != kSceneFormat)
+    throw InputError(what, "is a rayfold scene file of format " + std::to_string(format) + "; this rayfold reads " +
+                               "format " + std::to_string(kSceneFormat) + ": save it again from the glTF file");
+  if (layout != layout_signature())
+    throw InputError(what, "is a rayfold scene file written with other device structs (another machine or "
+                           "build): save it again here");
+  if (length != size - kHeader - 8)
+    head.fail("it holds " + std::to_string(size - kHeader - 8) + " payload bytes, its header says " +
+              std::to_string(length));
+  const char* payload = bytes + kHeader;
+  uint64_t sum;
+  std::memcpy(&sum, payload + length, 8);
+  if (sum != fnv1a(payload, length)) head.fail("its checksum does not match (the file is damaged)");
+
+  Reader r(payload, length, what);
+  const std::string version = r.get_string();
+  if (version != rayfold_version)
+    throw InputError(what, "was written by rayfold " + version + "; this is rayfold " + rayfold_version +
+                               ", whose trees may differ: save it again from the glTF file");
+  SceneFile f;
+  Scene& s = f.scene;
+  s.meshes.resize(r.count(3 * 8));
+  for (Mesh& m : s.meshes) {
+    m.name = r.get_string();
+    m.positions = r.get_all<glm::vec3>();
+    m.indices = r.get_all<uint32_t>();
+  }
+  s.instances.resize(r.count(4 + 128 + 8 + 4));
+  for (Instance& i : s.instances) {
+    i.mesh = r.get<uint32_t>();
+    i.world_from_object = r.get<Xform>();
+    i.name = r.get_string();
+    i.node = r.get<int>();
+    if (i.mesh >= s.meshes.size()) r.fail("an instance names mesh " + std::to_string(i.mesh));
+  }
+  if (r.get<uint8_t>()) s.camera = r.get_spec();
+  s.cameras.resize(r.count(8 + 4 + 1));
+  for (Scene::FileCamera& c : s.cameras) {
+    c.name = r.get_string();
+    c.node = r.get<int>();
+    c.perspective = r.get<uint8_t>() != 0;
+    c.spec = r.get_spec();
+  }
+  s.scene_names.resize(r.count(8));
+  for (std::string& n : s.scene_names) n = r.get_string();
+  s.scene_index = r.get<int>();
+  f.source = r.get_string();
+  f.warnings.resize(r.count(8));
+  for (std::string& n : f.warnings) n = r.get_string();
+
+  SceneData& d = f.data;
+  d.blas.nodes = r.get_all<rf_node>();
+  d.blas.tris = r.get_all<rf_tri>();
+  d.blas.roots = r.get_all<uint32_t>();
+  d.blas.bounds = r.get_all<Aabb>();
+  d.blas.tree_exponents = r.get_all<int>();
+  d.blas.unresolvable_triangles = r.get<uint64_t>();
+  d.blas.build_ms = r.get<double>();
+  d.blas.sah_cost = r.get<double>();
+  d.blas.max_depth = r.get<int>();
+  d.braid_offsets = r.get_all<uint32_t>();
+  d.braid_nodes = r.get_all<uint32_t>();
+  d.wide_nodes = r.get_all<rf_wide_node>();
+  d.braid_wide = r.get_all<uint32_t>();
+  d.tree_from_world = r.get_all<Xform>();
+  const std::vector<uint8_t> renderable = r.get_all<uint8_t>();
+  d.renderable.assign(renderable.begin(), renderable.end());
+  d.normal_xforms = r.get_all<rf_normal_xform>();
+  d.world_bounds = r.get<Aabb>();
+  d.max_tree_scale = r.get<int>();
+  d.hidden_instances = r.get<uint64_t>();
+  if (!r.done()) r.fail("bytes follow the trees");
+  // The per-instance and per-mesh lists must agree with the scene (the
+  // checksum vouches for the bytes, not for a writer's bugs).
+  const size_t n = s.instances.size(), m = s.meshes.size();
+  if (d.blas.roots.size() != m || d.blas.bounds.size() != m || d.blas.tree_exponents.size() != m ||
+      d.tree_from_world.size() != n || d.renderable.size() != n || d.normal_xforms.size() != n ||
+      d.braid_offsets.size() != n + 1 || d.braid_wide.size() != d.braid_nodes.size() ||
+      d.braid_offsets.back() != d.braid_nodes.size())
+    r.fail("its trees do not match its meshes and instances");
+  // Every index inside its array and every child after its parent: bytes
+  // that passed the checksum still never send a traversal out of bounds or
+  // round a cycle.
+  const size_t nodes = d.blas.nodes.size(), tris = d.blas.tris.size(), wide = d.wide_nodes.size();
+  // Each tree below a node a traversal starts from: indices inside their
+  // arrays, no cycle, and no deeper than the kernels' stack. Heights are
+  // kept per node, so shared subtrees are walked once.
+  std::vector<int> binary_height(nodes, -1), wide_height(wide, -1);  // -2: on the current path
+  auto check = [&](uint32_t root, std::vector<int>& height, auto&& children, const char* what) {
+    std::vector<std::pair<uint32_t, bool>> stack{{root, false}};
+    while (!stack.empty()) {
+      auto [i, expanded] = stack.back();
+      stack.pop_back();
+      if (expanded) {
+        int h = 0;
+        children(i, [&](uint32_t c) { h = std::max(h, height[c] + 1); });
+        if (h > RF_STACK_SIZE) r.fail(std::string(what) + " deeper than the traversal stack");
+        height[i] = h;
+        continue;
+      }
+      if (height[i] >= 0) continue;
+      if (height[i] == -2) r.fail(std::string(what) + " with a cycle");
+      height[i] = -2;
+      stack.push_back({i, true});
+      children(i, [&](uint32_t c) {
+        if (height[c] == -2) r.fail(std::string(what) + " with a cycle");
+        if (height[c] < 0) stack.push_back({c, false});
+      });
+    }
+  };
+  auto binary_children = [&](uint32_t i, auto&& visit) {
+    const rf_node& node = d.blas.nodes[i];
+    if (node.meta != 0) {
+      if (size_t{node.first} + node.meta > tris) r.fail("a bottom-level leaf runs past the triangles");
+      return;
+    }
+    if (size_t{node.first} + 1 >= nodes) r.fail("a bottom-level node points outside the trees");
+    visit(node.first);
+    visit(node.first + 1);
+  };
+  auto wide_children = [&](uint32_t i, auto&& visit) {
+    for (int k = 0; k < 4; ++k) {
+      const uint32_t child = d.wide_nodes[i].child[k], count = d.wide_nodes[i].count[k];
+      if (count == RF_INVALID) continue;
+      if (count != 0 ? size_t{child} + count > tris : child >= wide) r.fail("a wide node points outside the trees");
+      if (count == 0) visit(child);
+    }
+  };
+  auto check_tree = [&](uint32_t root) { check(root, binary_height, binary_children, "a bottom-level tree"); };
+  auto check_wide = [&](uint32_t root) { check(root, wide_height, wide_children, "a wide tree"); };
+  for (uint32_t root : d.blas.roots) {
+    if (root == RF_INVALID) continue;
+    if (root >= nodes) r.fail("a mesh's root lies outside the trees");
+    check_tree(root);
+  }
+  for (size_t c = 0; c < d.braid_nodes.size(); ++c) {
+    if (d.braid_nodes[c] >= nodes || (d.braid_wide[c] != RF_INVALID && d.braid_wide[c] >= wide))
+      r.fail("a top-level item lies outside the trees");
+    check_tree(d.braid_nodes[c]);
+    if (d.braid_wide[c] != RF_INVALID) check_wide(d.braid_wide[c]);
+  }
+  for (size_t i = 0; i < n; ++i)
+    if (d.braid_offsets[i] > d.braid_offsets[i + 1]) r.fail("the top-level items are out of order");
+  return f;
+}
+
+}  // namespace rayfold::core
