@@ -176,5 +176,46 @@ TEST(DatasetCameras, ColmapRefusesDistortionModelsAndMissingCamerasByName) {
   EXPECT_THROW(read_colmap_cameras((d / "nowhere").string()), InputError);
 }
 
+// Lenient reading (a batch's): a view whose own entry is bad is listed with
+// its index in the file and the reason, the others read as they would
+// alone; the file's structure still throws.
+TEST(DatasetCameras, LenientReadersListTheBadViewsAndKeepTheRest) {
+  const fs::path d = work_dir();
+  const std::string nerf = write(d / "t.json", R"({"w": 40, "h": 30, "camera_angle_x": 0.9, "frames": [
+      {"file_path": "a", "transform_matrix": [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 5], [0, 0, 0, 1]]},
+      {"file_path": "b", "transform_matrix": [[2, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 5], [0, 0, 0, 1]]},
+      {"file_path": "c", "k1": 0.1, "transform_matrix": [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 5], [0, 0, 0, 1]]},
+      {"file_path": "d", "transform_matrix": [[1, 0, 0, 1], [0, 1, 0, 0], [0, 0, 1, 5], [0, 0, 0, 1]]}]})");
+  EXPECT_THROW(read_nerf_cameras(nerf), InputError);
+  SkippedViews skipped;
+  const std::vector<DatasetView> views = read_nerf_cameras(nerf, 0, 0, nullptr, &skipped);
+  ASSERT_EQ(views.size(), 2u);
+  EXPECT_EQ(views[0].name, "a");
+  EXPECT_EQ(views[1].name, "d");
+  ASSERT_EQ(skipped.size(), 2u);
+  EXPECT_EQ(skipped[0].first, 1u);
+  EXPECT_NE(skipped[0].second.find("frames[1]"), std::string::npos) << skipped[0].second;
+  EXPECT_EQ(skipped[1].first, 2u);
+  EXPECT_NE(skipped[1].second.find("k1"), std::string::npos) << skipped[1].second;
+
+  write(d / "cameras.txt", "1 PINHOLE 64 48 100 100 32 24\n");
+  write(d / "images.txt", "1 1 0 0 0 0 0 0 1 a.jpg\n\n2 0 0 0 0 0 0 0 1 b.jpg\n1 2 3\n3 1 0 0 0 0 0 1 7 c.jpg\n\n"
+                          "4 1 0 0 0 1 0 0 1 d.jpg\n\n");
+  EXPECT_THROW(read_colmap_cameras(d.string()), InputError);
+  SkippedViews colmap;
+  const std::vector<DatasetView> images = read_colmap_cameras(d.string(), &colmap);
+  ASSERT_EQ(images.size(), 2u);
+  EXPECT_EQ(images[0].name, "a.jpg");
+  EXPECT_EQ(images[1].name, "d.jpg");
+  ASSERT_EQ(colmap.size(), 2u);
+  EXPECT_EQ(colmap[0].first, 1u);
+  EXPECT_NE(colmap[0].second.find("quaternion"), std::string::npos) << colmap[0].second;
+  EXPECT_EQ(colmap[1].first, 2u);
+  EXPECT_NE(colmap[1].second.find("names camera 7"), std::string::npos) << colmap[1].second;
+  // A broken structure is no view's fault.
+  write(d / "images.txt", "1 1 0 0 a.jpg\n\n");
+  EXPECT_THROW(read_colmap_cameras(d.string(), &colmap), InputError);
+}
+
 }  // namespace
 }  // namespace rayfold::core

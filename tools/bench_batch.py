@@ -3,7 +3,8 @@ and size, the same random views rendered and written as EXRs by
 Scene.iter_views + GBuffer.write_exr in this process, then by
 rayfold.batch.render with 1 and 2 workers (a local cluster each time; its
 start and the workers' scene loads are reported apart, as the time to the
-workers' first view). Every batch output is checked bit for bit against the
+workers' first view, with the trees sent through Ray's object store and,
+last, with each worker loading the file and building its own). Every batch output is checked bit for bit against the
 single-process render before anything is reported.
 
 usage: bench_batch.py [SCENE ...] [--views N] [--sizes 640x480,1280x720] [--workers 1,2] [--json FILE]
@@ -80,8 +81,9 @@ def main():
     worker_counts = [int(w) for w in a.workers.split(",")]
     rows = []
     print("| scene | size | one process views/s | " + " | ".join(
-        f"{w} worker{'s' if w > 1 else ''} views/s (x) | first view s" for w in worker_counts) + " |")
-    print("|---|---|---|" + "---|---|" * len(worker_counts))
+        f"{w} worker{'s' if w > 1 else ''} views/s (x) | first view s" for w in worker_counts) +
+        " | first view s, each worker building from the file |")
+    print("|---|---|---|" + "---|---|" * len(worker_counts) + "---|")
     for path in scenes:
         scene = rayfold.Scene(str(path))
         for width, height in sizes:
@@ -111,6 +113,13 @@ def main():
                                          "worker_peak_rss_mb": s.worker_peak_rss_mb})
                     cells.append(f"{s.views_per_second:.1f} ({s.views_per_second / one:.2f}x) | "
                                  f"{s.startup_seconds:.1f}")
+                # A worker's time to its first view when it loads the file and builds its own trees.
+                out = os.path.join(work, "file")
+                os.makedirs(out)
+                s = rayfold.batch.render(str(path), cameras[:2], os.path.join(out, "v_%05d.exr"), workers=1,
+                                         fold=a.fold, progress=False, send="file")
+                row["startup_seconds_file"] = s.startup_seconds
+                cells.append(f"{s.startup_seconds:.1f}")
                 rows.append(row)
                 print(f"| {path.name} | {width}x{height} | {one:.1f} | " + " | ".join(cells) + " |", flush=True)
             finally:

@@ -77,17 +77,19 @@ std::vector<std::pair<std::string, Camera>> Camera::from_nerf(const std::string&
   return out;
 }
 
-std::vector<std::pair<std::string, Camera>> Camera::from_colmap(const std::string& dir) {
+std::vector<std::pair<std::string, Camera>> Camera::from_colmap(const std::string& dir,
+                                                                std::vector<std::pair<size_t, std::string>>* skipped) {
   std::vector<std::pair<std::string, Camera>> out;
-  for (core::DatasetView& v : core::read_colmap_cameras(dir))
+  for (core::DatasetView& v : core::read_colmap_cameras(dir, skipped))
     out.emplace_back(v.name, Camera(std::make_shared<core::Camera>(v.camera)));
   return out;
 }
 
 std::vector<std::pair<std::string, Camera>> Camera::from_file(const std::string& path, int width, int height,
-                                                              std::vector<std::string>* ignored) {
+                                                              std::vector<std::string>* ignored,
+                                                              std::vector<std::pair<size_t, std::string>>* skipped) {
   std::vector<std::pair<std::string, Camera>> out;
-  for (core::DatasetView& v : core::read_cameras_any(path, width, height, ignored, "width and height"))
+  for (core::DatasetView& v : core::read_cameras_any(path, width, height, ignored, "width and height", skipped))
     out.emplace_back(v.name, Camera(std::make_shared<core::Camera>(v.camera)));
   return out;
 }

@@ -366,14 +366,21 @@ NB_MODULE(_core, m) {
           "path"_a, "width"_a, "height"_a)
       .def_static(
           "_read_file",
-          [](const std::string& path, int width, int height) {
+          [](const std::string& path, int width, int height, bool lenient) {
             std::vector<std::string> ignored;
-            auto views = rayfold::Camera::from_file(path, width, height, &ignored);
-            return std::make_pair(std::move(views), std::move(ignored));
+            std::vector<std::pair<size_t, std::string>> skipped;
+            auto views = rayfold::Camera::from_file(path, width, height, &ignored, lenient ? &skipped : nullptr);
+            return std::make_tuple(std::move(views), std::move(ignored), std::move(skipped));
           },
-          "path"_a, "width"_a, "height"_a)
+          "path"_a, "width"_a, "height"_a, "lenient"_a = false)
       .def_static(
-          "_read_colmap", [](const std::string& dir) { return rayfold::Camera::from_colmap(dir); }, "dir"_a)
+          "_read_colmap",
+          [](const std::string& dir, bool lenient) {
+            std::vector<std::pair<size_t, std::string>> skipped;
+            auto views = rayfold::Camera::from_colmap(dir, lenient ? &skipped : nullptr);
+            return std::make_pair(std::move(views), std::move(skipped));
+          },
+          "dir"_a, "lenient"_a = false)
       .def("__getstate__",
            [](const rayfold::Camera& c) {
              const std::string b = c.to_bytes();

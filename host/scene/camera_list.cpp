@@ -73,7 +73,7 @@ std::optional<Intrinsics> read_intrinsics(const json& j, const std::string& wher
 
 }  // namespace
 
-std::vector<Camera> read_camera_list_json(const json& j, const std::string& path) {
+std::vector<Camera> read_camera_list_json(const json& j, const std::string& path, SkippedViews* skipped) {
   const int width = side(j, "width", path), height = side(j, "height", path);
   const double vfov = j.contains("vfov") ? number(j["vfov"], "vfov", path) : 60.0;
   const std::optional<Intrinsics> list_k = read_intrinsics(j, "", path);
@@ -84,7 +84,7 @@ std::vector<Camera> read_camera_list_json(const json& j, const std::string& path
   if (!j.contains("cameras") || !j["cameras"].is_array() || j["cameras"].empty())
     throw InputError(path, "\"cameras\" must be a non-empty array");
   std::vector<Camera> views;
-  for (size_t i = 0; i < j["cameras"].size(); ++i) {
+  for (size_t i = 0; i < j["cameras"].size(); ++i) try {
     const json& c = j["cameras"][i];
     const std::string where = "cameras[" + std::to_string(i) + "]";
     if (!c.is_object()) throw InputError(path, where + " must be an object");
@@ -135,7 +135,12 @@ std::vector<Camera> read_camera_list_json(const json& j, const std::string& path
       if (!e.file().empty()) throw;
       throw InputError(path, where + ": " + e.what());  // make_camera's reason, with the camera named
     }
+  } catch (const InputError& e) {
+    if (!skipped) throw;
+    skipped->push_back({i, skip_reason(e)});
   }
+  if (views.empty() && skipped)
+    throw InputError(path, "has no camera that can be rendered; the last: " + skipped->back().second);
   return views;
 }
 
@@ -144,19 +149,26 @@ std::vector<Camera> read_camera_list(const std::string& path) {
 }
 
 std::vector<DatasetView> read_cameras_any(const std::string& path, int width, int height,
-                                          std::vector<std::string>* ignored, const std::string& size_given_by) {
+                                          std::vector<std::string>* ignored, const std::string& size_given_by,
+                                          SkippedViews* skipped) {
   const json j = read_json_object(path, "camera list");
   const bool nerf = j.contains("frames") && !j.contains("cameras");
   const bool size_given = width > 0 && height > 0;
   if (nerf) {
     if (size_given && j.contains("w") && j.contains("h"))
       throw InputError(path, "gives the image size (w, h); " + size_given_by + " does not combine with it");
-    return read_nerf_cameras(j, path, width, height, ignored);
+    return read_nerf_cameras(j, path, width, height, ignored, skipped);
   }
   if (size_given) throw InputError(path, "gives the size of its views; " + size_given_by + " does not combine with it");
   std::vector<DatasetView> views;
-  size_t i = 0;
-  for (Camera& c : read_camera_list_json(j, path)) views.push_back({c, std::to_string(i++)});
+  const SkippedViews before = skipped ? *skipped : SkippedViews{};
+  std::vector<Camera> cameras = read_camera_list_json(j, path, skipped);
+  // A list's views are named by their index in the file.
+  size_t i = 0, next_skip = before.size();
+  for (Camera& c : cameras) {
+    while (skipped && next_skip < skipped->size() && (*skipped)[next_skip].first == i) ++i, ++next_skip;
+    views.push_back({c, std::to_string(i++)});
+  }
   return views;
 }
 

@@ -21,7 +21,9 @@ namespace rayfold::core {
 // convention (of camera_to_world) to opengl. Throws InputError(path, ...)
 // naming the member that is wrong, also for a key a camera does not have.
 std::vector<Camera> read_camera_list(const std::string& path);
-std::vector<Camera> read_camera_list_json(const nlohmann::json& j, const std::string& path);
+// skipped: as the dataset readers' (scene/dataset_cameras.h).
+std::vector<Camera> read_camera_list_json(const nlohmann::json& j, const std::string& path,
+                                          SkippedViews* skipped = nullptr);
 
 // A camera list or a NeRF / instant-ngp transforms.json (an object with
 // "frames" and no "cameras"), told apart by content; a list's views are
@@ -30,6 +32,7 @@ std::vector<Camera> read_camera_list_json(const nlohmann::json& j, const std::st
 // read_nerf_cameras, which also fills *ignored; size_given_by names where a
 // size came from in the error that refuses it ("--size").
 std::vector<DatasetView> read_cameras_any(const std::string& path, int width, int height,
-                                          std::vector<std::string>* ignored, const std::string& size_given_by);
+                                          std::vector<std::string>* ignored, const std::string& size_given_by,
+                                          SkippedViews* skipped = nullptr);
 
 }  // namespace rayfold::core

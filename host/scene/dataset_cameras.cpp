@@ -73,17 +73,19 @@ void check_keys(const json& j, const std::string& where, const std::string& path
 }  // namespace
 
 std::vector<DatasetView> read_nerf_cameras(const std::string& path, int width, int height,
-                                           std::vector<std::string>* ignored) {
-  return read_nerf_cameras(read_json_object(path, "transforms file"), path, width, height, ignored);
+                                           std::vector<std::string>* ignored, SkippedViews* skipped) {
+  return read_nerf_cameras(read_json_object(path, "transforms file"), path, width, height, ignored, skipped);
 }
 
+std::string skip_reason(const InputError& e) { return e.file().empty() ? e.what() : e.file() + ": " + e.what(); }
+
 std::vector<DatasetView> read_nerf_cameras(const json& top, const std::string& path, int width, int height,
-                                           std::vector<std::string>* ignored) {
+                                           std::vector<std::string>* ignored, SkippedViews* skipped) {
   check_keys(top, "", path, false, ignored);
   if (!top.contains("frames") || !top["frames"].is_array() || top["frames"].empty())
     throw InputError(path, "\"frames\" must be a non-empty array");
   std::vector<DatasetView> views;
-  for (size_t i = 0; i < top["frames"].size(); ++i) {
+  for (size_t i = 0; i < top["frames"].size(); ++i) try {
     const json& fr = top["frames"][i];
     const std::string where = "frames[" + std::to_string(i) + "]";
     if (!fr.is_object()) throw InputError(path, where + " must be an object");
@@ -137,11 +139,16 @@ std::vector<DatasetView> read_nerf_cameras(const json& top, const std::string& p
       if (!e.file().empty()) throw;
       throw InputError(path, where + ": " + e.what());
     }
+  } catch (const InputError& e) {
+    if (!skipped) throw;
+    skipped->push_back({i, skip_reason(e)});
   }
+  if (views.empty() && skipped)
+    throw InputError(path, "has no frame that can be rendered; the last: " + skipped->back().second);
   return views;
 }
 
-std::vector<DatasetView> read_colmap_cameras(const std::string& dir) {
+std::vector<DatasetView> read_colmap_cameras(const std::string& dir, SkippedViews* skipped) {
   struct Model {
     Intrinsics k;
     int width = 0, height = 0;
@@ -183,6 +190,7 @@ std::vector<DatasetView> read_colmap_cameras(const std::string& dir) {
   // After the comments, two lines per image: its pose, then its 2D points
   // (which may be empty).
   bool points_next = false;
+  size_t image_index = 0;
   for (int n = 1; std::getline(imf, line); ++n) {
     if (points_next) {
       points_next = false;
@@ -197,6 +205,9 @@ std::vector<DatasetView> read_colmap_cameras(const std::string& dir) {
       throw InputError(images_path, at + ": expected IMAGE_ID QW QX QY QZ TX TY TZ CAMERA_ID NAME");
     std::string name;
     std::getline(s >> std::ws, name);
+    points_next = true;
+    const size_t index = image_index++;
+    try {
     if (name.empty()) throw InputError(images_path, at + ": image " + std::to_string(image_id) + " has no NAME");
     const auto model = models.find(camera_id);
     if (model == models.end())
@@ -225,9 +236,15 @@ std::vector<DatasetView> read_colmap_cameras(const std::string& dir) {
       if (!e.file().empty()) throw;
       throw InputError(images_path, at + ": image " + std::to_string(image_id) + ": " + e.what());
     }
-    points_next = true;
+    } catch (const InputError& e) {
+      if (!skipped) throw;
+      skipped->push_back({index, skip_reason(e)});
+    }
   }
-  if (views.empty()) throw InputError(images_path, "has no image");
+  if (views.empty())
+    throw InputError(images_path, skipped && !skipped->empty()
+                                      ? "has no image that can be rendered; the last: " + skipped->back().second
+                                      : "has no image");
   return views;
 }
 

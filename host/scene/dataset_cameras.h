@@ -10,6 +10,7 @@
 #include <nlohmann/json_fwd.hpp>
 
 #include "scene/camera.h"
+#include "util/errors.h"
 
 namespace rayfold::core {
 
@@ -17,6 +18,12 @@ struct DatasetView {
   Camera camera;
   std::string name;  // the frame's file_path, the COLMAP image's name
 };
+
+// Views a lenient reader left out: (the view's index in the file, why).
+// Given to a reader, a view whose own entry is bad is listed here instead
+// of throwing (the file's structure still throws): a batch renders the rest
+// and reports these.
+using SkippedViews = std::vector<std::pair<size_t, std::string>>;
 
 // A NeRF transforms.json: per frame a 4x4 camera-to-world "transform_matrix"
 // (OpenGL axes: +y up, looking down -z), intrinsics from "fl_x"/"fl_y" (or
@@ -30,15 +37,20 @@ struct DatasetView {
 // listed in *ignored; any other key, or a nonzero distortion coefficient, is
 // an InputError naming it and the frame.
 std::vector<DatasetView> read_nerf_cameras(const std::string& path, int width = 0, int height = 0,
-                                           std::vector<std::string>* ignored = nullptr);
+                                           std::vector<std::string>* ignored = nullptr,
+                                           SkippedViews* skipped = nullptr);
 // The same from the file's parsed top-level object (path names it in errors).
 std::vector<DatasetView> read_nerf_cameras(const nlohmann::json& top, const std::string& path, int width, int height,
-                                           std::vector<std::string>* ignored);
+                                           std::vector<std::string>* ignored, SkippedViews* skipped = nullptr);
 
 // A COLMAP text model: dir/cameras.txt (PINHOLE, SIMPLE_PINHOLE; other
 // models are refused by name) and dir/images.txt (world-to-camera rotation
 // quaternion and translation, OpenCV axes), in images.txt's order. COLMAP's
 // pixel centres are at +0.5 as rayfold's.
-std::vector<DatasetView> read_colmap_cameras(const std::string& dir);
+// A view's index is its image's position in images.txt.
+std::vector<DatasetView> read_colmap_cameras(const std::string& dir, SkippedViews* skipped = nullptr);
+
+// "file: message" of an InputError, for SkippedViews.
+std::string skip_reason(const InputError& e);
 
 }  // namespace rayfold::core

@@ -163,6 +163,29 @@ def test_a_view_that_cannot_be_written_is_named_and_the_rest_complete(atrium_pat
     assert all(os.path.isfile(tmp_path / "out" / f"v_{i:02d}.exr") for i in range(12) if i != 4)
 
 
+def test_views_whose_cameras_are_bad_are_named_and_the_rest_render(atrium_path, tmp_path):
+    cameras = camera_list(tmp_path / "c.json", 8)
+    with open(tmp_path / "c.json") as f:
+        listing = json.load(f)
+    listing["cameras"][2]["fov"] = 40  # a key rayfold does not read
+    listing["cameras"][5] = {"eye": [0, 1, 0], "look_at": [0, 1, 0]}  # no direction
+    with open(tmp_path / "c.json", "w") as f:
+        json.dump(listing, f)
+    os.makedirs(tmp_path / "out")
+    r = batch_cli(atrium_path, "--cameras", tmp_path / "c.json", "-o", tmp_path / "out" / "v_%d.exr", "-q",
+                  "--summary", tmp_path / "s.json")
+    assert r.returncode == 1, r.stderr
+    assert 'error: view 2: ' in r.stderr and 'cameras[2]: unknown key "fov"' in r.stderr, r.stderr
+    assert "error: view 5: " in r.stderr and "cameras[5]" in r.stderr, r.stderr
+    s = summary(tmp_path / "s.json")
+    assert (s["written"], [f[0] for f in s["failed"]]) == (6, [2, 5]), s
+    good = [i for i in range(8) if i not in (2, 5)]
+    assert sorted(os.listdir(tmp_path / "out")) == sorted([f"v_{i}.exr" for i in good] + ["rayfold-manifest"])
+    expected = rayfold.Scene(atrium_path).render_views([cameras[i] for i in good])
+    for g, i in zip(expected, good):
+        assert rayfold.read_exr(tmp_path / "out" / f"v_{i}.exr")["depth"].tobytes() == g.depth.tobytes()
+
+
 def test_bad_input_fails_first_naming_what_is_wrong(atrium_path, tmp_path):
     camera_list(tmp_path / "c.json", 3)
     cases = [

@@ -66,15 +66,19 @@ class Camera {
   static std::vector<std::pair<std::string, Camera>> from_nerf(const std::string& path, int width = 0,
                                                                 int height = 0,
                                                                 std::vector<std::string>* ignored = nullptr);
-  static std::vector<std::pair<std::string, Camera>> from_colmap(const std::string& dir);
+  static std::vector<std::pair<std::string, Camera>> from_colmap(
+      const std::string& dir, std::vector<std::pair<size_t, std::string>>* skipped = nullptr);
   // A rayfold camera list (the CLI's --cameras FILE.json; README "Camera
   // lists") or a NeRF transforms.json, told apart by content (an object
   // with "frames" and no "cameras" is the latter), with the views' names
   // ("0", "1", ... in a list); width, height and *ignored as from_nerf, a
   // list refuses a size. InputError names the file and what is wrong.
-  static std::vector<std::pair<std::string, Camera>> from_file(const std::string& path, int width = 0,
-                                                                int height = 0,
-                                                                std::vector<std::string>* ignored = nullptr);
+  // With skipped given, from_file and from_colmap leave out a view whose
+  // own entry is bad and list it there (its index in the file, the reason)
+  // instead of throwing; a bad file structure still throws.
+  static std::vector<std::pair<std::string, Camera>> from_file(
+      const std::string& path, int width = 0, int height = 0, std::vector<std::string>* ignored = nullptr,
+      std::vector<std::pair<size_t, std::string>>* skipped = nullptr);
 
   int width() const;
   int height() const;

@@ -104,9 +104,30 @@ def from_file(path, width=0, height=0):
             raise InputError(f"{os.fspath(path)}: a COLMAP model gives its image sizes; width and height do not "
                              "combine with it")
         return from_colmap(path)
-    views, ignored = Camera._read_file(os.fspath(path), width, height)
+    views, ignored, _ = Camera._read_file(os.fspath(path), width, height)
     _warn_ignored(path, ignored)
     return [c for _, c in views], [n for n, _ in views]
+
+
+def read_views_lenient(path, width=0, height=0):
+    """For a batch: the views of a camera file or COLMAP folder as
+    (cameras by index in the file, None where a view's own entry is bad;
+    skipped as (index, reason)). The file's structure still raises."""
+    if os.path.isdir(path):
+        if width or height:
+            raise InputError(f"{os.fspath(path)}: a COLMAP model gives its image sizes; width and height do not "
+                             "combine with it")
+        views, skipped = Camera._read_colmap(os.fspath(path), True)
+    else:
+        views, ignored, skipped = Camera._read_file(os.fspath(path), width, height, True)
+        _warn_ignored(path, ignored)
+    cameras = [None] * (len(views) + len(skipped))
+    bad = {i for i, _ in skipped}
+    good = iter(views)
+    for i in range(len(cameras)):
+        if i not in bad:
+            cameras[i] = next(good)[1]
+    return cameras, skipped
 
 
 def from_colmap(model_dir):
@@ -114,5 +135,5 @@ def from_colmap(model_dir):
     SIMPLE_PINHOLE cameras, model_dir/images.txt) and their image names, as
     (cameras, names) in images.txt's order. Models with distortion raise
     InputError by name: undistort first (colmap image_undistorter)."""
-    views = Camera._read_colmap(os.fspath(model_dir))
+    views, _ = Camera._read_colmap(os.fspath(model_dir))
     return [c for _, c in views], [n for n, _ in views]

@@ -29,7 +29,7 @@ import sys
 import time
 
 from ._core import Camera, InputError, RuntimeFailure, Scene, __version__
-from ._streams import from_file
+from ._streams import read_views_lenient
 
 MANIFEST_DIR = "rayfold-manifest"
 # Views a worker renders per call: a multiple of what one trace holds in
@@ -192,13 +192,15 @@ def _remove_temporaries(batch, pid):
 
 
 def _read_cameras(cameras, width, height):
+    """(cameras by index, None for a view whose entry is bad; those as
+    (index, reason))."""
     if isinstance(cameras, (str, os.PathLike)):
-        return from_file(cameras, width, height)[0]
+        return read_views_lenient(cameras, width, height)
     cameras = list(cameras)
     for i, c in enumerate(cameras):
         if not isinstance(c, Camera):
             raise TypeError(f"rayfold.batch: camera {i} is a {type(c).__name__}, not a rayfold.Camera")
-    return cameras
+    return cameras, []
 
 
 def _batches(cameras, todo, batch_views):
@@ -268,7 +270,7 @@ def render(scene, cameras, out, *, workers=1, address=None, fold="none", align=0
     else:
         raise TypeError(f"rayfold.batch.render: scene is a rayfold.Scene or a file's path, not a "
                         f"{type(scene).__name__}")
-    cameras = _read_cameras(cameras, width, height)
+    cameras, skipped = _read_cameras(cameras, width, height)
     if not cameras:
         raise InputError("rayfold.batch.render: no cameras")
     if workers < 1 or batch_views < 1 or retries < 0:
@@ -285,21 +287,22 @@ def render(scene, cameras, out, *, workers=1, address=None, fold="none", align=0
     scene_bytes = None if scene_path else loaded.to_bytes()
     scene_digest = _sha256(scene_path) if scene_path else hashlib.sha256(scene_bytes).hexdigest()
     common = json.dumps([scene_digest, fold, str(channels), depth, __version__]).encode()
-    keys = [hashlib.sha256(common + c.__getstate__()).hexdigest() for c in cameras]
+    keys = [hashlib.sha256(common + c.__getstate__()).hexdigest() if c is not None else None for c in cameras]
 
     records = _read_manifest(manifest_dir)
-    todo = [i for i in range(len(cameras)) if not _complete(paths[i], keys[i], records, verify)]
-    kept = len(cameras) - len(todo)
+    todo = [i for i in range(len(cameras))
+            if cameras[i] is not None and not _complete(paths[i], keys[i], records, verify)]
+    kept = len(cameras) - len(todo) - len(skipped)
 
     if not todo:  # nothing to render: no cluster
-        return Summary(len(cameras), 0, kept, [], [], time.monotonic() - t0, 0.0, workers, 0, 0, _peak_rss_mb(),
-                       0.0)
+        return Summary(len(cameras), 0, kept, sorted(skipped), [], time.monotonic() - t0, 0.0, workers, 0, 0,
+                       _peak_rss_mb(), 0.0)
     if send == "trees" and scene_bytes is None:
         scene_bytes = loaded.to_bytes()  # the trees, built here once
     started = not ray.is_initialized()
     if started:
         ray.init(address=address, include_dashboard=False, logging_level="ERROR", log_to_driver=False)
-    failed, warnings = [], []
+    failed, warnings = list(skipped), []
     rendered = lost = retried = 0
     worker_peak = startup = 0.0
     finished = None
