@@ -11,6 +11,7 @@
 
 #include "api/scene_state.h"
 #include "bvh/scene_file.h"
+#include "opencl/cl_device.h"
 #include "rayfold/rayfold.h"
 #include "test_util.h"
 
@@ -498,6 +499,30 @@ TEST(Api, CameraFilesAreReadByWhatTheyHold) {
               Camera::from_file((d / "list.json").string(), 40, 30);
             }).find("width and height does not combine"),
             std::string::npos);
+}
+
+// --device cpu and gpu name a type: a cluster's CPU workers take the CPU
+// device even where a GPU would be the default.
+TEST(Api, DeviceTypesPickTheFirstDeviceOfThatType) {
+  const Scene scene = Scene::load(RAYFOLD_SOURCE_DIR "/scenes/atrium.glb");
+  const std::vector<core::DeviceInfo> devices = core::list_devices();
+  RendererOptions o;
+  o.device = "cpu";
+  bool any_cpu = false, only_cpus = true;
+  for (const core::DeviceInfo& d : devices) {
+    any_cpu |= d.is_cpu;
+    only_cpus &= d.is_cpu;
+  }
+  if (any_cpu) {
+    std::string first_cpu;
+    for (const core::DeviceInfo& d : devices)
+      if (d.is_cpu && first_cpu.empty()) first_cpu = d.name;
+    EXPECT_NE(Renderer(scene, o).device_name().find(first_cpu), std::string::npos);
+  }
+  o.device = "gpu";
+  if (only_cpus)
+    EXPECT_NE(message_of<RuntimeFailure>([&] { Renderer r(scene, o); }).find("no OpenCL device is a gpu; the devices"),
+              std::string::npos);
 }
 
 // A scene saved with its trees and loaded back renders the original's bits

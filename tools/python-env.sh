@@ -1,14 +1,14 @@
 #!/usr/bin/env bash
 # Makes the virtual environment make test builds and tests the Python module
 # with: Debian's python3 (python3-venv, python3-dev from install-deps.sh) and,
-# from PyPI, nanobind, numpy, pytest and Ray (rayfold.batch's tests start a
-# local Ray cluster); --peers adds the Python peers of the
+# from PyPI, nanobind, numpy, pytest, Ray and zarr (rayfold.batch's tests
+# start a local Ray cluster and write zarr stores); --peers adds the Python peers of the
 # benchmark (tools/bench_python.py): Mitsuba 3 and Open3D (CPU build).
 # usage: python-env.sh DIR [--peers]
 set -euo pipefail
 dir=$1
-modules="nanobind, numpy, pytest, ray"
-packages=("nanobind>=2.4,<4" "numpy>=1.24" "pytest>=7" "ray>=2.9")
+modules="nanobind, numpy, pytest, ray, zarr"
+packages=("nanobind>=2.4,<4" "numpy>=1.24" "pytest>=7" "ray>=2.9" "zarr>=3")
 if [ "${2:-}" = "--peers" ]; then
   modules="$modules, mitsuba, open3d"
   packages+=("mitsuba>=3.5" "open3d-cpu>=0.18")

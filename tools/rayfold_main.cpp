@@ -38,7 +38,8 @@ const char* kUsage =
 const char* kDevicesUsage =
     "usage: rayfold devices\n"
     "Lists the OpenCL platforms and devices this machine offers, with their compute units;\n"
-    "--device NAME (render, bench) picks the first whose platform or name contains NAME.\n";
+    "--device NAME (render, bench) picks the first whose platform or name contains NAME; cpu or gpu, the first of\n"
+    "that type.\n";
 
 int run(int argc, char** argv) {
   if (argc < 2) {

@@ -127,18 +127,27 @@ ClDevice::ClDevice(const std::string& hint_arg) {
   hint = lower(hint);
   const std::vector<Candidate> all = all_devices();
   const Candidate* chosen = nullptr;
+  // "cpu" and "gpu" name a type: a cluster's CPU workers must not take the
+  // GPU that the default (a GPU first) would give them.
+  const bool by_type = hint == "cpu" || hint == "gpu";
   if (!hint.empty()) {
-    for (const Candidate& c : all)
-      if (lower(c.platform + " " + c.device.getInfo<CL_DEVICE_NAME>()).find(hint) != std::string::npos) {
+    for (const Candidate& c : all) {
+      const bool match = by_type ? (c.device.getInfo<CL_DEVICE_TYPE>() &
+                                    (hint == "gpu" ? CL_DEVICE_TYPE_GPU : CL_DEVICE_TYPE_CPU)) != 0
+                                 : lower(c.platform + " " + c.device.getInfo<CL_DEVICE_NAME>()).find(hint) !=
+                                       std::string::npos;
+      if (match) {
         chosen = &c;
         break;
       }
+    }
     if (!chosen) {
       std::vector<DeviceInfo> infos;
       for (const Candidate& c : all) infos.push_back(describe(c));
       std::string list = describe_devices(infos);
       list.pop_back();
-      throw RuntimeFailure("no OpenCL device matches '" + hint + "'; the devices are:\n" + list);
+      throw RuntimeFailure((by_type ? "no OpenCL device is a " + hint : "no OpenCL device matches '" + hint + "'") +
+                           "; the devices are:\n" + list);
     }
   }
   for (const Candidate& c : all)

@@ -93,6 +93,40 @@ def test_a_scene_built_in_memory_and_moved_reaches_the_workers_as_trees(tmp_path
         rayfold.batch.render(scene, cameras, pattern, send="file")
 
 
+def test_one_zarr_store_holds_every_views_bits_and_resumes(atrium_path, tmp_path):
+    zarr = pytest.importorskip("zarr", reason="zarr stores need zarr (tools/python-env.sh installs it)")
+    scene = rayfold.Scene(atrium_path)
+    cameras = camera_list(tmp_path / "c.json", 20, intrinsics_every=4)
+    store = tmp_path / "views.zarr"
+    s = rayfold.batch.render(atrium_path, tmp_path / "c.json", store, workers=2, fold="xy",
+                             channels="Z,InstanceID,normal", progress=False)
+    assert (s.rendered, s.failed) == (20, [])
+    g = zarr.open_group(str(store), mode="r")
+    assert sorted(g.keys()) == ["depth", "instance_id", "normal"]
+    assert g["normal"].shape == (20, 48, 64, 3) and g["normal"].chunks == (1, 48, 64, 3)
+    assert len(g.attrs["cameras"]) == 20 and g.attrs["instance_names"] == list(scene.instance_names)
+    assert g.attrs["cameras"][4]["fx"] == cameras[4].intrinsics[0]
+    expected = scene.render_views(cameras, fold="xy")
+    for i, e in enumerate(expected):
+        for p in ("depth", "instance_id", "normal"):
+            assert g[p][i].tobytes() == getattr(e, p).tobytes(), f"view {i}, plane {p}"
+    # A chunk gone: that view is rendered again, the others kept.
+    chunk = [p for p in (store / "depth").rglob("*") if p.is_file() and p.name != "zarr.json"][0]
+    chunk.unlink()
+    s = rayfold.batch.render(atrium_path, tmp_path / "c.json", store, fold="xy", channels="Z,InstanceID,normal",
+                             progress=False)
+    assert (s.rendered, s.kept) == (1, 19)
+    assert not list(store.rglob("*.partial"))
+    for i, e in enumerate(expected):
+        assert g["depth"][i].tobytes() == e.depth.tobytes(), f"view {i}"
+    with pytest.raises(rayfold.InputError, match="another scene, cameras or options"):
+        rayfold.batch.render(atrium_path, tmp_path / "c.json", store, fold="y", channels="Z,InstanceID,normal",
+                             progress=False)
+    mixed = cameras[:2] + [rayfold.Camera.look_at((0, 1, 5), (0, 1, 0), (0, 1, 0), 60, 32, 24)]
+    with pytest.raises(rayfold.InputError, match="views of one size"):
+        rayfold.batch.render(atrium_path, mixed, tmp_path / "mixed.zarr", progress=False)
+
+
 def test_a_killed_worker_has_its_views_retried_and_nothing_is_lost(atrium_path, tmp_path):
     scene = rayfold.Scene(atrium_path)
     cameras = camera_list(tmp_path / "c.json", 1500, 96, 72)
@@ -196,6 +230,8 @@ def test_bad_input_fails_first_naming_what_is_wrong(atrium_path, tmp_path):
         ([atrium_path, "--cameras", tmp_path / "c.json", "-o", tmp_path / "%d" / "v.exr"], "file's name"),
         ([atrium_path, "--cameras", tmp_path / "nope.json", "-o", tmp_path / "v_%d.exr"], "nope.json"),
         ([atrium_path, "--cameras", tmp_path / "c.json", "-o", tmp_path / "v_%d.exr", "--workers", "0"], "workers"),
+        ([atrium_path, "--cameras", tmp_path / "c.json", "-o", tmp_path / "v_%d.exr", "--gpu-workers", "1"],
+         "the Ray cluster has 0 GPUs"),
     ]
     for args, what in cases:
         r = subprocess.run([sys.executable, "-m", "rayfold.batch", *map(str, args)], capture_output=True, text=True,

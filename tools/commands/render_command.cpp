@@ -37,7 +37,7 @@ const char* kRenderUsage =
     "                         perspective or orthographic); `rayfold info` lists both\n"
     "  --time T               the pose of the file's animations at T seconds\n"
     "  --backend opencl|cpu   OpenCL device (default) or the CPU reference tracer\n"
-    "  --device NAME          OpenCL device whose name contains NAME\n"
+    "  --device NAME          OpenCL device whose name contains NAME (cpu, gpu: by type)\n"
     "  --kernel tile|single|measure|auto  OpenCL kernel: tiles of 256 rays in vector\n"
     "                         lanes, or one ray per work-item; measure: trace the\n"
     "                         first frame with both and keep the faster (auto: tile\n"

@@ -29,7 +29,10 @@ enum class Kernel {
 
 struct RendererOptions {
   Backend backend = Backend::opencl;
-  std::string device;  // the first OpenCL device whose platform or name contains this; "" the first one
+  // The first OpenCL device whose platform or name contains this (any
+  // case); "cpu" or "gpu": the first of that type; "": the first GPU, else
+  // the first device (RAYFOLD_CL_DEVICE when set).
+  std::string device;
   Kernel kernel = Kernel::automatic;
   unsigned threads = 0;  // host threads for tree builds and the CPU backend; 0: all cores
   Depth depth = Depth::distance;  // planar: one rounding of the ray parameter, in every tracer

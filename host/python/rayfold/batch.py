@@ -16,10 +16,10 @@ whose file still matches its record and renders only the rest. The unfinished
 views of a worker that dies are retried on a fresh one. A view that fails is
 reported with its index and reason while the rest complete.
 
-Needs Ray (pip install rayfold[batch])."""
+Outputs: an EXR per view, or one zarr store (rayfold/_batch_outputs.py).
+Needs Ray (pip install rayfold[batch], which brings zarr too)."""
 import argparse
 import dataclasses
-import glob
 import hashlib
 import json
 import os
@@ -29,6 +29,7 @@ import sys
 import time
 
 from ._core import Camera, InputError, RuntimeFailure, Scene, __version__
+from ._batch_outputs import make_output, sha256_file
 from ._streams import read_views_lenient
 
 MANIFEST_DIR = "rayfold-manifest"
@@ -78,30 +79,6 @@ def _peak_rss_mb():
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 
-def _sha256(path):
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for block in iter(lambda: f.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
-
-
-def _output_paths(pattern, count):
-    try:
-        paths = [pattern % i for i in range(min(count, 2))]
-    except (TypeError, ValueError):
-        raise InputError(f"output pattern {pattern!r} must hold one integer field such as %06d (the view's index)")
-    if count > 1 and paths[0] == paths[1]:
-        raise InputError(f"output pattern {pattern!r} must hold one integer field such as %06d (the view's index)")
-    if not pattern.endswith(".exr"):
-        raise InputError(f"output pattern {pattern!r}: rayfold-batch writes EXR files; end it in .exr")
-    paths = [pattern % i for i in range(count)]
-    if os.path.dirname(paths[0]) != os.path.dirname(paths[-1]):
-        raise InputError(f"output pattern {pattern!r}: the index goes in the file's name, not its folder (one "
-                         "folder holds a job's views and its manifest)")
-    return paths
-
-
 def _read_manifest(directory):
     """path (relative to the output folder) -> the last record for it. A
     line cut short by a killed worker is no record."""
@@ -122,25 +99,20 @@ def _read_manifest(directory):
     return records
 
 
-def _complete(path, key, records, verify):
-    r = records.get(os.path.basename(path))
-    if r is None or r["key"] != key:
-        return False
-    try:
-        if os.path.getsize(path) != r["bytes"]:
-            return False
-    except OSError:
-        return False
-    return not verify or _sha256(path) == r["sha256"]
+def _complete(output, i, key, records, verify):
+    r = records.get(output.record_name(i))
+    return r is not None and r["key"] == key and output.matches(i, r, verify)
 
 
 class _Worker:
     """One Renderer on one scene; renders lists of views and records each."""
 
-    def __init__(self, scene, render_options, manifest_dir):
+    def __init__(self, scene, render_options, output, manifest_dir):
         # The trees as bytes (from Ray's object store, once per node), or the file's path.
         self.scene = Scene.from_bytes(scene) if isinstance(scene, bytes) else Scene(scene)
         self.options = render_options
+        self.output = output
+        output.open()
         os.makedirs(manifest_dir, exist_ok=True)
         self.part_path = os.path.join(manifest_dir, f"{socket.gethostname()}-{os.getpid()}.jsonl")
         self.part = open(self.part_path, "a", encoding="utf-8")
@@ -148,27 +120,26 @@ class _Worker:
     def where(self):
         return socket.gethostname(), os.getpid()
 
-    def _write(self, index, g, path, key):
-        g.write_exr(path, self.scene)
-        record = {"view": index, "path": os.path.basename(path), "bytes": os.path.getsize(path),
-                  "sha256": _sha256(path), "key": key}
+    def _write(self, index, g, key):
+        size, sha = self.output.write(index, g, self.scene)
+        record = {"view": index, "path": self.output.record_name(index), "bytes": size, "sha256": sha, "key": key}
         self.part.write(json.dumps(record) + "\n")
         self.part.flush()  # a worker killed later keeps this view; fsync once per batch
         return list(g.warnings)
 
     def render(self, views):
-        """views: (index, camera, path, key) tuples of one size and
-        intrinsics. Returns (done indices, failures, warnings, peak RSS MB)."""
+        """views: (index, camera, key) tuples of one size and intrinsics.
+        Returns (done indices, failures, warnings, peak RSS MB)."""
         done, failures, warnings = [], [], []
         try:
             gbuffers = self.scene.render_views([v[1] for v in views], **self.options)
         except (InputError, RuntimeFailure):
             gbuffers = None  # one view spoils the trace: each alone, to name it
-        for k, (index, camera, path, key) in enumerate(views):
+        for k, (index, camera, key) in enumerate(views):
             try:
                 g = gbuffers[k] if gbuffers is not None else self.scene.render(camera, **{
                     o: v for o, v in self.options.items() if o != "align"})
-                warnings += [(index, w) for w in self._write(index, g, path, key)]
+                warnings += [(index, w) for w in self._write(index, g, key)]
                 done.append(index)
             except (InputError, RuntimeFailure, OSError) as e:
                 failures.append((index, str(e)))
@@ -177,18 +148,6 @@ class _Worker:
         self.part.flush()
         os.fsync(self.part.fileno())
         return done, failures, warnings, _peak_rss_mb()
-
-
-def _remove_temporaries(batch, pid):
-    """What a killed worker was writing: the temporaries of its batch's
-    views that carry its pid (the files' own names never appeared)."""
-    for _, _, path, _ in batch:
-        folder, name = os.path.split(path)
-        for temp in glob.glob(os.path.join(glob.escape(folder), f".{glob.escape(name)}.rayfold-{pid}-*.tmp")):
-            try:
-                os.remove(temp)
-            except FileNotFoundError:
-                pass
 
 
 def _read_cameras(cameras, width, height):
@@ -238,11 +197,16 @@ class _Progress:
 
 def render(scene, cameras, out, *, workers=1, address=None, fold="none", align=0, channels=None,
            depth="distance", backend="opencl", device="", kernel="auto", verify=True, retries=3,
-           batch_views=BATCH_VIEWS, width=0, height=0, progress=True, send="trees"):
+           batch_views=BATCH_VIEWS, width=0, height=0, progress=True, send="trees", gpu_workers=0):
     """Renders every camera's view of `scene` (a rayfold.Scene, or the path
     of a glTF or scene file) to out % index (an .exr pattern such as
-    'dir/view_%06d.exr') on `workers` Ray actors, each with its share of the
-    cluster's cores; returns a Summary. send: 'trees' builds the trees here
+    'dir/view_%06d.exr'), or to one zarr store (a path ending in .zarr: per
+    plane an array (views, height, width[, k]) with one chunk per view, the
+    cameras and instance names as attributes; views of one size), on
+    `workers` Ray actors, each with its share of the
+    cluster's cores (CPU workers, on the OpenCL CPU device when GPU workers
+    run too), and gpu_workers more with one GPU each (Ray's num_gpus=1, the
+    OpenCL device "gpu"); returns a Summary. send: 'trees' builds the trees here
     once and hands them to the workers through Ray's object store
     (Scene.to_bytes; once per node), 'file' has each worker load the path
     and build its own (every machine then needs the file). cameras:
@@ -273,25 +237,24 @@ def render(scene, cameras, out, *, workers=1, address=None, fold="none", align=0
     cameras, skipped = _read_cameras(cameras, width, height)
     if not cameras:
         raise InputError("rayfold.batch.render: no cameras")
-    if workers < 1 or batch_views < 1 or retries < 0:
-        raise InputError(f"rayfold.batch.render: workers ({workers}) and batch_views ({batch_views}) must be at "
-                         f"least 1, retries ({retries}) at least 0")
-    paths = [os.path.abspath(p) for p in _output_paths(os.fspath(out), len(cameras))]
-    out_dir = os.path.dirname(paths[0])
-    if not os.path.isdir(out_dir):
-        raise InputError(f"{out_dir}: the output folder does not exist")
-    manifest_dir = os.path.join(out_dir, MANIFEST_DIR)
+    if workers < 0 or gpu_workers < 0 or workers + gpu_workers < 1 or batch_views < 1 or retries < 0:
+        raise InputError(f"rayfold.batch.render: workers ({workers}) and gpu_workers ({gpu_workers}) must be at "
+                         f"least 0 and together at least 1, batch_views ({batch_views}) at least 1, retries "
+                         f"({retries}) at least 0")
+    output = make_output(out, len(cameras))
+    manifest_dir = os.path.join(output.folder, MANIFEST_DIR)
     options = dict(fold=fold, align=align, backend=backend, device=device, kernel=kernel, channels=channels,
                    depth=depth)
+    output.prepare(cameras, loaded, options)
     # What a view's file shows: a rerun keeps the file only when all of it is the same.
     scene_bytes = None if scene_path else loaded.to_bytes()
-    scene_digest = _sha256(scene_path) if scene_path else hashlib.sha256(scene_bytes).hexdigest()
+    scene_digest = sha256_file(scene_path) if scene_path else hashlib.sha256(scene_bytes).hexdigest()
     common = json.dumps([scene_digest, fold, str(channels), depth, __version__]).encode()
     keys = [hashlib.sha256(common + c.__getstate__()).hexdigest() if c is not None else None for c in cameras]
 
     records = _read_manifest(manifest_dir)
     todo = [i for i in range(len(cameras))
-            if cameras[i] is not None and not _complete(paths[i], keys[i], records, verify)]
+            if cameras[i] is not None and not _complete(output, i, keys[i], records, verify)]
     kept = len(cameras) - len(todo) - len(skipped)
 
     if not todo:  # nothing to render: no cluster
@@ -307,25 +270,39 @@ def render(scene, cameras, out, *, workers=1, address=None, fold="none", align=0
     worker_peak = startup = 0.0
     finished = None
     try:
-        cores = max(1.0, ray.cluster_resources().get("CPU", 1.0) // workers)
-        actor_class = ray.remote(_Worker).options(
-            num_cpus=cores, max_restarts=0,
-            # PoCL runs a thread per core it sees: the cores Ray gives the worker.
-            runtime_env={"env_vars": {"POCL_MAX_PTHREAD_COUNT": str(int(cores))}})
-        worker_options = dict(options, threads=int(cores))
+        gpus = ray.cluster_resources().get("GPU", 0)
+        if gpu_workers > gpus:  # Ray would wait for them forever
+            raise InputError(f"rayfold.batch.render: {gpu_workers} GPU workers, but the Ray cluster has {gpus:g} "
+                             "GPUs")
+        # CPU workers share the cores a GPU worker's host thread leaves.
+        cpu_total = ray.cluster_resources().get("CPU", 1.0) - gpu_workers
+        cores = max(1.0, cpu_total // workers) if workers else 1.0
+        kinds = {
+            "cpu": (ray.remote(_Worker).options(
+                num_cpus=cores, max_restarts=0,
+                # PoCL runs a thread per core it sees: the cores Ray gives the worker.
+                runtime_env={"env_vars": {"POCL_MAX_PTHREAD_COUNT": str(int(cores))}}),
+                dict(options, threads=int(cores), device=device or ("cpu" if gpu_workers else ""))),
+            # Ray shows a GPU actor its one GPU (CUDA_VISIBLE_DEVICES), which
+            # NVIDIA's OpenCL honours: "gpu" is that one.
+            "gpu": (ray.remote(_Worker).options(num_gpus=1, num_cpus=1, max_restarts=0),
+                    dict(options, threads=1, device=device or "gpu")),
+        }
 
         # Ray hands an object-store argument over resolved: the bytes.
         scene_arg = ray.put(scene_bytes) if send == "trees" else scene_path
         del scene_bytes
 
-        def new_worker():
-            return actor_class.remote(scene_arg, worker_options, manifest_dir)
+        def new_worker(kind):
+            actor_class, worker_options = kinds[kind]
+            return actor_class.remote(scene_arg, worker_options, output, manifest_dir)
 
-        pool = [new_worker() for _ in range(min(workers, len(todo)))]
+        slots = (["gpu"] * gpu_workers + ["cpu"] * workers)[:len(todo)]
+        pool = [new_worker(kind) for kind in slots]
         hosts = ray.get([w.where.remote() for w in pool])
         startup = time.monotonic() - t0
         idle = list(range(len(pool)))
-        pending = [[(i, cameras[i], paths[i], keys[i]) for i in b] for b in _batches(cameras, todo, batch_views)]
+        pending = [[(i, cameras[i], keys[i]) for i in b] for b in _batches(cameras, todo, batch_views)]
         pending.reverse()  # popped from the end: index order
         attempts = {}
         in_flight = {}
@@ -341,12 +318,12 @@ def render(scene, cameras, out, *, workers=1, address=None, fold="none", align=0
             except ray.exceptions.RayActorError:
                 # The worker died: what it recorded is done, the rest goes again.
                 lost += 1
-                _remove_temporaries(batch, hosts[slot][1])
-                pool[slot] = new_worker()
+                output.remove_partial([v[0] for v in batch], hosts[slot][1])
+                pool[slot] = new_worker(slots[slot])
                 hosts[slot] = ray.get(pool[slot].where.remote())
                 idle.append(slot)
                 records = _read_manifest(manifest_dir)
-                rest = [v for v in batch if not _complete(v[2], v[3], records, verify)]
+                rest = [v for v in batch if not _complete(output, v[0], v[2], records, verify)]
                 rendered += len(batch) - len(rest)
                 key = rest[0][0] if rest else None
                 attempts[key] = attempts.get(key, 0) + 1
@@ -367,11 +344,13 @@ def render(scene, cameras, out, *, workers=1, address=None, fold="none", align=0
         finished = time.monotonic()  # the cluster's stop is not the job's
         for actor in pool:
             ray.kill(actor)
+        if hasattr(output, "remove_all_partial"):
+            output.remove_all_partial()  # a killed worker's, now that no one writes
     finally:
         if started:
             ray.shutdown()
     return Summary(len(cameras), rendered, kept, sorted(failed), sorted(warnings), finished - t0, startup,
-                   workers, lost, retried, _peak_rss_mb(), worker_peak)
+                   workers + gpu_workers, lost, retried, _peak_rss_mb(), worker_peak)
 
 
 def main(argv=None):
@@ -385,8 +364,11 @@ def main(argv=None):
     views.add_argument("--cameras", metavar="FILE", help="a rayfold camera list or a NeRF transforms.json")
     views.add_argument("--colmap", metavar="DIR", help="a COLMAP text model (cameras.txt, images.txt)")
     p.add_argument("-o", "--output", required=True, metavar="PATTERN",
-                   help="output EXR per view, with the view's index as an integer field: out/view_%%06d.exr")
+                   help="an EXR per view, with the view's index as an integer field (out/view_%%06d.exr), or one "
+                        "zarr store (out/views.zarr: per plane an array of views, one chunk per view)")
     p.add_argument("--workers", type=int, default=1, help="Ray actors, each with its share of the cores (1)")
+    p.add_argument("--gpu-workers", type=int, default=0,
+                   help="more actors with one GPU each (OpenCL device 'gpu'; the CPU workers then take 'cpu')")
     p.add_argument("--address", help="a running Ray cluster (auto, or host:port); default: start one here")
     p.add_argument("--fold", default="none", choices=["none", "y", "x", "xy"])
     p.add_argument("--align", type=int, default=0, help="views traced together (0: as many as a trace holds)")
@@ -414,7 +396,8 @@ def main(argv=None):
         cameras = a.cameras if a.cameras else a.colmap
         s = render(a.scene, cameras, a.output, workers=a.workers, address=a.address, fold=a.fold, align=a.align,
                    channels=a.channels, depth=a.depth, backend=a.backend, device=a.device, verify=not a.no_verify,
-                   retries=a.retries, width=width, height=height, progress=not a.quiet, send=a.send)
+                   retries=a.retries, width=width, height=height, progress=not a.quiet, send=a.send,
+                   gpu_workers=a.gpu_workers)
     except (InputError, TypeError) as e:
         print(f"error: {e}", file=sys.stderr)
         return 2

@@ -1,0 +1,224 @@
+"""Where rayfold.batch writes views: one EXR per view (a %d pattern) or one
+zarr store (a path ending in .zarr). Each output is made by the driver,
+sent to the workers (it pickles as its paths), and answers for a view: its
+record name in the manifest, whether a record still matches, and writing it
+whole or not at all."""
+import glob
+import hashlib
+import json
+import os
+
+import numpy as np
+
+from ._core import MISS, InputError, __version__
+
+# A plane's trailing shape, dtype and the value of a view not yet written.
+PLANES = {
+    "depth": ((), "float32", float("nan")),
+    "normal": ((3,), "float32", float("nan")),
+    "uv": ((2,), "float32", float("nan")),
+    "instance_id": ((), "uint32", MISS),
+    "primitive_id": ((), "uint32", MISS),
+}
+
+
+def sha256_file(path):
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def make_output(out, count):
+    """The output `out` names for `count` views; InputError for one that
+    cannot hold them."""
+    out = os.fspath(out)
+    return ZarrOutput(out) if out.rstrip("/").endswith(".zarr") else ExrOutput(out, count)
+
+
+class ExrOutput:
+    """out % index: one EXR per view, all in one folder (with the manifest)."""
+
+    def __init__(self, pattern, count):
+        message = f"output pattern {pattern!r} must hold one integer field such as %06d (the view's index)"
+        try:
+            first = [pattern % i for i in range(min(count, 2))]
+        except (TypeError, ValueError):
+            raise InputError(message)
+        if count > 1 and first[0] == first[1]:
+            raise InputError(message)
+        if not pattern.endswith(".exr"):
+            raise InputError(f"output pattern {pattern!r}: rayfold-batch writes EXR files (end it in .exr) or one "
+                             "zarr store (end it in .zarr)")
+        self.pattern = os.path.abspath(pattern)
+        if os.path.dirname(self.pattern % 0) != os.path.dirname(self.pattern % max(count - 1, 0)):
+            raise InputError(f"output pattern {pattern!r}: the index goes in the file's name, not its folder (one "
+                             "folder holds a job's views and its manifest)")
+        self.folder = os.path.dirname(self.pattern % 0)
+
+    def path(self, i):
+        return self.pattern % i
+
+    def record_name(self, i):
+        return os.path.basename(self.path(i))
+
+    def prepare(self, cameras, scene, options):
+        if not os.path.isdir(self.folder):
+            raise InputError(f"{self.folder}: the output folder does not exist")
+
+    def open(self):
+        pass
+
+    def matches(self, i, record, verify):
+        try:
+            if os.path.getsize(self.path(i)) != record["bytes"]:
+                return False
+        except OSError:
+            return False
+        return not verify or sha256_file(self.path(i)) == record["sha256"]
+
+    def write(self, i, g, scene):
+        """Writes view i; returns (bytes, sha256) for its record."""
+        path = self.path(i)
+        g.write_exr(path, scene)
+        return os.path.getsize(path), sha256_file(path)
+
+    def remove_partial(self, indices, pid):
+        """What a killed worker was writing: the temporaries of these views'
+        files that carry its pid (the files' own names never appeared)."""
+        for i in indices:
+            folder, name = os.path.split(self.path(i))
+            for temp in glob.glob(os.path.join(glob.escape(folder), f".{glob.escape(name)}.rayfold-{pid}-*.tmp")):
+                try:
+                    os.remove(temp)
+                except FileNotFoundError:
+                    pass
+
+
+class ZarrOutput:
+    """One zarr store: per plane an array (views, height, width[, k]) with
+    one chunk per view, so workers write views apart; the cameras and what
+    the planes mean as attributes. zarr writes each chunk to a temporary and
+    renames it into place."""
+
+    def __init__(self, path):
+        self.store = os.path.abspath(os.fspath(path).rstrip("/"))
+        self.folder = os.path.dirname(self.store)
+        self.group = None
+
+    def __getstate__(self):
+        return {"store": self.store, "folder": self.folder}
+
+    def __setstate__(self, state):
+        self.__dict__.update(state, group=None)
+
+    def record_name(self, i):
+        return f"{os.path.basename(self.store)}[{i}]"
+
+    def _zarr(self):
+        try:
+            import zarr
+        except ImportError as e:
+            raise InputError(f"{self.store}: a zarr store needs zarr: pip install 'rayfold[batch]' "
+                             "(or pip install zarr)") from e
+        return zarr
+
+    def prepare(self, cameras, scene, options):
+        """Makes the store, or checks the one there holds these views."""
+        zarr = self._zarr()
+        if not os.path.isdir(self.folder):
+            raise InputError(f"{self.folder}: the output folder does not exist")
+        sizes = {(c.width, c.height) for c in cameras if c is not None}
+        if len(sizes) != 1:
+            raise InputError(f"{self.store}: a zarr store holds views of one size; these have "
+                             f"{', '.join(f'{w}x{h}' for w, h in sorted(sizes))} (write EXRs instead)")
+        (width, height), = sizes
+        channels = options["channels"]
+        planes = [p for p in PLANES if channels is None or p in _channel_names(channels)]
+        attrs = {
+            "rayfold_version": __version__,
+            "scene": scene.path,
+            "instance_names": list(scene.instance_names),
+            "fold": options["fold"],
+            "depth": "distance along each pixel's ray" if options["depth"] == "distance"
+                     else "depth along the camera's axis (planar)",
+            "unwritten": "depth, normal, uv NaN; ids 4294967295 (also a miss's id)",
+            "miss": "depth inf, normal and uv 0, instance_id and primitive_id 4294967295",
+            "pixel_centres": "at (x + 0.5, y + 0.5) from the top-left corner, rows going down",
+            "cameras": [None if c is None else _camera_attrs(c) for c in cameras],
+        }
+        if os.path.exists(self.store):
+            group = zarr.open_group(self.store, mode="r+")
+            for p in planes:
+                extra, dtype, _ = PLANES[p]
+                want = (len(cameras), height, width) + extra
+                if p not in group or group[p].shape != want or str(group[p].dtype) != dtype:
+                    raise InputError(f"{self.store}: holds other views ({p} is not {dtype} {want}): remove it or "
+                                     "write another store")
+            if dict(group.attrs) != json.loads(json.dumps(attrs)):
+                raise InputError(f"{self.store}: was written for another scene, cameras or options: remove it or "
+                                 "write another store")
+            return
+        group = zarr.open_group(self.store, mode="w-")
+        for p in planes:
+            extra, dtype, fill = PLANES[p]
+            group.create_array(p, shape=(len(cameras), height, width) + extra,
+                               chunks=(1, height, width) + extra, dtype=dtype, fill_value=fill)
+        group.attrs.update(attrs)
+
+    def open(self):
+        self.group = self._zarr().open_group(self.store, mode="r+")
+
+    def _view_bytes(self, planes):
+        h = hashlib.sha256()
+        for p in PLANES:
+            if p in planes:
+                h.update(np.ascontiguousarray(planes[p]).tobytes())
+        return h.hexdigest()
+
+    def matches(self, i, record, verify):
+        # Always read back: a view's chunks are whole or absent, and an absent
+        # one reads as its fill value, which only an identical view matches.
+        if self.group is None:
+            self.open()
+        return self._view_bytes({p: self.group[p][i] for p in PLANES if p in self.group}) == record["sha256"]
+
+    def write(self, i, g, scene):
+        planes = {p: getattr(g, p) for p in PLANES if p in self.group}
+        for p, v in planes.items():
+            self.group[p][i] = v
+        return sum(v.nbytes for v in planes.values()), self._view_bytes(planes)
+
+    def remove_partial(self, indices, pid):
+        """zarr's temporaries carry no pid; they go at the end of the run."""
+
+    def remove_all_partial(self):
+        for temp in glob.glob(os.path.join(glob.escape(self.store), "**", "*.partial"), recursive=True):
+            try:
+                os.remove(temp)
+            except FileNotFoundError:
+                pass
+
+
+_CHANNEL_PLANES = {"Z": "depth", "N": "normal", "UV": "uv", "InstanceID": "instance_id",
+                   "PrimitiveID": "primitive_id", **{p: p for p in PLANES}}
+
+
+def _channel_names(channels):
+    """The planes `channels` asks for (the names Scene.render takes)."""
+    names = channels.split(",") if isinstance(channels, str) else list(channels)
+    out = set()
+    for n in names:
+        if n.strip() not in _CHANNEL_PLANES:
+            raise InputError(f"channels: unknown channel {n.strip()!r} (Z, N, UV, InstanceID, PrimitiveID; or "
+                             "depth, normal, uv, instance_id, primitive_id)")
+        out.add(_CHANNEL_PLANES[n.strip()])
+    return out
+
+
+def _camera_attrs(c):
+    fx, fy, cx, cy = c.intrinsics
+    return {"camera_to_world": c.camera_to_world.tolist(), "convention": "opengl", "fx": fx, "fy": fy, "cx": cx,
+            "cy": cy, "width": c.width, "height": c.height,
+            "projection": "orthographic" if c.is_orthographic else "perspective"}
