@@ -10,6 +10,8 @@
 #                      Python that has them and rayfold: make bench makes one)
 #   bench_rays.py   -> out/bench/<scene>-rays.md/.json (scene.intersect against the same peers on
 #                      1M incoherent rays and on the random views' rays as arrays; same Python)
+#   bench_batch.py  -> out/bench/batch.md/.json (one process against rayfold-batch with 1 and 2
+#                      Ray workers, every scene, 640x480 and 1280x720; once, after the scenes)
 #   chart_peers.py  -> out/bench/<scene>-peers.png/.svg
 #   rayfold-stats   -> out/bench/<scene>-stats.txt  (traversal counters per pixel, both kernels, none and xy)
 #   rayfold bench --align -> out/bench/<scene>-align.md/.json (views alone against aligned, the cost
@@ -74,6 +76,12 @@ run sports_car "$shared/sports_car.glb" auto --eye 1.8,0.9,2.2 --look-at 0,0.45,
 run stanford_dragon "$shared/stanford_dragon.glb" auto --eye 0,0.13,0.22 --look-at 0,0.12,0
 run lost_empire "$shared/lost_empire.glb" interior --eye -10,20,40 --look-at 10,10,0
 run armadillo "$shared/armadillo.glb" auto --eye 0,20,170 --look-at 0,20,0
+
+# Many views on Ray: one process against rayfold-batch (needs Ray in $BENCH_PYTHON).
+if [ -n "$python_peers" ]; then
+  "$python_peers" tools/bench_batch.py --json "$out/batch.json" > "$out/batch.md" \
+    || echo "bench_all: bench_batch.py failed; out/bench/batch.md holds what it printed"
+fi
 
 align_reports=("$out"/*-align.json)
 if [ -e "${align_reports[0]}" ]; then

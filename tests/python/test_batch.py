@@ -62,7 +62,7 @@ def test_every_view_equals_render_views_from_python_and_the_cli(atrium_path, tmp
     # The CLI, from the camera file, against rayfold render of the same list.
     os.makedirs(tmp_path / "cli")
     r = batch_cli(atrium_path, "--cameras", tmp_path / "c.json", "-o", tmp_path / "cli" / "v_%04d.exr",
-                  "--fold", "y", "--channels", "depth,instance_id", "--workers", "1", "-q", "--send", "file")
+                  "--fold", "y", "--channels", "depth,instance_id", "--workers", "1", "-q", "--send", "trees")
     assert r.returncode == 0, r.stderr
     assert "70 of 70 views written" in r.stderr, r.stderr
     os.makedirs(tmp_path / "render")

@@ -48,7 +48,8 @@ class Summary:
     failed: list
     warnings: list            # (view index, warning) as GBuffer.warnings
     seconds: float             # the whole call, but stopping the cluster
-    startup_seconds: float     # of which starting Ray and the workers (their scene loaded)
+    startup_seconds: float     # of which starting Ray and the workers (trees and kernels built or loaded)
+    cluster_seconds: float     # of which starting Ray (or joining the cluster)
     workers: int
     workers_lost: int          # workers that died and were replaced
     views_retried: int         # views rendered again after their worker died
@@ -69,7 +70,7 @@ class Summary:
         s = (f"rayfold-batch: {self.written} of {self.views} views written ({self.rendered} rendered, "
              f"{self.kept} kept from an earlier run), {len(self.failed)} failed; "
              f"{self.views_per_second:.1f} views/s on {self.workers} worker{'s' if self.workers != 1 else ''} "
-             f"after {self.startup_seconds:.1f} s starting them")
+             f"after {self.startup_seconds:.1f} s starting them ({self.cluster_seconds:.1f} s of it Ray's)")
         if self.workers_lost:
             s += f"; {self.workers_lost} worker(s) lost and replaced, {self.views_retried} view(s) retried"
         return s
@@ -113,6 +114,10 @@ class _Worker:
         self.options = render_options
         self.output = output
         output.open()
+        # Trees (unless they came built) and kernels now, so that a worker is
+        # ready when it says so: the time to its first view is the start's.
+        warm = {o: v for o, v in render_options.items() if o not in ("align", "channels")}
+        self.scene.render(self.scene.default_camera(1, 1), **warm)
         os.makedirs(manifest_dir, exist_ok=True)
         self.part_path = os.path.join(manifest_dir, f"{socket.gethostname()}-{os.getpid()}.jsonl")
         self.part = open(self.part_path, "a", encoding="utf-8")
@@ -209,7 +214,9 @@ def render(scene, cameras, out, *, workers=1, address=None, fold="none", align=0
     OpenCL device "gpu"); returns a Summary. send: 'trees' builds the trees here
     once and hands them to the workers through Ray's object store
     (Scene.to_bytes; once per node), 'file' has each worker load the path
-    and build its own (every machine then needs the file). cameras:
+    and build its own (every machine then needs the file); 'auto', the
+    default: 'file' for a path (measured faster to start, docs/results.md),
+    'trees' for a Scene. cameras:
     a list of rayfold.Camera, or a file as Camera.from_file reads it (width,
     height as there). Views already complete from an earlier run (manifest,
     size and, with verify, SHA-256) are kept. address: a running Ray cluster
@@ -222,8 +229,10 @@ def render(scene, cameras, out, *, workers=1, address=None, fold="none", align=0
     except ImportError as e:
         raise RuntimeFailure("rayfold.batch needs Ray: pip install 'rayfold[batch]' (or pip install ray)") from e
     t0 = time.monotonic()
-    if send not in ("trees", "file"):
-        raise InputError(f"rayfold.batch.render: send must be 'trees' or 'file', not {send!r}")
+    if send not in ("auto", "trees", "file"):
+        raise InputError(f"rayfold.batch.render: send must be 'auto', 'trees' or 'file', not {send!r}")
+    if send == "auto":
+        send = "trees" if isinstance(scene, Scene) else "file"
     if isinstance(scene, Scene):
         if send == "file":
             raise InputError("rayfold.batch.render: send='file' needs the scene's path, not a Scene")
@@ -258,13 +267,15 @@ def render(scene, cameras, out, *, workers=1, address=None, fold="none", align=0
     kept = len(cameras) - len(todo) - len(skipped)
 
     if not todo:  # nothing to render: no cluster
-        return Summary(len(cameras), 0, kept, sorted(skipped), [], time.monotonic() - t0, 0.0, workers, 0, 0,
-                       _peak_rss_mb(), 0.0)
+        return Summary(len(cameras), 0, kept, sorted(skipped), [], time.monotonic() - t0, 0.0, 0.0,
+                       workers + gpu_workers, 0, 0, _peak_rss_mb(), 0.0)
     if send == "trees" and scene_bytes is None:
         scene_bytes = loaded.to_bytes()  # the trees, built here once
     started = not ray.is_initialized()
+    t_cluster = time.monotonic()
     if started:
         ray.init(address=address, include_dashboard=False, logging_level="ERROR", log_to_driver=False)
+    cluster = time.monotonic() - t_cluster
     failed, warnings = list(skipped), []
     rendered = lost = retried = 0
     worker_peak = startup = 0.0
@@ -302,7 +313,10 @@ def render(scene, cameras, out, *, workers=1, address=None, fold="none", align=0
         hosts = ray.get([w.where.remote() for w in pool])
         startup = time.monotonic() - t0
         idle = list(range(len(pool)))
-        pending = [[(i, cameras[i], keys[i]) for i in b] for b in _batches(cameras, todo, batch_views)]
+        # Small jobs in smaller batches, so that every worker gets some: four
+        # batches a worker at least, up to batch_views.
+        size = max(1, min(batch_views, -(-len(todo) // (4 * len(pool)))))
+        pending = [[(i, cameras[i], keys[i]) for i in b] for b in _batches(cameras, todo, size)]
         pending.reverse()  # popped from the end: index order
         attempts = {}
         in_flight = {}
@@ -349,7 +363,7 @@ def render(scene, cameras, out, *, workers=1, address=None, fold="none", align=0
     finally:
         if started:
             ray.shutdown()
-    return Summary(len(cameras), rendered, kept, sorted(failed), sorted(warnings), finished - t0, startup,
+    return Summary(len(cameras), rendered, kept, sorted(failed), sorted(warnings), finished - t0, startup, cluster,
                    workers + gpu_workers, lost, retried, _peak_rss_mb(), worker_peak)
 
 
@@ -378,9 +392,9 @@ def main(argv=None):
     p.add_argument("--device", default="", help="the first OpenCL device whose platform or name holds this")
     p.add_argument("--size", metavar="WxH", help="image size for a transforms.json without w and h")
     p.add_argument("--retries", type=int, default=3, help="times a view whose worker died is tried again (3)")
-    p.add_argument("--send", default="trees", choices=["trees", "file"],
-                   help="trees: build the trees once here and send them through Ray's object store (default); "
-                        "file: each worker loads the scene file and builds its own")
+    p.add_argument("--send", default="file", choices=["trees", "file"],
+                   help="file: each worker loads the scene file and builds its trees (default; the file on every "
+                        "machine); trees: build them once here and send them through Ray's object store")
     p.add_argument("--no-verify", action="store_true",
                    help="keep views from an earlier run on their size alone, without reading them for the SHA-256")
     p.add_argument("--summary", metavar="FILE.json", help="also write the summary as JSON")
