@@ -157,6 +157,38 @@ def test_a_killed_worker_has_its_views_retried_and_nothing_is_lost(atrium_path, 
     assert_views_equal(scene, cameras, pattern, "none")
 
 
+def raylets():
+    return {int(p) for p in subprocess.run(["pgrep", "-f", "raylet"], capture_output=True, text=True).stdout.split()}
+
+
+def test_a_stopped_driver_stops_its_cluster_and_a_rerun_finishes_the_job(atrium_path, tmp_path):
+    camera_list(tmp_path / "c.json", 1200, 96, 72)
+    os.makedirs(tmp_path / "out")
+    before = raylets()
+    p = subprocess.Popen([sys.executable, "-m", "rayfold.batch", atrium_path, "--cameras", tmp_path / "c.json",
+                          "-o", tmp_path / "out" / "v_%05d.exr", "-q"], stderr=subprocess.PIPE, text=True)
+    manifest = tmp_path / "out" / rayfold.batch.MANIFEST_DIR
+    deadline = time.monotonic() + 300
+    while p.poll() is None and time.monotonic() < deadline and not (
+            manifest.is_dir() and any(os.path.getsize(manifest / n) for n in os.listdir(manifest))):
+        time.sleep(0.05)
+    p.send_signal(signal.SIGTERM)
+    _, err = p.communicate(timeout=120)
+    assert p.returncode == 128 + signal.SIGTERM, err
+    assert "stopped (SIGTERM); every view written so far is complete" in err, err
+    deadline = time.monotonic() + 30
+    while raylets() - before and time.monotonic() < deadline:
+        time.sleep(0.2)
+    assert not raylets() - before, "the run's Ray cluster outlived it"
+    r = batch_cli(atrium_path, "--cameras", tmp_path / "c.json", "-o", tmp_path / "out" / "v_%05d.exr", "-q",
+                  "--summary", tmp_path / "s.json")
+    assert r.returncode == 0, r.stderr
+    s = summary(tmp_path / "s.json")
+    assert s["written"] == 1200 and s["kept"] > 0, s
+    names = sorted(n for n in os.listdir(tmp_path / "out") if n != rayfold.batch.MANIFEST_DIR)
+    assert names == [f"v_{i:05d}.exr" for i in range(1200)], "a stray or missing file"
+
+
 def test_a_rerun_renders_only_what_is_missing_changed_or_damaged(atrium_path, tmp_path):
     cameras = camera_list(tmp_path / "c.json", 40)
     pattern = str(tmp_path / "v_%03d.exr")

@@ -1,6 +1,6 @@
 """Many views of one scene on a Ray cluster: this machine's, started for the
 job and stopped after it, or a running one (address=). Each worker is a Ray
-actor holding one Renderer; it writes its views' EXRs itself.
+actor holding one Renderer; it writes its views' outputs itself.
 
     rayfold-batch scene.glb --cameras cams.json -o out/view_%06d.exr --workers 2
 
@@ -24,6 +24,7 @@ import hashlib
 import json
 import os
 import resource
+import signal
 import socket
 import sys
 import time
@@ -202,7 +203,8 @@ class _Progress:
 
 def render(scene, cameras, out, *, workers=1, address=None, fold="none", align=0, channels=None,
            depth="distance", backend="opencl", device="", kernel="auto", verify=True, retries=3,
-           batch_views=BATCH_VIEWS, width=0, height=0, progress=True, send="trees", gpu_workers=0):
+           batch_views=BATCH_VIEWS, width=0, height=0, progress=True, send="auto", gpu_workers=0,
+           _after_ray_start=None):
     """Renders every camera's view of `scene` (a rayfold.Scene, or the path
     of a glTF or scene file) to out % index (an .exr pattern such as
     'dir/view_%06d.exr'), or to one zarr store (a path ending in .zarr: per
@@ -281,6 +283,8 @@ def render(scene, cameras, out, *, workers=1, address=None, fold="none", align=0
     worker_peak = startup = 0.0
     finished = None
     try:
+        if _after_ray_start:
+            _after_ray_start()
         gpus = ray.cluster_resources().get("GPU", 0)
         if gpu_workers > gpus:  # Ray would wait for them forever
             raise InputError(f"rayfold.batch.render: {gpu_workers} GPU workers, but the Ray cluster has {gpus:g} "
@@ -367,6 +371,24 @@ def render(scene, cameras, out, *, workers=1, address=None, fold="none", align=0
                    workers + gpu_workers, lost, retried, _peak_rss_mb(), worker_peak)
 
 
+_stopped_by = [signal.SIGINT]
+
+
+def _raise_stopped(signum, frame):
+    # As KeyboardInterrupt: Ray's calls pass that one through (another
+    # exception raised in their signal check comes out as a SystemError).
+    _stopped_by[0] = signum
+    raise KeyboardInterrupt
+
+
+def _unwind_on_signals():
+    """SIGTERM and SIGHUP unwind as Ctrl-C does, so that the cluster this run
+    started is stopped (its processes would outlive a killed driver). After
+    ray.init, whose own handlers would end the driver at once."""
+    for sig in (signal.SIGTERM, signal.SIGHUP):
+        signal.signal(sig, _raise_stopped)
+
+
 def main(argv=None):
     """rayfold-batch: exit 0 when every view is written, 1 when some failed
     (listed), 2 for bad input, 3 when the run could not go on."""
@@ -411,7 +433,7 @@ def main(argv=None):
         s = render(a.scene, cameras, a.output, workers=a.workers, address=a.address, fold=a.fold, align=a.align,
                    channels=a.channels, depth=a.depth, backend=a.backend, device=a.device, verify=not a.no_verify,
                    retries=a.retries, width=width, height=height, progress=not a.quiet, send=a.send,
-                   gpu_workers=a.gpu_workers)
+                   gpu_workers=a.gpu_workers, _after_ray_start=_unwind_on_signals)
     except (InputError, TypeError) as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
@@ -419,9 +441,10 @@ def main(argv=None):
         print(f"error: {e}", file=sys.stderr)
         return 3
     except KeyboardInterrupt:
-        print("error: interrupted; every view written so far is complete and recorded, a rerun renders the rest",
-              file=sys.stderr)
-        return 130
+        sig = _stopped_by[0]
+        print(f"error: stopped ({signal.Signals(sig).name}); every view written so far is complete and recorded, "
+              "a rerun renders the rest", file=sys.stderr)
+        return 128 + sig
     for index, reason in s.failed:
         print(f"error: view {index}: {reason}", file=sys.stderr)
     for index, warning in s.warnings:
