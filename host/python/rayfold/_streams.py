@@ -92,6 +92,16 @@ def _warn_ignored(path, ignored):
                       stacklevel=3)
 
 
+def _is_colmap_dir(path, width, height):
+    """A folder is a COLMAP model, which gives its own image sizes."""
+    if not os.path.isdir(path):
+        return False
+    if width or height:
+        raise InputError(f"{os.fspath(path)}: a COLMAP model gives its image sizes; width and height do not "
+                         "combine with it")
+    return True
+
+
 def from_file(path, width=0, height=0):
     """The cameras a file holds and their names, as (cameras, names) in the
     file's order, told apart by content as `rayfold render --cameras` does:
@@ -99,10 +109,7 @@ def from_file(path, width=0, height=0):
     transforms.json (an object with "frames"; width and height as from_nerf),
     or, for a directory, a COLMAP text model (as from_colmap). InputError
     names the file and what is wrong."""
-    if os.path.isdir(path):
-        if width or height:
-            raise InputError(f"{os.fspath(path)}: a COLMAP model gives its image sizes; width and height do not "
-                             "combine with it")
+    if _is_colmap_dir(path, width, height):
         return from_colmap(path)
     views, ignored, _ = Camera._read_file(os.fspath(path), width, height)
     _warn_ignored(path, ignored)
@@ -113,10 +120,7 @@ def read_views_lenient(path, width=0, height=0):
     """For a batch: the views of a camera file or COLMAP folder as
     (cameras by index in the file, None where a view's own entry is bad;
     skipped as (index, reason)). The file's structure still raises."""
-    if os.path.isdir(path):
-        if width or height:
-            raise InputError(f"{os.fspath(path)}: a COLMAP model gives its image sizes; width and height do not "
-                             "combine with it")
+    if _is_colmap_dir(path, width, height):
         views, skipped = Camera._read_colmap(os.fspath(path), True)
     else:
         views, ignored, skipped = Camera._read_file(os.fspath(path), width, height, True)
