@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 
 #include <unistd.h>
@@ -51,6 +52,14 @@ Renderer::Renderer(const Scene& scene, const RendererOptions& options, std::shar
         measure_kernel_ = options_.kernel == KernelChoice::measure || !cpu;
         kernel_reason_ = measure_kernel_ ? "to be measured" : "CPU device";
         break;
+    }
+    packs_planes_ = !cpu;
+    if (const char* env = std::getenv("RAYFOLD_READBACK")) {
+      const std::string v = env;
+      if (v == "packed" || v == "hits")
+        packs_planes_ = v == "packed";
+      else if (v != "auto" && !v.empty())
+        throw InputError("", "RAYFOLD_READBACK is '" + v + "'; it takes auto, packed or hits");
     }
   }
 }
@@ -118,7 +127,40 @@ void Renderer::render_into(RenderResult& result, const Camera& camera, int frame
 
 void Renderer::render_views_into(RenderResult& result, const std::vector<Camera>& cameras, int frames,
                                  const FrameOptions& frame_options) {
+  begin_views(result, cameras, frame_options);
+  frames = std::max(frames, 1);
+  for (int f = 0; f < frames; ++f) result.frames.push_back(trace_frame(result, cameras, frame_options, f, false));
+  end_views(result, cameras);
+}
+
+void Renderer::submit_views_into(RenderResult& result, const std::vector<Camera>& cameras,
+                                 const FrameOptions& frame_options) {
+  begin_views(result, cameras, frame_options);
+  result.frames.push_back(trace_frame(result, cameras, frame_options, 0, true));
+  end_views(result, cameras);
+}
+
+void Renderer::finish_views(RenderResult& result) {
+  if (result.packed_slot < 0) return;  // rendered whole by submit
+  collect_planes(result, result.frames.back());
+  result.median = median_times(result.frames);
+}
+
+void Renderer::collect_planes(RenderResult& result, FrameTimes& times) {
+  const int slot = result.packed_slot;
+  result.packed_slot = -1;  // also when the wait fails: the slot is free again
+  const ClTracer::PackedPlanes p = tracer_->wait_packed(slot);
+  result.planes = p.words;
+  result.plane_words_per_view = p.words_per_view;
+  result.view_hits.assign(p.hit_counts, p.hit_counts + result.views.size());
+  times.readback_ms += p.wait_ms;
+  if (result.pipelined) times.trace_ms = p.trace_ms;
+}
+
+void Renderer::begin_views(RenderResult& result, const std::vector<Camera>& cameras,
+                           const FrameOptions& frame_options) {
   RF_CHECK(!cameras.empty(), "nothing to render");
+  RF_CHECK(result.packed_slot < 0, "a result still in flight (submit_views_into without finish_views)");
   const Camera& camera = cameras[0];
   const size_t view_pixels = static_cast<size_t>(camera.width) * camera.height;
   const size_t pixels = view_pixels * cameras.size();
@@ -128,70 +170,108 @@ void Renderer::render_views_into(RenderResult& result, const std::vector<Camera>
   check_host_memory(pixels);
   ensure_capacity(pixels, groups);
   if (tracer_) tracer_->prepare_groups(groups);  // a kernel build is not trace time
-  if (result.hits.size() != pixels) result.hits.assign(pixels, rf_pixel_hit{});
-  result.frames.clear();
-  frames = std::max(frames, 1);
-  for (int f = 0; f < frames; ++f) {
-    FrameTimes times;
-    FrameOptions options = frame_options;
-    options.fold = result.fold;
-    if (options.animate_frame >= 0) options.animate_frame += f;
-    auto t0 = Clock::now();
-    const RayList& rays = ray_list(camera.params, options.fold);
-    times.ray_list_ms = ms_since(t0);
-    result.rays = rays.entries.size();
-    const Frame frame = build_frame(scene_, *data_, cameras, rays, options);
-    times.cull_ms = frame.stats.cull_ms;
-    times.tlas_ms = frame.stats.tlas_ms;
-    result.frame_stats = frame.stats;
-    result.tlas_nodes = frame.tlas_nodes.size();
-    result.instances = frame.instances.size();
-    result.views = frame.views;
-    if (tracer_) {
-      CachedRays& cached = rays_[static_cast<int>(options.fold)];
-      if (!cached.uploaded) {
-        times.ray_list_ms += tracer_->upload_rays(rays, static_cast<int>(options.fold));
-        cached.uploaded = true;
-      } else {
-        tracer_->use_rays(static_cast<int>(options.fold));
-      }
-      times.upload_ms = tracer_->upload_frame(frame);
-      tracer_->bind_output(result.hits.data(), pixels);
-      if (is_orthographic(camera)) {
-        // The tile kernel's box tests share one origin (the eye) across a
-        // tile; parallel rays go through the single-ray kernel.
-        times.trace_ms = tracer_->trace(frame_camera(camera, frame), KernelKind::single);
-      } else if (measure_kernel_) {
-        // Both kernels write the same bits; the faster one stays. Each is
-        // timed on its second trace: a driver's first launch of a kernel
-        // compiles it for the work-group size (PoCL: up to a second), which
-        // on a fresh kernel cache made the larger tile kernel lose.
-        const rf_camera cam = frame_camera(camera, frame);
-        const double first_ms = tracer_->trace(cam, KernelKind::single) + tracer_->trace(cam, KernelKind::tile);
-        const double single_ms = tracer_->trace(cam, KernelKind::single);
-        const double tile_ms = tracer_->trace(cam, KernelKind::tile);
-        kernel_ = tile_ms <= single_ms ? KernelKind::tile : KernelKind::single;
-        char why[128];
-        std::snprintf(why, sizeof why, "measured on the first frame: tile %.2f ms, single %.2f ms (second traces)",
-                      tile_ms, single_ms);
-        kernel_reason_ = why;
-        measure_kernel_ = false;
-        times.trace_ms = first_ms + single_ms + tile_ms;
-      } else {
-        times.trace_ms = tracer_->trace(frame_camera(camera, frame), kernel_);
-      }
-      times.readback_ms = tracer_->read_hits(result.hits.data(), pixels);
-    } else {
-      t0 = Clock::now();
-      const TraceInputs in = host_inputs(frame);
-      times.upload_ms = ms_since(t0);
-      t0 = Clock::now();
-      const std::vector<float> depth_scales = frame.depth_scales();
-      trace_cpu(in, rays, frame_camera(camera, frame), depth_scales.data(), result.hits.data(), options_.threads);
-      times.trace_ms = ms_since(t0);
-    }
-    result.frames.push_back(times);
+  result.planes = nullptr;
+  result.plane_words_per_view = 0;
+  result.plane_channels = 0;
+  result.view_hits.clear();
+  result.pipelined = false;
+  if (tracer_ && frame_options.planes && packs_planes_) {
+    result.hits.clear();
+    result.plane_channels = frame_options.channels;
+  } else if (result.hits.size() != pixels) {
+    result.hits.assign(pixels, rf_pixel_hit{});
   }
+  result.frames.clear();
+}
+
+FrameTimes Renderer::trace_frame(RenderResult& result, const std::vector<Camera>& cameras,
+                                 const FrameOptions& frame_options, int f, bool pipelined) {
+  const Camera& camera = cameras[0];
+  const size_t view_pixels = static_cast<size_t>(camera.width) * camera.height;
+  const size_t pixels = view_pixels * cameras.size();
+  const bool packed = result.plane_channels != 0;
+  FrameTimes times;
+  FrameOptions options = frame_options;
+  options.fold = result.fold;
+  if (options.animate_frame >= 0) options.animate_frame += f;
+  auto t0 = Clock::now();
+  const RayList& rays = ray_list(camera.params, options.fold);
+  times.ray_list_ms = ms_since(t0);
+  result.rays = rays.entries.size();
+  const Frame frame = build_frame(scene_, *data_, cameras, rays, options);
+  times.cull_ms = frame.stats.cull_ms;
+  times.tlas_ms = frame.stats.tlas_ms;
+  result.frame_stats = frame.stats;
+  result.tlas_nodes = frame.tlas_nodes.size();
+  result.instances = frame.instances.size();
+  result.views = frame.views;
+  if (!tracer_) {
+    t0 = Clock::now();
+    const TraceInputs in = host_inputs(frame);
+    times.upload_ms = ms_since(t0);
+    t0 = Clock::now();
+    const std::vector<float> depth_scales = frame.depth_scales();
+    trace_cpu(in, rays, frame_camera(camera, frame), depth_scales.data(), result.hits.data(), options_.threads);
+    times.trace_ms = ms_since(t0);
+    return times;
+  }
+  CachedRays& cached = rays_[static_cast<int>(options.fold)];
+  if (!cached.uploaded) {
+    times.ray_list_ms += tracer_->upload_rays(rays, static_cast<int>(options.fold));
+    cached.uploaded = true;
+  } else {
+    tracer_->use_rays(static_cast<int>(options.fold));
+  }
+  times.upload_ms = tracer_->upload_frame(frame);
+  // A packed pass traces into the device's own buffer (unbinding any
+  // host memory an earlier pass bound).
+  tracer_->bind_output(packed ? nullptr : result.hits.data(), packed ? 0 : pixels);
+  const rf_camera cam = frame_camera(camera, frame);
+  if (is_orthographic(camera)) {
+    // The tile kernel's box tests share one origin (the eye) across a
+    // tile; parallel rays go through the single-ray kernel.
+    if (pipelined && packed)
+      tracer_->enqueue_trace(cam, KernelKind::single);
+    else
+      times.trace_ms = tracer_->trace(cam, KernelKind::single);
+  } else if (measure_kernel_) {
+    // Both kernels write the same bits; the faster one stays. Each is
+    // timed on its second trace: a driver's first launch of a kernel
+    // compiles it for the work-group size (PoCL: up to a second), which
+    // on a fresh kernel cache made the larger tile kernel lose.
+    const double first_ms = tracer_->trace(cam, KernelKind::single) + tracer_->trace(cam, KernelKind::tile);
+    const double single_ms = tracer_->trace(cam, KernelKind::single);
+    const double tile_ms = tracer_->trace(cam, KernelKind::tile);
+    kernel_ = tile_ms <= single_ms ? KernelKind::tile : KernelKind::single;
+    char why[128];
+    std::snprintf(why, sizeof why, "measured on the first frame: tile %.2f ms, single %.2f ms (second traces)",
+                  tile_ms, single_ms);
+    kernel_reason_ = why;
+    measure_kernel_ = false;
+    times.trace_ms = first_ms + single_ms + tile_ms;
+    pipelined = false;  // timed by the host already
+  } else if (pipelined && packed) {
+    tracer_->enqueue_trace(cam, kernel_);
+  } else {
+    times.trace_ms = tracer_->trace(cam, kernel_);
+  }
+  if (!packed) {
+    times.readback_ms = tracer_->read_hits(result.hits.data(), pixels);
+    return times;
+  }
+  t0 = Clock::now();
+  result.packed_slot = next_pack_slot_;
+  next_pack_slot_ = (next_pack_slot_ + 1) % ClTracer::kPackSlots;
+  tracer_->enqueue_packed_read(view_pixels, static_cast<unsigned>(cameras.size()), result.plane_channels,
+                               result.packed_slot);
+  times.readback_ms = ms_since(t0);
+  result.pipelined = pipelined;
+  if (!pipelined) collect_planes(result, times);
+  return times;
+}
+
+void Renderer::end_views(RenderResult& result, const std::vector<Camera>& cameras) {
+  const Camera& camera = cameras[0];
   result.kernel = kernel_label();
   result.kernel_reason = kernel_reason_;
   if (tracer_ && is_orthographic(camera)) {
@@ -284,9 +364,17 @@ TraceInputs Renderer::host_inputs(const Frame& frame) {
 
 RenderResult view_result(const RenderResult& pass, size_t v) {
   RF_CHECK(v < pass.views.size() && pass.hits.size() % pass.views.size() == 0, "no such view in the pass");
+  RF_CHECK(pass.packed_slot < 0, "view of a pass still in flight");
   RenderResult out;
-  const size_t n = pass.hits.size() / pass.views.size();
-  out.hits.assign(pass.hits.begin() + v * n, pass.hits.begin() + (v + 1) * n);
+  if (pass.plane_channels != 0) {
+    out.planes = pass.planes + v * pass.plane_words_per_view;
+    out.plane_words_per_view = pass.plane_words_per_view;
+    out.plane_channels = pass.plane_channels;
+    out.view_hits = {pass.view_hits.at(v)};
+  } else {
+    const size_t n = pass.hits.size() / pass.views.size();
+    out.hits.assign(pass.hits.begin() + v * n, pass.hits.begin() + (v + 1) * n);
+  }
   out.median = pass.median;
   out.frames = pass.frames;
   out.frame_stats = pass.frame_stats;

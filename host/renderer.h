@@ -88,6 +88,18 @@ struct RenderResult {
   // The kernel that traced this render and why (Renderer::kernel_label and
   // kernel_reason, but an orthographic view's is the single-ray kernel's).
   std::string kernel, kernel_reason;
+
+  // A packed readback (FrameOptions::planes where Renderer::packs_planes):
+  // `hits` is empty and the planes plane_channels names are here, view
+  // after view, plane_words_per_view words each (rf_types.h, RF_PLANE_*),
+  // in the renderer's pinned memory: valid until the second pass submitted
+  // after this one. view_hits: per view, the pixels that hit.
+  const uint32_t* planes = nullptr;
+  size_t plane_words_per_view = 0;
+  unsigned plane_channels = 0;
+  std::vector<size_t> view_hits;
+  int packed_slot = -1;  // the tracer's readback slot while the pass is in flight
+  bool pipelined = false;  // submitted by submit_views_into: trace_ms is the kernel's device time
 };
 
 class Renderer {
@@ -110,6 +122,19 @@ class Renderer {
   // bits of that view rendered alone. At most max_pass_views(fold) views.
   void render_views_into(RenderResult& result, const std::vector<Camera>& cameras, int frames = 1,
                          const FrameOptions& frame_options = {});
+  // render_views_into for one frame, split in two so that the host's work
+  // for the next pass (culling, top level, upload, handing this one's
+  // G-buffers on) overlaps this pass's trace and readback: submit queues
+  // the pass and returns without waiting where it reads packed planes back
+  // (FrameOptions::planes and packs_planes()), else renders it whole;
+  // finish waits for it. At most ClTracer::kPackSlots passes in flight,
+  // each with its own result, finished in the order submitted.
+  void submit_views_into(RenderResult& result, const std::vector<Camera>& cameras, const FrameOptions& frame_options);
+  void finish_views(RenderResult& result);
+  // Whether passes that take planes read them packed from the device: on
+  // every OpenCL device but a CPU one (there the kernel writes into host
+  // memory), or as RAYFOLD_READBACK says ("packed", "hits"; "auto").
+  bool packs_planes() const { return packs_planes_; }
 
   // Ray queries (rays/ray_queries.h): for each of n world-space rays
   // (origins, directions n x 3) its closest hit with tmin < t <= tmax, or
@@ -156,6 +181,15 @@ class Renderer {
   // The warnings of instances lost to the float range (`where` says how)
   // and of triangles below what the test resolves.
   void add_range_warnings(size_t out_of_range, const char* where, std::vector<std::string>& w) const;
+  // render_views_into's phases: the pass's checks, buffers and fold; one
+  // frame (pipelined: without waiting for a packed readback); the kernel
+  // labels and warnings.
+  void begin_views(RenderResult& result, const std::vector<Camera>& cameras, const FrameOptions& frame_options);
+  FrameTimes trace_frame(RenderResult& result, const std::vector<Camera>& cameras, const FrameOptions& frame_options,
+                         int frame, bool pipelined);
+  void end_views(RenderResult& result, const std::vector<Camera>& cameras);
+  // Waits for a pass's packed readback; its planes into result, the wait into times.
+  void collect_planes(RenderResult& result, FrameTimes& times);
   // Device buffers for this many pixels (every view's) and top-level groups.
   void ensure_capacity(size_t pixels, int groups);
   // The CPU reference's inputs for a frame: its top level placed after the
@@ -174,6 +208,8 @@ class Renderer {
   std::unique_ptr<ClTracer> tracer_;
   KernelKind kernel_ = KernelKind::single;
   bool measure_kernel_ = false;  // time both kernels on the next traced frame
+  bool packs_planes_ = false;
+  int next_pack_slot_ = 0;
   std::string kernel_reason_;
   size_t pixel_capacity_ = 0;
   int group_capacity_ = 0;

@@ -86,3 +86,54 @@ __kernel void rf_trace_tiles(__global const rf_node* nodes, __global const rf_wi
   for (int k = 0; k < RF_TILE_STAT_COUNT; ++k) tile_stats[t * RF_TILE_STAT_COUNT + k] = stats[k];
 #endif
 }
+
+/* Packs the planes `channels` (RF_PLANE_*) names of a pass's hits, view
+ * after view, into `out` (rf_types.h gives a view's layout, words_per_view
+ * words each), so that a device that is not the host's memory reads back
+ * only those: 8 bytes a pixel for z and instance ids instead of 32.
+ * groups_per_view work-groups of RF_PACK_GROUP pixels cover a view; each
+ * adds the pixels of its view that hit to hit_counts[view] (zeroed first). */
+__kernel __attribute__((reqd_work_group_size(RF_PACK_GROUP, 1, 1))) void rf_pack_planes(
+    __global const rf_pixel_hit* hits, uint view_pixels, uint groups_per_view, uint channels, ulong words_per_view,
+    __global uint* out, __global uint* hit_counts) {
+  __local uint counts[RF_PACK_GROUP];
+  const uint view = get_group_id(0) / groups_per_view;
+  const uint lid = get_local_id(0);
+  const uint p = (get_group_id(0) % groups_per_view) * RF_PACK_GROUP + lid;
+  uint hit = 0u;
+  if (p < view_pixels) {
+    const rf_pixel_hit h = hits[(ulong)view * view_pixels + p];
+    hit = h.instance != RF_INVALID ? 1u : 0u;
+    __global uint* w = out + (ulong)view * words_per_view;
+    const ulong n = view_pixels;
+    if (channels & RF_PLANE_DEPTH) {
+      w[p] = as_uint(h.z);
+      w += n;
+    }
+    if (channels & RF_PLANE_NORMAL) {
+      w[3 * (ulong)p] = as_uint(h.nx);
+      w[3 * (ulong)p + 1] = as_uint(h.ny);
+      w[3 * (ulong)p + 2] = as_uint(h.nz);
+      w += 3 * n;
+    }
+    if (channels & RF_PLANE_UV) {
+      w[2 * (ulong)p] = as_uint(h.u);
+      w[2 * (ulong)p + 1] = as_uint(h.v);
+      w += 2 * n;
+    }
+    if (channels & RF_PLANE_INSTANCE) {
+      w[p] = h.instance;
+      w += n;
+    }
+    if (channels & RF_PLANE_PRIMITIVE) w[p] = h.primitive;
+  }
+  /* One atomic per work-group: a per-pixel one on a single counter
+   * serialises on GPUs. */
+  counts[lid] = hit;
+  barrier(CLK_LOCAL_MEM_FENCE);
+  for (uint s = RF_PACK_GROUP / 2; s > 0u; s >>= 1) {
+    if (lid < s) counts[lid] += counts[lid + s];
+    barrier(CLK_LOCAL_MEM_FENCE);
+  }
+  if (lid == 0u && counts[0] != 0u) atomic_add(&hit_counts[view], counts[0]);
+}

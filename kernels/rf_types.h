@@ -168,6 +168,19 @@ typedef struct {
   rf_u32 primitive;
 } rf_pixel_hit;
 
+/* The planes of a packed readback (rf_pack_planes), as bits; the same
+ * values as the public API's Channels (host/include/rayfold/gbuffer.h). A
+ * view's packed words hold the planes asked for in this order, each for
+ * every pixel: z (1 word), normal (3, interleaved), uv (2, interleaved),
+ * instance (1), primitive (1); floats as their bits. */
+#define RF_PLANE_DEPTH 1u
+#define RF_PLANE_NORMAL 2u
+#define RF_PLANE_UV 4u
+#define RF_PLANE_INSTANCE 8u
+#define RF_PLANE_PRIMITIVE 16u
+#define RF_PLANE_ALL 31u
+#define RF_PACK_GROUP 256 /* pixels per work-group of rf_pack_planes */
+
 /* One ray query (scene.intersect, scene.occluded), 32 bytes, trace space:
  *   bytes  0..11  o     origin
  *   bytes 12..15  tmin  a hit counts from beyond this ray parameter ...

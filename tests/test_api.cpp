@@ -612,5 +612,92 @@ TEST(Api, SceneBytesThatAreNotWholeAreRefusedSayingWhy) {
   EXPECT_NO_THROW(Scene::from_bytes(core::scene_file_bytes(file, RAYFOLD_VERSION_STRING)));
 }
 
+// RAYFOLD_READBACK for one scope (the renderers made inside read it).
+class ReadbackEnv {
+ public:
+  explicit ReadbackEnv(const char* value) { setenv("RAYFOLD_READBACK", value, 1); }
+  ~ReadbackEnv() { unsetenv("RAYFOLD_READBACK"); }
+};
+
+std::string plane_difference(const GBuffer& want, const GBuffer& got) {
+  auto differs = [](const auto& a, const auto& b) {
+    return a.size() != b.size() || (!a.empty() && std::memcmp(a.data(), b.data(), a.size() * sizeof(a[0])) != 0);
+  };
+  std::string d;
+  if (differs(want.depth, got.depth)) d += " depth";
+  if (differs(want.normal, got.normal)) d += " normal";
+  if (differs(want.uv, got.uv)) d += " uv";
+  if (differs(want.instance_id, got.instance_id)) d += " instance_id";
+  if (differs(want.primitive_id, got.primitive_id)) d += " primitive_id";
+  if (want.hits != got.hits) d += " hits " + std::to_string(want.hits) + " vs " + std::to_string(got.hits);
+  if (want.channels != got.channels) d += " channels";
+  if (want.views_in_trace != got.views_in_trace) d += " views_in_trace";
+  return d;
+}
+
+// The packed readback (what a GPU reads back: only the planes asked for,
+// packed on the device, passes pipelined) gives the bits of the host
+// layout's, plane for plane, in every channel set, fold, alignment and
+// kernel; PoCL is made to take it through RAYFOLD_READBACK.
+TEST(Api, PackedReadbackGivesTheHostLayoutsBitsInEveryChannelSet) {
+  const Scene scene = Scene::load(RAYFOLD_SOURCE_DIR "/scenes/atrium.glb");
+  const Vec3 eye = scene.default_camera(48, 30).eye();
+  std::vector<Camera> views;
+  // 37x23 is no multiple of the pack kernel's 256-pixel work-groups; the
+  // 75-degree view and the other size make passes of their own.
+  for (int k = 0; k < 9; ++k)
+    views.push_back(Camera::look_at({eye[0] + 0.3 * k, eye[1], eye[2] - 0.5 * k}, {0.0, 2.0, 0.0}, {0.0, 1.0, 0.0},
+                                    k == 2 ? 75.0 : 50.0, k == 7 ? 20 : 37, k == 7 ? 16 : 23));
+  for (Kernel kernel : {Kernel::tile, Kernel::single}) {
+    RendererOptions o;
+    o.kernel = kernel;
+    std::unique_ptr<Renderer> packed, hits;
+    {
+      ReadbackEnv env("packed");
+      packed = std::make_unique<Renderer>(scene, o);
+      core::RendererOptions co;
+      co.kernel = kernel == Kernel::tile ? core::KernelChoice::tile : core::KernelChoice::single;
+      core::Renderer probe(scene.state()->scene, co, scene.state()->trees);
+      ASSERT_TRUE(probe.packs_planes());
+      core::FrameOptions fo;
+      fo.planes = true;
+      fo.channels = kDepth | kInstanceId;
+      core::RenderResult r;
+      probe.render_views_into(r, {views[0].core()}, 1, fo);
+      EXPECT_TRUE(r.hits.empty());
+      ASSERT_NE(r.planes, nullptr);
+      EXPECT_EQ(r.plane_words_per_view, 2u * 37 * 23);
+    }
+    {
+      ReadbackEnv env("hits");
+      hits = std::make_unique<Renderer>(scene, o);
+    }
+    for (unsigned channels : {unsigned{kAllChannels}, kDepth | kInstanceId, unsigned{kNormal}, kUv | kPrimitiveId})
+      for (Fold f : {Fold::none, Fold::xy})
+        for (int align : {0, 1}) {
+          const std::vector<GBuffer> want = hits->render_views(views, f, align, channels);
+          const std::vector<GBuffer> got = packed->render_views(views, f, align, channels);
+          ASSERT_EQ(got.size(), views.size());
+          for (size_t v = 0; v < views.size(); ++v)
+            EXPECT_EQ(plane_difference(want[v], got[v]), "") << "kernel " << int(kernel) << " channels " << channels
+                                                             << " fold " << int(f) << " align " << align << " view " << v;
+          EXPECT_GT(want[0].hits, 0u);
+          EXPECT_EQ(plane_difference(hits->render(views[7], f, channels), packed->render(views[7], f, channels)), "");
+        }
+    // A consumer that throws mid-stream leaves a pass in flight; the next
+    // render waits for it and is whole.
+    int calls = 0;
+    EXPECT_THROW(packed->render_views(
+                     views, [&](size_t, GBuffer&&) { if (++calls == 1) throw std::runtime_error("stop"); }, Fold::none, 1),
+                 std::runtime_error);
+    const std::vector<GBuffer> again = packed->render_views(views, Fold::none, 1);
+    for (size_t v = 0; v < views.size(); ++v)
+      EXPECT_EQ(plane_difference(hits->render(views[v]), again[v]), "") << "view " << v << " after the throw";
+  }
+  ReadbackEnv env("sideways");
+  EXPECT_NE(message_of<InputError>([&] { Renderer r(scene); }).find("RAYFOLD_READBACK is 'sideways'"),
+            std::string::npos);
+}
+
 }  // namespace
 }  // namespace rayfold

@@ -4,11 +4,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
 #include "api/scene_state.h"
 #include "fold/view_passes.h"
 #include "rayfold/errors.h"
 #include "renderer.h"
+#include "util/errors.h"
 #include "util/parallel.h"
 #include "util/timer.h"
 
@@ -43,6 +45,7 @@ struct Renderer::Impl {
   uint64_t built_version = 0;  // SceneState::structure_version the trees were built for
   uint64_t built_clock = 0;    // SceneState::clock then: later set_transforms are moves
   core::RenderResult result;   // its hit buffer is reused render to render
+  core::RenderResult second_result;  // the pass in flight beside it (render_views, packed readback)
   bool planar_depth = false;   // RendererOptions::depth
 
   void build() {
@@ -174,9 +177,11 @@ void check_channels(unsigned channels) {
 
 // A core result (one view's) as the public planes asked for, on `threads`
 // threads: a 720p frame's 30 MB of planes cost a fifth of the trace on one.
+// A packed readback's planes (core::RenderResult::planes) are already laid
+// out as these: one copy each.
 void fill_gbuffer(GBuffer& g, const core::RenderResult& r, int width, int height, unsigned threads,
                   unsigned channels, Depth depth_kind) {
-  const size_t n = r.hits.size();
+  const size_t n = static_cast<size_t>(width) * height;
   g.width = width;
   g.height = height;
   g.channels = channels;
@@ -194,6 +199,28 @@ void fill_gbuffer(GBuffer& g, const core::RenderResult& r, int width, int height
   plane(g.uv, kUv, 2);
   plane(g.instance_id, kInstanceId, 1);
   plane(g.primitive_id, kPrimitiveId, 1);
+  g.fold = from_core(r.fold);
+  g.rays = r.rays;
+  g.trace_ms = r.median.trace_ms;
+  g.warnings = r.warnings;
+  if (r.plane_channels != 0) {
+    RF_CHECK(r.plane_channels == channels && r.planes, "packed planes other than those asked for");
+    const uint32_t* w = r.planes;
+    auto copy = [&](auto& v) {
+      if (v.empty()) return;
+      std::memcpy(v.data(), w, v.size() * sizeof(uint32_t));
+      w += v.size();
+    };
+    static_assert(sizeof(float) == sizeof(uint32_t), "planes of 32-bit words");
+    copy(g.depth);  // in the order of rf_types.h's RF_PLANE_*
+    copy(g.normal);
+    copy(g.uv);
+    copy(g.instance_id);
+    copy(g.primitive_id);
+    g.hits = r.view_hits.at(0);
+    return;
+  }
+  RF_CHECK(r.hits.size() == n, "a view's hits of another size");
   const bool depth = channels & kDepth, normal = channels & kNormal, uv = channels & kUv;
   const bool instance = channels & kInstanceId, primitive = channels & kPrimitiveId;
   constexpr size_t kChunk = size_t{1} << 15;
@@ -221,22 +248,30 @@ void fill_gbuffer(GBuffer& g, const core::RenderResult& r, int width, int height
   size_t hits = 0;
   for (size_t c : chunk_hits) hits += c;
   g.hits = hits;
-  g.fold = from_core(r.fold);
-  g.rays = r.rays;
-  g.trace_ms = r.median.trace_ms;
-  g.warnings = r.warnings;
 }
+
+// The frame options of a render that asks for these planes.
+core::FrameOptions frame_options(Fold fold, std::vector<uint32_t> moved, unsigned channels, bool planar_depth) {
+  core::FrameOptions frame;
+  frame.fold = to_core(fold);
+  frame.moved = std::move(moved);
+  frame.normals = (channels & kNormal) != 0;
+  frame.planar_depth = planar_depth;
+  frame.planes = true;
+  frame.channels = channels;
+  return frame;
+}
+
+static_assert(kDepth == RF_PLANE_DEPTH && kNormal == RF_PLANE_NORMAL && kUv == RF_PLANE_UV &&
+                  kInstanceId == RF_PLANE_INSTANCE && kPrimitiveId == RF_PLANE_PRIMITIVE,
+              "the public channels are the kernels' plane bits");
 
 }  // namespace
 
 void Renderer::render_into(GBuffer& g, const Camera& camera, Fold fold, unsigned channels) {
   check_channels(channels);
   const auto t0 = core::Clock::now();
-  core::FrameOptions frame;
-  frame.fold = to_core(fold);
-  frame.moved = impl_->moved();
-  frame.normals = (channels & kNormal) != 0;
-  frame.planar_depth = impl_->planar_depth;
+  const core::FrameOptions frame = frame_options(fold, impl_->moved(), channels, impl_->planar_depth);
   core::RenderResult& r = impl_->result;
   impl_->core->render_into(r, camera.core(), 1, frame);
   fill_gbuffer(g, r, camera.width(), camera.height(), impl_->options.threads, channels, impl_->planar_depth ? Depth::planar : Depth::distance);
@@ -257,32 +292,52 @@ void Renderer::render_views(const std::vector<Camera>& cameras, const std::funct
     throw InputError("", "align must be 0 (as many as a pass holds) to " + std::to_string(kMaxAlignedViews) + ", not " +
                              std::to_string(align));
   if (cameras.empty()) return;
-  core::FrameOptions frame;
-  frame.fold = to_core(fold);
-  frame.moved = impl_->moved();
-  frame.normals = (channels & kNormal) != 0;
-  frame.planar_depth = impl_->planar_depth;
+  const core::FrameOptions frame = frame_options(fold, impl_->moved(), channels, impl_->planar_depth);
   std::vector<core::Camera> views;
   views.reserve(cameras.size());
   for (const Camera& c : cameras) views.push_back(c.core());
   const auto passes =
       core::plan_passes(impl_->core->scene_data(), views, align == 0 ? kMaxAlignedViews : align, frame.fold);
-  core::RenderResult& r = impl_->result;
-  for (const std::vector<size_t>& pass : passes) {
-    const auto t0 = core::Clock::now();
+  // Where the device reads packed planes back, pass p + 1 is submitted
+  // before pass p's G-buffers are made and handed on, so that the host's
+  // work overlaps the device's; elsewhere one pass at a time.
+  const size_t depth = impl_->core->packs_planes() ? 2 : 1;
+  core::RenderResult* results[2] = {&impl_->result, &impl_->second_result};
+  std::vector<core::Clock::time_point> started(passes.size());
+  auto submit = [&](size_t p) {
+    started[p] = core::Clock::now();
     std::vector<core::Camera> pass_views;
-    for (size_t i : pass) pass_views.push_back(views[i]);
-    impl_->core->render_views_into(r, pass_views, 1, frame);
-    const double ms = core::ms_since(t0) / static_cast<double>(pass.size());
-    for (size_t k = 0; k < pass.size(); ++k) {
-      GBuffer g;
-      fill_gbuffer(g, core::view_result(r, k), cameras[pass[k]].width(), cameras[pass[k]].height(),
-                   impl_->options.threads, channels, impl_->planar_depth ? Depth::planar : Depth::distance);
-      g.views_in_trace = static_cast<int>(pass.size());
-      g.trace_ms = r.median.trace_ms / static_cast<double>(pass.size());
-      g.frame_ms = ms;
-      on_view(pass[k], std::move(g));
+    for (size_t i : passes[p]) pass_views.push_back(views[i]);
+    impl_->core->submit_views_into(*results[p % depth], pass_views, frame);
+  };
+  try {
+    if (!passes.empty()) submit(0);
+    for (size_t p = 0; p < passes.size(); ++p) {
+      core::RenderResult& r = *results[p % depth];
+      impl_->core->finish_views(r);
+      if (depth == 2 && p + 1 < passes.size()) submit(p + 1);
+      const std::vector<size_t>& pass = passes[p];
+      const double ms = core::ms_since(started[p]) / static_cast<double>(pass.size());
+      for (size_t k = 0; k < pass.size(); ++k) {
+        GBuffer g;
+        fill_gbuffer(g, core::view_result(r, k), cameras[pass[k]].width(), cameras[pass[k]].height(),
+                     impl_->options.threads, channels, impl_->planar_depth ? Depth::planar : Depth::distance);
+        g.views_in_trace = static_cast<int>(pass.size());
+        g.trace_ms = r.median.trace_ms / static_cast<double>(pass.size());
+        g.frame_ms = ms;
+        on_view(pass[k], std::move(g));
+      }
+      if (depth == 1 && p + 1 < passes.size()) submit(p + 1);
     }
+  } catch (...) {
+    // A pass still in flight is waited for, so its result can be reused.
+    for (core::RenderResult* r : results) {
+      try {
+        impl_->core->finish_views(*r);
+      } catch (...) {
+      }
+    }
+    throw;
   }
 }
 

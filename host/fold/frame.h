@@ -27,6 +27,11 @@ struct FrameOptions {
   std::vector<uint32_t> moved{};
   bool normals = true;         // false: the kernels write zero normals (RF_WRITE_NO_NORMALS)
   bool planar_depth = false;  // true: z along the camera's axis (RF_WRITE_PLANAR_DEPTH)
+  // The caller takes the planes `channels` (RF_PLANE_*) names packed
+  // (RenderResult::planes) where the renderer reads them back so
+  // (Renderer::packs_planes); otherwise every pixel's hit info (hits).
+  bool planes = false;
+  unsigned channels = RF_PLANE_ALL;
   // Ray queries (rays/ray_queries.h): the largest coordinate of a ray
   // origin, in trace units (0: camera rays, from the eye or, orthographic,
   // the image plane); the top level's boxes leave room for its rounding.

@@ -29,6 +29,18 @@ ClTracer::ClTracer(ClDevice& device, KernelPrecision precision, bool tile_stats)
   programs_for(RF_MIRRORS);
 }
 
+ClTracer::~ClTracer() {
+  // A mapped buffer is unmapped before its release (OpenCL leaves a
+  // release of a mapped buffer undefined).
+  try {
+    device_.queue().finish();
+    for (PinnedSlot& p : pinned_)
+      if (p.host) read_queue_.enqueueUnmapMemObject(p.pinned, p.host);
+    if (read_queue_()) read_queue_.finish();
+  } catch (...) {
+  }
+}
+
 ClTracer::Programs& ClTracer::programs_for(int groups) {
   RF_CHECK(groups >= 1 && groups <= RF_GROUP_LIMIT, "transform group count out of range");
   int size = RF_MIRRORS;
@@ -50,6 +62,7 @@ ClTracer::Programs& ClTracer::programs_for(int groups) {
   p.single = cl::Kernel(p.program, "rf_trace_primary");
   p.tile = cl::Kernel(p.program, "rf_trace_tiles");
   p.queries = cl::Kernel(p.program, "rf_trace_queries");
+  p.pack = cl::Kernel(p.program, "rf_pack_planes");
   programs_.push_back(p);
   return programs_.back();
 }
@@ -182,11 +195,35 @@ void ClTracer::use_rays(int slot) {
 }
 
 double ClTracer::trace(const rf_camera& cam, KernelKind kind) {
-  RF_CHECK(static_cast<size_t>(cam.width) * cam.height * cam.views <= pixel_count_, "image larger than the hit buffer");
-  const RaySlot& r = slots_[slot_];
-  if (r.ray_count == 0) return 0.0;
-  Programs& programs = programs_for(static_cast<int>(cam.views << cam.group_shift));
   const auto t0 = Clock::now();
+  enqueue_trace(cam, kind);
+  try {
+    device_.queue().finish();
+  } catch (const cl::Error& e) {
+    throw RuntimeFailure(std::string(kernel_name(kind)) + " trace kernel failed on '" + device_.info().name +
+                         "': " + cl_error_text(e));
+  }
+  return ms_since(t0);
+}
+
+namespace {
+
+// A finished command's device time in ms (the queue is profiled).
+double device_ms(const cl::Event& e) {
+  if (!e()) return 0.0;
+  const cl_ulong start = e.getProfilingInfo<CL_PROFILING_COMMAND_START>();
+  const cl_ulong end = e.getProfilingInfo<CL_PROFILING_COMMAND_END>();
+  return end > start ? static_cast<double>(end - start) * 1e-6 : 0.0;
+}
+
+}  // namespace
+
+void ClTracer::enqueue_trace(const rf_camera& cam, KernelKind kind) {
+  RF_CHECK(static_cast<size_t>(cam.width) * cam.height * cam.views <= pixel_count_, "image larger than the hit buffer");
+  last_trace_ = cl::Event();
+  const RaySlot& r = slots_[slot_];
+  if (r.ray_count == 0) return;
+  Programs& programs = programs_for(static_cast<int>(cam.views << cam.group_shift));
   try {
     cl::Kernel& kernel = kind == KernelKind::tile ? programs.tile : programs.single;
     int a = 0;
@@ -228,18 +265,111 @@ double ClTracer::trace(const rf_camera& cam, KernelKind kind) {
     }
     if (kind == KernelKind::tile) {
       // One tile per work-group: the SIMD is inside the work-item.
-      device_.queue().enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(r.tile_count), cl::NDRange(1));
+      device_.queue().enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(r.tile_count), cl::NDRange(1),
+                                           nullptr, &last_trace_);
     } else {
       constexpr size_t kGroup = 64;
       const size_t global = (r.ray_count + kGroup - 1) / kGroup * kGroup;
-      device_.queue().enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(global), cl::NDRange(kGroup));
+      device_.queue().enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(global), cl::NDRange(kGroup), nullptr,
+                                           &last_trace_);
     }
-    device_.queue().finish();
   } catch (const cl::Error& e) {
     throw RuntimeFailure(std::string(kernel_name(kind)) + " trace kernel failed on '" + device_.info().name +
                          "': " + cl_error_text(e));
   }
-  return ms_since(t0);
+}
+
+namespace {
+
+size_t plane_words(unsigned channels) {
+  return ((channels & RF_PLANE_DEPTH) ? 1u : 0u) + ((channels & RF_PLANE_NORMAL) ? 3u : 0u) +
+         ((channels & RF_PLANE_UV) ? 2u : 0u) + ((channels & RF_PLANE_INSTANCE) ? 1u : 0u) +
+         ((channels & RF_PLANE_PRIMITIVE) ? 1u : 0u);
+}
+
+}  // namespace
+
+void ClTracer::enqueue_packed_read(size_t view_pixels, unsigned views, unsigned channels, int slot) {
+  RF_CHECK(slot >= 0 && slot < kPackSlots, "packed readback slot out of range");
+  RF_CHECK(view_pixels * views <= pixel_count_, "packing more hits than the buffer holds");
+  RF_CHECK(channels != 0u && (channels & ~RF_PLANE_ALL) == 0u, "packed readback of no or unknown planes");
+  RF_CHECK(views >= 1 && views <= RF_GROUP_LIMIT, "packed readback of more views than a pass holds");
+  PinnedSlot& pin = pinned_[slot];
+  RF_CHECK(!pin.pending, "packed readback slot still being read");
+  const size_t words_per_view = plane_words(channels) * view_pixels;
+  const size_t words = words_per_view * views;
+  const uint32_t groups_per_view = static_cast<uint32_t>((view_pixels + RF_PACK_GROUP - 1) / RF_PACK_GROUP);
+  Programs& programs = programs_for(RF_MIRRORS);
+  try {
+    cl::Context& ctx = device_.context();
+    cl::CommandQueue& q = device_.queue();
+    if (!read_queue_()) read_queue_ = cl::CommandQueue(ctx, device_.device());
+    if (words > pin.capacity) {
+      if (pin.host) read_queue_.enqueueUnmapMemObject(pin.pinned, pin.host);
+      pin.host = nullptr;
+      pin.capacity = 0;
+      const size_t bytes = (words + RF_GROUP_LIMIT) * sizeof(uint32_t);
+      pin.packed = cl::Buffer(ctx, CL_MEM_READ_WRITE, words * sizeof(uint32_t));
+      pin.counts = cl::Buffer(ctx, CL_MEM_READ_WRITE, RF_GROUP_LIMIT * sizeof(uint32_t));
+      pin.pinned = cl::Buffer(ctx, CL_MEM_READ_WRITE | CL_MEM_ALLOC_HOST_PTR, bytes);
+      pin.host = static_cast<uint32_t*>(
+          read_queue_.enqueueMapBuffer(pin.pinned, CL_TRUE, CL_MAP_READ | CL_MAP_WRITE, 0, bytes));
+      pin.capacity = words;
+    }
+    const uint32_t zero = 0;
+    q.enqueueFillBuffer(pin.counts, zero, 0, views * sizeof(uint32_t));
+    cl::Kernel& k = programs.pack;
+    int a = 0;
+    k.setArg(a++, host_out_ ? host_hits_ : hits_);
+    k.setArg(a++, static_cast<uint32_t>(view_pixels));
+    k.setArg(a++, groups_per_view);
+    k.setArg(a++, static_cast<uint32_t>(channels));
+    k.setArg(a++, static_cast<cl_ulong>(words_per_view));
+    k.setArg(a++, pin.packed);
+    k.setArg(a++, pin.counts);
+    std::vector<cl::Event> packed(1);
+    q.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(static_cast<size_t>(groups_per_view) * views * RF_PACK_GROUP),
+                           cl::NDRange(RF_PACK_GROUP), nullptr, &packed[0]);
+    q.flush();
+    // Into the mapped pinned memory: the DMA a GPU does from pinned pages,
+    // without the driver's staging copy of pageable ones.
+    read_queue_.enqueueReadBuffer(pin.packed, CL_FALSE, 0, words * sizeof(uint32_t), pin.host, &packed);
+    read_queue_.enqueueReadBuffer(pin.counts, CL_FALSE, 0, views * sizeof(uint32_t), pin.host + words, &packed,
+                                  &pin.done);
+    read_queue_.flush();
+  } catch (const cl::Error& e) {
+    throw RuntimeFailure("cannot read the packed planes back from '" + device_.info().name + "': " + cl_error_text(e));
+  }
+  pin.words_per_view = words_per_view;
+  pin.views = views;
+  pin.trace = last_trace_;
+  pin.pending = true;
+}
+
+ClTracer::PackedPlanes ClTracer::wait_packed(int slot) {
+  RF_CHECK(slot >= 0 && slot < kPackSlots, "packed readback slot out of range");
+  PinnedSlot& pin = pinned_[slot];
+  RF_CHECK(pin.pending, "no packed readback in this slot");
+  const auto t0 = Clock::now();
+  try {
+    pin.done.wait();
+  } catch (const cl::Error& e) {
+    pin.pending = false;
+    throw RuntimeFailure("cannot read the packed planes back from '" + device_.info().name + "': " + cl_error_text(e));
+  }
+  pin.pending = false;
+  PackedPlanes out;
+  out.words = pin.host;
+  out.hit_counts = pin.host + pin.words_per_view * pin.views;
+  out.words_per_view = pin.words_per_view;
+  out.wait_ms = ms_since(t0);
+  try {
+    out.trace_ms = device_ms(pin.trace);
+  } catch (const cl::Error&) {
+    out.trace_ms = 0.0;  // a device without kernel profiles
+  }
+  pin.trace = cl::Event();
+  return out;
 }
 
 double ClTracer::trace_queries(const std::vector<rf_query_ray>& rays, bool any_hit, unsigned write_flags,

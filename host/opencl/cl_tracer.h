@@ -39,6 +39,9 @@ class ClTracer {
   // tile_stats: build the tile kernel with its traversal counters
   // (kernels/rf_tile.h), a diagnostic for rayfold-stats; slower.
   ClTracer(ClDevice& device, KernelPrecision precision = KernelPrecision::exact, bool tile_stats = false);
+  ~ClTracer();
+  ClTracer(const ClTracer&) = delete;
+  ClTracer& operator=(const ClTracer&) = delete;
 
   // Allocates every buffer for this scene and image size, checking the
   // device's memory first (RuntimeFailure when it would not fit).
@@ -61,7 +64,27 @@ class ClTracer {
   // runs a program built for that many (compiled on first use; prepare_groups
   // does it ahead, outside any timing).
   double trace(const rf_camera& camera, KernelKind kernel);
+  // The same without waiting: the kernel is queued and this returns at
+  // once; a packed read queued after it reports its device time.
+  void enqueue_trace(const rf_camera& camera, KernelKind kernel);
   void prepare_groups(int groups);
+
+  // Packed readback (kernels/rayfold.cl, rf_pack_planes): the planes
+  // `channels` (RF_PLANE_*) names of the last trace's hits, `views` views of
+  // view_pixels pixels each, packed on the device and read, without
+  // waiting, into pinned host memory slot `slot`. There are kPackSlots, so
+  // one pass's planes can be read on the host while the next one traces.
+  static constexpr int kPackSlots = 2;
+  void enqueue_packed_read(size_t view_pixels, unsigned views, unsigned channels, int slot);
+  struct PackedPlanes {
+    const uint32_t* words = nullptr;       // view after view, words_per_view each (rf_types.h, RF_PLANE_*)
+    const uint32_t* hit_counts = nullptr;  // per view: pixels that hit
+    size_t words_per_view = 0;
+    double wait_ms = 0.0;   // how long the host waited for the read
+    double trace_ms = 0.0;  // device time of the trace queued before the read
+  };
+  // Waits for slot's read. The words stay valid until that slot is read into again.
+  PackedPlanes wait_packed(int slot);
   // Answers ray queries (rays/ray_queries.h) through the frame uploaded
   // last, one rf_pixel_hit per ray into out (z = t); ms of kernel time.
   double trace_queries(const std::vector<rf_query_ray>& rays, bool any_hit, unsigned write_flags, rf_pixel_hit* out);
@@ -89,7 +112,7 @@ class ClTracer {
   struct Programs {
     int groups = 0;
     cl::Program program;
-    cl::Kernel single, tile, queries;
+    cl::Kernel single, tile, queries, pack;
   };
   Programs& programs_for(int groups);
 
@@ -111,6 +134,22 @@ class ClTracer {
   cl::Buffer stats_;
   cl::Buffer query_rays_, query_hits_;  // grown as queries need
   size_t query_capacity_ = 0;
+  // Packed readback, per slot: the device's packed planes and per-view hit
+  // counts, and the pinned host memory (CL_MEM_ALLOC_HOST_PTR, mapped once)
+  // they are read into; grown as passes need. The reads go through their
+  // own queue, so a GPU copies one pass back while it traces the next.
+  struct PinnedSlot {
+    cl::Buffer packed, counts;
+    cl::Buffer pinned;
+    uint32_t* host = nullptr;  // pinned's mapping: words, then one hit count per view
+    size_t capacity = 0;       // words of packed and host
+    size_t words_per_view = 0, views = 0;
+    cl::Event done, trace;
+    bool pending = false;
+  };
+  PinnedSlot pinned_[kPackSlots];
+  cl::CommandQueue read_queue_;
+  cl::Event last_trace_;
   cl::Buffer host_hits_;  // over bound host memory (CPU devices)
   rf_pixel_hit* host_out_ = nullptr;
   size_t host_count_ = 0;
