@@ -93,7 +93,14 @@ void Renderer::ensure_capacity(size_t pixels, int groups) {
 const RayList& Renderer::ray_list(const rf_camera& params, FoldMode fold) {
   static_assert(static_cast<int>(FoldMode::xy) < 4 && ClTracer::kRaySlots >= 4, "one slot per fold mode");
   CachedRays& r = rays_[static_cast<int>(fold)];
-  if (!r.built || std::memcmp(&params, &r.camera, sizeof params) != 0) {
+  // The list is pixel coordinates and fold roles: it depends on the image
+  // size and the principal point's integer coordinates, not on the field of
+  // view (scale_x, scale_y) or the fraction of the point, so views that
+  // differ only in those (random views, zooms) share it.
+  const rf_camera& c = r.camera;
+  const bool same = c.width == params.width && c.height == params.height && c.kx0 == params.kx0 &&
+                    c.ky0 == params.ky0 && c.xpair == params.xpair && c.ypair == params.ypair;
+  if (!r.built || !same) {
     r.list = make_ray_list(params, fold);
     r.camera = params;
     r.built = true;

@@ -195,9 +195,9 @@ class Renderer {
   // The CPU reference's inputs for a frame: its top level placed after the
   // bottom-level nodes (in nodes_), its normal matrices when it has its own.
   TraceInputs host_inputs(const Frame& frame);
-  // The ray list for these intrinsics and fold: it does not depend on the
-  // camera's pose, so one per fold mode (and its upload) is kept while the
-  // intrinsics stay the same.
+  // The ray list for this image and fold: it does not depend on the
+  // camera's pose or field of view, so one per fold mode (and its upload)
+  // is kept while the image size and principal point stay the same.
   const RayList& ray_list(const rf_camera& params, FoldMode fold);
 
   const Scene& scene_;

@@ -612,6 +612,32 @@ TEST(Api, SceneBytesThatAreNotWholeAreRefusedSayingWhy) {
   EXPECT_NO_THROW(Scene::from_bytes(core::scene_file_bytes(file, RAYFOLD_VERSION_STRING)));
 }
 
+// One renderer keeps a ray list while the image size and principal point
+// stay (renders of other fields of view reuse it): each view still has the
+// bits a fresh renderer gives it, folded too, and after another size.
+TEST(Api, ViewsOfAnotherFieldOfViewKeepTheirBitsWithTheKeptRayList) {
+  const Scene scene = Scene::load(RAYFOLD_SOURCE_DIR "/scenes/atrium.glb");
+  const Vec3 eye = scene.default_camera(48, 30).eye();
+  std::vector<Camera> views;
+  for (double fov : {40.0, 75.0, 52.5})
+    views.push_back(Camera::look_at(eye, {0.0, 2.0, 0.0}, {0.0, 1.0, 0.0}, fov, 41, 27));
+  views.push_back(Camera::look_at(eye, {0.0, 2.0, 0.0}, {0.0, 1.0, 0.0}, 60.0, 40, 28));
+  views.push_back(views[1]);
+  for (Backend backend : {Backend::cpu, Backend::opencl}) {
+    RendererOptions o;
+    o.backend = backend;
+    Renderer kept(scene, o);
+    for (Fold f : kFolds)
+      for (size_t v = 0; v < views.size(); ++v) {
+        Renderer fresh(scene, o);
+        EXPECT_EQ(compare_hits(to_hits(fresh.render(views[v], f)), to_hits(kept.render(views[v], f)),
+                               views[v].width()),
+                  "")
+            << "backend " << int(backend) << " fold " << int(f) << " view " << v;
+      }
+  }
+}
+
 // RAYFOLD_READBACK for one scope (the renderers made inside read it).
 class ReadbackEnv {
  public:

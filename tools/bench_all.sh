@@ -12,6 +12,8 @@
 #                      1M incoherent rays and on the random views' rays as arrays; same Python)
 #   bench_batch.py  -> out/bench/batch.md/.json (one process against rayfold-batch with 1 and 2
 #                      Ray workers, every scene, 640x480 and 1280x720; once, after the scenes)
+#   bench_readback.py -> out/bench/readback.md/.json (the frame against the trace, host-layout and
+#                      packed readback, every scene and channel set; once, after the scenes)
 #   chart_peers.py  -> out/bench/<scene>-peers.png/.svg
 #   rayfold-stats   -> out/bench/<scene>-stats.txt  (traversal counters per pixel, both kernels, none and xy)
 #   rayfold bench --align -> out/bench/<scene>-align.md/.json (views alone against aligned, the cost
@@ -81,6 +83,8 @@ run armadillo "$shared/armadillo.glb" auto --eye 0,20,170 --look-at 0,20,0
 if [ -n "$python_peers" ]; then
   "$python_peers" tools/bench_batch.py --json "$out/batch.json" > "$out/batch.md" \
     || echo "bench_all: bench_batch.py failed; out/bench/batch.md holds what it printed"
+  "$python_peers" tools/bench_readback.py --json "$out/readback.json" > "$out/readback.md" \
+    || echo "bench_all: bench_readback.py failed; out/bench/readback.md holds what it printed"
 fi
 
 align_reports=("$out"/*-align.json)

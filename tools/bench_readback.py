@@ -57,13 +57,14 @@ def same_planes(a, b):
 def load(path, readback):
     # Renderers read RAYFOLD_READBACK when made; each Scene keeps its own.
     os.environ["RAYFOLD_READBACK"] = readback
-    scene = rayfold.Scene.load(str(path))
+    scene = rayfold.Scene(str(path))
     scene.render(scene.default_camera(64, 48))  # trees and kernels, outside the timing
     return scene
 
 
 def bench_scene(path, views, width, height, chunk, repeats):
-    cameras = random_views(rayfold.Scene.load(str(path)), views, width, height, seed=7)
+    path = pathlib.Path(path)
+    cameras = random_views(rayfold.Scene(str(path)), views, width, height, seed=7)
     scenes = {mode: load(path, mode) for mode in ("hits", "packed")}
     os.environ.pop("RAYFOLD_READBACK", None)
     rows = []
@@ -103,7 +104,7 @@ def main():
     a = ap.parse_args()
     width, height = (int(x) for x in a.size.split("x"))
     scenes = a.scenes or default_scenes()
-    device = rayfold.Renderer(rayfold.Scene.load(str(scenes[0]))).device_name
+    device = rayfold.Renderer(rayfold.Scene(str(scenes[0]))).device_name
     print(f"# {a.views} random views at {a.size}, {a.chunk} per call, median of {a.repeats}; {device}")
     print(f"{'scene':18} {'channels':18} {'readback':8} {'views/s':>8} {'Gpix/s':>7} {'ms/view':>8} "
           f"{'trace ms':>8} {'frame/trace':>11}")

@@ -109,3 +109,29 @@ def test_intersect_on_incoherent_rays_agrees_with_a_float64_brute_force(atrium_p
         both = np.isfinite(t) & np.isfinite(expected)
         assert both.sum() > 200
         assert np.quantile(np.abs(t[both] - expected[both]) / expected[both], 0.99) < 1e-4
+
+
+def _bench_readback():
+    import sys
+    sys.path.insert(0, str(ROOT / "tools"))
+    spec = importlib.util.spec_from_file_location("bench_readback", ROOT / "tools" / "bench_readback.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_readback_bench_checks_the_packed_planes_and_reports_both(atrium_path, monkeypatch):
+    rb = _bench_readback()
+    rows = rb.bench_scene(atrium_path, views=4, width=64, height=48, chunk=2, repeats=1)
+    assert {(r["channels"], r["readback"]) for r in rows} == {
+        (c or "all", m) for c in rb.CHANNEL_SETS for m in ("hits", "packed")}
+    assert all(r["views_per_s"] > 0 and r["trace_ms_per_view"] > 0 for r in rows)
+    # Its check sees a plane that differs, one that is missing, and a hit count.
+    scene = rayfold.Scene(str(atrium_path))
+    cam = scene.default_camera(32, 24)
+    a, b = scene.render(cam), scene.render(cam)
+    assert rb.same_planes(a, b) == ""
+    b.depth[3, 4] += 1.0
+    assert rb.same_planes(a, b) == "depth differs"
+    c = scene.render(cam, channels="depth")
+    assert rb.same_planes(a, c) == "normal present in one only"
