@@ -318,6 +318,11 @@ void Renderer::add_range_warnings(size_t out_of_range, const char* where, std::v
                 "they may be missed");
 }
 
+// Below this many rays a tile on average, the query tile kernel's fixed
+// costs per tile (its 256 lanes are set up and written whatever the count)
+// outweigh its lanes.
+constexpr size_t kMinQueryTileRays = 128;
+
 std::vector<std::string> Renderer::intersect(const float* origins, const float* directions, size_t n, float tmin,
                                              float tmax, bool any_hit, const FrameOptions& frame_options,
                                              rf_pixel_hit* out) {
@@ -344,8 +349,13 @@ std::vector<std::string> Renderer::intersect(const float* origins, const float* 
   for (size_t begin = 0; begin < n; begin += kChunk) {
     const size_t end = std::min(n, begin + kChunk);
     to_trace_space(origins, directions, begin, end, tmin, tmax, frame, chunk);
+    // Rays that share an origin (a camera's, a sensor's, a light's) go in
+    // tiles through the tile kernel where it is the one that traces: the
+    // same bits, traced in vector lanes.
+    std::vector<uint32_t> tiles;
+    if (tracer_ && kernel_ == KernelKind::tile) tiles = shared_origin_tiles(chunk, kMinQueryTileRays);
     if (tracer_)
-      tracer_->trace_queries(chunk, any_hit, flags, out + begin);
+      tracer_->trace_queries(chunk, any_hit, flags, out + begin, tiles.empty() ? nullptr : &tiles);
     else
       trace_queries_cpu(in, chunk, any_hit, flags, out + begin, options_.threads);
   }

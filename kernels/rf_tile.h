@@ -53,6 +53,15 @@ typedef struct {
   float lo[3], hi[3];
 } rf_tile_camera;
 
+/* What a tile of ray queries adds to its rays (rf_trace_query_tile): the
+ * origin they share, per lane the direction's z and its reciprocal (no
+ * longer -1) and the ray's tmin, 3 KiB. A camera tile passes none. */
+typedef struct {
+  float o[3];
+  rf_vf dz[RF_LANE_GROUPS], iz[RF_LANE_GROUPS];
+  rf_vf tmin[RF_LANE_GROUPS];
+} rf_tile_query;
+
 /* The tile's rays in one instance's object space, 9 KiB: the shared origin
  * (the instance's translation column), per lane the reciprocal direction and
  * the shear and axis permutation of the watertight test, as rf_ray_init
@@ -91,7 +100,8 @@ RF_INLINE void rf_tile_update_tmax(rf_tile_hits* h) {
 
 /* rf_ray_to_object and rf_ray_init for every lane of the tile, unless r
  * already holds the rays of a transform with the same bits. */
-RF_INLINE void rf_tile_to_object(rf_tile_ray* r, const RF_GLOBAL float* m, const rf_tile_camera* cam RF_TSTAT_PARAM) {
+RF_INLINE void rf_tile_to_object(rf_tile_ray* r, const RF_GLOBAL float* m, const rf_tile_camera* cam,
+                                 const rf_tile_query* q RF_TSTAT_PARAM) {
   if (r->valid) {
     rf_u32 diff = 0u;
     for (int i = 0; i < 12; ++i) diff |= as_uint(m[i]) ^ r->key[i];
@@ -100,15 +110,21 @@ RF_INLINE void rf_tile_to_object(rf_tile_ray* r, const RF_GLOBAL float* m, const
   RF_TSTAT(RF_TILE_STAT_SETUPS, 1);
   r->valid = 1;
   for (int i = 0; i < 12; ++i) r->key[i] = as_uint(m[i]);
-  r->o[0] = m[3];
-  r->o[1] = m[7];
-  r->o[2] = m[11];
+  if (q) { /* rf_ray_to_object_at's origin, once for the tile */
+    const float ox = q->o[0], oy = q->o[1], oz = q->o[2];
+    r->o[0] = ((m[0] * ox + m[1] * oy) + m[2] * oz) + m[3];
+    r->o[1] = ((m[4] * ox + m[5] * oy) + m[6] * oz) + m[7];
+    r->o[2] = ((m[8] * ox + m[9] * oy) + m[10] * oz) + m[11];
+  } else {
+    r->o[0] = m[3];
+    r->o[1] = m[7];
+    r->o[2] = m[11];
+  }
   rf_vf lo0 = (rf_vf)(RF_FAR), lo1 = lo0, lo2 = lo0, hi0 = (rf_vf)(-RF_FAR), hi1 = hi0, hi2 = hi0;
   rf_vi diff = (rf_vi)(0);
   rf_i32 kx0 = 0, ky0 = 0, kz0 = 0;
-  const rf_vf dz = (rf_vf)(-1.0f);
   for (int j = 0; j < RF_LANE_GROUPS; ++j) {
-    const rf_vf dx = cam->dx[j], dy = cam->dy[j];
+    const rf_vf dx = cam->dx[j], dy = cam->dy[j], dz = q ? q->dz[j] : (rf_vf)(-1.0f);
     const rf_vf ex = m[0] * dx + m[1] * dy + m[2] * dz;
     const rf_vf ey = m[4] * dx + m[5] * dy + m[6] * dz;
     const rf_vf ez = m[8] * dx + m[9] * dy + m[10] * dz;
@@ -163,7 +179,7 @@ RF_INLINE void rf_tile_to_object(rf_tile_ray* r, const RF_GLOBAL float* m, const
  * nearer than the lane's entry into the leaf, leaf_t (rf_hit_distance).
  * Returns nonzero when some lane took it. */
 RF_INLINE int rf_tile_triangle(const RF_GLOBAL rf_tri* tri, rf_u32 ti, const rf_tile_ray* r, rf_u32 instance_id,
-                               rf_u32 lanes, const rf_vi* lane_in, const rf_vf* leaf_t,
+                               rf_u32 lanes, const rf_vi* lane_in, const rf_vf* leaf_t, const rf_vf* tmin,
                                rf_tile_hits* h RF_TSTAT_PARAM) {
   const float a0 = tri->v0[0] - r->o[0], a1 = tri->v0[1] - r->o[1], a2 = tri->v0[2] - r->o[2];
   const float b0 = tri->v1[0] - r->o[0], b1 = tri->v1[1] - r->o[1], b2 = tri->v1[2] - r->o[2];
@@ -204,7 +220,7 @@ RF_INLINE int rf_tile_triangle(const RF_GLOBAL rf_tri* tri, rf_u32 ti, const rf_
                              &ew, &det);
     }
     if (!rf_lanes_any(ok)) continue;
-    const rf_vi positive = t > (rf_vf)(0.0f);
+    const rf_vi positive = t > (tmin ? tmin[j] : (rf_vf)(0.0f)); /* beyond tmin: 0 for camera rays */
     /* rf_hit_is_closer lane by lane. */
     t = select(t, leaf_t[j], t < leaf_t[j]); /* rf_hit_distance */
     const rf_vf bt = h->t[j];
@@ -334,7 +350,7 @@ RF_INLINE rf_u32 rf_tile_keep_groups(const float c0[3], const float c1[3], const
  * have a ray in the box, for the lanes in `entered`. */
 RF_INLINE void rf_tile_leaf(const float c0[3], const float c1[3], rf_u32 first_tri, rf_u32 count,
                             const RF_GLOBAL rf_tri* tris, const rf_tile_ray* r, rf_u32 instance_id,
-                            const rf_vi* entered, rf_u32 groups, rf_tile_hits* h RF_TSTAT_PARAM) {
+                            const rf_vi* entered, rf_u32 groups, const rf_vf* tmin, rf_tile_hits* h RF_TSTAT_PARAM) {
   rf_vi lane_in[RF_LANE_GROUPS];
   rf_vf leaf_t[RF_LANE_GROUPS];
   rf_u32 lanes = 0u;
@@ -350,7 +366,7 @@ RF_INLINE void rf_tile_leaf(const float c0[3], const float c1[3], rf_u32 first_t
   int taken = 0;
   for (rf_u32 k = 0; k < count; ++k) {
     const rf_u32 ti = first_tri + k;
-    taken |= rf_tile_triangle(&tris[ti], ti, r, instance_id, lanes, lane_in, leaf_t, h RF_TSTAT_ARG);
+    taken |= rf_tile_triangle(&tris[ti], ti, r, instance_id, lanes, lane_in, leaf_t, tmin, h RF_TSTAT_ARG);
   }
   if (taken) rf_tile_update_tmax(h);
 }
@@ -432,7 +448,7 @@ RF_INLINE int rf_tile_push_wide(const RF_GLOBAL rf_wide_node* wide, rf_u32 w, co
  * lane groups of `range`. */
 RF_INLINE void rf_tile_trace_blas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_wide_node* wide,
                                   const RF_GLOBAL rf_tri* tris, rf_u32 root, rf_u32 wide_root, const rf_tile_ray* r,
-                                  rf_u32 instance_id, const rf_vi* entered, rf_u32 range,
+                                  rf_u32 instance_id, const rf_vi* entered, rf_u32 range, const rf_vf* tmin,
                                   rf_tile_hits* h RF_TSTAT_PARAM) {
   rf_u32 groups = RF_RANGE_MASK(RF_RANGE_FIRST(range), RF_RANGE_LAST(range));
   {
@@ -442,7 +458,7 @@ RF_INLINE void rf_tile_trace_blas(const RF_GLOBAL rf_node* nodes, const RF_GLOBA
     if (rf_interval_box(c0, c1, r->lo, r->hi, h->tmax) == RF_FAR) return;
     RF_TSTAT(RF_TILE_STAT_BLAS_NODES, 1);
     if (wide_root == RF_INVALID) { /* the root is a leaf */
-      rf_tile_leaf(c0, c1, n->first, n->meta & RF_NODE_COUNT_MASK, tris, r, instance_id, entered, groups,
+      rf_tile_leaf(c0, c1, n->first, n->meta & RF_NODE_COUNT_MASK, tris, r, instance_id, entered, groups, tmin,
                    h RF_TSTAT_ARG);
       return;
     }
@@ -465,7 +481,7 @@ RF_INLINE void rf_tile_trace_blas(const RF_GLOBAL rf_node* nodes, const RF_GLOBA
     const rf_u32 groups = stack_groups[sp];
     const rf_u32 count = p->count[k];
     if (count != 0u) {
-      rf_tile_leaf(c0, c1, p->child[k], count, tris, r, instance_id, entered, groups, h RF_TSTAT_ARG);
+      rf_tile_leaf(c0, c1, p->child[k], count, tris, r, instance_id, entered, groups, tmin, h RF_TSTAT_ARG);
       continue;
     }
     /* Interior: go on with the lane groups that enter the box. */
@@ -497,15 +513,21 @@ RF_INLINE float rf_tile_group_bound(rf_u32 groups, const rf_tile_hits* hits) {
 RF_INLINE void rf_tile_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_wide_node* wide,
                                   const RF_GLOBAL rf_tri* tris,
                                   const RF_GLOBAL rf_instance* instances, rf_u32 tlas_root, const rf_tile_camera* cam,
-                                  rf_u32 tile_groups, rf_tile_ray* ro, rf_tile_hits* hits RF_TSTAT_PARAM) {
+                                  const rf_tile_query* q, rf_u32 tile_groups, rf_tile_ray* ro,
+                                  rf_tile_hits* hits RF_TSTAT_PARAM) {
+  /* Camera rays start at the trace-space origin; boxes less +0 keep their
+   * bits, as the scalar code's box minus its origin does. */
+  const float o0 = q ? q->o[0] : 0.0f, o1 = q ? q->o[1] : 0.0f, o2 = q ? q->o[2] : 0.0f;
+  const rf_vf* iz = q ? q->iz : 0;
+  const rf_vf* tmin = q ? q->tmin : 0;
   rf_u32 stack_node[RF_STACK_SIZE];
   float stack_t[RF_STACK_SIZE];
   rf_u32 stack_range[RF_STACK_SIZE];
   int sp = 0;
   {
     const RF_GLOBAL rf_node* n = &nodes[tlas_root];
-    const float c0[3] = {n->bmin[0] - 0.0f, n->bmin[1] - 0.0f, n->bmin[2] - 0.0f};
-    const float c1[3] = {n->bmax[0] - 0.0f, n->bmax[1] - 0.0f, n->bmax[2] - 0.0f};
+    const float c0[3] = {n->bmin[0] - o0, n->bmin[1] - o1, n->bmin[2] - o2};
+    const float c1[3] = {n->bmax[0] - o0, n->bmax[1] - o1, n->bmax[2] - o2};
     const float tn = rf_interval_box(c0, c1, cam->lo, cam->hi, rf_tile_group_bound(n->meta & tile_groups, hits));
     if (tn == RF_FAR) return;
     stack_node[0] = tlas_root;
@@ -521,10 +543,10 @@ RF_INLINE void rf_tile_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBA
     RF_TSTAT(RF_TILE_STAT_TLAS_NODES, 1);
     const rf_u32 count = n->first >> RF_TLAS_COUNT_SHIFT;
     const rf_u32 first_item = n->first & RF_TLAS_INDEX_MASK;
-    const float c0[3] = {n->bmin[0] - 0.0f, n->bmin[1] - 0.0f, n->bmin[2] - 0.0f};
-    const float c1[3] = {n->bmax[0] - 0.0f, n->bmax[1] - 0.0f, n->bmax[2] - 0.0f};
+    const float c0[3] = {n->bmin[0] - o0, n->bmin[1] - o1, n->bmin[2] - o2};
+    const float c1[3] = {n->bmax[0] - o0, n->bmax[1] - o1, n->bmax[2] - o2};
     int first = RF_RANGE_FIRST(stack_range[sp]), last = RF_RANGE_LAST(stack_range[sp]);
-    if (!rf_tile_narrow(c0, c1, cam->ix, cam->iy, 0, hits, groups, &first, &last,
+    if (!rf_tile_narrow(c0, c1, cam->ix, cam->iy, iz, hits, groups, &first, &last,
                         RF_TILE_STAT_TLAS_LANE_BOXES RF_TSTAT_ARG))
       continue;
     const rf_u32 range = RF_RANGE(first, last);
@@ -532,7 +554,7 @@ RF_INLINE void rf_tile_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBA
       /* The lanes whose own test enters this leaf; the others must not take
        * hits below it (see the top of this file). */
       rf_vi entered[RF_LANE_GROUPS];
-      for (int j = first; j <= last; ++j) entered[j] = rf_tile_lane_box(c0, c1, cam->ix, cam->iy, 0, hits, groups, j);
+      for (int j = first; j <= last; ++j) entered[j] = rf_tile_lane_box(c0, c1, cam->ix, cam->iy, iz, hits, groups, j);
       RF_TSTAT(RF_TILE_STAT_TLAS_LANE_BOXES, last - first + 1);
       for (rf_u32 k = 0; k < count; ++k) {
         const RF_GLOBAL rf_instance* inst = &instances[first_item + k];
@@ -542,9 +564,9 @@ RF_INLINE void rf_tile_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBA
         if (h->tmax < 0.0f) continue; /* no lane answers this group */
         RF_TSTAT(RF_TILE_STAT_INSTANCES, 1);
         rf_tile_ray* r = &ro[g];
-        rf_tile_to_object(r, inst->tree_from_trace, cam RF_TSTAT_ARG);
+        rf_tile_to_object(r, inst->tree_from_trace, cam, q RF_TSTAT_ARG);
         rf_tile_trace_blas(nodes, wide, tris, inst->blas_root, inst->wide_root, r, inst->instance_id, entered, range,
-                           h RF_TSTAT_ARG);
+                           tmin, h RF_TSTAT_ARG);
       }
       continue;
     }
@@ -552,12 +574,69 @@ RF_INLINE void rf_tile_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBA
     float tc[2];
     for (int s = 0; s < 2; ++s) {
       const RF_GLOBAL rf_node* ch = &nodes[c + s];
-      const float d0[3] = {ch->bmin[0] - 0.0f, ch->bmin[1] - 0.0f, ch->bmin[2] - 0.0f};
-      const float d1[3] = {ch->bmax[0] - 0.0f, ch->bmax[1] - 0.0f, ch->bmax[2] - 0.0f};
+      const float d0[3] = {ch->bmin[0] - o0, ch->bmin[1] - o1, ch->bmin[2] - o2};
+      const float d1[3] = {ch->bmax[0] - o0, ch->bmax[1] - o1, ch->bmax[2] - o2};
       tc[s] = rf_interval_box(d0, d1, cam->lo, cam->hi, rf_tile_group_bound(ch->meta & tile_groups, hits));
     }
     sp = rf_tile_push_children(stack_node, stack_t, stack_range, sp, c, tc, range);
   }
+}
+
+/* rf_geometric_normal for the lanes of lane group j that hit (hit: their
+ * mask), with the scalar code's operations per lane; 0 where a lane
+ * missed or its triangle is degenerate. */
+RF_INLINE void rf_tile_lane_normals(const rf_tile_hits* h, int j, rf_vi hit, const RF_GLOBAL rf_tri* tris,
+                                    const RF_GLOBAL rf_normal_xform* normal_xforms, rf_vf* nx, rf_vf* ny,
+                                    rf_vf* nz) {
+  /* Each lane's triangle and normal matrix (lane 0's where a lane missed;
+   * its result is replaced below): one load for the whole vector when its
+   * lanes agree, as on large triangles and within one instance, else a
+   * gather. */
+  float gv[9][RF_LANES], gm[9][RF_LANES];
+  const rf_u32* tri_idx = (const rf_u32*)&h->tri[j];
+  const rf_u32* inst_idx = (const rf_u32*)&h->instance[j];
+  const rf_vi all_hit = ~hit;
+  const int one_tri = !rf_lanes_any(all_hit | (h->tri[j] != (rf_vu)(tri_idx[0])));
+  const int one_inst = !rf_lanes_any(all_hit | (h->instance[j] != (rf_vu)(inst_idx[0])));
+  for (int l = 0; l < RF_LANES; ++l) {
+    const int lane_hit = inst_idx[l] != RF_INVALID;
+    if (!one_tri || l == 0) {
+      const RF_GLOBAL rf_tri* tri = &tris[lane_hit ? tri_idx[l] : 0u];
+      for (int k = 0; k < 3; ++k) {
+        gv[k][l] = tri->v0[k];
+        gv[3 + k][l] = tri->v1[k];
+        gv[6 + k][l] = tri->v2[k];
+      }
+    }
+    if (!one_inst || l == 0) {
+      const RF_GLOBAL float* m = normal_xforms[lane_hit ? inst_idx[l] : 0u].m;
+      for (int k = 0; k < 9; ++k) gm[k][l] = m[k];
+    }
+  }
+#define RF_G(a, k) (one_##a ? (rf_vf)(a[k][0]) : *(const rf_vf*)a[k])
+#define one_gv one_tri
+#define one_gm one_inst
+  const rf_vf e1x = RF_G(gv, 3) - RF_G(gv, 0), e1y = RF_G(gv, 4) - RF_G(gv, 1), e1z = RF_G(gv, 5) - RF_G(gv, 2);
+  const rf_vf e2x = RF_G(gv, 6) - RF_G(gv, 0), e2y = RF_G(gv, 7) - RF_G(gv, 1), e2z = RF_G(gv, 8) - RF_G(gv, 2);
+  const rf_vf cx = e1y * e2z - e1z * e2y;
+  const rf_vf cy = e1z * e2x - e1x * e2z;
+  const rf_vf cz = e1x * e2y - e1y * e2x;
+  rf_vf wx = RF_G(gm, 0) * cx + RF_G(gm, 1) * cy + RF_G(gm, 2) * cz;
+  rf_vf wy = RF_G(gm, 3) * cx + RF_G(gm, 4) * cy + RF_G(gm, 5) * cz;
+  rf_vf wz = RF_G(gm, 6) * cx + RF_G(gm, 7) * cy + RF_G(gm, 8) * cz;
+#undef RF_G
+#undef one_gv
+#undef one_gm
+  const rf_vf big = rf_lanes_max(rf_lanes_max(fabs(wx), fabs(wy)), fabs(wz));
+  const rf_vi degenerate = ~(big > (rf_vf)(0.0f));
+  wx = wx / big;
+  wy = wy / big;
+  wz = wz / big;
+  const rf_vf len = sqrt(wx * wx + wy * wy + wz * wz);
+  const rf_vi zero = degenerate | ~hit;
+  *nx = select(wx / len, (rf_vf)(0.0f), zero);
+  *ny = select(wy / len, (rf_vf)(0.0f), zero);
+  *nz = select(wz / len, (rf_vf)(0.0f), zero);
 }
 
 /* rf_write_pixel for every lane of the tile that answers group g, lane by
@@ -583,55 +662,7 @@ RF_INLINE void rf_tile_write_group(const RF_GLOBAL rf_u32* rays, rf_u32 begin, r
       nx[j] = ny[j] = nz[j] = (rf_vf)(0.0f);
       continue;
     }
-    /* Each lane's triangle and normal matrix (lane 0's where a lane missed;
-     * its result is replaced below): one load for the whole vector when its
-     * lanes agree, as on large triangles and within one instance, else a
-     * gather. */
-    float gv[9][RF_LANES], gm[9][RF_LANES];
-    const rf_u32* tri_idx = (const rf_u32*)&h->tri[j];
-    const rf_u32* inst_idx = (const rf_u32*)&h->instance[j];
-    const rf_vi all_hit = ~hit;
-    const int one_tri = !rf_lanes_any(all_hit | (h->tri[j] != (rf_vu)(tri_idx[0])));
-    const int one_inst = !rf_lanes_any(all_hit | (h->instance[j] != (rf_vu)(inst_idx[0])));
-    for (int l = 0; l < RF_LANES; ++l) {
-      const int lane_hit = inst_idx[l] != RF_INVALID;
-      if (!one_tri || l == 0) {
-        const RF_GLOBAL rf_tri* tri = &tris[lane_hit ? tri_idx[l] : 0u];
-        for (int k = 0; k < 3; ++k) {
-          gv[k][l] = tri->v0[k];
-          gv[3 + k][l] = tri->v1[k];
-          gv[6 + k][l] = tri->v2[k];
-        }
-      }
-      if (!one_inst || l == 0) {
-        const RF_GLOBAL float* m = normal_xforms[lane_hit ? inst_idx[l] : 0u].m;
-        for (int k = 0; k < 9; ++k) gm[k][l] = m[k];
-      }
-    }
-#define RF_G(a, k) (one_##a ? (rf_vf)(a[k][0]) : *(const rf_vf*)a[k])
-#define one_gv one_tri
-#define one_gm one_inst
-    const rf_vf e1x = RF_G(gv, 3) - RF_G(gv, 0), e1y = RF_G(gv, 4) - RF_G(gv, 1), e1z = RF_G(gv, 5) - RF_G(gv, 2);
-    const rf_vf e2x = RF_G(gv, 6) - RF_G(gv, 0), e2y = RF_G(gv, 7) - RF_G(gv, 1), e2z = RF_G(gv, 8) - RF_G(gv, 2);
-    const rf_vf cx = e1y * e2z - e1z * e2y;
-    const rf_vf cy = e1z * e2x - e1x * e2z;
-    const rf_vf cz = e1x * e2y - e1y * e2x;
-    rf_vf wx = RF_G(gm, 0) * cx + RF_G(gm, 1) * cy + RF_G(gm, 2) * cz;
-    rf_vf wy = RF_G(gm, 3) * cx + RF_G(gm, 4) * cy + RF_G(gm, 5) * cz;
-    rf_vf wz = RF_G(gm, 6) * cx + RF_G(gm, 7) * cy + RF_G(gm, 8) * cz;
-#undef RF_G
-#undef one_gv
-#undef one_gm
-    const rf_vf big = rf_lanes_max(rf_lanes_max(fabs(wx), fabs(wy)), fabs(wz));
-    const rf_vi degenerate = ~(big > (rf_vf)(0.0f));
-    wx = wx / big;
-    wy = wy / big;
-    wz = wz / big;
-    const rf_vf len = sqrt(wx * wx + wy * wy + wz * wz);
-    const rf_vi zero = degenerate | ~hit;
-    nx[j] = select(wx / len, (rf_vf)(0.0f), zero);
-    ny[j] = select(wy / len, (rf_vf)(0.0f), zero);
-    nz[j] = select(wz / len, (rf_vf)(0.0f), zero);
+    rf_tile_lane_normals(h, j, hit, tris, normal_xforms, &nx[j], &ny[j], &nz[j]);
   }
   const float* zs = (const float*)z;
   const float* xs = (const float*)nx;
@@ -715,11 +746,97 @@ RF_INLINE void rf_trace_tile(const RF_GLOBAL rf_u32* rays, rf_u32 begin, rf_u32 
   for (int g = 0; g < RF_MAX_GROUPS; ++g) hits[g].tmax = ((tile_groups >> g) & 1u) ? RF_FAR : -1.0f;
 
   if (tlas_root != RF_INVALID)
-    rf_tile_trace_tlas(nodes, wide, tris, instances, tlas_root, &tc, tile_groups, ro, hits RF_TSTAT_ARG);
+    rf_tile_trace_tlas(nodes, wide, tris, instances, tlas_root, &tc, 0, tile_groups, ro, hits RF_TSTAT_ARG);
 
   RF_FOR_EACH_GROUP(g, tile_groups) {
     rf_tile_write_group(rays, begin, count, cam, lane_groups, &tc, &hits[g], g, depth_scales[g >> cam->group_shift],
                         tris, normal_xforms, out);
+  }
+}
+
+/* Answers a tile of ray queries that share one origin (bit for bit):
+ * rays[begin .. begin + count), count at most RF_TILE_RAYS, each ray's
+ * closest hit with tmin < t <= tmax written to out[begin + l] as
+ * rf_trace_query writes it (z = t). The same lanes as a camera tile, with
+ * the shared origin, per-lane z directions and tmin of rf_tile_query; one
+ * transform group, as a query frame has. Every lane gives the bits of the
+ * scalar rf_trace_query of its ray (the reasons at the top of this file). */
+RF_INLINE void rf_trace_query_tile(const RF_GLOBAL rf_query_ray* rays, rf_u32 begin, rf_u32 count,
+                                   const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_wide_node* wide,
+                                   const RF_GLOBAL rf_tri* tris, const RF_GLOBAL rf_instance* instances,
+                                   const RF_GLOBAL rf_normal_xform* normal_xforms, rf_u32 tlas_root,
+                                   rf_u32 write_flags, RF_GLOBAL rf_pixel_hit* out RF_TSTAT_PARAM) {
+  rf_tile_camera tc;
+  rf_tile_query q;
+  rf_tile_hits hits[1];
+  rf_tile_ray ro[1];
+  ro[0].valid = 0;
+  float* dx = (float*)tc.dx;
+  float* dy = (float*)tc.dy;
+  float* dz = (float*)q.dz;
+  float* tmin = (float*)q.tmin;
+  float* tmax = (float*)hits[0].t;
+  for (int a = 0; a < 3; ++a) q.o[a] = rays[begin].o[a];
+  for (int l = 0; l < RF_TILE_RAYS; ++l) {
+    const RF_GLOBAL rf_query_ray* r = &rays[begin + ((rf_u32)l < count ? (rf_u32)l : count - 1u)];
+    dx[l] = r->d[0];
+    dy[l] = r->d[1];
+    dz[l] = r->d[2];
+    tmin[l] = r->tmin;
+    tmax[l] = r->tmax; /* the hit to beat starts at tmax, as rf_trace_query's */
+  }
+  rf_vf lo0 = (rf_vf)(RF_FAR), lo1 = lo0, lo2 = lo0, hi0 = (rf_vf)(-RF_FAR), hi1 = hi0, hi2 = hi0;
+  for (int j = 0; j < RF_LANE_GROUPS; ++j) {
+    tc.ix[j] = rf_lanes_reciprocal(tc.dx[j]);
+    tc.iy[j] = rf_lanes_reciprocal(tc.dy[j]);
+    q.iz[j] = rf_lanes_reciprocal(q.dz[j]);
+    lo0 = fmin(lo0, tc.ix[j]);
+    lo1 = fmin(lo1, tc.iy[j]);
+    lo2 = fmin(lo2, q.iz[j]);
+    hi0 = fmax(hi0, tc.ix[j]);
+    hi1 = fmax(hi1, tc.iy[j]);
+    hi2 = fmax(hi2, q.iz[j]);
+    hits[0].u[j] = (rf_vf)(0.0f);
+    hits[0].v[j] = (rf_vf)(0.0f);
+    hits[0].instance[j] = (rf_vu)(RF_INVALID);
+    hits[0].prim[j] = (rf_vu)(RF_INVALID);
+    hits[0].tri[j] = (rf_vu)(RF_INVALID);
+  }
+  tc.lo[0] = rf_lanes_hmin(lo0);
+  tc.lo[1] = rf_lanes_hmin(lo1);
+  tc.lo[2] = rf_lanes_hmin(lo2);
+  tc.hi[0] = rf_lanes_hmax(hi0);
+  tc.hi[1] = rf_lanes_hmax(hi1);
+  tc.hi[2] = rf_lanes_hmax(hi2);
+  rf_tile_update_tmax(&hits[0]);
+  if (tlas_root != RF_INVALID)
+    rf_tile_trace_tlas(nodes, wide, tris, instances, tlas_root, &tc, &q, 1u, ro, hits RF_TSTAT_ARG);
+
+  rf_vf nx[RF_LANE_GROUPS], ny[RF_LANE_GROUPS], nz[RF_LANE_GROUPS];
+  for (int j = 0; j < RF_LANE_GROUPS; ++j) {
+    const rf_vi hit = hits[0].instance[j] != (rf_vu)(RF_INVALID);
+    if (!rf_lanes_any(hit) || (write_flags & RF_WRITE_NO_NORMALS)) {
+      nx[j] = ny[j] = nz[j] = (rf_vf)(0.0f);
+      continue;
+    }
+    rf_tile_lane_normals(&hits[0], j, hit, tris, normal_xforms, &nx[j], &ny[j], &nz[j]);
+  }
+  const float* ts = (const float*)hits[0].t;
+  const float* xs = (const float*)nx;
+  const float* ys = (const float*)ny;
+  const float* ws = (const float*)nz;
+  const float* us = (const float*)hits[0].u;
+  const float* vs = (const float*)hits[0].v;
+  const rf_u32* is = (const rf_u32*)hits[0].instance;
+  const rf_u32* ps = (const rf_u32*)hits[0].prim;
+  for (rf_u32 l = 0; l < count; ++l) {
+    const int hit = is[l] != RF_INVALID;
+    /* z: t * 1 * 1, as rf_write_pixel's query form; as integers, as the
+     * camera tile's stores. */
+    const uint8 px_hit = (uint8)(as_uint(hit ? ts[l] : RF_INF), as_uint(xs[l]), as_uint(ys[l]), as_uint(ws[l]),
+                                 as_uint(hit ? us[l] : 0.0f), as_uint(hit ? vs[l] : 0.0f), is[l],
+                                 hit ? ps[l] : RF_INVALID);
+    vstore8(px_hit, 0, (RF_GLOBAL rf_u32*)&out[begin + l]);
   }
 }
 

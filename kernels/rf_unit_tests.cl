@@ -81,7 +81,7 @@ RF_INLINE void ut_tile_rays(__global const float* xf, __global const float* dirs
     dy[l] = dirs[2 * l + 1];
   }
   r->valid = 0;
-  rf_tile_to_object(r, xf, tc);
+  rf_tile_to_object(r, xf, tc, 0);
 }
 
 /* out per lane: invd[3], sx, sy, sz, kx, ky, kz; then lo[3], hi[3], uniform. */
@@ -152,7 +152,7 @@ __kernel void ut_tile_triangle(__global const rf_tri* tris, __global const float
     h.instance[j] = h.prim[j] = h.tri[j] = (rf_vu)(RF_INVALID);
     all[j] = (rf_vi)(-1);
   }
-  rf_tile_triangle(&tris[i], 0u, &r, 0u, 0xFFFFFFFFu >> (32 - RF_LANE_GROUPS), all, leaf_t, &h);
+  rf_tile_triangle(&tris[i], 0u, &r, 0u, 0xFFFFFFFFu >> (32 - RF_LANE_GROUPS), all, leaf_t, 0, &h);
   for (int l = 0; l < RF_TILE_RAYS; ++l) {
     const int hit = ((const rf_u32*)h.tri)[l] != RF_INVALID;
     __global float* o = out + 4 * (RF_TILE_RAYS * i + l);

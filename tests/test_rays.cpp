@@ -26,13 +26,20 @@ struct Rays {
 // Origins inside the bounds (some inside objects) and a little beyond;
 // half the directions toward a random point of a random instance's
 // triangle, the others anywhere, a tenth of those along an axis; lengths
-// from 1e-3 to 1e3.
-Rays random_rays(Rng& rng, const Scene& scene, size_t n) {
+// from 1e-3 to 1e3. With runs, consecutive rays in runs of those lengths
+// share an origin (the rest of the rays one each).
+Rays random_rays(Rng& rng, const Scene& scene, size_t n, const std::vector<size_t>& runs = {}) {
   Rays r;
   const Aabb b = scene.world_bounds();
   const glm::vec3 e = b.extent();
+  size_t run = 0, left = 0;
   for (size_t i = 0; i < n; ++i) {
-    for (int k = 0; k < 3; ++k) r.o.push_back(rng.uniformf(b.lo[k] - 0.2f * e[k], b.hi[k] + 0.2f * e[k]));
+    if (left > 0 && --left > 0) {
+      for (int k = 0; k < 3; ++k) r.o.push_back(r.o[3 * (i - 1) + k]);
+    } else {
+      left = run < runs.size() ? runs[run++] : 1;
+      for (int k = 0; k < 3; ++k) r.o.push_back(rng.uniformf(b.lo[k] - 0.2f * e[k], b.hi[k] + 0.2f * e[k]));
+    }
     float d[3];
     do {
       for (float& c : d) c = rng.uniformf(-1.0f, 1.0f);
@@ -115,6 +122,52 @@ TEST(RayQuery, OpenClKernelEqualsTheCpuReference) {
     EXPECT_EQ(differences(query(cpu, rays, 0.0f, INFINITY, true), query(cl, rays, 0.0f, INFINITY, true)), "")
         << "scene " << s << ", occlusion";
   }
+}
+
+// Rays in runs that share an origin (a camera's, a sensor's, a light's) go
+// through the query tile kernel in vector lanes: every field the CPU
+// reference's bits and the single-ray kernel's, with tmin and tmax, for
+// runs that are not whole tiles; occlusion the same answers.
+TEST(RayQuery, SharedOriginTilesEqualTheCpuReference) {
+  Rng rng(2024);
+  for (int s = 0; s < 4; ++s) {
+    const Scene scene = testing::random_scene(rng, 1 + rng.below(4), 1 + rng.below(12), 20 + rng.below(300));
+    // Runs of 1000, 700, 1300 (five tiles and a part) and 1000 rays from
+    // one origin each.
+    const Rays rays = random_rays(rng, scene, 4000, {1000, 700, 1300, 1000});
+    RendererOptions opt;
+    opt.backend = Backend::cpu;
+    Renderer cpu(scene, opt);
+    opt.backend = Backend::opencl;
+    opt.kernel = KernelChoice::tile;
+    Renderer tiles(scene, opt);
+    opt.kernel = KernelChoice::single;
+    Renderer single(scene, opt);
+    const Frame frame = build_query_frame(scene, cpu.scene_data(), rays.o.data(), rays.size(), FrameOptions{});
+    std::vector<rf_query_ray> traced;
+    to_trace_space(rays.o.data(), rays.d.data(), 0, rays.size(), 0.0f, INFINITY, frame, traced);
+    ASSERT_EQ(shared_origin_tiles(traced, 128).size(), 1 + 4 + 3 + 6 + 4) << "the runs as tiles";
+    const float tmin = 0.0f, tmax = INFINITY;
+    for (auto [lo, hi] : {std::pair{tmin, tmax}, std::pair{0.5f, tmax}, std::pair{0.0f, 2.0f}}) {
+      const std::vector<rf_pixel_hit> want = query(cpu, rays, lo, hi);
+      size_t hits = 0;
+      for (const rf_pixel_hit& h : want) hits += h.instance != RF_INVALID;
+      EXPECT_GT(hits, rays.size() / 20) << "scene " << s;
+      EXPECT_EQ(differences(want, query(tiles, rays, lo, hi)), "") << "scene " << s << " tmin " << lo << " tmax " << hi;
+      EXPECT_EQ(differences(want, query(single, rays, lo, hi)), "") << "scene " << s;
+      // Occlusion answers whether a hit exists: the tiles find the closest
+      // where the single ray stops at its first.
+      const std::vector<rf_pixel_hit> any = query(cpu, rays, lo, hi, true), tiled = query(tiles, rays, lo, hi, true);
+      size_t differ = 0;
+      for (size_t i = 0; i < rays.size(); ++i)
+        differ += (any[i].instance != RF_INVALID) != (tiled[i].instance != RF_INVALID);
+      EXPECT_EQ(differ, 0u) << "scene " << s << ", occlusion";
+    }
+  }
+  // Rays from many origins are not tiled.
+  std::vector<rf_query_ray> scattered(1000);
+  for (size_t i = 0; i < scattered.size(); ++i) scattered[i].o[0] = static_cast<float>(i);
+  EXPECT_TRUE(shared_origin_tiles(scattered, 128).empty());
 }
 
 // The exact (double) hit of the same float ray on every triangle in world

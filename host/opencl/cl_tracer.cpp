@@ -62,6 +62,7 @@ ClTracer::Programs& ClTracer::programs_for(int groups) {
   p.single = cl::Kernel(p.program, "rf_trace_primary");
   p.tile = cl::Kernel(p.program, "rf_trace_tiles");
   p.queries = cl::Kernel(p.program, "rf_trace_queries");
+  p.query_tiles = cl::Kernel(p.program, "rf_trace_query_tiles");
   p.pack = cl::Kernel(p.program, "rf_pack_planes");
   programs_.push_back(p);
   return programs_.back();
@@ -373,7 +374,7 @@ ClTracer::PackedPlanes ClTracer::wait_packed(int slot) {
 }
 
 double ClTracer::trace_queries(const std::vector<rf_query_ray>& rays, bool any_hit, unsigned write_flags,
-                               rf_pixel_hit* out) {
+                               rf_pixel_hit* out, const std::vector<uint32_t>* tiles) {
   if (rays.empty()) return 0.0;
   Programs& programs = programs_for(RF_MIRRORS);
   const auto t0 = Clock::now();
@@ -385,6 +386,32 @@ double ClTracer::trace_queries(const std::vector<rf_query_ray>& rays, bool any_h
     }
     cl::CommandQueue& q = device_.queue();
     q.enqueueWriteBuffer(query_rays_, CL_FALSE, 0, rays.size() * sizeof(rf_query_ray), rays.data());
+    if (tiles) {
+      RF_CHECK(tiles->size() >= 2 && tiles->front() == 0 && tiles->back() == rays.size(),
+               "query tiles do not cover the rays");
+      if (tiles->size() > query_tiles_capacity_) {
+        query_tiles_ = cl::Buffer(device_.context(), CL_MEM_READ_ONLY, tiles->size() * sizeof(uint32_t));
+        query_tiles_capacity_ = tiles->size();
+      }
+      q.enqueueWriteBuffer(query_tiles_, CL_FALSE, 0, tiles->size() * sizeof(uint32_t), tiles->data());
+      cl::Kernel& kernel = programs.query_tiles;
+      int a = 0;
+      kernel.setArg(a++, nodes_);
+      kernel.setArg(a++, wide_nodes_);
+      kernel.setArg(a++, tris_);
+      kernel.setArg(a++, instances_);
+      kernel.setArg(a++, normal_xforms_);
+      kernel.setArg(a++, tlas_root_);
+      kernel.setArg(a++, query_rays_);
+      kernel.setArg(a++, query_tiles_);
+      kernel.setArg(a++, static_cast<uint32_t>(tiles->size() - 1));
+      kernel.setArg(a++, static_cast<uint32_t>(write_flags));
+      kernel.setArg(a++, query_hits_);
+      // One tile per work-group, as the camera tile kernel.
+      q.enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(tiles->size() - 1), cl::NDRange(1));
+      q.enqueueReadBuffer(query_hits_, CL_TRUE, 0, rays.size() * sizeof(rf_pixel_hit), out);
+      return ms_since(t0);
+    }
     cl::Kernel& kernel = programs.queries;
     int a = 0;
     kernel.setArg(a++, nodes_);

@@ -87,7 +87,11 @@ class ClTracer {
   PackedPlanes wait_packed(int slot);
   // Answers ray queries (rays/ray_queries.h) through the frame uploaded
   // last, one rf_pixel_hit per ray into out (z = t); ms of kernel time.
-  double trace_queries(const std::vector<rf_query_ray>& rays, bool any_hit, unsigned write_flags, rf_pixel_hit* out);
+  // With tiles (shared_origin_tiles: consecutive rays of one origin, at
+  // most RF_TILE_RAYS each), the query tile kernel answers them, closest
+  // hits only: an any-hit query's answer, hit or not, is the same.
+  double trace_queries(const std::vector<rf_query_ray>& rays, bool any_hit, unsigned write_flags, rf_pixel_hit* out,
+                       const std::vector<uint32_t>* tiles = nullptr);
   // Milliseconds spent building programs so far: about 2 s on a machine's
   // first use of this rayfold version with PoCL, about 0.1 s once PoCL's
   // cache ($XDG_CACHE_HOME/pocl or ~/.cache/pocl) holds them.
@@ -112,7 +116,7 @@ class ClTracer {
   struct Programs {
     int groups = 0;
     cl::Program program;
-    cl::Kernel single, tile, queries, pack;
+    cl::Kernel single, tile, queries, query_tiles, pack;
   };
   Programs& programs_for(int groups);
 
@@ -132,8 +136,8 @@ class ClTracer {
   int slot_ = 0;
   bool tile_stats_ = false;
   cl::Buffer stats_;
-  cl::Buffer query_rays_, query_hits_;  // grown as queries need
-  size_t query_capacity_ = 0;
+  cl::Buffer query_rays_, query_hits_, query_tiles_;  // grown as queries need
+  size_t query_capacity_ = 0, query_tiles_capacity_ = 0;
   // Packed readback, per slot: the device's packed planes and per-view hit
   // counts, and the pinned host memory (CL_MEM_ALLOC_HOST_PTR, mapped once)
   // they are read into; grown as passes need. The reads go through their

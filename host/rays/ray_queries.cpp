@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <string>
 
 #include "fold/ray_list.h"
@@ -71,6 +72,23 @@ void to_trace_space(const float* origins, const float* directions, size_t begin,
     q.tmin = tmin;
     q.tmax = tmax;
   }
+}
+
+std::vector<uint32_t> shared_origin_tiles(const std::vector<rf_query_ray>& rays, size_t min_rays) {
+  std::vector<uint32_t> tiles;
+  if (rays.empty()) return tiles;
+  tiles.push_back(0);
+  for (size_t i = 1; i < rays.size(); ++i) {
+    const bool same = std::memcmp(rays[i].o, rays[i - 1].o, sizeof rays[i].o) == 0;
+    if (!same || i - tiles.back() == RF_TILE_RAYS) {
+      tiles.push_back(static_cast<uint32_t>(i));
+      // Give up early on rays from many origins.
+      if (tiles.size() > 64 && tiles.size() * min_rays > 2 * i) return {};
+    }
+  }
+  tiles.push_back(static_cast<uint32_t>(rays.size()));
+  if ((tiles.size() - 1) * min_rays > rays.size()) return {};
+  return tiles;
 }
 
 void trace_queries_cpu(const TraceInputs& in, const std::vector<rf_query_ray>& rays, bool any_hit, unsigned write_flags,

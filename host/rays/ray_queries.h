@@ -33,6 +33,12 @@ Frame build_query_frame(const Scene& scene, const SceneData& data, const float* 
 void to_trace_space(const float* origins, const float* directions, size_t begin, size_t end, float tmin, float tmax,
                     const Frame& frame, std::vector<rf_query_ray>& out);
 
+// Tiles of consecutive rays with the same origin (bit for bit), at most
+// RF_TILE_RAYS each, as a table of first rays ending in rays.size(): what
+// the query tile kernel traces. Empty when they would average fewer than
+// min_rays rays a tile (rays from many origins: the single-ray kernel).
+std::vector<uint32_t> shared_origin_tiles(const std::vector<rf_query_ray>& rays, size_t min_rays);
+
 // The CPU reference's answers, one rf_pixel_hit per ray (z = t).
 void trace_queries_cpu(const TraceInputs& in, const std::vector<rf_query_ray>& rays, bool any_hit, unsigned write_flags,
                        rf_pixel_hit* out, unsigned threads);
