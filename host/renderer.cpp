@@ -325,7 +325,7 @@ constexpr size_t kMinQueryTileRays = 128;
 
 std::vector<std::string> Renderer::intersect(const float* origins, const float* directions, size_t n, float tmin,
                                              float tmax, bool any_hit, const FrameOptions& frame_options,
-                                             rf_pixel_hit* out) {
+                                             rf_pixel_hit* out, size_t row_length) {
   // The fast build (-cl-fast-relaxed-math) assumes finite math, which the
   // query traversal's bounds and axis-aligned rays break (it missed every
   // hit, or crashed, where the exact build answers).
@@ -344,18 +344,19 @@ std::vector<std::string> Renderer::intersect(const float* origins, const float* 
   } else {
     in = host_inputs(frame);
   }
-  constexpr size_t kChunk = size_t{1} << 20;  // 64 MiB of rays and answers
-  std::vector<rf_query_ray> chunk;
-  for (size_t begin = 0; begin < n; begin += kChunk) {
-    const size_t end = std::min(n, begin + kChunk);
-    to_trace_space(origins, directions, begin, end, tmin, tmax, frame, chunk);
+  const size_t chunk_rays = query_chunk_rays(row_length);
+  std::vector<rf_query_ray>& chunk = query_rays_;  // kept: fresh pages per query cost as much as the copy
+  for (size_t begin = 0; begin < n; begin += chunk_rays) {
+    const size_t end = std::min(n, begin + chunk_rays);
     // Rays that share an origin (a camera's, a sensor's, a light's) go in
     // tiles through the tile kernel where it is the one that traces: the
     // same bits, traced in vector lanes.
-    std::vector<uint32_t> tiles;
-    if (tracer_ && kernel_ == KernelKind::tile) tiles = shared_origin_tiles(chunk, kMinQueryTileRays);
+    QueryTiles tiles;
+    if (tracer_ && kernel_ == KernelKind::tile)
+      tiles = plan_query_tiles(origins + 3 * begin, end - begin, row_length, kMinQueryTileRays);
+    to_trace_space(origins, directions, begin, end, tmin, tmax, frame, chunk, tiles.order);
     if (tracer_)
-      tracer_->trace_queries(chunk, any_hit, flags, out + begin, tiles.empty() ? nullptr : &tiles);
+      tracer_->trace_queries(chunk, any_hit, flags, out + begin, tiles.tiles.empty() ? nullptr : &tiles);
     else
       trace_queries_cpu(in, chunk, any_hit, flags, out + begin, options_.threads);
   }

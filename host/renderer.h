@@ -143,8 +143,11 @@ class Renderer {
   // frame options' moved and normals apply. InputError for a bad ray, or
   // on a renderer of the fast build (KernelPrecision::fast).
   // Returns what the answers may have lost, in words (as a render's).
+  // row_length: the rays are an image's rows of this many (0: not known),
+  // which the tile kernel traces in square blocks.
   std::vector<std::string> intersect(const float* origins, const float* directions, size_t n, float tmin, float tmax,
-                                     bool any_hit, const FrameOptions& frame_options, rf_pixel_hit* out);
+                                     bool any_hit, const FrameOptions& frame_options, rf_pixel_hit* out,
+                                     size_t row_length = 0);
 
   const SceneData& scene_data() const { return *data_; }
   const std::shared_ptr<const SceneData>& shared_scene_data() const { return data_; }
@@ -219,6 +222,7 @@ class Renderer {
     bool built = false, uploaded = false;
   };
   std::array<CachedRays, 4> rays_;      // by fold mode
+  std::vector<rf_query_ray> query_rays_;  // intersect's trace-space rays, one chunk
   static constexpr int kProbeSlot = 4;  // the tracer's ray slot for predict's samples
 };
 

@@ -60,12 +60,14 @@ __kernel void rf_trace_queries(__global const rf_node* nodes, __global const rf_
 
 /* Ray queries that share their origin, a tile of up to RF_TILE_RAYS per
  * work-item (rf_tile.h, rf_trace_query_tile): tile t covers
- * rays[tiles[t] .. tiles[t + 1]), every ray of it from the same origin. */
+ * rays[tiles[t] .. tiles[t + 1]), every ray of it from the same origin;
+ * with `ordered`, traced ray k answers out[order[k]]. */
 __kernel void rf_trace_query_tiles(__global const rf_node* nodes, __global const rf_wide_node* wide,
                                    __global const rf_tri* tris, __global const rf_instance* instances,
                                    __global const rf_normal_xform* normal_xforms, uint tlas_root,
                                    __global const rf_query_ray* rays, __global const uint* tiles, uint tile_count,
-                                   uint write_flags, __global rf_pixel_hit* out) {
+                                   uint write_flags, __global const uint* order, uint ordered,
+                                   __global rf_pixel_hit* out) {
   const uint t = get_global_id(0);
   if (t >= tile_count) return;
 #ifdef RF_TILE_STATS
@@ -74,7 +76,7 @@ __kernel void rf_trace_query_tiles(__global const rf_node* nodes, __global const
 #endif
   const uint begin = tiles[t];
   rf_trace_query_tile(rays, begin, tiles[t + 1] - begin, nodes, wide, tris, instances, normal_xforms, tlas_root,
-                      write_flags, out RF_TSTAT_ARG);
+                      write_flags, ordered ? order : 0, out RF_TSTAT_ARG);
 }
 
 /* The tile kernel (rf_tile.h): one work-item per tile of the ray list; tile t

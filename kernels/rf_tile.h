@@ -756,8 +756,8 @@ RF_INLINE void rf_trace_tile(const RF_GLOBAL rf_u32* rays, rf_u32 begin, rf_u32 
 
 /* Answers a tile of ray queries that share one origin (bit for bit):
  * rays[begin .. begin + count), count at most RF_TILE_RAYS, each ray's
- * closest hit with tmin < t <= tmax written to out[begin + l] as
- * rf_trace_query writes it (z = t). The same lanes as a camera tile, with
+ * closest hit with tmin < t <= tmax written to out[order[begin + l]] (order
+ * null: out[begin + l]) as rf_trace_query writes it (z = t). The same lanes as a camera tile, with
  * the shared origin, per-lane z directions and tmin of rf_tile_query; one
  * transform group, as a query frame has. Every lane gives the bits of the
  * scalar rf_trace_query of its ray (the reasons at the top of this file). */
@@ -765,7 +765,8 @@ RF_INLINE void rf_trace_query_tile(const RF_GLOBAL rf_query_ray* rays, rf_u32 be
                                    const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_wide_node* wide,
                                    const RF_GLOBAL rf_tri* tris, const RF_GLOBAL rf_instance* instances,
                                    const RF_GLOBAL rf_normal_xform* normal_xforms, rf_u32 tlas_root,
-                                   rf_u32 write_flags, RF_GLOBAL rf_pixel_hit* out RF_TSTAT_PARAM) {
+                                   rf_u32 write_flags, const RF_GLOBAL rf_u32* order,
+                                   RF_GLOBAL rf_pixel_hit* out RF_TSTAT_PARAM) {
   rf_tile_camera tc;
   rf_tile_query q;
   rf_tile_hits hits[1];
@@ -836,7 +837,7 @@ RF_INLINE void rf_trace_query_tile(const RF_GLOBAL rf_query_ray* rays, rf_u32 be
     const uint8 px_hit = (uint8)(as_uint(hit ? ts[l] : RF_INF), as_uint(xs[l]), as_uint(ys[l]), as_uint(ws[l]),
                                  as_uint(hit ? us[l] : 0.0f), as_uint(hit ? vs[l] : 0.0f), is[l],
                                  hit ? ps[l] : RF_INVALID);
-    vstore8(px_hit, 0, (RF_GLOBAL rf_u32*)&out[begin + l]);
+    vstore8(px_hit, 0, (RF_GLOBAL rf_u32*)&out[order ? order[begin + l] : begin + l]);
   }
 }
 

@@ -132,9 +132,9 @@ TEST(RayQuery, SharedOriginTilesEqualTheCpuReference) {
   Rng rng(2024);
   for (int s = 0; s < 4; ++s) {
     const Scene scene = testing::random_scene(rng, 1 + rng.below(4), 1 + rng.below(12), 20 + rng.below(300));
-    // Runs of 1000, 700, 1300 (five tiles and a part) and 1000 rays from
+    // Runs of 1000, 700, 3000 (eleven tiles and a part) and 300 rays from
     // one origin each.
-    const Rays rays = random_rays(rng, scene, 4000, {1000, 700, 1300, 1000});
+    const Rays rays = random_rays(rng, scene, 5000, {1000, 700, 3000, 300});
     RendererOptions opt;
     opt.backend = Backend::cpu;
     Renderer cpu(scene, opt);
@@ -143,10 +143,8 @@ TEST(RayQuery, SharedOriginTilesEqualTheCpuReference) {
     Renderer tiles(scene, opt);
     opt.kernel = KernelChoice::single;
     Renderer single(scene, opt);
-    const Frame frame = build_query_frame(scene, cpu.scene_data(), rays.o.data(), rays.size(), FrameOptions{});
-    std::vector<rf_query_ray> traced;
-    to_trace_space(rays.o.data(), rays.d.data(), 0, rays.size(), 0.0f, INFINITY, frame, traced);
-    ASSERT_EQ(shared_origin_tiles(traced, 128).size(), 1 + 4 + 3 + 6 + 4) << "the runs as tiles";
+    ASSERT_EQ(plan_query_tiles(rays.o.data(), rays.size(), 0, 128).tiles.size(), 1 + 4 + 3 + 12 + 2)
+        << "the runs as tiles";
     const float tmin = 0.0f, tmax = INFINITY;
     for (auto [lo, hi] : {std::pair{tmin, tmax}, std::pair{0.5f, tmax}, std::pair{0.0f, 2.0f}}) {
       const std::vector<rf_pixel_hit> want = query(cpu, rays, lo, hi);
@@ -165,9 +163,50 @@ TEST(RayQuery, SharedOriginTilesEqualTheCpuReference) {
     }
   }
   // Rays from many origins are not tiled.
-  std::vector<rf_query_ray> scattered(1000);
-  for (size_t i = 0; i < scattered.size(); ++i) scattered[i].o[0] = static_cast<float>(i);
-  EXPECT_TRUE(shared_origin_tiles(scattered, 128).empty());
+  std::vector<float> scattered(3000, 0.0f);
+  for (size_t i = 0; i < 1000; ++i) scattered[3 * i] = static_cast<float>(i);
+  EXPECT_TRUE(plan_query_tiles(scattered.data(), 1000, 0, 128).tiles.empty());
+}
+
+// An image's rays (rows of row_length, one origin) go in 16x16 blocks, the
+// edge blocks partial, each ray once; the answers are the CPU reference's
+// bits whatever the blocks, and the same without row_length.
+TEST(RayQuery, ImageRaysInBlocksEqualTheCpuReference) {
+  Rng rng(77);
+  const Scene scene = testing::random_scene(rng, 3, 10, 200);
+  const Aabb b = scene.world_bounds();
+  const glm::vec3 eye = b.lo + 0.5f * b.extent() + glm::vec3(0.0f, 0.0f, 1.5f * b.extent().z);
+  const int width = 70, height = 37;  // neither a multiple of 16
+  Rays rays;
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x) {
+      rays.o.insert(rays.o.end(), {eye.x, eye.y, eye.z});
+      rays.d.insert(rays.d.end(), {(x + 0.5f) / width - 0.5f, 0.5f - (y + 0.5f) / height, -2.5f});
+    }
+  const QueryTiles plan = plan_query_tiles(rays.o.data(), rays.size(), width, 128);
+  ASSERT_EQ(plan.tiles.size(), 1u + 3 * 5) << "3 block rows of 5 blocks";
+  std::vector<uint32_t> sorted = plan.order;
+  std::sort(sorted.begin(), sorted.end());
+  for (size_t i = 0; i < sorted.size(); ++i) ASSERT_EQ(sorted[i], i) << "a permutation";
+  EXPECT_EQ(plan.order[16], static_cast<uint32_t>(width)) << "the block's second row";
+  EXPECT_TRUE(plan_query_tiles(rays.o.data(), rays.size() - 1, width, 128).order.empty()) << "not whole rows";
+  RendererOptions opt;
+  opt.backend = Backend::cpu;
+  Renderer cpu(scene, opt);
+  opt.backend = Backend::opencl;
+  opt.kernel = KernelChoice::tile;
+  Renderer tiles(scene, opt);
+  const std::vector<rf_pixel_hit> want = query(cpu, rays);
+  size_t hits = 0;
+  for (const rf_pixel_hit& h : want) hits += h.instance != RF_INVALID;
+  EXPECT_GT(hits, rays.size() / 4);
+  std::vector<rf_pixel_hit> got(rays.size());
+  tiles.intersect(rays.o.data(), rays.d.data(), rays.size(), 0.0f, INFINITY, false, FrameOptions{}, got.data(), width);
+  EXPECT_EQ(differences(want, got), "") << "in blocks";
+  EXPECT_EQ(differences(want, query(tiles, rays)), "") << "in rows";
+  // Chunks are whole bands of 16 rows.
+  EXPECT_EQ(query_chunk_rays(1280) % (16 * 1280), 0u);
+  EXPECT_EQ(query_chunk_rays(0), size_t{1} << 20);
 }
 
 // The exact (double) hit of the same float ray on every triangle in world

@@ -9,6 +9,7 @@
 #include "api/scene_state.h"
 #include "fold/view_passes.h"
 #include "rayfold/errors.h"
+#include "rays/ray_queries.h"
 #include "renderer.h"
 #include "util/errors.h"
 #include "util/parallel.h"
@@ -46,6 +47,7 @@ struct Renderer::Impl {
   uint64_t built_clock = 0;    // SceneState::clock then: later set_transforms are moves
   core::RenderResult result;   // its hit buffer is reused render to render
   core::RenderResult second_result;  // the pass in flight beside it (render_views, packed readback)
+  std::vector<rf_pixel_hit> query_hits;  // a query chunk's answers, kept from query to query
   bool planar_depth = false;   // RendererOptions::depth
 
   void build() {
@@ -99,18 +101,18 @@ namespace {
 // Answers in chunks: the core's 32-byte hits of one chunk at a time.
 // Returns the warnings, each once.
 template <class Take>
-std::vector<std::string> query_chunks(core::Renderer& r, const float* origins, const float* directions, size_t n,
-                                      float tmin, float tmax, bool any_hit, const core::FrameOptions& options,
-                                      Take&& take) {
-  constexpr size_t kChunk = size_t{1} << 20;
-  std::vector<rf_pixel_hit> hits;
+std::vector<std::string> query_chunks(core::Renderer& r, std::vector<rf_pixel_hit>& hits, const float* origins,
+                                      const float* directions, size_t n, float tmin, float tmax, bool any_hit,
+                                      const core::FrameOptions& options, size_t row_length, Take&& take) {
+  const size_t kChunk = core::query_chunk_rays(row_length);
   std::vector<std::string> warnings;
   if (n == 0) r.intersect(origins, directions, 0, tmin, tmax, any_hit, options, nullptr);  // checks tmin, tmax
   for (size_t begin = 0; begin < n; begin += kChunk) {
     const size_t count = std::min(kChunk, n - begin);
     hits.resize(count);
     for (std::string& w :
-         r.intersect(origins + 3 * begin, directions + 3 * begin, count, tmin, tmax, any_hit, options, hits.data()))
+         r.intersect(origins + 3 * begin, directions + 3 * begin, count, tmin, tmax, any_hit, options, hits.data(),
+                     row_length))
       if (std::find(warnings.begin(), warnings.end(), w) == warnings.end()) warnings.push_back(std::move(w));
     take(begin, hits);
   }
@@ -119,7 +121,8 @@ std::vector<std::string> query_chunks(core::Renderer& r, const float* origins, c
 
 }  // namespace
 
-RayHits Renderer::intersect(const float* origins, const float* directions, size_t n, float tmin, float tmax) {
+RayHits Renderer::intersect(const float* origins, const float* directions, size_t n, float tmin, float tmax,
+                            size_t row_length) {
   core::FrameOptions options;
   options.moved = impl_->moved();
   RayHits out;
@@ -128,32 +131,35 @@ RayHits Renderer::intersect(const float* origins, const float* directions, size_
   out.uv.resize(2 * n);
   out.instance_id.resize(n);
   out.primitive_id.resize(n);
-  out.warnings = query_chunks(*impl_->core, origins, directions, n, tmin, tmax, false, options,
-                              [&](size_t begin, const std::vector<rf_pixel_hit>& hits) {
-                 for (size_t k = 0; k < hits.size(); ++k) {
-                   const rf_pixel_hit& h = hits[k];
-                   const size_t i = begin + k;
-                   out.t[i] = h.z;
-                   out.normal[3 * i] = h.nx;
-                   out.normal[3 * i + 1] = h.ny;
-                   out.normal[3 * i + 2] = h.nz;
-                   out.uv[2 * i] = h.u;
-                   out.uv[2 * i + 1] = h.v;
-                   out.instance_id[i] = h.instance;
-                   out.primitive_id[i] = h.primitive;
-                 }
-               });
+  out.warnings = query_chunks(
+      *impl_->core, impl_->query_hits, origins, directions, n, tmin, tmax, false, options, row_length,
+      [&](size_t begin, const std::vector<rf_pixel_hit>& hits) {
+        core::parallel_for(hits.size(), impl_->options.threads, size_t{1} << 15, [&](size_t lo, size_t hi) {
+          for (size_t k = lo; k < hi; ++k) {
+            const rf_pixel_hit& h = hits[k];
+            const size_t i = begin + k;
+            out.t[i] = h.z;
+            out.normal[3 * i] = h.nx;
+            out.normal[3 * i + 1] = h.ny;
+            out.normal[3 * i + 2] = h.nz;
+            out.uv[2 * i] = h.u;
+            out.uv[2 * i + 1] = h.v;
+            out.instance_id[i] = h.instance;
+            out.primitive_id[i] = h.primitive;
+          }
+        });
+      });
   return out;
 }
 
 std::vector<uint8_t> Renderer::occluded(const float* origins, const float* directions, size_t n, float tmin,
-                                        float tmax, std::vector<std::string>* warnings) {
+                                        float tmax, std::vector<std::string>* warnings, size_t row_length) {
   core::FrameOptions options;
   options.moved = impl_->moved();
   options.normals = false;
   std::vector<uint8_t> out(n);
   std::vector<std::string> w = query_chunks(
-      *impl_->core, origins, directions, n, tmin, tmax, true, options,
+      *impl_->core, impl_->query_hits, origins, directions, n, tmin, tmax, true, options, row_length,
       [&](size_t begin, const std::vector<rf_pixel_hit>& hits) {
         for (size_t k = 0; k < hits.size(); ++k) out[begin + k] = hits[k].instance != RF_INVALID;
       });

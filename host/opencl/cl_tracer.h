@@ -9,6 +9,7 @@
 #include "fold/frame.h"
 #include "fold/ray_list.h"
 #include "opencl/cl_device.h"
+#include "rays/ray_queries.h"
 
 namespace rayfold::core {
 
@@ -87,11 +88,12 @@ class ClTracer {
   PackedPlanes wait_packed(int slot);
   // Answers ray queries (rays/ray_queries.h) through the frame uploaded
   // last, one rf_pixel_hit per ray into out (z = t); ms of kernel time.
-  // With tiles (shared_origin_tiles: consecutive rays of one origin, at
-  // most RF_TILE_RAYS each), the query tile kernel answers them, closest
-  // hits only: an any-hit query's answer, hit or not, is the same.
+  // With tiles (plan_query_tiles: rays of one origin, their answers
+  // going to out[order[k]] when it is not empty), the query tile kernel
+  // answers them, closest hits only: an any-hit query's answer, hit or
+  // not, is the same.
   double trace_queries(const std::vector<rf_query_ray>& rays, bool any_hit, unsigned write_flags, rf_pixel_hit* out,
-                       const std::vector<uint32_t>* tiles = nullptr);
+                       const QueryTiles* tiles = nullptr);
   // Milliseconds spent building programs so far: about 2 s on a machine's
   // first use of this rayfold version with PoCL, about 0.1 s once PoCL's
   // cache ($XDG_CACHE_HOME/pocl or ~/.cache/pocl) holds them.
@@ -136,8 +138,8 @@ class ClTracer {
   int slot_ = 0;
   bool tile_stats_ = false;
   cl::Buffer stats_;
-  cl::Buffer query_rays_, query_hits_, query_tiles_;  // grown as queries need
-  size_t query_capacity_ = 0, query_tiles_capacity_ = 0;
+  cl::Buffer query_rays_, query_hits_, query_tiles_, query_order_;  // grown as queries need
+  size_t query_capacity_ = 0, query_tiles_capacity_ = 0, query_order_capacity_ = 0;
   // Packed readback, per slot: the device's packed planes and per-view hit
   // counts, and the pinned host memory (CL_MEM_ALLOC_HOST_PTR, mapped once)
   // they are read into; grown as passes need. The reads go through their

@@ -268,6 +268,8 @@ struct QueryArrays {
   InArray<float> origins, directions;
   std::vector<size_t> shape;  // without the trailing 3
   size_t count = 0;
+  // (H, W, 3) arrays are an image's rays: traced in square blocks.
+  size_t row_length() const { return shape.size() == 2 ? shape[1] : 0; }
 };
 
 QueryArrays query_arrays(nb::handle origins, nb::handle directions) {
@@ -659,7 +661,7 @@ NB_MODULE(_core, m) {
         const QueryArrays q = query_arrays(origins, directions);
         rayfold::RayHits h = locked(s, [&] {
           return scene_renderer(s, backend, device, threads)
-              .intersect(q.origins.data(), q.directions.data(), q.count, tmin, tmax);
+              .intersect(q.origins.data(), q.directions.data(), q.count, tmin, tmax, q.row_length());
         });
         warn_all(h.warnings);
         nb::dict out;
@@ -686,7 +688,7 @@ NB_MODULE(_core, m) {
         std::vector<std::string> warnings;
         std::vector<uint8_t> hit = locked(s, [&] {
           return scene_renderer(s, backend, device, threads)
-              .occluded(q.origins.data(), q.directions.data(), q.count, tmin, tmax, &warnings);
+              .occluded(q.origins.data(), q.directions.data(), q.count, tmin, tmax, &warnings, q.row_length());
         });
         warn_all(warnings);
         nb::object flags = shaped(std::move(hit), q.shape, 1);

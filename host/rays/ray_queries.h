@@ -29,15 +29,24 @@ Camera query_camera();
 Frame build_query_frame(const Scene& scene, const SceneData& data, const float* origins, size_t n,
                         FrameOptions options);
 
-// Rays [begin, end) in trace space.
+// Rays [begin, end) in trace space, in `order` (indices from begin) if given.
 void to_trace_space(const float* origins, const float* directions, size_t begin, size_t end, float tmin, float tmax,
-                    const Frame& frame, std::vector<rf_query_ray>& out);
+                    const Frame& frame, std::vector<rf_query_ray>& out, const std::vector<uint32_t>& order = {});
 
-// Tiles of consecutive rays with the same origin (bit for bit), at most
-// RF_TILE_RAYS each, as a table of first rays ending in rays.size(): what
-// the query tile kernel traces. Empty when they would average fewer than
-// min_rays rays a tile (rays from many origins: the single-ray kernel).
-std::vector<uint32_t> shared_origin_tiles(const std::vector<rf_query_ray>& rays, size_t min_rays);
+// How the query tile kernel traces a batch of rays: tiles of rays with the
+// same origin (bit for bit), at most RF_TILE_RAYS each, as a table of first
+// rays ending in the ray count, in the order `order` gives (order[k]: the
+// input index of the k-th ray traced; empty: the input order). Rays that
+// are an image's, rows of row_length, go in RF_TILE_SIDE-square blocks (a
+// row of 256 pixels per tile made dense views 1.6x slower).
+struct QueryTiles {
+  std::vector<uint32_t> tiles;  // empty: too few rays a tile on average (min_rays), trace them one by one
+  std::vector<uint32_t> order;
+};
+QueryTiles plan_query_tiles(const float* origins, size_t n, size_t row_length, size_t min_rays);
+// Rays per chunk of a query (memory stays bounded): 2^20, in whole bands
+// of RF_TILE_SIDE rows of row_length where that is given.
+size_t query_chunk_rays(size_t row_length);
 
 // The CPU reference's answers, one rf_pixel_hit per ray (z = t).
 void trace_queries_cpu(const TraceInputs& in, const std::vector<rf_query_ray>& rays, bool any_hit, unsigned write_flags,

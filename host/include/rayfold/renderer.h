@@ -94,15 +94,18 @@ class Renderer {
   // every backend the same bits; rays of any number, in bounded memory.
   // InputError naming the first bad ray (a coordinate not finite, a zero
   // direction) or for tmin, tmax outside 0 <= tmin <= tmax (tmax may be
-  // +inf). Not safe to call from two threads at once.
+  // +inf). Not safe to call from two threads at once. Consecutive rays
+  // from one origin trace together in vector lanes (the same bits); with
+  // row_length, the rays are an image's rows of that many pixels (row-major,
+  // n a multiple of it), traced in 16x16 blocks: faster for camera rays.
   RayHits intersect(const float* origins, const float* directions, size_t n, float tmin = 0.0f,
-                    float tmax = std::numeric_limits<float>::infinity());
+                    float tmax = std::numeric_limits<float>::infinity(), size_t row_length = 0);
   // Whether each ray has any hit with tmin < t <= tmax (1) or none (0); each
   // ray stops at the first hit it finds. Inputs as intersect; warnings, when
   // given, receives RayHits::warnings.
   std::vector<uint8_t> occluded(const float* origins, const float* directions, size_t n, float tmin = 0.0f,
                                 float tmax = std::numeric_limits<float>::infinity(),
-                                std::vector<std::string>* warnings = nullptr);
+                                std::vector<std::string>* warnings = nullptr, size_t row_length = 0);
 
   std::string device_name() const;  // "cpu reference" for the CPU backend
   std::string kernel() const;       // "tile", "single" or "cpu reference"
