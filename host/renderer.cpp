@@ -331,9 +331,9 @@ std::vector<std::string> Renderer::intersect(const float* origins, const float* 
   // hit, or crashed, where the exact build answers).
   if (tracer_ && options_.precision == KernelPrecision::fast)
     throw InputError("", "ray queries run on the exact build only; this renderer was made with the fast one");
-  check_query_rays(origins, directions, n, tmin, tmax);
+  const float origin_bound = check_query_rays(origins, directions, n, tmin, tmax);
   if (n == 0) return {};
-  const Frame frame = build_query_frame(scene_, *data_, origins, n, frame_options);
+  const Frame frame = build_query_frame(scene_, *data_, origin_bound, frame_options);
   std::vector<std::string> warnings;
   add_range_warnings(frame.views[0].out_of_range, "traced: in world space", warnings);
   const unsigned flags = frame.normals ? 0u : RF_WRITE_NO_NORMALS;

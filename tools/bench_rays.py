@@ -68,14 +68,19 @@ def main():
         for i, cam in enumerate(cameras_from(args.cameras, width, height)):
             d = np.asarray(cam.ray_directions(), dtype=np.float32).reshape(-1, 3)
             o = np.ascontiguousarray(np.broadcast_to(np.asarray(cam.eye, dtype=np.float32), d.shape))
-            workloads.append((f"camera view {i}", o, d))
+            # rayfold gets them as the image they are, (H, W, 3), as
+            # camera.ray_directions() gives them (it then traces 16x16
+            # blocks); the peers the same rays flat.
+            workloads.append((f"camera view {i}", o, d, (height, width, 3)))
 
-    def ours(o, d):
-        return scene.intersect(o, d, backend=args.backend, threads=args.threads)["t"]
+    def ours(o, d, shape):
+        return scene.intersect(o.reshape(shape), d.reshape(shape), backend=args.backend,
+                               threads=args.threads)["t"].reshape(-1)
 
     rows, failed = [], []
-    for name, o, d in workloads:
-        ms, t = timed(lambda: ours(o, d), args.frames, args.warmup)
+    for name, o, d, *shape in workloads:
+        shape = shape[0] if shape else o.shape
+        ms, t = timed(lambda: ours(o, d, shape), args.frames, args.warmup)
         row = {"workload": name, "rays": len(o), "rayfold_ms": ms, "rayfold_mrays_per_s": len(o) / 1e3 / ms,
                "hit_share": float(np.isfinite(t).mean())}
         for p in peers:

@@ -23,22 +23,39 @@ std::string ray_text(const char* what, size_t i, const float* v) {
 
 }  // namespace
 
-void check_query_rays(const float* origins, const float* directions, size_t n, float tmin, float tmax) {
+float check_query_rays(const float* origins, const float* directions, size_t n, float tmin, float tmax) {
   if (!(tmin >= 0.0f) || !std::isfinite(tmin) || !(tmax >= tmin))
     throw InputError("", "tmin and tmax must satisfy 0 <= tmin <= tmax (tmax may be inf), not tmin " +
                              std::to_string(tmin) + ", tmax " + std::to_string(tmax));
-  // A branch-free pass first (it vectorises: a million rays in a few ms);
-  // only a batch with a bad ray is scanned again for the first.
+  // One pass over the bits, which vectorises (a million rays in about a
+  // millisecond where the float tests took 5): a non-negative float's
+  // order is its bits' order, inf and NaN lie above every finite value,
+  // and the largest origin coordinate comes out with it. Only a batch with
+  // a bad ray is scanned again for the first.
+  static_assert(sizeof(float) == sizeof(uint32_t), "floats of 32 bits");
+  constexpr uint32_t kAbs = 0x7FFFFFFFu, kInf = 0x7F800000u;
+  uint32_t limit_bits;
   const float limit = static_cast<float>(kMaxWorldCoordinate);
-  bool all_good = true;
+  std::memcpy(&limit_bits, &limit, sizeof limit);
+  uint32_t bad = 0, largest = 0;
   for (size_t i = 0; i < n; ++i) {
-    const float* o = origins + 3 * i;
-    const float* d = directions + 3 * i;
-    bool good = (d[0] != 0.0f) | (d[1] != 0.0f) | (d[2] != 0.0f);
-    for (int k = 0; k < 3; ++k) good &= (std::fabs(o[k]) <= limit) & (std::fabs(d[k]) <= FLT_MAX);
-    all_good &= good;
+    uint32_t o[3], d[3];
+    std::memcpy(o, origins + 3 * i, sizeof o);
+    std::memcpy(d, directions + 3 * i, sizeof d);
+    uint32_t zero = 0;
+    for (int k = 0; k < 3; ++k) {
+      const uint32_t ao = o[k] & kAbs, ad = d[k] & kAbs;
+      largest = std::max(largest, ao);
+      bad |= static_cast<uint32_t>(ao > limit_bits) | static_cast<uint32_t>(ad >= kInf);
+      zero |= ad;
+    }
+    bad |= static_cast<uint32_t>(zero == 0);
   }
-  if (all_good) return;
+  if (bad == 0) {
+    float out;
+    std::memcpy(&out, &largest, sizeof out);
+    return out;
+  }
   for (size_t i = 0; i < n; ++i) {
     const float* o = origins + 3 * i;
     const float* d = directions + 3 * i;
@@ -50,6 +67,8 @@ void check_query_rays(const float* origins, const float* directions, size_t n, f
     }
     if (d[0] == 0.0f && d[1] == 0.0f && d[2] == 0.0f) throw InputError("", ray_text("direction is zero", i, d));
   }
+  RF_CHECK(false, "the bit test saw a bad ray the scan did not find");
+  return 0.0f;
 }
 
 Camera query_camera() {
@@ -57,12 +76,10 @@ Camera query_camera() {
   return make_camera(spec, 1, 1);
 }
 
-Frame build_query_frame(const Scene& scene, const SceneData& data, const float* origins, size_t n,
-                        FrameOptions options) {
+Frame build_query_frame(const Scene& scene, const SceneData& data, float origin_bound, FrameOptions options) {
   const Camera camera = query_camera();
   const int e = trace_exponent(data, camera);
-  double bound = 0.0;
-  for (size_t i = 0; i < 3 * n; ++i) bound = std::max(bound, std::fabs(static_cast<double>(origins[i])));
+  const double bound = origin_bound;
   options.fold = FoldMode::none;
   options.cull = false;
   options.planar_depth = false;

@@ -18,16 +18,18 @@ namespace rayfold::core {
 // coordinate not finite, a zero direction, or an origin beyond world
 // coordinates of 2^126; or tmin, tmax not 0 <= tmin <= tmax (tmax may be
 // +inf).
-void check_query_rays(const float* origins, const float* directions, size_t n, float tmin, float tmax);
+// Returns the largest |coordinate| of any origin.
+float check_query_rays(const float* origins, const float* directions, size_t n, float tmin, float tmax);
 
 // The camera whose trace space queries use: at the world's origin, looking
 // down -z, so that its trace space is world space scaled by 2^-e.
 Camera query_camera();
 
-// The frame for these rays (its options' fold, cull and query_origin_bound
-// are set here; moved and normals are the caller's).
-Frame build_query_frame(const Scene& scene, const SceneData& data, const float* origins, size_t n,
-                        FrameOptions options);
+// The frame for rays whose origins lie within origin_bound of the world's
+// origin in every coordinate (check_query_rays' answer); its options'
+// fold, cull and query_origin_bound are set here, moved and normals are
+// the caller's.
+Frame build_query_frame(const Scene& scene, const SceneData& data, float origin_bound, FrameOptions options);
 
 // Rays [begin, end) in trace space, in `order` (indices from begin) if given.
 void to_trace_space(const float* origins, const float* directions, size_t begin, size_t end, float tmin, float tmax,
