@@ -9,6 +9,7 @@
 #include "../tools/embree_peer.h"
 #include "../tools/peak_memory.h"
 #include "../tools/peers.h"
+#include "../tools/ray_peers.h"
 
 namespace rayfold::core {
 namespace {
@@ -125,6 +126,37 @@ TEST(Peers, AMismatchInvalidatesTheReport) {
   const std::string md = peers_markdown(r);
   EXPECT_NE(md.find("NOT EXACT: 3 pixels differ"), std::string::npos) << md;
   EXPECT_EQ(md.find("Fastest exact rayfold"), std::string::npos) << md;
+}
+
+// --rays: each workload's rays counted, rayfold exact against its CPU
+// reference, Embree agreeing on nearly every ray, and a mismatch voids it.
+TEST(Peers, RayQueriesAgainstEmbreeOnTheSameRays) {
+  PeerOptions opt = small_run(40, 24);
+  opt.random = true;
+  opt.seed = 9;
+  opt.views = 2;
+  const RayPeerReport r = run_ray_peers(opt, 3000);
+  ASSERT_EQ(r.rows.size(), 3u);
+  EXPECT_EQ(r.rows[0].workload, "incoherent");
+  EXPECT_EQ(r.rows[0].rays, 3000u);
+  EXPECT_EQ(r.rows[1].rays, 40u * 24u);
+  for (const RayPeerRow& row : r.rows) {
+    EXPECT_EQ(row.mismatched_rays, 0u) << row.workload;
+    EXPECT_GT(row.rayfold_ms, 0.0) << row.workload;
+    EXPECT_GT(row.hit_share, 0.05) << row.workload;
+    if (EmbreePeer::available()) {
+      EXPECT_GT(row.embree1_ms, 0.0) << row.workload;
+      EXPECT_GT(row.embree16_ms, 0.0) << row.workload;
+      EXPECT_GT(row.hit_agreement, 0.99) << row.workload;
+      EXPECT_GT(row.same_triangle, 0.98) << row.workload;
+      EXPECT_NEAR(row.vs_embree(), std::min(row.embree1_ms, row.embree16_ms) / row.rayfold_ms, 1e-12);
+    }
+  }
+  EXPECT_TRUE(r.valid());
+  RayPeerReport bad = r;
+  bad.rows[1].mismatched_rays = 1;
+  EXPECT_FALSE(bad.valid());
+  EXPECT_NE(ray_peers_markdown(bad).find("1 rays differ"), std::string::npos);
 }
 
 }  // namespace

@@ -265,6 +265,104 @@ double EmbreePeer::trace16(std::vector<rf_pixel_hit>& hits, EmbreeScene which) {
       tx * ty);
 }
 
+namespace {
+
+void store_query(rf_pixel_hit& h, float t, unsigned geom, unsigned prim) {
+  h = rf_pixel_hit{};
+  const bool hit = geom != RTC_INVALID_GEOMETRY_ID;
+  h.z = hit ? t : INFINITY;
+  h.instance = hit ? geom : RF_INVALID;
+  h.primitive = hit ? prim : RF_INVALID;
+}
+
+}  // namespace
+
+double EmbreePeer::intersect1(const float* o, const float* d, size_t n, std::vector<rf_pixel_hit>& hits,
+                              EmbreeScene which) {
+  RF_CHECK(which != EmbreeScene::instanced, "ray queries run on a flat scene");
+  Impl& m = *impl_;
+  RTCScene scene = m.traced(which);
+  hits.resize(n);
+  constexpr size_t kChunk = 4096;
+  const auto t0 = Clock::now();
+  parallel_for(n, m.threads, kChunk, [&](size_t begin, size_t end) {
+    RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    for (size_t i = begin; i < end; ++i) {
+      RTCRayHit rh{};
+      rh.ray.org_x = o[3 * i];
+      rh.ray.org_y = o[3 * i + 1];
+      rh.ray.org_z = o[3 * i + 2];
+      rh.ray.dir_x = d[3 * i];
+      rh.ray.dir_y = d[3 * i + 1];
+      rh.ray.dir_z = d[3 * i + 2];
+      rh.ray.tnear = 0.0f;
+      rh.ray.tfar = INFINITY;
+      rh.ray.mask = 0xFFFFFFFFu;
+      rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+      rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+      rtcIntersect1(scene, &ctx, &rh);
+      store_query(hits[i], rh.ray.tfar, rh.hit.geomID, rh.hit.primID);
+    }
+  });
+  return ms_since(t0);
+}
+
+double EmbreePeer::intersect16(const float* o, const float* d, size_t n, size_t row_length,
+                               std::vector<rf_pixel_hit>& hits, EmbreeScene which) {
+  RF_CHECK(which != EmbreeScene::instanced, "ray queries run on a flat scene");
+  Impl& m = *impl_;
+  RTCScene scene = m.traced(which);
+  hits.resize(n);
+  const bool image = row_length > 0 && n % row_length == 0;
+  const size_t rows = image ? n / row_length : 0;
+  const size_t bx = image ? (row_length + 3) / 4 : 0;
+  const size_t packets = image ? bx * ((rows + 3) / 4) : (n + 15) / 16;
+  const auto t0 = Clock::now();
+  parallel_for(packets, m.threads, 64, [&](size_t begin, size_t end) {
+    RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    ctx.flags = image ? RTC_INTERSECT_CONTEXT_FLAG_COHERENT : RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
+    alignas(64) RTCRayHit16 rh;
+    alignas(64) int valid[16];
+    size_t index[16];
+    for (size_t p = begin; p < end; ++p) {
+      for (int l = 0; l < 16; ++l) {
+        size_t i;
+        bool ok;
+        if (image) {
+          const size_t x = 4 * (p % bx) + l % 4, y = 4 * (p / bx) + l / 4;
+          ok = x < row_length && y < rows;
+          i = ok ? y * row_length + x : 0;
+        } else {
+          i = 16 * p + l;
+          ok = i < n;
+          if (!ok) i = 0;
+        }
+        index[l] = i;
+        valid[l] = ok ? -1 : 0;
+        rh.ray.org_x[l] = o[3 * i];
+        rh.ray.org_y[l] = o[3 * i + 1];
+        rh.ray.org_z[l] = o[3 * i + 2];
+        rh.ray.dir_x[l] = d[3 * i];
+        rh.ray.dir_y[l] = d[3 * i + 1];
+        rh.ray.dir_z[l] = d[3 * i + 2];
+        rh.ray.tnear[l] = 0.0f;
+        rh.ray.tfar[l] = INFINITY;
+        rh.ray.time[l] = 0.0f;
+        rh.ray.mask[l] = 0xFFFFFFFFu;
+        rh.ray.flags[l] = 0;
+        rh.hit.geomID[l] = RTC_INVALID_GEOMETRY_ID;
+        rh.hit.instID[0][l] = RTC_INVALID_GEOMETRY_ID;
+      }
+      rtcIntersect16(valid, scene, &ctx, &rh);
+      for (int l = 0; l < 16; ++l)
+        if (valid[l]) store_query(hits[index[l]], rh.ray.tfar[l], rh.hit.geomID[l], rh.hit.primID[l]);
+    }
+  });
+  return ms_since(t0);
+}
+
 }  // namespace rayfold::core
 
 #else  // no Embree
@@ -282,6 +380,12 @@ double EmbreePeer::build_ms(EmbreeScene) const { return 0.0; }
 size_t EmbreePeer::build_peak_bytes(EmbreeScene) const { return 0; }
 double EmbreePeer::trace1(std::vector<rf_pixel_hit>&, EmbreeScene) { return 0.0; }
 double EmbreePeer::trace16(std::vector<rf_pixel_hit>&, EmbreeScene) { return 0.0; }
+double EmbreePeer::intersect1(const float*, const float*, size_t, std::vector<rf_pixel_hit>&, EmbreeScene) {
+  return 0.0;
+}
+double EmbreePeer::intersect16(const float*, const float*, size_t, size_t, std::vector<rf_pixel_hit>&, EmbreeScene) {
+  return 0.0;
+}
 
 }  // namespace rayfold::core
 

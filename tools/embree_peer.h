@@ -41,6 +41,15 @@ class EmbreePeer {
   // barycentrics are left 0). Returns ms.
   double trace1(std::vector<rf_pixel_hit>& hits, EmbreeScene scene);
   double trace16(std::vector<rf_pixel_hit>& hits, EmbreeScene scene);
+  // Ray queries on a flat scene (world space), as Renderer::intersect takes
+  // them (n x 3 origins and directions): each ray's t along its direction
+  // (z), instance and primitive, or a miss. rtcIntersect1 ray by ray; or
+  // rtcIntersect16 packets: 4x4 blocks of an image's rays (rows of
+  // row_length, marked coherent), else 16 consecutive rays. Returns ms.
+  double intersect1(const float* origins, const float* directions, size_t n, std::vector<rf_pixel_hit>& hits,
+                    EmbreeScene scene);
+  double intersect16(const float* origins, const float* directions, size_t n, size_t row_length,
+                     std::vector<rf_pixel_hit>& hits, EmbreeScene scene);
 
  private:
   struct Impl;

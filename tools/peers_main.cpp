@@ -2,8 +2,11 @@
 // run (tools/peers.h). `make bench` runs it on every scene and charts it.
 #include <cstdio>
 
+#include <nlohmann/json.hpp>
+
 #include "cli_args.h"
 #include "peers.h"
+#include "ray_peers.h"
 #include "util/atomic_file.h"
 #include "util/errors.h"
 
@@ -19,6 +22,7 @@ int main(int argc, char** argv) {
     opt.scene = RAYFOLD_DEFAULT_SCENE;
     std::string json, md;
     bool have_scene = false;
+    size_t rays = 0;
     cli::Args args(argc, argv, 1);
     while (!args.done()) {
       const std::string a = args.next();
@@ -27,12 +31,14 @@ int main(int argc, char** argv) {
             "usage: rayfold-peers [SCENE] [--size WxH] [--views K] [--frames N] [--warmup N] [--threads N]\n"
             "                     [--eye X,Y,Z --look-at X,Y,Z | --random-views K [--seed S]\n"
             "                     [--view-kind auto|interior|object]] [--variants tile,single,fast,cpu]\n"
-            "                     [--device NAME] [--json F] [--md F]\n"
+            "                     [--device NAME] [--rays N] [--json F] [--md F]\n"
             "Speed against accuracy: rayfold's OpenCL tile and single-ray kernels, the fast build and the\n"
             "CPU reference in every fold mode, and Embree's rtcIntersect1 and rtcIntersect16 over an\n"
             "instanced and a flat scene (when installed), on the same views, each measured against a\n"
             "double-precision reference. Exact variants are checked bit for bit against the CPU reference\n"
-            "first (exit code 3 when one differs).");
+            "first (exit code 3 when one differs). --rays N adds ray queries (Renderer::intersect) against\n"
+            "Embree's rtcIntersect1 and rtcIntersect16 on the same rays: N incoherent rays and every view's\n"
+            "pixel rays as an array, checked bit for bit against the CPU reference too.");
         return 0;
       } else if (parse_view_path_option(a, args, opt, &have_scene)) {
       } else if (a == "--threads") {
@@ -46,6 +52,8 @@ int main(int argc, char** argv) {
         }
       } else if (a == "--device") {
         opt.device_hint = args.value(a);
+      } else if (a == "--rays") {
+        rays = static_cast<size_t>(cli::parse_int(a, args.value(a), 0, 100000000));
       } else if (a == "--json") {
         json = args.value(a);
       } else if (a == "--md") {
@@ -58,11 +66,23 @@ int main(int argc, char** argv) {
     for (const std::string* out : {&json, &md})
       if (!out->empty()) check_writable(*out);
     const PeerReport report = run_peers(opt);
-    const std::string text = peers_markdown(report);
+    std::string text = peers_markdown(report);
     std::fputs(text.c_str(), stdout);
-    if (!json.empty()) write_text_file(json, peers_json(report));
+    std::string report_json = peers_json(report);
+    bool valid = report.valid();
+    if (rays > 0) {
+      const RayPeerReport queries = run_ray_peers(opt, rays);
+      const std::string more = ray_peers_markdown(queries);
+      std::fputs(more.c_str(), stdout);
+      text += more;
+      nlohmann::json j = nlohmann::json::parse(report_json);
+      j["ray_queries"] = nlohmann::json::parse(ray_peers_json(queries));
+      report_json = j.dump(1);
+      valid = valid && queries.valid();
+    }
+    if (!json.empty()) write_text_file(json, report_json);
     if (!md.empty()) write_text_file(md, text);
-    if (!report.valid()) {
+    if (!valid) {
       std::fprintf(stderr, "error: an exact variant differs from the CPU reference; the figures are not valid\n");
       return 3;
     }

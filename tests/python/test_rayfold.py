@@ -558,6 +558,22 @@ def test_intersect_from_camera_rays_finds_the_render_hits(atrium):
     np.testing.assert_array_equal(occluded, h["instance_id"] != rayfold.MISS)
 
 
+def test_intersect_memory_is_its_arrays_whatever_the_ray_count(atrium_path):
+    """Rays go through in chunks of 2^20: from 2^20 to 2^23 rays the peak
+    grows by the arrays in and out (56 bytes a ray), not by the 64 bytes a
+    ray of trace-space rays and answers that unchunked queries would add."""
+    worker = Path(__file__).with_name("intersect_worker.py")
+    runs = []
+    for n in (1 << 20, 1 << 23):
+        out = subprocess.run([sys.executable, str(worker), atrium_path, str(n)], capture_output=True, text=True,
+                             timeout=600, check=True)
+        runs.append(json.loads(out.stdout))
+    small, big = runs
+    assert big["hits"] > big["rays"] // 2, big
+    grown, arrays = big["peak"] - small["peak"], big["arrays"] - small["arrays"]
+    assert grown < arrays + (24 << 20), (grown, arrays, runs)
+
+
 def test_intersect_rules_and_bad_rays():
     s = triangle_scene()  # the back quad at z = 0, facing +z
     o = np.array([[-0.8, 0.0, 3.0]])
