@@ -188,7 +188,8 @@ TEST(RayQuery, ImageRaysInBlocksEqualTheCpuReference) {
   std::vector<uint32_t> sorted = plan.order;
   std::sort(sorted.begin(), sorted.end());
   for (size_t i = 0; i < sorted.size(); ++i) ASSERT_EQ(sorted[i], i) << "a permutation";
-  EXPECT_EQ(plan.order[16], static_cast<uint32_t>(width)) << "the block's second row";
+  EXPECT_EQ(plan.order[4], static_cast<uint32_t>(width)) << "the first 4x4 quad's second row";
+  EXPECT_EQ(plan.order[16], 4u) << "the quad to its right";
   EXPECT_TRUE(plan_query_tiles(rays.o.data(), rays.size() - 1, width, 128).order.empty()) << "not whole rows";
   RendererOptions opt;
   opt.backend = Backend::cpu;

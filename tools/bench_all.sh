@@ -2,7 +2,9 @@
 # Runs, on the bundled scene and on every scene of ../shared/scenes that
 # exists (skipping, with a note, those that do not):
 #   rayfold bench   -> out/bench/<scene>.md/.json        (fold modes, Tables 1 and 2)
-#   rayfold-peers   -> out/bench/<scene>-peers.md/.json  (speed against accuracy, Embree)
+#   rayfold-peers   -> out/bench/<scene>-peers.md/.json  (speed against accuracy, Embree; and ray
+#                      queries against Embree on $PEER_RAYS incoherent rays, default 1M, and the
+#                      random views' pixel rays)
 #   rayfold-peers   -> out/bench/<scene>-file-peers.md/.json (the same from the file's
 #                      suggested camera alone: the one extra row)
 #   bench_python.py -> out/bench/<scene>-python.md/.json (rayfold from Python against Mitsuba 3
@@ -54,8 +56,8 @@ run() {
   if [ ! -f "$file" ]; then echo "bench_all: $file absent; skipped"; return; fi
   echo "== $name"
   "$bin" bench "$file" "${random[@]}" --view-kind "$kind" "${args[@]}" --json "$out/$name.json" --md "$out/$name.md"
-  "$peers" "$file" "${random[@]}" --view-kind "$kind" --variants "$variants" "${args[@]}" \
-    --json "$out/$name-peers.json" --md "$out/$name-peers.md"
+  "$peers" "$file" "${random[@]}" --view-kind "$kind" --variants "$variants" --rays "${PEER_RAYS:-1000000}" \
+    "${args[@]}" --json "$out/$name-peers.json" --md "$out/$name-peers.md"
   "$peers" "$file" "$@" --views 1 --variants "$variants" "${args[@]}" \
     --json "$out/$name-file-peers.json" --md "$out/$name-file-peers.md"
   if [ -n "$python_peers" ]; then

@@ -38,18 +38,30 @@ float check_query_rays(const float* origins, const float* directions, size_t n, 
   const float limit = static_cast<float>(kMaxWorldCoordinate);
   std::memcpy(&limit_bits, &limit, sizeof limit);
   uint32_t bad = 0, largest = 0;
-  for (size_t i = 0; i < n; ++i) {
-    uint32_t o[3], d[3];
-    std::memcpy(o, origins + 3 * i, sizeof o);
-    std::memcpy(d, directions + 3 * i, sizeof d);
-    uint32_t zero = 0;
-    for (int k = 0; k < 3; ++k) {
-      const uint32_t ao = o[k] & kAbs, ad = d[k] & kAbs;
-      largest = std::max(largest, ao);
-      bad |= static_cast<uint32_t>(ao > limit_bits) | static_cast<uint32_t>(ad >= kInf);
-      zero |= ad;
+  const auto bits = [](const float* p, size_t i) {
+    uint32_t w;
+    std::memcpy(&w, p + i, sizeof w);
+    return w & kAbs;
+  };
+  // On both threads, in chunks of whole rays.
+  constexpr size_t kChunk = size_t{1} << 16;
+  std::vector<uint32_t> chunk_bad((n + kChunk - 1) / kChunk), chunk_largest(chunk_bad.size());
+  parallel_for(n, 0, kChunk, [&](size_t lo, size_t hi) {
+    uint32_t b = 0, l = 0;
+    for (size_t i = 3 * lo; i < 3 * hi; ++i) {  // flat over the coordinates: this loop vectorises
+      const uint32_t ao = bits(origins, i), ad = bits(directions, i);
+      l = std::max(l, ao);
+      b |= static_cast<uint32_t>(ao > limit_bits) | static_cast<uint32_t>(ad >= kInf);
     }
-    bad |= static_cast<uint32_t>(zero == 0);
+    for (size_t i = lo; i < hi; ++i)
+      b |= static_cast<uint32_t>(
+          (bits(directions, 3 * i) | bits(directions, 3 * i + 1) | bits(directions, 3 * i + 2)) == 0);
+    chunk_bad[lo / kChunk] = b;
+    chunk_largest[lo / kChunk] = l;
+  });
+  for (size_t c = 0; c < chunk_bad.size(); ++c) {
+    bad |= chunk_bad[c];
+    largest = std::max(largest, chunk_largest[c]);
   }
   if (bad == 0) {
     float out;
@@ -114,22 +126,69 @@ size_t query_chunk_rays(size_t row_length) {
   return row_length >= RF_TILE_SIDE && band <= kChunk ? kChunk / band * band : kChunk;
 }
 
+namespace {
+
+// An image's rays in the order of a camera's ray list (fold/ray_list.cpp):
+// RF_TILE_SIDE-square tiles of 8x8 blocks of 4x4 quads, each quad row by
+// row, so that a vector's 16 rays are a 4x4 quad; the first ray of each
+// tile into tile_starts.
+std::vector<uint32_t> image_order(size_t rows, size_t row_length, std::vector<uint32_t>& tile_starts) {
+  constexpr size_t kBlock = 8, kQuad = 4;
+  std::vector<uint32_t> order;
+  order.reserve(rows * row_length);
+  const auto tile = [&](size_t ty, size_t tx, size_t stride, size_t height, size_t width) {
+    for (size_t by = ty; by < std::min(ty + RF_TILE_SIDE, height); by += kBlock)
+      for (size_t bx = tx; bx < std::min(tx + RF_TILE_SIDE, width); bx += kBlock)
+        for (size_t qy = by; qy < std::min(by + kBlock, height); qy += kQuad)
+          for (size_t qx = bx; qx < std::min(bx + kBlock, width); qx += kQuad)
+            for (size_t y = qy; y < std::min(qy + kQuad, height); ++y)
+              for (size_t x = qx; x < std::min(qx + kQuad, width); ++x)
+                order.push_back(static_cast<uint32_t>(y * stride + x));
+  };
+  // A whole tile's offsets once; edge tiles the long way.
+  tile(0, 0, row_length, RF_TILE_SIDE, RF_TILE_SIDE);
+  const std::vector<uint32_t> whole(order.begin(), order.end());
+  order.clear();
+  for (size_t ty = 0; ty < rows; ty += RF_TILE_SIDE)
+    for (size_t tx = 0; tx < row_length; tx += RF_TILE_SIDE) {
+      tile_starts.push_back(static_cast<uint32_t>(order.size()));
+      if (ty + RF_TILE_SIDE <= rows && tx + RF_TILE_SIDE <= row_length) {
+        const uint32_t base = static_cast<uint32_t>(ty * row_length + tx);
+        for (uint32_t o : whole) order.push_back(base + o);
+      } else {
+        tile(ty, tx, row_length, rows, row_length);
+      }
+    }
+  return order;
+}
+
+// Whether every ray has ray 0's origin, bit for bit (one pass that
+// vectorises).
+bool one_origin(const float* origins, size_t n) {
+  uint32_t first[3], diff = 0;
+  std::memcpy(first, origins, sizeof first);
+  for (size_t i = 0; i < n; ++i)
+    for (int k = 0; k < 3; ++k) {
+      uint32_t w;
+      std::memcpy(&w, origins + 3 * i + k, sizeof w);
+      diff |= w ^ first[k];
+    }
+  return diff == 0;
+}
+
+}  // namespace
+
 QueryTiles plan_query_tiles(const float* origins, size_t n, size_t row_length, size_t min_rays) {
   QueryTiles plan;
   if (n == 0) return plan;
-  // An image's rays in blocks of RF_TILE_SIDE x RF_TILE_SIDE, each a tile.
+  // An image's rays in RF_TILE_SIDE-square tiles.
   const bool blocks = row_length >= RF_TILE_SIDE && n % row_length == 0;
   std::vector<uint32_t> block_starts;
-  if (blocks) {
-    plan.order.reserve(n);
-    const size_t rows = n / row_length;
-    for (size_t by = 0; by < rows; by += RF_TILE_SIDE)
-      for (size_t bx = 0; bx < row_length; bx += RF_TILE_SIDE) {
-        block_starts.push_back(static_cast<uint32_t>(plan.order.size()));
-        for (size_t y = by; y < std::min(by + RF_TILE_SIDE, rows); ++y)
-          for (size_t x = bx; x < std::min(bx + RF_TILE_SIDE, row_length); ++x)
-            plan.order.push_back(static_cast<uint32_t>(y * row_length + x));
-      }
+  if (blocks) plan.order = image_order(n / row_length, row_length, block_starts);
+  if (blocks && one_origin(origins, n)) {  // a camera's: the blocks are the tiles
+    plan.tiles = std::move(block_starts);
+    plan.tiles.push_back(static_cast<uint32_t>(n));
+    return plan;
   }
   const auto ray = [&](size_t k) { return origins + 3 * (blocks ? plan.order[k] : k); };
   plan.tiles.push_back(0);
