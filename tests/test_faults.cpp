@@ -300,12 +300,22 @@ TEST(Faults, StaleTemporariesAreRemovedByTheNextRun) {
   const pid_t gone = spawn({"/bin/true"}, d / "err");
   wait_code(gone);
   const std::string dead = std::to_string(gone), live = std::to_string(::getpid());
+  // A zombie (ended, not reaped) has ended too: where no one reaps orphans,
+  // a killed batch worker stays one (a rerun kept its temporary).
+  const pid_t zombie = ::fork();
+  if (zombie == 0) ::_exit(0);
+  ASSERT_GT(zombie, 0);
+  for (int i = 0; i < 200 && read_text("/proc/" + std::to_string(zombie) + "/stat").find(") Z") == std::string::npos;
+       ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
   for (const std::string& name :
        {".a.exr.rayfold-" + dead + "-0.tmp", ".old.png.rayfold-" + dead + "-7.tmp", "a.exr.tmp-" + dead,
-        ".b.exr.rayfold-" + live + "-0.tmp", std::string("notes.tmp"), ".x.rayfold-" + dead + "-y.tmp"})
+        ".b.exr.rayfold-" + live + "-0.tmp", std::string("notes.tmp"), ".x.rayfold-" + dead + "-y.tmp",
+        ".z.exr.rayfold-" + std::to_string(zombie) + "-3.tmp"})
     std::ofstream(d / name) << "partial";
   fs::remove(d / "err");
   const Outcome r = shell(kRender + " --size 32x18 -o " + (d / "a.exr").string(), d);
+  ::waitpid(zombie, nullptr, 0);
   ASSERT_EQ(r.code, 0) << r.err;
   fs::remove(d / "stderr");
   EXPECT_EQ(listing(d), (std::vector<std::string>{".b.exr.rayfold-" + live + "-0.tmp", ".x.rayfold-" + dead + "-y.tmp",

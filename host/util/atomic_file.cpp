@@ -1,5 +1,8 @@
 #include "util/atomic_file.h"
 
+#include <fstream>
+#include <iterator>
+
 #include <dirent.h>
 #include <signal.h>
 #include <unistd.h>
@@ -33,7 +36,14 @@ bool process_ended(const std::string& digits) {
   if (digits.empty() || digits.find_first_not_of("0123456789") != std::string::npos || digits.size() > 9) return false;
   const long pid = std::strtol(digits.c_str(), nullptr, 10);
   if (pid <= 0 || pid == ::getpid()) return false;
-  return ::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH;
+  if (::kill(static_cast<pid_t>(pid), 0) != 0) return errno == ESRCH;
+  // A zombie has ended too: where no one reaps orphans (a container's
+  // init), a writer killed with its parent stays one, and its temporaries
+  // stayed with it.
+  std::ifstream stat("/proc/" + digits + "/stat");
+  std::string text((std::istreambuf_iterator<char>(stat)), std::istreambuf_iterator<char>());
+  const size_t paren = text.rfind(')');
+  return paren != std::string::npos && paren + 2 < text.size() && text[paren + 2] == 'Z';
 }
 
 // The pid in ".<name>.rayfold-<pid>-<n>.tmp", or "" when the name is not one.

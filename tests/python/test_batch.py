@@ -291,3 +291,26 @@ def test_memory_stays_flat_from_100_to_10000_views(atrium_path, tmp_path):
     (d100, w100), (d10k, w10k) = peaks[100], peaks[10000]
     assert d10k <= 2 * d100 and w10k <= 2 * w100, f"peak RSS MB (driver, worker): 100 views {peaks[100]}, " \
                                                    f"10,000 views {peaks[10000]}"
+
+
+def test_the_end_of_a_run_removes_what_ended_writers_left(tmp_path):
+    """A rerun right after a stopped one found a killed worker's temporary
+    still there (the worker was still exiting when the rerun's own scan ran);
+    the end of a run removes those of writers that have ended, zombies
+    among them, and keeps a live one's and a user's files."""
+    from rayfold._batch_outputs import ExrOutput
+    gone = subprocess.Popen(["/bin/true"])
+    gone.wait()
+    zombie = os.fork()
+    if zombie == 0:
+        os._exit(0)
+    deadline = time.monotonic() + 5
+    while time.monotonic() < deadline and ") Z" not in open(f"/proc/{zombie}/stat").read():
+        time.sleep(0.005)
+    names = [f".v_00001.exr.rayfold-{gone.pid}-0.tmp", f".v_00002.exr.rayfold-{zombie}-4.tmp",
+             f".v_00003.exr.rayfold-{os.getpid()}-1.tmp", "notes.tmp", "v_00000.exr"]
+    for n in names:
+        (tmp_path / n).write_text("partial")
+    ExrOutput(str(tmp_path / "v_%05d.exr"), 4).remove_all_partial()
+    os.waitpid(zombie, 0)
+    assert sorted(os.listdir(tmp_path)) == sorted(names[2:])

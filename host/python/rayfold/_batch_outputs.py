@@ -95,6 +95,36 @@ class ExrOutput:
                 except FileNotFoundError:
                     pass
 
+    def remove_all_partial(self):
+        """At the end of a run: the temporaries that writers which have
+        ended left in the folder (a run stopped by a signal, whose workers
+        Ray killed mid-write; at the rerun's start they could still be
+        exiting, so its own scan kept them)."""
+        for temp in glob.glob(os.path.join(glob.escape(self.folder), ".*.rayfold-*-*.tmp")):
+            pid = os.path.basename(temp).rsplit(".rayfold-", 1)[1].split("-", 1)[0]
+            if pid.isdigit() and not _alive(int(pid)):
+                try:
+                    os.remove(temp)
+                except FileNotFoundError:
+                    pass
+
+
+def _alive(pid):
+    """Whether process pid runs (a zombie, ended but not yet reaped, does not)."""
+    if pid == os.getpid():
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            return f.read().rsplit(")", 1)[1].split()[0] != "Z"
+    except OSError:
+        return True
+
 
 class ZarrOutput:
     """One zarr store: per plane an array (views, height, width[, k]) with
