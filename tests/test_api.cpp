@@ -474,6 +474,23 @@ TEST(Api, ExrFilesReadBackBitForBitWithThePlanesWritten) {
   EXPECT_FALSE(std::filesystem::exists(d / "cut.exr") || std::filesystem::exists(d / "small.exr"));
   EXPECT_NE(message_of<InputError>([&] { read_exr((d / "none.exr").string()); }).find("none.exr"),
             std::string::npos);
+  // Every lossless compression reads back the same bits; none is the
+  // largest, zip smaller; lossy ones are refused by name.
+  std::vector<uintmax_t> sizes;
+  for (const char* name : {"none", "rle", "zips", "zip", "piz"}) {
+    const std::string path = (d / (std::string("c_") + name + ".exr")).string();
+    write_exr(path, all, cam, scene, exr_compression(name));
+    const GBuffer c = read_exr(path);
+    EXPECT_TRUE(same_bits(c.depth, all.depth) && same_bits(c.normal, all.normal) && same_bits(c.uv, all.uv)) << name;
+    EXPECT_EQ(c.instance_id, all.instance_id) << name;
+    EXPECT_EQ(c.primitive_id, all.primitive_id) << name;
+    sizes.push_back(std::filesystem::file_size(path));
+  }
+  EXPECT_GT(sizes[0], 48u * 30u * 32u) << "none holds every byte";
+  EXPECT_LT(sizes[3], sizes[0]) << "zip compresses";
+  EXPECT_NE(message_of<InputError>([] { exr_compression("dwaa"); }).find("lossy"), std::string::npos);
+  EXPECT_NE(message_of<InputError>([] { exr_compression("gzip"); }).find("none, rle, zips, zip, piz"),
+            std::string::npos);
 }
 
 // Camera::from_file tells a camera list from a transforms.json by content.

@@ -184,7 +184,9 @@ TEST(Cli, UsageErrorsExitTwoWithAMessage) {
                            "bench --view-kind object",
                            "bench --random-views 2 --view-kind room",
                            "bench --random-views 2 --eye 0,0,0 --look-at 1,0,0",
-                           "bench --random-views 0"}) {
+                           "bench --random-views 0",
+                           "render --exr-compression dwaa",
+                           "render --exr-compression zip9"}) {
     const CliRun r = rayfold(args);
     EXPECT_EQ(r.code, 2) << args << "\n" << r.err;
     EXPECT_EQ(r.err.rfind("error: ", 0), 0u) << args << ": " << r.err;

@@ -23,7 +23,10 @@ void check_plane(size_t size, size_t per_pixel, unsigned bit, const GBuffer& g, 
 
 }  // namespace
 
-void write_exr(const std::string& path, const GBuffer& g, const Camera& camera, const Scene& scene) {
+ExrCompression exr_compression(const std::string& name) { return core::parse_exr_compression(name); }
+
+void write_exr(const std::string& path, const GBuffer& g, const Camera& camera, const Scene& scene,
+               ExrCompression compression) {
   if (g.width != camera.width() || g.height != camera.height())
     throw InputError("", "write_exr: the G-buffer is " + std::to_string(g.width) + "x" + std::to_string(g.height) +
                              ", its camera " + std::to_string(camera.width()) + "x" + std::to_string(camera.height()));
@@ -54,7 +57,7 @@ void write_exr(const std::string& path, const GBuffer& g, const Camera& camera, 
   const core::ExrMetadata metadata =
       core::view_metadata(camera.core(), s.scene, s.path, core::fold_name(detail::to_core(g.fold)),
                           g.depth_kind == Depth::planar, RAYFOLD_VERSION_STRING);
-  core::write_exr(path, hits, g.width, g.height, &metadata, g.channels);
+  core::write_exr(path, hits, g.width, g.height, &metadata, g.channels, compression);
 }
 
 GBuffer read_exr(const std::string& path) {

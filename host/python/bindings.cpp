@@ -458,15 +458,18 @@ NB_MODULE(_core, m) {
           "what depth measures: 'distance' along the pixel's ray or 'planar' along the camera's axis")
       .def(
           "write_exr",
-          [](const PyGBuffer& g, const std::filesystem::path& path, const PyScene& scene) {
+          [](const PyGBuffer& g, const std::filesystem::path& path, const PyScene& scene,
+             const std::string& compression) {
+            const rayfold::ExrCompression method = rayfold::exr_compression(compression);
             const rayfold::GBuffer core = from_python(g);
             nb::gil_scoped_release release;
-            rayfold::write_exr(path.string(), core, g.camera, scene.scene);
+            rayfold::write_exr(path.string(), core, g.camera, scene.scene, method);
           },
-          "path"_a, "scene"_a,
+          "path"_a, "scene"_a, "compression"_a = "zip",
           "Writes the planes this G-buffer has as `rayfold render -o` writes a view (channels Z, N.X, N.Y, N.Z, U, "
           "V, InstanceID, PrimitiveID; the camera and scene's instance names in the header). The file appears "
-          "whole or not at all. Releases the GIL.");
+          "whole or not at all. compression: OpenEXR's lossless 'zip' (default), 'zips', 'piz', 'rle' or 'none' "
+          "(3 to 4 times faster to write, 4 times the bytes). Releases the GIL.");
 
   auto scene_class = nb::class_<PyScene>(m, "Scene", "Meshes and instances, from a glTF 2.0 file or built in memory.");
   scene_class
@@ -722,6 +725,9 @@ NB_MODULE(_core, m) {
       "The planes of an EXR rayfold wrote (GBuffer.write_exr, rayfold render -o), bit for bit, as a dict with the "
       "GBuffer's plane names and shapes (depth, normal, uv, instance_id, primitive_id), holding the planes the "
       "file has. InputError naming the file otherwise.");
+  m.def(
+      "_check_exr_compression", [](const std::string& name) { rayfold::exr_compression(name); }, "name"_a,
+      "InputError unless name is an EXR compression GBuffer.write_exr takes.");
 
   nb::class_<PyRenderer>(m, "Renderer", "A renderer of one scene with fixed options (Scene.render keeps these).")
       .def(

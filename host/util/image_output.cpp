@@ -162,8 +162,37 @@ ExrMetadata view_metadata(const Camera& camera, const Scene& scene, const std::s
   return m;
 }
 
+namespace {
+
+struct CompressionName {
+  const char* name;
+  rayfold::ExrCompression method;
+  Imf::Compression imf;
+};
+constexpr CompressionName kCompressions[] = {
+    {"none", rayfold::ExrCompression::none, Imf::NO_COMPRESSION},
+    {"rle", rayfold::ExrCompression::rle, Imf::RLE_COMPRESSION},
+    {"zips", rayfold::ExrCompression::zips, Imf::ZIPS_COMPRESSION},
+    {"zip", rayfold::ExrCompression::zip, Imf::ZIP_COMPRESSION},
+    {"piz", rayfold::ExrCompression::piz, Imf::PIZ_COMPRESSION},
+};
+
+}  // namespace
+
+const char* exr_compressions() { return "none, rle, zips, zip, piz"; }
+
+rayfold::ExrCompression parse_exr_compression(const std::string& name) {
+  for (const CompressionName& c : kCompressions)
+    if (name == c.name) return c.method;
+  for (const char* lossy : {"pxr24", "b44", "b44a", "dwaa", "dwab"})
+    if (name == lossy)
+      throw InputError("", "EXR compression '" + name + "' is lossy: a G-buffer's floats and ids must read back bit "
+                               "for bit (lossless: " + exr_compressions() + ")");
+  throw InputError("", "unknown EXR compression '" + name + "' (" + exr_compressions() + ")");
+}
+
 void write_exr(const std::string& path, const std::vector<rf_pixel_hit>& hits, int width, int height,
-               const ExrMetadata* metadata, unsigned channels) {
+               const ExrMetadata* metadata, unsigned channels, rayfold::ExrCompression compression) {
   RF_CHECK(hits.size() == static_cast<size_t>(width) * height, "hit buffer does not match the image size");
   // ZIP compression of a 1280x720 G-buffer takes ten times the trace on one
   // thread; OpenEXR compresses blocks in parallel on its global pool
@@ -178,6 +207,8 @@ void write_exr(const std::string& path, const std::vector<rf_pixel_hit>& hits, i
   try {
     Imf::Header header(width, height);
     header.compression() = Imf::ZIP_COMPRESSION;
+    for (const CompressionName& c : kCompressions)
+      if (c.method == compression) header.compression() = c.imf;
     for (const Channel& c : kChannels)
       if (channels & c.plane) header.channels().insert(c.name, Imf::Channel(c.type));
     if (metadata) add_metadata(header, *metadata, width, height);

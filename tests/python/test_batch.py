@@ -215,6 +215,15 @@ def test_a_rerun_renders_only_what_is_missing_changed_or_damaged(atrium_path, tm
     s = rayfold.batch.render(atrium_path, cameras, pattern, fold="xy", progress=False)
     assert (s.rendered, s.kept) == (40, 0)
     assert_views_equal(rayfold.Scene(atrium_path), cameras, pattern, "none")
+    # Another EXR compression writes every view again, uncompressed here,
+    # with the same planes; then it is kept.
+    zipped = os.path.getsize(pattern % 0)
+    s = rayfold.batch.render(atrium_path, cameras, pattern, fold="xy", exr_compression="none", progress=False)
+    assert (s.rendered, s.kept) == (40, 0)
+    assert os.path.getsize(pattern % 0) > max(zipped, 64 * 48 * 32)
+    assert_views_equal(rayfold.Scene(atrium_path), cameras, pattern, "none")
+    s = rayfold.batch.render(atrium_path, cameras, pattern, fold="xy", exr_compression="none", progress=False)
+    assert (s.rendered, s.kept) == (0, 40)
 
 
 def test_a_view_that_cannot_be_written_is_named_and_the_rest_complete(atrium_path, tmp_path):
@@ -264,6 +273,10 @@ def test_bad_input_fails_first_naming_what_is_wrong(atrium_path, tmp_path):
         ([atrium_path, "--cameras", tmp_path / "c.json", "-o", tmp_path / "v_%d.exr", "--workers", "0"], "workers"),
         ([atrium_path, "--cameras", tmp_path / "c.json", "-o", tmp_path / "v_%d.exr", "--gpu-workers", "1"],
          "the Ray cluster has 0 GPUs"),
+        ([atrium_path, "--cameras", tmp_path / "c.json", "-o", tmp_path / "v.zarr", "--exr-compression", "none"],
+         "is for EXR outputs"),
+        ([atrium_path, "--cameras", tmp_path / "c.json", "-o", tmp_path / "v_%d.exr", "--exr-compression", "b44"],
+         "invalid choice"),
     ]
     for args, what in cases:
         r = subprocess.run([sys.executable, "-m", "rayfold.batch", *map(str, args)], capture_output=True, text=True,

@@ -1,6 +1,7 @@
 """The Python module against the CLI, against the scene's own triangles, and
 against itself written another way; and its errors."""
 import json
+import os
 import subprocess
 import sys
 import threading
@@ -255,6 +256,30 @@ def test_python_equals_the_cli_exr_bit_for_bit(atrium_path, cli, tmp_path):
         p = np.asarray(cam.eye) + g.depth[y, x] * dirs[y, x]
         ndc = np.append(p, 1.0) @ h["worldToNDC"].astype(np.float64)
         assert abs(ndc[0] / ndc[3] * 80 - (x + 0.5)) < 1e-2 and abs(ndc[1] / ndc[3] * 45 - (y + 0.5)) < 1e-2
+
+
+def test_exr_compressions_read_back_the_same_bits(atrium_path, cli, tmp_path):
+    """GBuffer.write_exr(compression=) and the CLI's --exr-compression write
+    every lossless method with the same planes; none is the largest; a lossy
+    method is refused by name."""
+    scene = rayfold.Scene(atrium_path)
+    g = scene.render(scene.default_camera(80, 45), fold="xy")
+    sizes = {}
+    for c in ("zip", "zips", "piz", "rle", "none"):
+        path = tmp_path / f"{c}.exr"
+        g.write_exr(path, scene, compression=c)
+        back = rayfold.read_exr(path)
+        for k in ("depth", "normal", "uv", "instance_id", "primitive_id"):
+            np.testing.assert_array_equal(bits(back[k]), bits(getattr(g, k)), err_msg=f"{c} {k}")
+        sizes[c] = os.path.getsize(path)
+    assert sizes["none"] > 80 * 45 * 32 and sizes["zip"] < sizes["none"], sizes
+    subprocess.run([cli, "render", atrium_path, "--size", "80x45", "--fold", "xy", "-o", str(tmp_path / "cli.exr"),
+                    "--exr-compression", "none", "-q"], check=True)
+    assert os.path.getsize(tmp_path / "cli.exr") > 80 * 45 * 32
+    np.testing.assert_array_equal(bits(rayfold.read_exr(tmp_path / "cli.exr")["depth"]), bits(g.depth))
+    with pytest.raises(rayfold.InputError, match="lossy"):
+        g.write_exr(tmp_path / "b44.exr", scene, compression="b44")
+    assert not (tmp_path / "b44.exr").exists()
 
 
 def reprojection_error(scene, camera, g, min_hits, step):

@@ -23,6 +23,7 @@ struct RenderArgs {
   std::string cameras;           // --cameras FILE.json: one render per view (a camera list or transforms.json)
   std::string colmap;            // --colmap DIR: one render per image of a COLMAP text model
   unsigned channels = rayfold::kAllChannels;  // --channels: the EXR channels written (rayfold::Channels)
+  rayfold::ExrCompression exr_compression = rayfold::ExrCompression::zip;  // --exr-compression
   std::optional<double> stereo;  // --stereo B: a left and a right view
   int align = 0;                 // --align N: views per pass; 0 = all (as many as a pass holds), -1 = auto
   bool fold_auto = false;        // --fold auto

@@ -71,6 +71,8 @@ const char* kRenderUsage =
     "                         depth along the camera's axis (Nuke's and Blender's Z)\n"
     "  --channels C,...       the EXR channels written: Z, N (N.X, N.Y, N.Z), UV (U, V),\n"
     "                         InstanceID, PrimitiveID (default: all eight)\n"
+    "  --exr-compression M    zip (default), zips, piz, rle or none: OpenEXR's lossless\n"
+    "                         methods; none writes 3 to 4 times faster, 4 times the bytes\n"
     "  --png F.png            normal-shaded preview, misses black\n"
     "  --stats F.json         the camera, options, hit and miss counts, phase times, device buffers\n"
     "  --ids F.json           the id manifest: InstanceID -> the file's node name and mesh\n"
@@ -113,6 +115,12 @@ RenderArgs parse_render(cli::Args& args) {
         throw UsageError("--depth: 'distance' (along the ray, the default) or 'planar' (along the camera's axis), "
                          "not '" + v + "'");
       r.frame.planar_depth = v == "planar";
+    } else if (a == "--exr-compression") {
+      try {
+        r.exr_compression = parse_exr_compression(args.value(a));
+      } catch (const InputError& e) {
+        throw UsageError(std::string("--exr-compression: ") + e.what());
+      }
     } else if (a == "--channels") {
       try {
         r.channels = parse_channels(args.value(a));
@@ -313,8 +321,9 @@ int render_views(RenderArgs r, const Scene& scene, const std::vector<cli::View>&
       const RenderResult vr = view_result(result, k);
       const ExrMetadata metadata = exr_metadata(v.camera, scene, r);
       const int w = v.camera.width, h = v.camera.height;
-      if (!r.exr.empty()) write_exr(view_output("-o", r.exr, v, stereo, views.size()), vr.hits, w, h, &metadata,
-                                  r.channels);
+      if (!r.exr.empty())
+        write_exr(view_output("-o", r.exr, v, stereo, views.size()), vr.hits, w, h, &metadata, r.channels,
+                  r.exr_compression);
       if (!r.png.empty()) write_png(view_output("--png", r.png, v, stereo, views.size()), vr.hits, w, h);
       if (!r.stats.empty())
         write_stats(view_output("--stats", r.stats, v, stereo, views.size()), r, scene, v.camera, renderer, vr, load_ms,
@@ -460,7 +469,7 @@ int run_render(cli::Args& args) {
     result = renderer.render(camera, r.frames, frame_options);
     progress.stage("writing");
     const auto w0 = Clock::now();
-    if (!r.exr.empty()) write_exr(r.exr, result.hits, r.width, r.height, &metadata, r.channels);
+    if (!r.exr.empty()) write_exr(r.exr, result.hits, r.width, r.height, &metadata, r.channels, r.exr_compression);
     if (!r.png.empty()) write_png(r.png, result.hits, r.width, r.height);
     write_ms += ms_since(w0);
     for (const std::string* out : {&r.exr, &r.png})
@@ -479,7 +488,8 @@ int run_render(cli::Args& args) {
       if (sequence || last) {
         const auto w0 = Clock::now();
         if (!r.exr.empty())
-          write_exr(frame_name("output", r.exr, f, nullptr), result.hits, r.width, r.height, &metadata, r.channels);
+          write_exr(frame_name("output", r.exr, f, nullptr), result.hits, r.width, r.height, &metadata, r.channels,
+                    r.exr_compression);
         if (!r.png.empty()) write_png(frame_name("output", r.png, f, nullptr), result.hits, r.width, r.height);
         write_ms += ms_since(w0);
       }

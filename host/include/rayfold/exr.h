@@ -16,8 +16,13 @@ namespace rayfold {
 // The file appears whole or not at all (a temporary renamed into place,
 // removed on failure or on SIGINT/SIGTERM/SIGHUP in the CLI). Throws
 // InputError for a G-buffer whose planes do not match its size or camera,
-// RuntimeFailure naming the file when it cannot be written.
-void write_exr(const std::string& path, const GBuffer& g, const Camera& camera, const Scene& scene);
+// RuntimeFailure naming the file when it cannot be written. compression:
+// OpenEXR's lossless methods (ExrCompression), ZIP by default.
+void write_exr(const std::string& path, const GBuffer& g, const Camera& camera, const Scene& scene,
+               ExrCompression compression = ExrCompression::zip);
+// "none", "rle", "zips", "zip" or "piz"; InputError otherwise (a lossy
+// method named as such).
+ExrCompression exr_compression(const std::string& name);
 
 // Reads what write_exr or the CLI wrote: the planes the file has
 // (channels), bit for bit. InputError naming the file otherwise.

@@ -10,7 +10,7 @@ import os
 
 import numpy as np
 
-from ._core import MISS, InputError, __version__
+from ._core import MISS, InputError, __version__, _check_exr_compression
 
 # A plane's trailing shape, dtype and the value of a view not yet written.
 PLANES = {
@@ -30,17 +30,24 @@ def sha256_file(path):
     return h.hexdigest()
 
 
-def make_output(out, count):
-    """The output `out` names for `count` views; InputError for one that
-    cannot hold them."""
+def make_output(out, count, exr_compression=None):
+    """The output `out` names for `count` views, EXRs compressed with
+    exr_compression (GBuffer.write_exr; None: its default); InputError for
+    one that cannot hold them, or an EXR compression for a zarr store."""
     out = os.fspath(out)
-    return ZarrOutput(out) if out.rstrip("/").endswith(".zarr") else ExrOutput(out, count)
+    if out.rstrip("/").endswith(".zarr"):
+        if exr_compression is not None:
+            raise InputError(f"exr_compression {exr_compression!r} is for EXR outputs; {out} is a zarr store")
+        return ZarrOutput(out)
+    return ExrOutput(out, count, exr_compression or "zip")
 
 
 class ExrOutput:
     """out % index: one EXR per view, all in one folder (with the manifest)."""
 
-    def __init__(self, pattern, count):
+    def __init__(self, pattern, count, compression="zip"):
+        _check_exr_compression(compression)  # InputError for a name OpenEXR has not, or a lossy one
+        self.compression = compression
         message = f"output pattern {pattern!r} must hold one integer field such as %06d (the view's index)"
         try:
             first = [pattern % i for i in range(min(count, 2))]
@@ -81,7 +88,7 @@ class ExrOutput:
     def write(self, i, g, scene):
         """Writes view i; returns (bytes, sha256) for its record."""
         path = self.path(i)
-        g.write_exr(path, scene)
+        g.write_exr(path, scene, compression=self.compression)
         return os.path.getsize(path), sha256_file(path)
 
     def remove_partial(self, indices, pid):
