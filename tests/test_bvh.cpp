@@ -585,5 +585,61 @@ TEST(Bvh, WideTreesKeepTheBinaryLeavesBelowEveryEntry) {
   }
 }
 
+// A mesh of dense_triangles or more is built with the dense leaf cost:
+// fewer nodes, fuller leaves (BuildOptions); the meshes beside it keep
+// theirs. Its tile and single-ray renders still give the CPU reference's
+// bits, and the brute force's.
+TEST(Bvh, DenseMeshesGetFullerLeaves) {
+  Rng rng(5150);
+  Scene scene = testing::random_scene(rng, 2, 3, 300);
+  {  // a bumpy grid of 2^17 triangles
+    Mesh dense;
+    const int n = 256;
+    for (int y = 0; y <= n; ++y)
+      for (int x = 0; x <= n; ++x)
+        dense.positions.push_back({x / 64.0f - 2.0f, y / 64.0f - 2.0f, 0.05f * std::sin(0.7f * x) * std::cos(0.3f * y)});
+    for (int y = 0; y < n; ++y)
+      for (int x = 0; x < n; ++x) {
+        const uint32_t a = y * (n + 1) + x, b = a + 1, c = a + n + 1, d = c + 1;
+        dense.indices.insert(dense.indices.end(), {a, b, d, a, d, c});
+      }
+    ASSERT_EQ(dense.triangle_count(), BuildOptions{}.dense_triangles);
+    scene.meshes.push_back(dense);
+    Instance inst;
+    inst.mesh = static_cast<uint32_t>(scene.meshes.size() - 1);
+    inst.world_from_object = Xform(1.0);
+    scene.instances.push_back(inst);
+  }
+  BuildOptions plain;
+  plain.dense_triangles = SIZE_MAX;
+  const BlasSet dense = build_blas_set(scene, BuildOptions{}, 2), sparse = build_blas_set(scene, plain, 2);
+  const auto nodes = [](const BlasSet& s, size_t m) {  // under mesh m's root
+    size_t count = 0;
+    std::vector<uint32_t> todo{s.roots[m]};
+    while (!todo.empty()) {
+      const rf_node& n = s.nodes[todo.back()];
+      todo.pop_back();
+      ++count;
+      if ((n.meta & RF_NODE_COUNT_MASK) == 0) todo.insert(todo.end(), {n.first, n.first + 1});
+    }
+    return count;
+  };
+  const size_t last = scene.meshes.size() - 1;
+  EXPECT_LT(nodes(dense, last), nodes(sparse, last) * 3 / 4) << nodes(dense, last) << " against " << nodes(sparse, last);
+  for (size_t m = 0; m < last; ++m) EXPECT_EQ(nodes(dense, m), nodes(sparse, m)) << "mesh " << m;
+  const Camera cam = make_camera(testing::random_camera(rng, scene.world_bounds()), 64, 40);
+  RendererOptions opt;
+  opt.backend = Backend::cpu;
+  Renderer cpu(scene, opt);
+  const std::vector<rf_pixel_hit> want = cpu.render(cam).hits;
+  EXPECT_EQ(testing::compare_hits(testing::brute_force(scene, cpu.scene_data(), cam), want, cam.width), "");
+  for (KernelChoice k : {KernelChoice::tile, KernelChoice::single}) {
+    opt.backend = Backend::opencl;
+    opt.kernel = k;
+    Renderer cl(scene, opt);
+    EXPECT_EQ(testing::compare_hits(want, cl.render(cam).hits, cam.width), "") << "kernel " << int(k);
+  }
+}
+
 }  // namespace
 }  // namespace rayfold::core

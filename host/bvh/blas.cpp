@@ -87,7 +87,9 @@ BlasSet build_blas_set(const Scene& scene, const BuildOptions& options, unsigned
       }
     });
     for (size_t n : tiny) unresolvable[m] += n;
-    trees[m] = build_sah(boxes, options, mesh_threads);
+    BuildOptions mesh_options = options;
+    if (tri_count >= options.dense_triangles) mesh_options.intersection_cost = options.dense_intersection_cost;
+    trees[m] = build_sah(boxes, mesh_options, mesh_threads);
   };
   // A large mesh is built by all threads, one after another; the others one
   // mesh per thread side by side, largest first.

@@ -26,6 +26,17 @@ struct BuildOptions {
   uint32_t sweep_size = 4;
   float traversal_cost = 1.0f;     // SAH cost of one box-pair test
   float intersection_cost = 1.0f;  // SAH cost of one primitive test
+  // Meshes of at least dense_triangles triangles (build_blas_set) are built
+  // with dense_intersection_cost instead: seen whole, such a mesh has about
+  // a triangle per pixel or fewer, the rays of one lane group part ways in
+  // its last levels, and fewer, fuller leaves are what the tile kernel
+  // traces fastest. On random views (docs/results.md) 0.3 took the dragon
+  // (871k triangles) from 0.90x to 1.05x-1.09x of Embree and the
+  // armadillo (346k) 3% to 5% faster; on Lost Empire and Sponza, whose
+  // meshes hold large triangles, it was 10% to 20% slower, and their
+  // meshes (67k and 10k triangles at most) keep 1.0.
+  size_t dense_triangles = size_t{1} << 17;
+  float dense_intersection_cost = 0.3f;
   // Past this depth splits become object medians, so that trees of up to
   // 2^24 primitives stay within the device's 64-entry traversal stack.
   int median_depth = 36;
