@@ -469,7 +469,7 @@ NB_MODULE(_core, m) {
           "Writes the planes this G-buffer has as `rayfold render -o` writes a view (channels Z, N.X, N.Y, N.Z, U, "
           "V, InstanceID, PrimitiveID; the camera and scene's instance names in the header). The file appears "
           "whole or not at all. compression: OpenEXR's lossless 'zip' (default), 'zips', 'piz', 'rle' or 'none' "
-          "(3 to 4 times faster to write, 4 times the bytes). Releases the GIL.");
+          "(3 to 4 times faster to write, 10 times the bytes). Releases the GIL.");
 
   auto scene_class = nb::class_<PyScene>(m, "Scene", "Meshes and instances, from a glTF 2.0 file or built in memory.");
   scene_class

@@ -72,7 +72,7 @@ const char* kRenderUsage =
     "  --channels C,...       the EXR channels written: Z, N (N.X, N.Y, N.Z), UV (U, V),\n"
     "                         InstanceID, PrimitiveID (default: all eight)\n"
     "  --exr-compression M    zip (default), zips, piz, rle or none: OpenEXR's lossless\n"
-    "                         methods; none writes 3 to 4 times faster, 4 times the bytes\n"
+    "                         methods; none writes 3 to 4 times faster, 10x the bytes\n"
     "  --png F.png            normal-shaded preview, misses black\n"
     "  --stats F.json         the camera, options, hit and miss counts, phase times, device buffers\n"
     "  --ids F.json           the id manifest: InstanceID -> the file's node name and mesh\n"

@@ -18,7 +18,7 @@ inline constexpr uint32_t kMiss = 0xFFFFFFFFu;
 
 // How an EXR's pixels are compressed: OpenEXR's lossless methods only, so
 // that every float and id reads back bit for bit. zip (the default) is the
-// smallest here; none writes 3 to 4 times faster at 4 times the bytes.
+// smallest here; none writes 3 to 4 times faster at 10 times the bytes.
 enum class ExrCompression { none, rle, zips, zip, piz };
 
 }  // namespace rayfold

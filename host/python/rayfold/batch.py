@@ -227,7 +227,7 @@ def render(scene, cameras, out, *, workers=1, address=None, fold="none", align=0
     Scene.render_views(cameras, fold=fold, ...) bit for bit. InputError for
     bad input before anything is rendered. exr_compression: the EXRs'
     (GBuffer.write_exr: 'zip' by default, 'none' writes 3 to 4 times faster
-    at 4 times the bytes); a rerun with another rewrites the views."""
+    at 10 times the bytes); a rerun with another rewrites the views."""
     try:
         import ray
     except ImportError as e:
@@ -414,7 +414,7 @@ def main(argv=None):
     p.add_argument("--channels", help="the planes written, for example depth,instance_id (default all)")
     p.add_argument("--depth", default="distance", choices=["distance", "planar"])
     p.add_argument("--exr-compression", choices=["zip", "zips", "piz", "rle", "none"],
-                   help="the EXRs' lossless compression: zip (default); none writes 3 to 4 times faster, 4 times "
+                   help="the EXRs' lossless compression: zip (default); none writes 3 to 4 times faster at 10 times "
                         "the bytes")
     p.add_argument("--backend", default="opencl", choices=["opencl", "cpu"])
     p.add_argument("--device", default="", help="the first OpenCL device whose platform or name holds this")
