@@ -172,6 +172,44 @@ struct EmbreePeer::Impl {
   }
 };
 
+namespace {
+
+// One ray from o along d, t in [0, inf), as every call here traces it.
+RTCRayHit ray1(const float o[3], const float d[3]) {
+  RTCRayHit rh{};
+  rh.ray.org_x = o[0];
+  rh.ray.org_y = o[1];
+  rh.ray.org_z = o[2];
+  rh.ray.dir_x = d[0];
+  rh.ray.dir_y = d[1];
+  rh.ray.dir_z = d[2];
+  rh.ray.tnear = 0.0f;
+  rh.ray.tfar = INFINITY;
+  rh.ray.mask = 0xFFFFFFFFu;
+  rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+  rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+  return rh;
+}
+
+// The same as lane l of a packet.
+void set_lane(RTCRayHit16& rh, int l, const float o[3], const float d[3]) {
+  rh.ray.org_x[l] = o[0];
+  rh.ray.org_y[l] = o[1];
+  rh.ray.org_z[l] = o[2];
+  rh.ray.dir_x[l] = d[0];
+  rh.ray.dir_y[l] = d[1];
+  rh.ray.dir_z[l] = d[2];
+  rh.ray.tnear[l] = 0.0f;
+  rh.ray.tfar[l] = INFINITY;
+  rh.ray.time[l] = 0.0f;
+  rh.ray.mask[l] = 0xFFFFFFFFu;
+  rh.ray.flags[l] = 0;
+  rh.hit.geomID[l] = RTC_INVALID_GEOMETRY_ID;
+  rh.hit.instID[0][l] = RTC_INVALID_GEOMETRY_ID;
+}
+
+}  // namespace
+
 bool EmbreePeer::available() { return true; }
 
 EmbreePeer::EmbreePeer(const Scene& scene, const SceneData& data, unsigned threads)
@@ -201,18 +239,7 @@ double EmbreePeer::trace1(std::vector<rf_pixel_hit>& hits, EmbreeScene which) {
         for (int x = 0; x < w; ++x) {
           float o[3], d[3], cam_d[3];
           m.ray(x, y, flat, o, d, cam_d);
-          RTCRayHit rh{};
-          rh.ray.org_x = o[0];
-          rh.ray.org_y = o[1];
-          rh.ray.org_z = o[2];
-          rh.ray.dir_x = d[0];
-          rh.ray.dir_y = d[1];
-          rh.ray.dir_z = d[2];
-          rh.ray.tnear = 0.0f;
-          rh.ray.tfar = INFINITY;
-          rh.ray.mask = 0xFFFFFFFFu;
-          rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-          rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+          RTCRayHit rh = ray1(o, d);
           rtcIntersect1(scene, &ctx, &rh);
           m.store(hits[static_cast<size_t>(y) * w + x], rh.ray.tfar, flat ? rh.hit.geomID : rh.hit.instID[0],
                   rh.hit.primID, cam_d);
@@ -242,19 +269,7 @@ double EmbreePeer::trace16(std::vector<rf_pixel_hit>& hits, EmbreeScene which) {
           valid[i] = (x < w && y < h) ? -1 : 0;
           float o[3], d[3];
           m.ray(std::min(x, w - 1), std::min(y, h - 1), flat, o, d, dirs[i]);
-          rh.ray.org_x[i] = o[0];
-          rh.ray.org_y[i] = o[1];
-          rh.ray.org_z[i] = o[2];
-          rh.ray.dir_x[i] = d[0];
-          rh.ray.dir_y[i] = d[1];
-          rh.ray.dir_z[i] = d[2];
-          rh.ray.tnear[i] = 0.0f;
-          rh.ray.tfar[i] = INFINITY;
-          rh.ray.time[i] = 0.0f;
-          rh.ray.mask[i] = 0xFFFFFFFFu;
-          rh.ray.flags[i] = 0;
-          rh.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
-          rh.hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
+          set_lane(rh, i, o, d);
         }
         rtcIntersect16(valid, scene, &ctx, &rh);
         for (int i = 0; i < 16; ++i)
@@ -289,18 +304,7 @@ double EmbreePeer::intersect1(const float* o, const float* d, size_t n, std::vec
     RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
     for (size_t i = begin; i < end; ++i) {
-      RTCRayHit rh{};
-      rh.ray.org_x = o[3 * i];
-      rh.ray.org_y = o[3 * i + 1];
-      rh.ray.org_z = o[3 * i + 2];
-      rh.ray.dir_x = d[3 * i];
-      rh.ray.dir_y = d[3 * i + 1];
-      rh.ray.dir_z = d[3 * i + 2];
-      rh.ray.tnear = 0.0f;
-      rh.ray.tfar = INFINITY;
-      rh.ray.mask = 0xFFFFFFFFu;
-      rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-      rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+      RTCRayHit rh = ray1(o + 3 * i, d + 3 * i);
       rtcIntersect1(scene, &ctx, &rh);
       store_query(hits[i], rh.ray.tfar, rh.hit.geomID, rh.hit.primID);
     }
@@ -341,19 +345,7 @@ double EmbreePeer::intersect16(const float* o, const float* d, size_t n, size_t 
         }
         index[l] = i;
         valid[l] = ok ? -1 : 0;
-        rh.ray.org_x[l] = o[3 * i];
-        rh.ray.org_y[l] = o[3 * i + 1];
-        rh.ray.org_z[l] = o[3 * i + 2];
-        rh.ray.dir_x[l] = d[3 * i];
-        rh.ray.dir_y[l] = d[3 * i + 1];
-        rh.ray.dir_z[l] = d[3 * i + 2];
-        rh.ray.tnear[l] = 0.0f;
-        rh.ray.tfar[l] = INFINITY;
-        rh.ray.time[l] = 0.0f;
-        rh.ray.mask[l] = 0xFFFFFFFFu;
-        rh.ray.flags[l] = 0;
-        rh.hit.geomID[l] = RTC_INVALID_GEOMETRY_ID;
-        rh.hit.instID[0][l] = RTC_INVALID_GEOMETRY_ID;
+        set_lane(rh, l, o + 3 * i, d + 3 * i);
       }
       rtcIntersect16(valid, scene, &ctx, &rh);
       for (int l = 0; l < 16; ++l)
