@@ -351,10 +351,11 @@ std::vector<std::string> Renderer::intersect(const float* origins, const float* 
     // Rays that share an origin (a camera's, a sensor's, a light's) go in
     // tiles through the tile kernel where it is the one that traces: the
     // same bits, traced in vector lanes.
-    QueryTiles tiles;
+    QueryTiles& tiles = query_plan_;
+    tiles.tiles.clear();
     if (tracer_ && kernel_ == KernelKind::tile)
-      tiles = plan_query_tiles(origins + 3 * begin, end - begin, row_length, kMinQueryTileRays);
-    to_trace_space(origins, directions, begin, end, tmin, tmax, frame, chunk, tiles.order);
+      plan_query_tiles(origins + 3 * begin, end - begin, row_length, kMinQueryTileRays, tiles);
+    to_trace_space(origins, directions, begin, end, tmin, tmax, frame, chunk, tiles.traced_order());
     if (tracer_)
       tracer_->trace_queries(chunk, any_hit, flags, out + begin, tiles.tiles.empty() ? nullptr : &tiles);
     else

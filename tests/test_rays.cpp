@@ -191,6 +191,14 @@ TEST(RayQuery, ImageRaysInBlocksEqualTheCpuReference) {
   EXPECT_EQ(plan.order[4], static_cast<uint32_t>(width)) << "the first 4x4 quad's second row";
   EXPECT_EQ(plan.order[16], 4u) << "the quad to its right";
   EXPECT_TRUE(plan_query_tiles(rays.o.data(), rays.size() - 1, width, 128).order.empty()) << "not whole rows";
+  // A kept plan gives a fresh plan's tiles and order, whatever size came before.
+  QueryTiles kept;
+  for (size_t rows : {size_t{37}, size_t{20}, size_t{37}}) {
+    plan_query_tiles(rays.o.data(), rows * width, width, 128, kept);
+    const QueryTiles fresh = plan_query_tiles(rays.o.data(), rows * width, width, 128);
+    EXPECT_EQ(kept.tiles, fresh.tiles) << rows << " rows";
+    EXPECT_EQ(kept.traced_order(), fresh.order) << rows << " rows";
+  }
   RendererOptions opt;
   opt.backend = Backend::cpu;
   Renderer cpu(scene, opt);

@@ -178,33 +178,56 @@ bool one_origin(const float* origins, size_t n) {
 
 }  // namespace
 
-QueryTiles plan_query_tiles(const float* origins, size_t n, size_t row_length, size_t min_rays) {
-  QueryTiles plan;
-  if (n == 0) return plan;
-  // An image's rays in RF_TILE_SIDE-square tiles.
+void plan_query_tiles(const float* origins, size_t n, size_t row_length, size_t min_rays, QueryTiles& plan) {
+  plan.tiles.clear();
+  if (n == 0) return;
+  // An image's rays in RF_TILE_SIDE-square tiles; the order is kept for the
+  // next query of the same image size (a camera's every frame).
   const bool blocks = row_length >= RF_TILE_SIDE && n % row_length == 0;
-  std::vector<uint32_t> block_starts;
-  if (blocks) plan.order = image_order(n / row_length, row_length, block_starts);
+  if (!blocks) {
+    plan.order.clear();
+    plan.image_rows = plan.image_row_length = 0;
+  } else if (plan.image_rows != n / row_length || plan.image_row_length != row_length) {
+    plan.image_tiles.clear();
+    plan.order = image_order(n / row_length, row_length, plan.image_tiles);
+    plan.image_rows = n / row_length;
+    plan.image_row_length = row_length;
+  }
+  const std::vector<uint32_t>& block_starts = plan.image_tiles;
   if (blocks && one_origin(origins, n)) {  // a camera's: the blocks are the tiles
-    plan.tiles = std::move(block_starts);
+    plan.tiles = block_starts;
     plan.tiles.push_back(static_cast<uint32_t>(n));
-    return plan;
+    return;
   }
   const auto ray = [&](size_t k) { return origins + 3 * (blocks ? plan.order[k] : k); };
   plan.tiles.push_back(0);
   size_t next_block = 1;
   for (size_t k = 1; k < n; ++k) {
-    const bool block_start = next_block < block_starts.size() && block_starts[next_block] == k;
+    const bool block_start = blocks && next_block < block_starts.size() && block_starts[next_block] == k;
     next_block += block_start;
     if (!block_start && k - plan.tiles.back() < RF_TILE_RAYS && std::memcmp(ray(k), ray(k - 1), 3 * sizeof(float)) == 0)
       continue;
     plan.tiles.push_back(static_cast<uint32_t>(k));
     // Give up early on rays from many origins.
-    if (plan.tiles.size() > 64 && plan.tiles.size() * min_rays > 2 * k) return {};
+    if (plan.tiles.size() > 64 && plan.tiles.size() * min_rays > 2 * k) {
+      plan.tiles.clear();
+      return;
+    }
   }
   plan.tiles.push_back(static_cast<uint32_t>(n));
-  if ((plan.tiles.size() - 1) * min_rays > n) return {};
+  if ((plan.tiles.size() - 1) * min_rays > n) plan.tiles.clear();
+}
+
+QueryTiles plan_query_tiles(const float* origins, size_t n, size_t row_length, size_t min_rays) {
+  QueryTiles plan;
+  plan_query_tiles(origins, n, row_length, min_rays, plan);
+  if (plan.tiles.empty()) plan.order.clear();
   return plan;
+}
+
+const std::vector<uint32_t>& QueryTiles::traced_order() const {
+  static const std::vector<uint32_t> input_order;
+  return tiles.empty() ? input_order : order;
 }
 
 void trace_queries_cpu(const TraceInputs& in, const std::vector<rf_query_ray>& rays, bool any_hit, unsigned write_flags,
