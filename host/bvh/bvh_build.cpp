@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <cstring>
+#include <memory>
 
 #include "util/errors.h"
 #include "util/parallel.h"
@@ -136,9 +137,17 @@ struct Task {
   Box4 centres;
 };
 
-// Above this many primitives a node's binning is spread over the threads;
-// nodes at or below it are whole subtrees built by one thread each.
+// Above this many primitives a node's binning and partition are spread over
+// the threads.
 constexpr uint32_t kParallelBinning = 1u << 15;
+
+// Nodes of at most max(kSubtreeMin, primitives / kSubtrees) are whole
+// subtrees built by one thread each, largest first; the nodes above them
+// are split level by level, each level's nodes side by side. Subtrees of
+// up to 2^15 primitives left a thread idle for a third of an unbalanced
+// tree's build (a building's few large triangles and many small ones).
+constexpr uint32_t kSubtreeMin = 1u << 12;
+constexpr uint32_t kSubtrees = 32;
 
 // The split rules (SAH over bins, object medians past median_depth or where
 // SAH finds nothing) decide each node's primitive set from the set alone,
@@ -194,7 +203,7 @@ class Builder {
       const float leaf_cost = opt_.intersection_cost * static_cast<float>(count);
       const bool sah_prefers_leaf = split.axis < 0 || split.cost >= leaf_cost;
       if (sah_prefers_leaf && count <= opt_.max_leaf_size) return false;
-      if (split.axis >= 0) mid = partition(first, count, binner, split, lbox, rbox, lcentres, rcentres);
+      if (split.axis >= 0) mid = partition(first, count, binner, split, threads, lbox, rbox, lcentres, rcentres);
     }
     if (mid == first || mid == first + count) {
       // No useful SAH split (all centres alike, or too deep): split at the
@@ -288,8 +297,8 @@ class Builder {
 
   // Puts the sweep's left primitives first, in their order along its axis;
   // returns the first right one, with both sides' boxes and centre boxes.
-  uint32_t apply_sweep(uint32_t first, uint32_t count, const Split& split, const uint8_t* order, Box4& lbox,
-                       Box4& rbox, Box4& lcentres, Box4& rcentres) const {
+  uint32_t apply_sweep(uint32_t first, uint32_t count, const Split& split, const uint8_t* order, Box4& lbox, Box4& rbox,
+                       Box4& lcentres, Box4& rcentres) const {
     PrimRef* r = refs_.data() + first;
     PrimRef sorted[kSweepNode];
     for (uint32_t k = 0; k < count; ++k) sorted[k] = r[order[k]];
@@ -374,56 +383,84 @@ class Builder {
   }
 
   // Moves the split's left primitives to the front of the range; returns
-  // the first right one, with both sides' boxes and centre boxes.
-  uint32_t partition(uint32_t first, uint32_t count, const Binner& binner, const Split& split, Box4& lbox, Box4& rbox,
-                     Box4& lcentres, Box4& rcentres) const {
+  // the first right one, with both sides' boxes and centre boxes. `threads`
+  // > 1 partitions a large node in parallel.
+  uint32_t partition(uint32_t first, uint32_t count, const Binner& binner, const Split& split, unsigned threads,
+                     Box4& lbox, Box4& rbox, Box4& lcentres, Box4& rcentres) const {
     auto goes_left = [&](const PrimRef& r) { return binner.bin(r.centre())[split.axis] <= split.bin; };
-    if (count <= kParallelBinning) {
-      // Without branches on the side, which is a coin toss for the branch
-      // predictor: each record is copied to the next free slot of its side
-      // (left from the front, right from the back) and the boxes grow by
-      // index; the range is then copied back.
-      thread_local std::vector<PrimRef> scratch;
-      if (scratch.size() < count) scratch.resize(std::max<size_t>(count, 1024));
-      Box4 boxes[2], centres[2];
-      uint32_t l = 0, r = count;
-      const PrimRef* in = refs_.data() + first;
-      for (uint32_t k = 0; k < count; ++k) {
-        const PrimRef& p = in[k];
-        const v4f c = p.centre();
-        const bool left = binner.bin(c)[split.axis] <= split.bin;
-        r -= !left;
-        scratch[left ? l : r] = p;
-        l += left;
-        boxes[!left].grow(p.box_lo(), p.hi);
-        centres[!left].grow(c, c);
+    if (count > kParallelBinning) {
+      // Stable, in fixed chunks: each chunk's sides are counted and boxed,
+      // then its records copied to their places and back, so the order is
+      // the same on any thread count. A serial partition of the root level
+      // left the other thread idle for half of it.
+      constexpr uint32_t kChunk = 1u << 14;
+      const size_t chunks = (count + kChunk - 1) / kChunk;
+      std::vector<uint32_t> lefts(chunks + 1, 0);
+      std::vector<std::array<Box4, 4>> boxes(chunks);  // left, right, left centres, right centres
+      parallel_for(chunks, threads, 1, [&](size_t c, size_t) {
+        const uint32_t b = first + static_cast<uint32_t>(c) * kChunk, e = std::min(first + count, b + kChunk);
+        uint32_t l = 0;
+        for (uint32_t i = b; i < e; ++i) {
+          const PrimRef& p = refs_[i];
+          const v4f centre = p.centre();
+          const bool left = goes_left(p);
+          l += left;
+          boxes[c][!left].grow(p.box_lo(), p.hi);
+          boxes[c][2 + !left].grow(centre, centre);
+        }
+        lefts[c + 1] = l;
+      });
+      for (size_t c = 0; c < chunks; ++c) {
+        lefts[c + 1] += lefts[c];
+        lbox.grow(boxes[c][0]);
+        rbox.grow(boxes[c][1]);
+        lcentres.grow(boxes[c][2]);
+        rcentres.grow(boxes[c][3]);
       }
-      std::memcpy(refs_.data() + first, scratch.data(), count * sizeof(PrimRef));
-      lbox = boxes[0];
-      rbox = boxes[1];
-      lcentres = centres[0];
-      rcentres = centres[1];
-      return first + l;
+      const uint32_t total_left = lefts[chunks];
+      const std::unique_ptr<PrimRef[]> sorted(new PrimRef[count]);  // no zeroing: every slot is written
+      parallel_for(chunks, threads, 1, [&](size_t c, size_t) {
+        const uint32_t b = static_cast<uint32_t>(c) * kChunk, e = std::min(count, b + kChunk);
+        uint32_t l = lefts[c], r = total_left + (b - lefts[c]);
+        for (uint32_t i = b; i < e; ++i) {
+          const PrimRef& p = refs_[first + i];
+          if (goes_left(p))
+            sorted[l++] = p;
+          else
+            sorted[r++] = p;
+        }
+      });
+      parallel_for(chunks, threads, 1, [&](size_t c, size_t) {
+        const uint32_t b = static_cast<uint32_t>(c) * kChunk, e = std::min(count, b + kChunk);
+        std::memcpy(refs_.data() + first + b, sorted.get() + b, (e - b) * sizeof(PrimRef));
+      });
+      return first + total_left;
     }
-    PrimRef* i = refs_.data() + first;
-    PrimRef* j = i + count;
-    for (;;) {
-      while (i < j && goes_left(*i)) {
-        lbox.grow(i->box_lo(), i->hi);
-        const v4f c = i->centre();
-        lcentres.grow(c, c);
-        ++i;
-      }
-      while (i < j && !goes_left(*(j - 1))) {
-        --j;
-        rbox.grow(j->box_lo(), j->hi);
-        const v4f c = j->centre();
-        rcentres.grow(c, c);
-      }
-      if (i >= j) break;
-      std::swap(*i, *(j - 1));
+    // Without branches on the side, which is a coin toss for the branch
+    // predictor: each record is copied to the next free slot of its side
+    // (left from the front, right from the back) and the boxes grow by
+    // index; the range is then copied back.
+    thread_local std::vector<PrimRef> scratch;
+    if (scratch.size() < count) scratch.resize(std::max<size_t>(count, 1024));
+    Box4 boxes[2], centres[2];
+    uint32_t l = 0, r = count;
+    const PrimRef* in = refs_.data() + first;
+    for (uint32_t k = 0; k < count; ++k) {
+      const PrimRef& p = in[k];
+      const v4f c = p.centre();
+      const bool left = binner.bin(c)[split.axis] <= split.bin;
+      r -= !left;
+      scratch[left ? l : r] = p;
+      l += left;
+      boxes[!left].grow(p.box_lo(), p.hi);
+      centres[!left].grow(c, c);
     }
-    return static_cast<uint32_t>(i - refs_.data());
+    std::memcpy(refs_.data() + first, scratch.data(), count * sizeof(PrimRef));
+    lbox = boxes[0];
+    rbox = boxes[1];
+    lcentres = centres[0];
+    rcentres = centres[1];
+    return first + l;
   }
 
   std::vector<PrimRef>& refs_;
@@ -504,12 +541,13 @@ BuildTree build_sah(const std::vector<Aabb>& prim_bounds, const BuildOptions& op
   // The subtrees below them are then built by the threads side by side.
   // One thread takes the same steps, so the nodes are numbered the same on
   // any thread count (flatten_bvh keeps that numbering).
+  const uint32_t subtree_size = std::max<uint32_t>(kSubtreeMin, static_cast<uint32_t>(refs.size() / kSubtrees));
   std::vector<Task> subtrees, level{{0, 1, root_centres}};
   while (!level.empty()) {
     std::vector<Task> large;
     for (const Task& t : level) {
       tree.depth = std::max(tree.depth, t.depth);
-      (tree.nodes[t.node].count <= kParallelBinning ? subtrees : large).push_back(t);
+      (tree.nodes[t.node].count <= subtree_size ? subtrees : large).push_back(t);
     }
     level.clear();
     const bool all_on_each = large.size() < threads;
