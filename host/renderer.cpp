@@ -25,7 +25,7 @@ double median(std::vector<double> values) {
 
 Renderer::Renderer(const Scene& scene, const RendererOptions& options)
     : Renderer(scene, options,
-               std::make_shared<const SceneData>(prepare_scene(scene, options.threads, options.braid))) {}
+               std::make_shared<const SceneData>(prepare_scene(scene, options.threads, options.braid, options.merge))) {}
 
 Renderer::Renderer(const Scene& scene, const RendererOptions& options, std::shared_ptr<const SceneData> prebuilt)
     : scene_(scene), options_(options), data_(std::move(prebuilt)) {

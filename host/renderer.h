@@ -53,6 +53,7 @@ struct RendererOptions {
   std::string device_hint;  // see ClDevice
   unsigned threads = 0;     // CPU backend and BLAS builds; 0 = all cores
   BraidOptions braid;       // how the top level opens the bottom-level trees
+  MergeOptions merge;       // which instances share a bottom-level tree (bvh/blas.h)
 };
 
 // Per-frame phase times in ms (medians when several frames are rendered).

@@ -185,7 +185,7 @@ RF_INLINE int rf_tile_triangle(const RF_GLOBAL rf_tri* tri, rf_u32 ti, const rf_
   const float b0 = tri->v1[0] - r->o[0], b1 = tri->v1[1] - r->o[1], b2 = tri->v1[2] - r->o[2];
   const float c0 = tri->v2[0] - r->o[0], c1 = tri->v2[1] - r->o[1], c2 = tri->v2[2] - r->o[2];
   const rf_u32 prim = tri->prim;
-  const rf_vu inst_v = (rf_vu)(instance_id), prim_v = (rf_vu)(prim);
+  const rf_vu inst_v = (rf_vu)(instance_id + tri->inst), prim_v = (rf_vu)(prim);
   /* The uniform permutation, once for all lanes. */
   const float ua[3] = {a0, a1, a2}, ub[3] = {b0, b1, b2}, uc[3] = {c0, c1, c2};
   const float uax = ua[r->kx], uay = ua[r->ky], uaz = ua[r->kz];

@@ -70,11 +70,12 @@ RF_INLINE void rf_trace_blas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_
         float t, u, v;
         if (!rf_intersect_triangle(&tris[ti], r, &t, &u, &v) || !(t > tmin)) continue;
         t = rf_hit_distance(t, node_t);
-        if (rf_hit_is_closer(t, instance_id, tris[ti].prim, best)) {
+        const rf_u32 instance = instance_id + tris[ti].inst;
+        if (rf_hit_is_closer(t, instance, tris[ti].prim, best)) {
           best->t = t;
           best->u = u;
           best->v = v;
-          best->instance = instance_id;
+          best->instance = instance;
           best->prim = tris[ti].prim;
           best->tri = ti;
           if (any_hit) return;

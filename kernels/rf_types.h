@@ -110,19 +110,26 @@ typedef struct {
        rf_gm_ &= rf_gm_ - 1u, g = rf_gm_ ? RF_CTZ(rf_gm_) : 0u)
 #endif
 
-/* One triangle in BVH leaf order, 52 bytes.
+/* One triangle in BVH leaf order, 56 bytes.
  *   bytes  0..35  v0, v1, v2   tree-space vertices, in the file's winding
  *   bytes 36..47  n            cross(v1 - v0, v2 - v0) in float, as
  *                              rf_tri_set_normal computes it (the distance
  *                              and the normal read it; made once on the host)
  *   bytes 48..51  prim         triangle index within its mesh, as in the file
- *                              (after strips and fans are made triangles) */
+ *                              (after strips and fans are made triangles)
+ *   bytes 52..55  inst         added to the traced instance's instance_id to
+ *                              give the hit's scene instance: 0 in a mesh's
+ *                              own tree (shared by every instance of the
+ *                              mesh), the member's id less the first
+ *                              member's in a tree merged from the static
+ *                              instances of one transform (bvh/blas.h) */
 typedef struct {
   float v0[3];
   float v1[3];
   float v2[3];
   float n[3];
   rf_u32 prim;
+  rf_u32 inst;
 } rf_tri;
 
 /* One traced instance (a scene instance, or a mirrored copy of one), 64 bytes.
@@ -132,8 +139,10 @@ typedef struct {
  *                 parameter in trace and tree space.
  *   bytes 48..51  blas_root    node index of the mesh's bottom-level root
  *                              (or of the subtree re-braiding opened)
- *   bytes 52..55  instance_id  index of the scene instance; mirrored copies
- *                              keep the id of the instance they mirror
+ *   bytes 52..55  instance_id  index of the scene instance (of the first
+ *                              member, for a merged tree: a hit's instance
+ *                              is this plus its rf_tri's inst); mirrored
+ *                              copies keep the id of the instance they mirror
  *   bytes 56..59  group        transform group (see above; 0 = view 0
  *                              not mirrored)
  *   bytes 60..63  wide_root    the rf_wide_node holding blas_root's

@@ -194,6 +194,41 @@ TEST(Api, MovedInstancesEqualASceneBuiltWithThemInPlace) {
   }
 }
 
+// Instances that share a transform share one tree (bvh/blas.h); moving one
+// builds the trees again with it apart, and every render has the bits of a
+// scene built with it in place.
+TEST(Api, MovingAMergedInstanceEqualsASceneBuiltWithItInPlace) {
+  core::testing::Rng rng(9);
+  core::Scene soup = core::testing::random_scene(rng, 3, 6, 50);
+  for (size_t i = 1; i < soup.instances.size(); ++i)
+    soup.instances[i].world_from_object = soup.instances[0].world_from_object;
+  Scene moving = to_public(soup);
+  const core::CameraSpec spec = core::testing::random_camera(rng, soup.world_bounds());
+  const Camera camera =
+      Camera::look_at({spec.eye.x, spec.eye.y, spec.eye.z}, {spec.look_at.x, spec.look_at.y, spec.look_at.z},
+                      {spec.up.x, spec.up.y, spec.up.z}, spec.vfov_degrees, 35, 23);
+  for (Backend backend : {Backend::cpu, Backend::opencl}) {
+    RendererOptions o;
+    o.backend = backend;
+    Renderer renderer(moving, o);
+    renderer.render(camera);
+    EXPECT_TRUE(moving.state()->trees->blas.merged[3]);
+    core::Xform shift(1.0);
+    shift[3] = glm::dvec4(0.3, -0.2, 0.1, 1.0);
+    soup.instances[2].world_from_object = shift * soup.instances[2].world_from_object;
+    Matrix4 m;
+    for (int r = 0; r < 4; ++r)
+      for (int c = 0; c < 4; ++c) m[4 * r + c] = soup.instances[2].world_from_object[c][r];
+    moving.set_transform(2, m);
+    Renderer fresh(to_public(soup), o);
+    for (Fold f : {Fold::none, Fold::xy})
+      EXPECT_EQ(compare_hits(to_hits(fresh.render(camera, f)), to_hits(renderer.render(camera, f)), 35), "")
+          << "backend " << int(backend) << " fold " << int(f);
+    EXPECT_FALSE(moving.state()->trees->blas.merged[2]) << "moved, it has a tree of its own";
+    EXPECT_TRUE(moving.state()->trees->blas.merged[3]) << "the others still share theirs";
+  }
+}
+
 TEST(Api, AddingGeometryAfterARenderRebuildsTheTrees) {
   Scene scene;
   const uint32_t tri = scene.add_mesh({-1, -1, 0, 1, -1, 0, 0, 1, 0}, {0, 1, 2}, "triangle");
@@ -623,6 +658,12 @@ TEST(Api, SceneBytesThatAreNotWholeAreRefusedSayingWhy) {
     for (int k = 0; k < 4; ++k)
       if (w.count[k] == 0) w.child[k] = static_cast<uint32_t>(&w - bad.data.wide_nodes.data());  // itself
   EXPECT_NE(why(core::scene_file_bytes(bad, RAYFOLD_VERSION_STRING)).find("cycle"), std::string::npos);
+  bad = file;
+  bad.data.blas.tris[0].inst = static_cast<uint32_t>(bad.scene.instances.size());  // a hit would name no instance
+  EXPECT_NE(why(core::scene_file_bytes(bad, RAYFOLD_VERSION_STRING)).find("past the last"), std::string::npos);
+  bad = file;
+  bad.data.blas.traced_by[0] = static_cast<uint32_t>(bad.scene.instances.size());
+  EXPECT_NE(why(core::scene_file_bytes(bad, RAYFOLD_VERSION_STRING)).find("traced by"), std::string::npos);
   bad = file;
   bad.data.braid_offsets.pop_back();
   EXPECT_NE(why(core::scene_file_bytes(bad, RAYFOLD_VERSION_STRING)).find("do not match"), std::string::npos);

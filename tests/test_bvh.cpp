@@ -453,12 +453,14 @@ TEST(Bvh, LooseNodesOpenPastTheBudget) {
   budget_only.items_per_instance = 1;
   budget_only.min_items = 0;
   budget_only.loose_ratio = 0.0;
-  const SceneData closed = prepare_scene(s, 1, budget_only);
+  MergeOptions apart;  // both at the identity: merged, they would be one tree
+  apart.enabled = false;
+  const SceneData closed = prepare_scene(s, 1, budget_only, apart);
   EXPECT_EQ(closed.braid_offsets[1] - closed.braid_offsets[0], 1u);
   EXPECT_EQ(closed.braid_offsets[2] - closed.braid_offsets[1], 1u);
   BraidOptions loose = budget_only;
   loose.loose_ratio = 1.0;
-  const SceneData opened = prepare_scene(s, 1, loose);
+  const SceneData opened = prepare_scene(s, 1, loose, apart);
   EXPECT_GE(opened.braid_offsets[1] - opened.braid_offsets[0], 2u) << "the spread mesh's root opens";
   EXPECT_EQ(opened.braid_offsets[2] - opened.braid_offsets[1], 1u) << "the compact mesh stays whole";
   // Whatever the cut, the same bits: the traversal order does not matter.
@@ -469,6 +471,7 @@ TEST(Bvh, LooseNodesOpenPastTheBudget) {
     a.backend = b.backend = Backend::cpu;
     a.braid = budget_only;
     b.braid = loose;
+    a.merge = b.merge = apart;
     EXPECT_EQ(testing::compare_hits(Renderer(s, a).render(cam).hits, Renderer(s, b).render(cam).hits, 48), "")
         << "view " << v;
   }

@@ -11,6 +11,7 @@
 
 #include "../tools/scene_gen.h"
 #include "rf_trace.h"
+#include "scene/animation.h"
 #include "scene/gltf_loader.h"
 
 namespace rayfold::core::testing {
@@ -215,6 +216,8 @@ Scene random_scene(Rng& rng, int meshes, int instances, int triangles_per_mesh) 
 ThreeWays::ThreeWays(const Scene& scene) {
   RendererOptions o;
   o.backend = Backend::cpu;
+  // differences() may animate: the moving instances keep their own trees.
+  o.merge.dynamic = animated_instances(scene.instances.size());
   cpu = std::make_unique<Renderer>(scene, o);
   o.backend = Backend::opencl;
   o.kernel = KernelChoice::single;

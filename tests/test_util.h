@@ -66,7 +66,7 @@ Mesh closed_cube(int n);
 inline constexpr FoldMode kAllFolds[] = {FoldMode::none, FoldMode::y, FoldMode::x, FoldMode::xy};
 
 // One scene, rendered three ways: the CPU reference, the single-ray kernel
-// and the tile kernel.
+// and the tile kernel (with the instances --animate moves built dynamic).
 struct ThreeWays {
   explicit ThreeWays(const Scene& scene);
   // The CPU reference's unfolded render.

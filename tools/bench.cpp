@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "reference/hit_compare.h"
+#include "scene/animation.h"
 #include "scene/gltf_loader.h"
 #include "util/errors.h"
 #include "util/parallel.h"
@@ -126,7 +127,9 @@ void check_view_path(const ViewPath& p) {
 BenchReport run_bench(const BenchOptions& opt, const std::function<void(size_t, size_t)>& progress) {
   const Scene scene = load_gltf(opt.scene);
   const std::vector<CameraSpec> path = camera_path(scene, opt);
-  Renderer renderer(scene, opt.renderer);
+  RendererOptions renderer_options = opt.renderer;
+  if (opt.animate) renderer_options.merge.dynamic = animated_instances(scene.instances.size());
+  Renderer renderer(scene, renderer_options);
 
   BenchReport rep;
   rep.scene = opt.scene;

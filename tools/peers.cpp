@@ -83,6 +83,7 @@ PeerReport run_peers(const PeerOptions& opt) {
     ro.precision = o.precision;
     ro.threads = opt.threads;
     ro.device_hint = opt.device_hint;
+    ro.merge.enabled = opt.merge;
     const auto start = Clock::now();
     renderers.push_back(std::make_unique<Renderer>(scene, ro));
     if (renderers.size() == 1) first_renderer_ms = ms_since(start);
@@ -108,7 +109,9 @@ PeerReport run_peers(const PeerOptions& opt) {
     // without the renderer's other set-up. Deterministic, so they are the
     // same trees.
     const PeakMemory memory;
-    const SceneData again = prepare_scene(scene, opt.threads, BraidOptions{});
+    MergeOptions merge;
+    merge.enabled = opt.merge;
+    const SceneData again = prepare_scene(scene, opt.threads, BraidOptions{}, merge);
     rep.rayfold_build_ms = again.blas.build_ms;
     rep.rayfold_build_bytes = static_cast<double>(memory.peak_bytes()) / triangles;
   }

@@ -24,6 +24,7 @@ struct PeerOptions : ViewPath {
   // kernel's fast build), cpu (the CPU reference, timed; it validates every
   // exact row whether timed or not).
   std::set<std::string> variants{"tile", "single", "fast", "cpu"};
+  bool merge = true;  // static instances of one transform share a tree (MergeOptions)
 };
 
 struct PeerRow {

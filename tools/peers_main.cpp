@@ -31,7 +31,7 @@ int main(int argc, char** argv) {
             "usage: rayfold-peers [SCENE] [--size WxH] [--views K] [--frames N] [--warmup N] [--threads N]\n"
             "                     [--eye X,Y,Z --look-at X,Y,Z | --random-views K [--seed S]\n"
             "                     [--view-kind auto|interior|object]] [--variants tile,single,fast,cpu]\n"
-            "                     [--device NAME] [--rays N] [--json F] [--md F]\n"
+            "                     [--device NAME] [--rays N] [--no-merge] [--json F] [--md F]\n"
             "Speed against accuracy: rayfold's OpenCL tile and single-ray kernels, the fast build and the\n"
             "CPU reference in every fold mode, and Embree's rtcIntersect1 and rtcIntersect16 over an\n"
             "instanced and a flat scene (when installed), on the same views, each measured against a\n"
@@ -43,6 +43,8 @@ int main(int argc, char** argv) {
       } else if (parse_view_path_option(a, args, opt, &have_scene)) {
       } else if (a == "--threads") {
         opt.threads = static_cast<unsigned>(cli::parse_int(a, args.value(a), 1, 1024));
+      } else if (a == "--no-merge") {
+        opt.merge = false;
       } else if (a == "--variants") {
         opt.variants.clear();
         for (const std::string& v : cli::split_list(a, args.value(a))) {

@@ -11,10 +11,10 @@
 #include <cmath>
 
 #include "cli_args.h"
-#include "reference/double_reference.h"
 #include "fold/frame.h"
 #include "fold/ray_list.h"
 #include "opencl/cl_tracer.h"
+#include "reference/double_reference.h"
 #include "rf_trace.h"
 #include "scene/camera.h"
 #include "scene/gltf_loader.h"
@@ -84,7 +84,9 @@ int main(int argc, char** argv) {
   using namespace rayfold::core;
   return cli::guarded_main([&] {
     const char* usage =
-        "usage: rayfold-stats SCENE [--eye X,Y,Z --look-at X,Y,Z [--up X,Y,Z]] [--size WxH] [--fold MODE] [--no-braid]\n"
+        "usage: rayfold-stats SCENE [--eye X,Y,Z --look-at X,Y,Z [--up X,Y,Z]] [--size WxH] [--fold MODE] "
+        "[--no-braid]\n"
+        "                     [--no-merge]\n"
         "                     [--braid-items N] [--braid-min N] [--braid-loose R] [--vfov DEG] [--depth-sources]\n"
         "Traversal counters per ray and per pixel: the single-ray kernel's on the CPU reference, the tile\n"
         "kernel's on the OpenCL device (default 320x180, the file's camera or a framing view).\n"
@@ -101,6 +103,7 @@ int main(int argc, char** argv) {
     int w = 320, h = 180;
     FoldMode fold = FoldMode::none;
     BraidOptions braid;
+    MergeOptions merge;
     bool depth_sources = false;
     while (!args.done()) {
       const std::string a = args.next();
@@ -120,6 +123,8 @@ int main(int argc, char** argv) {
         fold = cli::parse_fold(a, args.value(a));
       else if (a == "--no-braid")
         braid.enabled = false;
+      else if (a == "--no-merge")
+        merge.enabled = false;
       else if (a == "--braid-items")
         braid.items_per_instance = cli::parse_int(a, args.value(a), 1, 1 << 20);
       else if (a == "--braid-loose")
@@ -130,7 +135,7 @@ int main(int argc, char** argv) {
         throw UsageError("unknown option " + a);
     }
     const Camera cam = make_camera(spec, w, h);
-    const SceneData data = prepare_scene(scene, 0, braid);
+    const SceneData data = prepare_scene(scene, 0, braid, merge);
     const RayList rays = make_ray_list(cam.params, fold);
     FrameOptions options;
     options.fold = fold;

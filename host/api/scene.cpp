@@ -74,7 +74,7 @@ Scene Scene::load(const std::string& path, const LoadOptions& options) {
 std::string Scene::to_bytes() const {
   detail::SceneState& s = *state_;
   if (!s.trees || s.trees_version != s.structure_version || s.trees_clock != s.clock) {
-    s.trees = std::make_shared<const core::SceneData>(core::prepare_scene(s.scene));
+    s.trees = std::make_shared<const core::SceneData>(core::prepare_scene(s.scene, 0, {}, s.merge()));
     s.trees_version = s.structure_version;
     s.trees_clock = s.clock;
   }

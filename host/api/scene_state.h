@@ -29,6 +29,15 @@ struct SceneState {
   // moved since.
   std::shared_ptr<const core::SceneData> trees;
   uint64_t trees_version = 0, trees_clock = 0;
+
+  // Which instances trees built now keep apart (bvh/blas.h): those
+  // set_transform or set_time has moved; the others may share a tree.
+  core::MergeOptions merge() const {
+    core::MergeOptions m;
+    m.dynamic.resize(moved_at.size());
+    for (size_t i = 0; i < moved_at.size(); ++i) m.dynamic[i] = moved_at[i] != 0;
+    return m;
+  }
 };
 
 }  // namespace rayfold::detail

@@ -3,6 +3,9 @@
 #include <algorithm>
 #include <climits>
 #include <cmath>
+#include <cstdint>
+#include <string>
+#include <unordered_map>
 
 #include "bvh/bvh_flatten.h"
 #include "rf_geometry.h"
@@ -42,20 +45,74 @@ void choose_tree_exponents(const std::vector<Aabb>& bounds, std::vector<int>& ex
 
 Xform object_from_tree(const BlasSet& blas, uint32_t mesh) { return uniform_scale(blas.tree_exponents[mesh]); }
 
-BlasSet build_blas_set(const Scene& scene, const BuildOptions& options, unsigned threads) {
+namespace {
+
+// One tree to build: the triangles of its parts one part after another.
+struct TreeSource {
+  struct Part {
+    uint32_t mesh;
+    uint32_t inst;  // rf_tri::inst of its triangles
+  };
+  std::vector<Part> parts;
+  std::vector<size_t> first{0};  // each part's first triangle in the tree, then the total
+  size_t largest_part = 0;       // the dense rule's mesh size (BuildOptions::dense_triangles)
+  void add(const Scene& scene, uint32_t mesh, uint32_t inst) {
+    const size_t n = scene.meshes[mesh].triangle_count();
+    parts.push_back({mesh, inst});
+    first.push_back(first.back() + n);
+    largest_part = std::max(largest_part, n);
+  }
+  size_t triangles() const { return first.back(); }
+  // The part holding triangle i of the tree.
+  size_t part_of(size_t i) const {
+    return static_cast<size_t>(std::upper_bound(first.begin(), first.end(), i) - first.begin()) - 1;
+  }
+};
+
+// BlasSet::traced_by: static instances (invertible, with triangles, not
+// dynamic) grouped by their world_from_object's bits and their mesh's tree
+// exponent, each group under its lowest id.
+std::vector<uint32_t> merge_groups(const Scene& scene, const std::vector<int>& exponents, const MergeOptions& merge) {
+  const size_t n = scene.instances.size();
+  std::vector<uint32_t> traced_by(n);
+  std::unordered_map<std::string, uint32_t> first_of;
+  for (size_t i = 0; i < n; ++i) {
+    traced_by[i] = static_cast<uint32_t>(i);
+    const Instance& inst = scene.instances[i];
+    Xform inverse;
+    const bool is_static = merge.enabled && !(i < merge.dynamic.size() && merge.dynamic[i]);
+    if (!is_static || scene.meshes[inst.mesh].triangle_count() == 0 ||
+        !affine_inverse(inst.world_from_object, &inverse))
+      continue;
+    std::string key(reinterpret_cast<const char*>(&inst.world_from_object), sizeof(Xform));
+    key.append(reinterpret_cast<const char*>(&exponents[inst.mesh]), sizeof(int));
+    traced_by[i] = first_of.emplace(std::move(key), static_cast<uint32_t>(i)).first->second;
+  }
+  return traced_by;
+}
+
+}  // namespace
+
+BlasSet build_blas_set(const Scene& scene, const BuildOptions& options, unsigned threads, const MergeOptions& merge) {
   const auto start = Clock::now();
-  const size_t mesh_count = scene.meshes.size();
+  const size_t mesh_count = scene.meshes.size(), instance_count = scene.instances.size();
   BlasSet set;
-  set.roots.resize(mesh_count);
+  set.roots.assign(mesh_count, RF_INVALID);
   set.bounds.resize(mesh_count);
   set.tree_exponents.resize(mesh_count);
-  // Tree-space positions, built from the mesh's vertices by an exact scaling
-  // (util/pow2.h).
-  std::vector<std::vector<glm::vec3>> positions(mesh_count);
-  std::vector<BuildTree> trees(mesh_count);
-  std::vector<size_t> unresolvable(mesh_count, 0);
   constexpr size_t kChunk = 1u << 14;
-  auto bound_mesh = [&](size_t m, unsigned mesh_threads) {
+  threads = resolve_threads(threads);
+  // A large mesh or tree is worked on by all threads, one after another;
+  // the others one per thread side by side, largest first.
+  auto by_size = [&](size_t count, auto&& size_of, auto&& work) {
+    std::vector<size_t> large, small;
+    for (size_t k = 0; k < count; ++k) (size_of(k) >= kParallelMeshTriangles ? large : small).push_back(k);
+    std::stable_sort(small.begin(), small.end(), [&](size_t a, size_t b) { return size_of(a) > size_of(b); });
+    for (size_t k : large) work(k, threads);
+    parallel_for(small.size(), threads, 1, [&](size_t i, size_t) { work(small[i], 1u); });
+  };
+  auto mesh_size = [&](size_t m) { return scene.meshes[m].triangle_count(); };
+  by_size(mesh_count, mesh_size, [&](size_t m, unsigned mesh_threads) {
     const Mesh& mesh = scene.meshes[m];
     const size_t tri_count = mesh.triangle_count();
     std::vector<Aabb> partial((tri_count + kChunk - 1) / kChunk);
@@ -65,86 +122,134 @@ BlasSet build_blas_set(const Scene& scene, const BuildOptions& options, unsigned
     Aabb object_bounds;
     for (const Aabb& b : partial) object_bounds.grow(b);
     set.bounds[m] = object_bounds;
-  };
-  auto build_mesh = [&](size_t m, unsigned mesh_threads) {
+  });
+  choose_tree_exponents(set.bounds, set.tree_exponents);
+
+  // The trees: each mesh's that an instance traces alone (or that no
+  // instance uses), then each group's of two or more members.
+  set.traced_by = merge_groups(scene, set.tree_exponents, merge);
+  std::vector<uint32_t> members(instance_count, 0);
+  for (uint32_t first : set.traced_by) members[first]++;
+  set.merged.assign(instance_count, 0);
+  std::vector<char> mesh_tree(mesh_count, 1), mesh_used(mesh_count, 0);
+  for (size_t i = 0; i < instance_count; ++i) {
+    set.merged[i] = members[set.traced_by[i]] > 1;
+    const uint32_t m = scene.instances[i].mesh;
+    if (!mesh_used[m]) mesh_tree[m] = 0;
+    mesh_used[m] = 1;
+    if (!set.merged[i]) mesh_tree[m] = 1;
+  }
+  std::vector<TreeSource> sources;
+  std::vector<uint32_t> source_mesh;  // the mesh of a mesh tree, RF_INVALID for a merged one
+  for (uint32_t m = 0; m < mesh_count; ++m) {
+    if (!mesh_tree[m]) continue;
+    sources.emplace_back().add(scene, m, 0);
+    source_mesh.push_back(m);
+  }
+  std::vector<size_t> group_source(instance_count, SIZE_MAX);
+  for (size_t i = 0; i < instance_count; ++i) {
+    if (!set.merged[i]) continue;
+    const uint32_t first = set.traced_by[i];
+    if (group_source[first] == SIZE_MAX) {
+      group_source[first] = sources.size();
+      sources.emplace_back();
+      source_mesh.push_back(RF_INVALID);
+    }
+    sources[group_source[first]].add(scene, scene.instances[i].mesh, static_cast<uint32_t>(i - first));
+  }
+
+  // Tree-space positions of the meshes the trees read, by an exact scaling
+  // (util/pow2.h).
+  std::vector<char> mesh_read(mesh_count, 0);
+  for (const TreeSource& src : sources)
+    for (const TreeSource::Part& part : src.parts) mesh_read[part.mesh] = 1;
+  std::vector<std::vector<glm::vec3>> positions(mesh_count);
+  by_size(mesh_count, mesh_size, [&](size_t m, unsigned mesh_threads) {
+    if (!mesh_read[m]) return;
     const Mesh& mesh = scene.meshes[m];
-    const size_t tri_count = mesh.triangle_count();
-    const int e = set.tree_exponents[m];
     positions[m].resize(mesh.positions.size());
-    const Pow2Scale tree_from_object(-e);
+    const Pow2Scale tree_from_object(-set.tree_exponents[m]);
     parallel_for(mesh.positions.size(), mesh_threads, kChunk, [&](size_t begin, size_t end) {
       for (size_t i = begin; i < end; ++i)
         for (int k = 0; k < 3; ++k) positions[m][i][k] = tree_from_object(mesh.positions[i][k]);
     });
+  });
+  const size_t tree_count = sources.size();
+  std::vector<BuildTree> trees(tree_count);
+  std::vector<size_t> unresolvable(tree_count, 0);
+  auto tree_size = [&](size_t s) { return sources[s].triangles(); };
+  by_size(tree_count, tree_size, [&](size_t s, unsigned tree_threads) {
+    const TreeSource& src = sources[s];
+    const size_t tri_count = src.triangles();
     std::vector<Aabb> boxes(tri_count);
     std::vector<size_t> tiny((tri_count + kChunk - 1) / kChunk, 0);
-    parallel_for(tri_count, mesh_threads, kChunk, [&](size_t begin, size_t end) {
-      for (size_t t = begin; t < end; ++t) {
-        for (int k = 0; k < 3; ++k) boxes[t].grow(positions[m][mesh.indices[3 * t + k]]);
+    parallel_for(tri_count, tree_threads, kChunk, [&](size_t begin, size_t end) {
+      for (size_t p = src.part_of(begin), t = begin; t < end; ++t) {
+        while (t >= src.first[p + 1]) ++p;
+        const Mesh& mesh = scene.meshes[src.parts[p].mesh];
+        const std::vector<glm::vec3>& pos = positions[src.parts[p].mesh];
+        const size_t local = t - src.first[p];
+        for (int k = 0; k < 3; ++k) boxes[t].grow(pos[mesh.indices[3 * local + k]]);
         const glm::vec3 extent = boxes[t].extent();
         const float size = std::max({extent.x, extent.y, extent.z});
         if (size > 0.0f && size < 0x1p-60f) tiny[begin / kChunk]++;
       }
     });
-    for (size_t n : tiny) unresolvable[m] += n;
-    BuildOptions mesh_options = options;
-    if (tri_count >= options.dense_triangles) mesh_options.intersection_cost = options.dense_intersection_cost;
-    trees[m] = build_sah(boxes, mesh_options, mesh_threads);
-  };
-  // A large mesh is built by all threads, one after another; the others one
-  // mesh per thread side by side, largest first.
-  threads = resolve_threads(threads);
-  std::vector<size_t> large, small;
-  for (size_t m = 0; m < mesh_count; ++m)
-    (scene.meshes[m].triangle_count() >= kParallelMeshTriangles ? large : small).push_back(m);
-  std::stable_sort(small.begin(), small.end(), [&](size_t a, size_t b) {
-    return scene.meshes[a].triangle_count() > scene.meshes[b].triangle_count();
+    for (size_t n : tiny) unresolvable[s] += n;
+    BuildOptions tree_options = options;
+    if (src.largest_part >= options.dense_triangles) tree_options.intersection_cost = options.dense_intersection_cost;
+    trees[s] = build_sah(boxes, tree_options, tree_threads);
   });
-  for (size_t m : large) bound_mesh(m, threads);
-  parallel_for(small.size(), threads, 1, [&](size_t i, size_t) { bound_mesh(small[i], 1); });
-  choose_tree_exponents(set.bounds, set.tree_exponents);
-  for (size_t m : large) build_mesh(m, threads);
-  parallel_for(small.size(), threads, 1, [&](size_t i, size_t) { build_mesh(small[i], 1); });
   for (size_t n : unresolvable) set.unresolvable_triangles += n;
 
   double weighted_sah = 0.0;
   size_t weight = 0;
-  size_t total_tris = 0;
-  for (const BuildTree& tree : trees) total_tris += tree.order.size();
-  // Triangles in leaf order, every mesh's after the one before, side by side.
-  std::vector<size_t> tri_base(mesh_count + 1, 0);
-  for (size_t m = 0; m < mesh_count; ++m) tri_base[m + 1] = tri_base[m] + trees[m].order.size();
-  set.tris.resize(total_tris);
-  parallel_for(total_tris, threads, size_t{1} << 14, [&](size_t begin, size_t end) {
-    size_t m = static_cast<size_t>(std::upper_bound(tri_base.begin(), tri_base.end(), begin) - tri_base.begin()) - 1;
+  // Triangles in leaf order, every tree's after the one before, side by side.
+  std::vector<size_t> tri_base(tree_count + 1, 0);
+  for (size_t s = 0; s < tree_count; ++s) tri_base[s + 1] = tri_base[s] + trees[s].order.size();
+  set.tris.resize(tri_base[tree_count]);
+  parallel_for(set.tris.size(), threads, size_t{1} << 14, [&](size_t begin, size_t end) {
+    size_t s = static_cast<size_t>(std::upper_bound(tri_base.begin(), tri_base.end(), begin) - tri_base.begin()) - 1;
     for (size_t i = begin; i < end; ++i) {
-      while (i >= tri_base[m + 1]) ++m;
-      const Mesh& mesh = scene.meshes[m];
-      const uint32_t t = trees[m].order[i - tri_base[m]];
-      const std::vector<glm::vec3>& p = positions[m];
+      while (i >= tri_base[s + 1]) ++s;
+      const TreeSource& src = sources[s];
+      const size_t t = trees[s].order[i - tri_base[s]];
+      const TreeSource::Part& part = src.parts[src.part_of(t)];
+      const Mesh& mesh = scene.meshes[part.mesh];
+      const std::vector<glm::vec3>& p = positions[part.mesh];
+      const size_t local = t - src.first[src.part_of(t)];
       rf_tri& tri = set.tris[i];
       for (int k = 0; k < 3; ++k) {
-        tri.v0[k] = p[mesh.indices[3 * t]][k];
-        tri.v1[k] = p[mesh.indices[3 * t + 1]][k];
-        tri.v2[k] = p[mesh.indices[3 * t + 2]][k];
+        tri.v0[k] = p[mesh.indices[3 * local]][k];
+        tri.v1[k] = p[mesh.indices[3 * local + 1]][k];
+        tri.v2[k] = p[mesh.indices[3 * local + 2]][k];
       }
-      tri.prim = t;
+      tri.prim = static_cast<uint32_t>(local);
+      tri.inst = part.inst;
       rf_tri_set_normal(&tri);
     }
   });
-  // Every mesh's nodes after the one before, written side by side.
-  std::vector<uint32_t> node_base(mesh_count + 1, 0);
-  for (size_t m = 0; m < mesh_count; ++m)
-    node_base[m + 1] = node_base[m] + static_cast<uint32_t>(flat_node_count(trees[m], node_base[m]));
-  set.nodes.resize(node_base[mesh_count]);
-  auto flatten_mesh = [&](size_t m, unsigned mesh_threads) {
-    set.roots[m] = flatten_bvh_at(trees[m], static_cast<uint32_t>(tri_base[m]), nullptr, node_base[m],
-                                  set.nodes.data() + node_base[m], mesh_threads);
-  };
-  for (size_t m : large) flatten_mesh(m, threads);
-  parallel_for(small.size(), threads, 1, [&](size_t i, size_t) { flatten_mesh(small[i], 1); });
-  for (size_t m = 0; m < mesh_count; ++m) {
-    const BuildTree& tree = trees[m];
+  // Every tree's nodes after the one before, written side by side.
+  std::vector<uint32_t> node_base(tree_count + 1, 0);
+  for (size_t s = 0; s < tree_count; ++s)
+    node_base[s + 1] = node_base[s] + static_cast<uint32_t>(flat_node_count(trees[s], node_base[s]));
+  set.nodes.resize(node_base[tree_count]);
+  std::vector<uint32_t> tree_roots(tree_count);
+  by_size(tree_count, tree_size, [&](size_t s, unsigned tree_threads) {
+    tree_roots[s] = flatten_bvh_at(trees[s], static_cast<uint32_t>(tri_base[s]), nullptr, node_base[s],
+                                   set.nodes.data() + node_base[s], tree_threads);
+  });
+  for (size_t s = 0; s < tree_count; ++s)
+    if (source_mesh[s] != RF_INVALID) set.roots[source_mesh[s]] = tree_roots[s];
+  set.instance_roots.assign(instance_count, RF_INVALID);
+  for (size_t i = 0; i < instance_count; ++i) {
+    if (!set.merged[i])
+      set.instance_roots[i] = set.roots[scene.instances[i].mesh];
+    else if (set.traced_by[i] == i)
+      set.instance_roots[i] = tree_roots[group_source[i]];
+  }
+  for (size_t s = 0; s < tree_count; ++s) {
+    const BuildTree& tree = trees[s];
     set.max_depth = std::max(set.max_depth, tree.depth);
     weighted_sah += tree.sah_cost * tree.order.size();
     weight += tree.order.size();

@@ -43,8 +43,9 @@ void choose_braid_cuts(const Scene& scene, SceneData& data, const BraidOptions& 
   };
   size_t items = 0;
   for (uint32_t i = 0; i < n; ++i) {
-    if (!data.renderable[i]) continue;
-    open.push({world_area(i, data.blas.roots[scene.instances[i].mesh]), i, data.blas.roots[scene.instances[i].mesh]});
+    const uint32_t root = data.blas.instance_roots[i];
+    if (!data.renderable[i] || root == RF_INVALID) continue;  // a merged tree is traced once, by its first member
+    open.push({world_area(i, root), i, root});
     ++items;
   }
   if (opt.enabled) {
@@ -80,10 +81,10 @@ void choose_braid_cuts(const Scene& scene, SceneData& data, const BraidOptions& 
 
 }  // namespace
 
-SceneData prepare_scene(const Scene& scene, unsigned threads, const BraidOptions& braid) {
+SceneData prepare_scene(const Scene& scene, unsigned threads, const BraidOptions& braid, const MergeOptions& merge) {
   check_world_range(scene, "");
   SceneData data;
-  data.blas = build_blas_set(scene, BuildOptions{}, threads);
+  data.blas = build_blas_set(scene, BuildOptions{}, threads, merge);
   const size_t n = scene.instances.size();
   data.tree_from_world.resize(n);
   data.renderable.resize(n);
@@ -93,7 +94,10 @@ SceneData prepare_scene(const Scene& scene, unsigned threads, const BraidOptions
     const Xform world_from_tree = inst.world_from_object * object_from_tree(data.blas, inst.mesh);
     // glTF allows a zero scale: such an instance is simply not there.
     const bool invertible = affine_inverse(world_from_tree, &data.tree_from_world[i]);
-    data.renderable[i] = invertible && data.blas.roots[inst.mesh] != RF_INVALID;
+    // A merged instance is rendered through its group's tree (the same
+    // world_from_tree: its tree_from_world and normal matrix are the first
+    // member's, bit for bit).
+    data.renderable[i] = invertible && data.blas.instance_roots[data.blas.traced_by[i]] != RF_INVALID;
     if (invertible) normal_matrix_rows3x3(world_from_tree, data.normal_xforms[i].m);
     if (!invertible) data.hidden_instances++;
     if (!data.renderable[i]) continue;

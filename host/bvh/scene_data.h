@@ -39,7 +39,8 @@ struct SceneData {
   BlasSet blas;
   // The cut of each instance's tree: braid_nodes[braid_offsets[i] ..
   // braid_offsets[i + 1]) are the BLAS nodes that enter the top level for
-  // instance i (just its root when re-braiding is off).
+  // instance i (just its root when re-braiding is off; none for a merged
+  // instance other than its group's first, blas.traced_by).
   std::vector<uint32_t> braid_offsets;
   std::vector<uint32_t> braid_nodes;
   // The tile kernel's wide trees below the braid nodes (bvh/wide_bvh.h);
@@ -57,7 +58,8 @@ struct SceneData {
   size_t hidden_instances = 0;
 };
 
-SceneData prepare_scene(const Scene& scene, unsigned threads = 0, const BraidOptions& braid = {});
+SceneData prepare_scene(const Scene& scene, unsigned threads = 0, const BraidOptions& braid = {},
+                        const MergeOptions& merge = {});
 
 // The most top-level items (instances and their copies per view and mirror)
 // and nodes a frame of this scene with `groups` transform groups can need;

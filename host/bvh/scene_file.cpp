@@ -1,7 +1,7 @@
 #include "bvh/scene_file.h"
 
-#include <cstdint>
 #include <algorithm>
+#include <cstdint>
 #include <cstring>
 #include <type_traits>
 
@@ -175,6 +175,9 @@ void write_payload(Writer& w, const SceneFile& f, const std::string& rayfold_ver
   w.put_all(d.blas.roots);
   w.put_all(d.blas.bounds);
   w.put_all(d.blas.tree_exponents);
+  w.put_all(d.blas.traced_by);
+  w.put_all(d.blas.instance_roots);
+  w.put_all(d.blas.merged);
   w.put<uint64_t>(d.blas.unresolvable_triangles);
   w.put(d.blas.build_ms);
   w.put(d.blas.sah_cost);
@@ -189,7 +192,6 @@ void write_payload(Writer& w, const SceneFile& f, const std::string& rayfold_ver
   w.put(d.world_bounds);
   w.put(d.max_tree_scale);
   w.put<uint64_t>(d.hidden_instances);
-
 }
 
 }  // namespace
@@ -212,8 +214,7 @@ std::string scene_file_bytes(const SceneFile& f, const std::string& rayfold_vers
   return out;
 }
 
-SceneFile read_scene_file(const char* bytes, size_t size, const std::string& what,
-                          const std::string& rayfold_version) {
+SceneFile read_scene_file(const char* bytes, size_t size, const std::string& what, const std::string& rayfold_version) {
   Reader head(bytes, size, what);
   if (!is_scene_file(bytes, size)) head.fail("it does not start with \"rayfold-scene\"");
   if (size < kHeader + 8) head.fail("it ends early");
@@ -226,8 +227,9 @@ SceneFile read_scene_file(const char* bytes, size_t size, const std::string& wha
     throw InputError(what, "is a rayfold scene file of format " + std::to_string(format) + "; this rayfold reads " +
                                "format " + std::to_string(kSceneFormat) + ": save it again from the glTF file");
   if (layout != layout_signature())
-    throw InputError(what, "is a rayfold scene file written with other device structs (another machine or "
-                           "build): save it again here");
+    throw InputError(what,
+                     "is a rayfold scene file written with other device structs (another machine or "
+                     "build): save it again here");
   if (length != size - kHeader - 8)
     head.fail("it holds " + std::to_string(size - kHeader - 8) + " payload bytes, its header says " +
               std::to_string(length));
@@ -278,6 +280,9 @@ SceneFile read_scene_file(const char* bytes, size_t size, const std::string& wha
   d.blas.roots = r.get_all<uint32_t>();
   d.blas.bounds = r.get_all<Aabb>();
   d.blas.tree_exponents = r.get_all<int>();
+  d.blas.traced_by = r.get_all<uint32_t>();
+  d.blas.instance_roots = r.get_all<uint32_t>();
+  d.blas.merged = r.get_all<uint8_t>();
   d.blas.unresolvable_triangles = r.get<uint64_t>();
   d.blas.build_ms = r.get<double>();
   d.blas.sah_cost = r.get<double>();
@@ -299,6 +304,7 @@ SceneFile read_scene_file(const char* bytes, size_t size, const std::string& wha
   const size_t n = s.instances.size(), m = s.meshes.size();
   if (d.blas.roots.size() != m || d.blas.bounds.size() != m || d.blas.tree_exponents.size() != m ||
       d.tree_from_world.size() != n || d.renderable.size() != n || d.normal_xforms.size() != n ||
+      d.blas.traced_by.size() != n || d.blas.instance_roots.size() != n || d.blas.merged.size() != n ||
       d.braid_offsets.size() != n + 1 || d.braid_wide.size() != d.braid_nodes.size() ||
       d.braid_offsets.back() != d.braid_nodes.size())
     r.fail("its trees do not match its meshes and instances");
@@ -309,62 +315,101 @@ SceneFile read_scene_file(const char* bytes, size_t size, const std::string& wha
   // Each tree below a node a traversal starts from: indices inside their
   // arrays, no cycle, and no deeper than the kernels' stack. Heights are
   // kept per node, so shared subtrees are walked once.
+  // Per node too, the largest rf_tri::inst below it: a hit's instance (the
+  // traced instance's id plus it) must name an instance.
   std::vector<int> binary_height(nodes, -1), wide_height(wide, -1);  // -2: on the current path
-  auto check = [&](uint32_t root, std::vector<int>& height, auto&& children, const char* what) {
+  std::vector<uint32_t> binary_inst(nodes, 0), wide_inst(wide, 0);
+  auto leaf_inst = [&](uint32_t first, uint32_t count) {
+    uint32_t most = 0;
+    for (uint32_t k = 0; k < count; ++k) most = std::max(most, d.blas.tris[first + k].inst);
+    return most;
+  };
+  auto check = [&](uint32_t root, std::vector<int>& height, std::vector<uint32_t>& inst, auto&& children,
+                   const char* what) {
     std::vector<std::pair<uint32_t, bool>> stack{{root, false}};
     while (!stack.empty()) {
       auto [i, expanded] = stack.back();
       stack.pop_back();
       if (expanded) {
         int h = 0;
-        children(i, [&](uint32_t c) { h = std::max(h, height[c] + 1); });
+        uint32_t most = 0;
+        children(
+            i,
+            [&](uint32_t c) {
+              h = std::max(h, height[c] + 1);
+              most = std::max(most, inst[c]);
+            },
+            [&](uint32_t first, uint32_t count) { most = std::max(most, leaf_inst(first, count)); });
         if (h > RF_STACK_SIZE) r.fail(std::string(what) + " deeper than the traversal stack");
         height[i] = h;
+        inst[i] = most;
         continue;
       }
       if (height[i] >= 0) continue;
       if (height[i] == -2) r.fail(std::string(what) + " with a cycle");
       height[i] = -2;
       stack.push_back({i, true});
-      children(i, [&](uint32_t c) {
-        if (height[c] == -2) r.fail(std::string(what) + " with a cycle");
-        if (height[c] < 0) stack.push_back({c, false});
-      });
+      children(
+          i,
+          [&](uint32_t c) {
+            if (height[c] == -2) r.fail(std::string(what) + " with a cycle");
+            if (height[c] < 0) stack.push_back({c, false});
+          },
+          [](uint32_t, uint32_t) {});
     }
   };
-  auto binary_children = [&](uint32_t i, auto&& visit) {
+  auto binary_children = [&](uint32_t i, auto&& visit, auto&& leaf) {
     const rf_node& node = d.blas.nodes[i];
     if (node.meta != 0) {
       if (size_t{node.first} + node.meta > tris) r.fail("a bottom-level leaf runs past the triangles");
+      leaf(node.first, node.meta);
       return;
     }
     if (size_t{node.first} + 1 >= nodes) r.fail("a bottom-level node points outside the trees");
     visit(node.first);
     visit(node.first + 1);
   };
-  auto wide_children = [&](uint32_t i, auto&& visit) {
+  auto wide_children = [&](uint32_t i, auto&& visit, auto&& leaf) {
     for (int k = 0; k < 4; ++k) {
       const uint32_t child = d.wide_nodes[i].child[k], count = d.wide_nodes[i].count[k];
       if (count == RF_INVALID) continue;
       if (count != 0 ? size_t{child} + count > tris : child >= wide) r.fail("a wide node points outside the trees");
-      if (count == 0) visit(child);
+      if (count == 0)
+        visit(child);
+      else
+        leaf(child, count);
     }
   };
-  auto check_tree = [&](uint32_t root) { check(root, binary_height, binary_children, "a bottom-level tree"); };
-  auto check_wide = [&](uint32_t root) { check(root, wide_height, wide_children, "a wide tree"); };
+  auto check_tree = [&](uint32_t root) {
+    check(root, binary_height, binary_inst, binary_children, "a bottom-level tree");
+  };
+  auto check_wide = [&](uint32_t root) { check(root, wide_height, wide_inst, wide_children, "a wide tree"); };
   for (uint32_t root : d.blas.roots) {
     if (root == RF_INVALID) continue;
     if (root >= nodes) r.fail("a mesh's root lies outside the trees");
     check_tree(root);
   }
-  for (size_t c = 0; c < d.braid_nodes.size(); ++c) {
-    if (d.braid_nodes[c] >= nodes || (d.braid_wide[c] != RF_INVALID && d.braid_wide[c] >= wide))
-      r.fail("a top-level item lies outside the trees");
-    check_tree(d.braid_nodes[c]);
-    if (d.braid_wide[c] != RF_INVALID) check_wide(d.braid_wide[c]);
+  for (size_t i = 0; i < n; ++i) {
+    const uint32_t root = d.blas.instance_roots[i];
+    if (root != RF_INVALID && root >= nodes) r.fail("an instance's root lies outside the trees");
+    if (root != RF_INVALID) check_tree(root);
+    if (d.blas.traced_by[i] >= n || d.blas.traced_by[d.blas.traced_by[i]] != d.blas.traced_by[i])
+      r.fail("an instance is traced by one that is not traced by itself");
   }
-  for (size_t i = 0; i < n; ++i)
+  for (size_t i = 0; i < n; ++i) {
     if (d.braid_offsets[i] > d.braid_offsets[i + 1]) r.fail("the top-level items are out of order");
+    for (size_t c = d.braid_offsets[i]; c < d.braid_offsets[i + 1]; ++c) {
+      if (d.braid_nodes[c] >= nodes || (d.braid_wide[c] != RF_INVALID && d.braid_wide[c] >= wide))
+        r.fail("a top-level item lies outside the trees");
+      check_tree(d.braid_nodes[c]);
+      uint64_t last = i + uint64_t{binary_inst[d.braid_nodes[c]]};
+      if (d.braid_wide[c] != RF_INVALID) {
+        check_wide(d.braid_wide[c]);
+        last = std::max<uint64_t>(last, i + uint64_t{wide_inst[d.braid_wide[c]]});
+      }
+      if (last >= n) r.fail("a top-level item's triangles name instances past the last");
+    }
+  }
   return f;
 }
 

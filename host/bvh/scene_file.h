@@ -26,7 +26,8 @@
 
 namespace rayfold::core {
 
-constexpr unsigned kSceneFormat = 1;
+// 2: merged trees (rf_tri::inst, BlasSet::traced_by, instance_roots, merged).
+constexpr unsigned kSceneFormat = 2;
 
 struct SceneFile {
   Scene scene;

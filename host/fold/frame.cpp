@@ -196,6 +196,10 @@ Frame build_frame(const Scene& scene, const SceneData& data, const std::vector<C
     const Instance& inst = scene.instances[i];
     Xform world_from_tree = inst.world_from_object * object_from_tree(data.blas, inst.mesh);
     Xform tree_from_world = data.tree_from_world[i];
+    // A merged tree moves only as a whole: instances that move are built
+    // dynamic (MergeOptions), or the trees are built again.
+    if ((animate && is_animated(i)) || (!moved.empty() && moved[i]))
+      RF_CHECK(!data.blas.merged[i], "instance " + std::to_string(i) + " moves but was merged");
     if (animate && is_animated(i)) {
       world_from_tree = animated_world_from_object(inst, data.blas.bounds[inst.mesh], i, options.animate_frame) *
                         object_from_tree(data.blas, inst.mesh);

@@ -105,9 +105,9 @@ void trace_blas(const std::vector<rf_node>& nodes, const std::vector<rf_tri>& tr
   walk_tree(nodes, root, false, r, best, all_nodes, [&](uint32_t i) {
     const rf_tri& tri = tris[i];
     double t;
-    if (triangle(tri, r, &t) && t > 0.0 && best.closer(t, instance, tri.prim)) {
+    if (triangle(tri, r, &t) && t > 0.0 && best.closer(t, instance + tri.inst, tri.prim)) {
       best.t = t;
-      best.instance = instance;
+      best.instance = instance + tri.inst;
       best.prim = tri.prim;
     }
   });
@@ -140,11 +140,11 @@ std::vector<ReferenceHit> trace_double_reference(const Scene& scene, const Scene
       Best best;
       if (brute_force) {
         for (size_t i = 0; i < scene.instances.size(); ++i) {
-          if (!data.renderable[i]) continue;
+          // Each tree once: a merged one by its first member (bvh/blas.h).
+          if (!data.renderable[i] || data.blas.instance_roots[i] == RF_INVALID) continue;
           const Xform& m = tree_from_trace[i];
           const Ray r = make_ray(glm::dvec3(m * glm::dvec4(origin, 1.0)), glm::dvec3(m * glm::dvec4(d, 0.0)));
-          trace_blas(nodes, data.blas.tris, data.blas.roots[scene.instances[i].mesh], r, static_cast<uint32_t>(i), best,
-                     true);
+          trace_blas(nodes, data.blas.tris, data.blas.instance_roots[i], r, static_cast<uint32_t>(i), best, true);
         }
       } else if (frame.tlas_root != RF_INVALID) {
         walk_tree(nodes, frame.tlas_root, true, cam_ray, best, false, [&](uint32_t i) {

@@ -30,6 +30,7 @@ const char* kBenchUsage =
     "  --view-kind auto|interior|object   how they are drawn (default auto: by a probe)\n"
     "  --animate              move a fixed subset of instances every frame\n"
     "  --braid N              re-braiding budget per instance (default 2, 0 = off)\n"
+    "  --no-merge             a tree per mesh, also for instances that share a transform\n"
     "  --backend opencl|cpu   (default opencl)   --device NAME   --threads N\n"
     "  --kernel tile|single|measure|auto   OpenCL kernel (default auto: tile on CPU devices)\n"
     "  --json F.json  --md F.md   also write the report\n"

@@ -78,6 +78,8 @@ bool parse_renderer_option(const std::string& a, cli::Args& args, RendererOption
     r.threads = static_cast<unsigned>(cli::parse_int(a, args.value(a), 0, 1024));
   } else if (a == "--braid") {
     r.braid = parse_braid(a, args.value(a));
+  } else if (a == "--no-merge") {
+    r.merge.enabled = false;
   } else {
     return false;
   }

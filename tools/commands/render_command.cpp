@@ -13,6 +13,7 @@
 #include "fold/view_passes.h"
 #include "progress.h"
 #include "reference/hit_compare.h"
+#include "scene/animation.h"
 #include "util/atomic_file.h"
 #include "util/errors.h"
 #include "util/image_output.h"
@@ -62,6 +63,8 @@ const char* kRenderUsage =
     "  --braid N              top level opens the instances' trees into about N items\n"
     "                         per instance, at least 256 (partial re-braiding;\n"
     "                         default 2, 0 = whole instances)\n"
+    "  --no-merge             a tree per mesh, also for static instances that share\n"
+    "                         a transform (by default they share one tree)\n"
     "  --no-cull              keep instances outside the view in the top-level tree\n"
     "  --threads N            CPU threads for the CPU backend and builds (0 = all)\n"
     "  --frames N             trace N times and report the medians (default 1)\n"
@@ -389,6 +392,7 @@ int run_render(cli::Args& args) {
                  r.scene.c_str());
   FrameOptions frame_options = r.frame;
   if (play) frame_options.animate_frame = -1;
+  if (r.frame.animate_frame >= 0 && !play) r.renderer.merge.dynamic = animated_instances(scene.instances.size());
   const double start_time = std::isnan(r.load.time) ? 0.0 : r.load.time;
 
   // Auto-framing of an animated file frames the pose at its start (time 0)
@@ -441,9 +445,18 @@ int run_render(cli::Args& args) {
   // built go to FrameOptions::moved; changed meshes (morph weights, skins)
   // rebuild the trees.
   size_t rebuilds = 0;
+  // An instance merged into a static tree (bvh/blas.h) that moves is built
+  // dynamic from then on.
   auto pose_frame = [&](int f, FrameOptions& o) {
     std::vector<uint32_t> changed;
-    if (apply_pose(scene, file.scene_at(start_time + f / r.fps), &changed)) {
+    bool rebuild = apply_pose(scene, file.scene_at(start_time + f / r.fps), &changed);
+    std::vector<uint8_t>& dynamic = r.renderer.merge.dynamic;
+    dynamic.resize(scene.instances.size(), 0);
+    for (uint32_t i : changed) {
+      rebuild |= renderer_ptr->scene_data().blas.merged[i] != 0;
+      dynamic[i] = 1;
+    }
+    if (rebuild) {
       renderer_ptr = std::make_unique<Renderer>(scene, r.renderer);
       moved_since_build.assign(scene.instances.size(), 0);
       ++rebuilds;

@@ -1,0 +1,171 @@
+// Static instances of one transform traced through one tree (bvh/blas.h):
+// every member's triangles there once, with its id; the hits of brute force
+// over the instances one by one in every tracer and fold; the tie rule across
+// members; dynamic instances and --animate kept apart.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <set>
+#include <utility>
+
+#include "bvh/scene_data.h"
+#include "renderer.h"
+#include "scene/animation.h"
+#include "test_util.h"
+
+namespace rayfold::core {
+namespace {
+
+// random_scene's soups, most of them sharing one of two transforms: the
+// instances i % 3 != 2 take instance (i % 2)'s, so they form the groups
+// {0, 4, 6, 10, ...} and {1, 3, 7, 9, ...}; the others keep their own.
+Scene shared_transform_scene(uint64_t seed, int instances) {
+  testing::Rng rng(seed);
+  Scene s = testing::random_scene(rng, 5, instances, 60);
+  for (size_t i = 2; i < s.instances.size(); ++i)
+    if (i % 3 != 2) s.instances[i].world_from_object = s.instances[i % 2].world_from_object;
+  return s;
+}
+
+uint32_t expected_first(size_t i) { return i % 3 != 2 ? static_cast<uint32_t>(i % 2) : static_cast<uint32_t>(i); }
+
+// Every triangle below a node, as (scene instance, primitive) for a tree
+// traced by instance `first`.
+std::vector<std::pair<uint32_t, uint32_t>> tree_triangles(const BlasSet& blas, uint32_t root, uint32_t first) {
+  std::vector<std::pair<uint32_t, uint32_t>> out;
+  std::vector<uint32_t> stack{root};
+  while (!stack.empty()) {
+    const rf_node& n = blas.nodes[stack.back()];
+    stack.pop_back();
+    if (n.meta != 0) {
+      for (uint32_t k = 0; k < n.meta; ++k)
+        out.push_back({first + blas.tris[n.first + k].inst, blas.tris[n.first + k].prim});
+      continue;
+    }
+    stack.push_back(n.first);
+    stack.push_back(n.first + 1);
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+TEST(Merge, EachGroupsTreeHoldsEveryMembersTrianglesOnce) {
+  const Scene s = shared_transform_scene(3, 14);
+  const SceneData data = prepare_scene(s, 2);
+  const BlasSet& blas = data.blas;
+  for (size_t i = 0; i < s.instances.size(); ++i) {
+    EXPECT_EQ(blas.traced_by[i], expected_first(i)) << "instance " << i;
+    EXPECT_EQ(blas.merged[i], i % 3 != 2) << "instance " << i;
+    const bool traces = blas.traced_by[i] == i;
+    EXPECT_EQ(blas.instance_roots[i] != RF_INVALID, traces) << "instance " << i;
+    EXPECT_EQ(data.braid_offsets[i + 1] > data.braid_offsets[i], traces)
+        << "only the first member enters the top level";
+    EXPECT_TRUE(data.renderable[i]);
+  }
+  for (uint32_t first : {0u, 1u}) {
+    std::vector<std::pair<uint32_t, uint32_t>> want;
+    for (size_t i = 0; i < s.instances.size(); ++i)
+      if (expected_first(i) == first)
+        for (uint32_t t = 0; t < s.meshes[s.instances[i].mesh].triangle_count(); ++t)
+          want.push_back({static_cast<uint32_t>(i), t});
+    EXPECT_EQ(tree_triangles(blas, blas.instance_roots[first], first), want) << "group of " << first;
+  }
+  // A lone instance keeps its mesh's own tree, whose triangles add nothing.
+  EXPECT_EQ(blas.instance_roots[2], blas.roots[s.instances[2].mesh]);
+  for (const auto& [inst, prim] : tree_triangles(blas, blas.instance_roots[2], 2)) EXPECT_EQ(inst, 2u);
+
+  // Dynamic instances, and no merging at all, keep the meshes' trees.
+  MergeOptions merge;
+  merge.dynamic.assign(5, 0);
+  merge.dynamic[4] = 1;
+  const BlasSet some = prepare_scene(s, 2, {}, merge).blas;
+  EXPECT_FALSE(some.merged[4]);
+  EXPECT_EQ(some.instance_roots[4], some.roots[s.instances[4].mesh]);
+  EXPECT_TRUE(some.merged[6]);
+  merge.enabled = false;
+  const BlasSet none = prepare_scene(s, 2, {}, merge).blas;
+  for (size_t i = 0; i < s.instances.size(); ++i) {
+    EXPECT_FALSE(none.merged[i]);
+    EXPECT_EQ(none.instance_roots[i], none.roots[s.instances[i].mesh]);
+  }
+}
+
+TEST(Merge, MergedTreesGiveBruteForceHitsInEveryTracerAndFold) {
+  testing::Rng rng(11);
+  for (uint64_t seed : {5u, 6u}) {
+    const Scene s = shared_transform_scene(seed, 12);
+    testing::ThreeWays r(s);
+    ASSERT_TRUE(r.cpu->scene_data().blas.merged[0]);
+    for (int v = 0; v < 3; ++v) {
+      const Camera cam = make_camera(testing::random_camera(rng, s.world_bounds()), 45, 31);
+      EXPECT_EQ(testing::compare_hits(testing::brute_force(s, r.cpu->scene_data(), cam), r.reference(cam), 45), "")
+          << "seed " << seed << " view " << v;
+      EXPECT_EQ(r.differences(cam), "") << "seed " << seed << " view " << v;
+    }
+  }
+}
+
+// Two copies of one cube at one place, and a third instance between their
+// ids elsewhere: the copies share a tree, and every pixel of the cube is the
+// lower copy's (the tie rule: equal t, the lower instance id), in every
+// tracer and fold.
+TEST(Merge, CoincidentCopiesResolveToTheLowerInstance) {
+  Scene s;
+  s.meshes = {testing::closed_cube(3), testing::closed_cube(2)};
+  s.instances.resize(3);
+  s.instances[0].mesh = 0;
+  s.instances[1].mesh = 1;
+  s.instances[1].world_from_object[3] = glm::dvec4(0.0, 0.0, -20.0, 1.0);
+  s.instances[2].mesh = 0;
+  testing::ThreeWays r(s);
+  const BlasSet& blas = r.cpu->scene_data().blas;
+  ASSERT_TRUE(blas.merged[0] && blas.merged[2] && !blas.merged[1]);
+  CameraSpec spec;
+  spec.eye = glm::dvec3(0.7, 0.9, 4.0);
+  spec.look_at = glm::dvec3(0.0, 0.0, 0.0);
+  spec.vfov_degrees = 50.0;
+  const Camera cam = make_camera(spec, 40, 30);
+  const std::vector<rf_pixel_hit> ref = r.reference(cam);
+  size_t cube = 0;
+  for (const rf_pixel_hit& h : ref) {
+    if (h.instance == RF_INVALID) continue;
+    EXPECT_EQ(h.instance, 0u);
+    ++cube;
+  }
+  EXPECT_GT(cube, ref.size() / 4) << "the cube fills the middle of the view";
+  EXPECT_EQ(r.differences(cam), "");
+}
+
+// --animate moves every fourth instance: built dynamic, the moving ones keep
+// their meshes' trees, the rest still merge, and every frame has the bits
+// of the CPU reference.
+TEST(Merge, AnimatedInstancesAreBuiltApart) {
+  const Scene s = shared_transform_scene(8, 12);
+  RendererOptions o;
+  o.backend = Backend::cpu;
+  o.merge.dynamic = animated_instances(s.instances.size());
+  Renderer cpu(s, o);
+  const BlasSet& blas = cpu.scene_data().blas;
+  for (size_t i = 0; i < s.instances.size(); ++i)
+    if (is_animated(i)) {
+      EXPECT_FALSE(blas.merged[i]) << "instance " << i;
+    }
+  EXPECT_TRUE(blas.merged[0] && blas.merged[4]);
+  o.backend = Backend::opencl;
+  o.kernel = KernelChoice::tile;
+  Renderer tile(s, o);
+  testing::Rng rng(2);
+  const Camera cam = make_camera(testing::random_camera(rng, s.world_bounds()), 40, 28);
+  for (int frame = 0; frame < 3; ++frame) {
+    FrameOptions f;
+    f.animate_frame = frame;
+    f.fold = FoldMode::xy;
+    FrameOptions none = f;
+    none.fold = FoldMode::none;
+    EXPECT_EQ(testing::compare_hits(cpu.render(cam, 1, none).hits, tile.render(cam, 1, f).hits, 40), "")
+        << "frame " << frame;
+  }
+}
+
+}  // namespace
+}  // namespace rayfold::core
