@@ -47,7 +47,7 @@ struct BlasSet {
   // normal floats and cannot resolve them.
   size_t unresolvable_triangles = 0;
   double build_ms = 0.0;  // with the wide trees prepare_scene adds (bvh/scene_data.h)
-  double sah_cost = 0.0;  // per mesh SAH cost, weighted by triangle count
+  double sah_cost = 0.0;  // per tree SAH cost, weighted by triangle count
   int max_depth = 0;
 };
 
