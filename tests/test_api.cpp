@@ -20,6 +20,20 @@ namespace {
 
 using core::testing::compare_hits;
 
+// A core transform as the public API's row-major matrix.
+Matrix4 to_matrix(const core::Xform& x) {
+  Matrix4 m;
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c) m[4 * r + c] = x[c][r];
+  return m;
+}
+
+// A core camera spec as a public look-at camera of w x h pixels.
+Camera to_camera(const core::CameraSpec& spec, int w, int h) {
+  return Camera::look_at({spec.eye.x, spec.eye.y, spec.eye.z}, {spec.look_at.x, spec.look_at.y, spec.look_at.z},
+                         {spec.up.x, spec.up.y, spec.up.z}, spec.vfov_degrees, w, h);
+}
+
 // The core scene rebuilt through the public API, mesh for mesh and instance
 // for instance.
 Scene to_public(const core::Scene& s) {
@@ -29,12 +43,7 @@ Scene to_public(const core::Scene& s) {
     for (const glm::vec3& v : m.positions) p.insert(p.end(), {v.x, v.y, v.z});
     out.add_mesh(p, m.indices, m.name);
   }
-  for (const core::Instance& i : s.instances) {
-    Matrix4 m;
-    for (int r = 0; r < 4; ++r)
-      for (int c = 0; c < 4; ++c) m[4 * r + c] = i.world_from_object[c][r];
-    out.add_instance(i.mesh, m, i.name);
-  }
+  for (const core::Instance& i : s.instances) out.add_instance(i.mesh, to_matrix(i.world_from_object), i.name);
   return out;
 }
 
@@ -61,9 +70,7 @@ TEST(Api, InMemorySceneMatchesBruteForceInEveryBackendKernelAndFold) {
   ASSERT_EQ(scene.instance_count(), soup.instances.size());
   for (int view = 0; view < 3; ++view) {
     const core::CameraSpec spec = core::testing::random_camera(rng, soup.world_bounds());
-    const Camera camera =
-        Camera::look_at({spec.eye.x, spec.eye.y, spec.eye.z}, {spec.look_at.x, spec.look_at.y, spec.look_at.z},
-                        {spec.up.x, spec.up.y, spec.up.z}, spec.vfov_degrees, 37, 23);
+    const Camera camera = to_camera(spec, 37, 23);
     const std::vector<rf_pixel_hit> expected = brute(soup, camera);
     for (Backend backend : {Backend::cpu, Backend::opencl})
       for (Kernel kernel : {Kernel::tile, Kernel::single}) {
@@ -115,9 +122,7 @@ TEST(Api, OffGridPrincipalPointIsExactAndFoldsOnlyTheAxisThatAllows) {
   const core::Scene soup = core::testing::random_scene(rng, 2, 5, 60);
   const Scene scene = to_public(soup);
   const core::CameraSpec spec = core::testing::random_camera(rng, soup.world_bounds());
-  const Camera look =
-      Camera::look_at({spec.eye.x, spec.eye.y, spec.eye.z}, {spec.look_at.x, spec.look_at.y, spec.look_at.z},
-                      {spec.up.x, spec.up.y, spec.up.z}, spec.vfov_degrees, 41, 29);
+  const Camera look = to_camera(spec, 41, 29);
   // fx != fy, cx off the half-pixel grid, cy on it (one pixel off centre).
   const Intrinsics k{31.7, 29.3, 20.5 + 0.3, 14.5 + 1.0};
   const Camera camera = Camera::from_matrix(look.camera_to_world(), k, 41, 29, CameraConvention::opengl);
@@ -162,9 +167,7 @@ TEST(Api, MovedInstancesEqualASceneBuiltWithThemInPlace) {
   core::Scene soup = core::testing::random_scene(rng, 3, 8, 50);
   Scene moving = to_public(soup);
   const core::CameraSpec spec = core::testing::random_camera(rng, soup.world_bounds());
-  const Camera camera =
-      Camera::look_at({spec.eye.x, spec.eye.y, spec.eye.z}, {spec.look_at.x, spec.look_at.y, spec.look_at.z},
-                      {spec.up.x, spec.up.y, spec.up.z}, spec.vfov_degrees, 33, 27);
+  const Camera camera = to_camera(spec, 33, 27);
   for (Backend backend : {Backend::cpu, Backend::opencl}) {
     RendererOptions o;
     o.backend = backend;
@@ -180,10 +183,7 @@ TEST(Api, MovedInstancesEqualASceneBuiltWithThemInPlace) {
         turn[2][2] = std::cos(a);
         turn[3] = glm::dvec4(0.1 * frame, -0.05 * i, 0.02, 1.0);
         soup.instances[i].world_from_object = turn * soup.instances[i].world_from_object;
-        Matrix4 m;
-        for (int r = 0; r < 4; ++r)
-          for (int c = 0; c < 4; ++c) m[4 * r + c] = soup.instances[i].world_from_object[c][r];
-        moving.set_transform(i, m);
+        moving.set_transform(i, to_matrix(soup.instances[i].world_from_object));
       }
       const Scene rebuilt = to_public(soup);
       Renderer fresh(rebuilt, o);
@@ -204,9 +204,7 @@ TEST(Api, MovingAMergedInstanceEqualsASceneBuiltWithItInPlace) {
     soup.instances[i].world_from_object = soup.instances[0].world_from_object;
   Scene moving = to_public(soup);
   const core::CameraSpec spec = core::testing::random_camera(rng, soup.world_bounds());
-  const Camera camera =
-      Camera::look_at({spec.eye.x, spec.eye.y, spec.eye.z}, {spec.look_at.x, spec.look_at.y, spec.look_at.z},
-                      {spec.up.x, spec.up.y, spec.up.z}, spec.vfov_degrees, 35, 23);
+  const Camera camera = to_camera(spec, 35, 23);
   for (Backend backend : {Backend::cpu, Backend::opencl}) {
     RendererOptions o;
     o.backend = backend;
@@ -216,10 +214,7 @@ TEST(Api, MovingAMergedInstanceEqualsASceneBuiltWithItInPlace) {
     core::Xform shift(1.0);
     shift[3] = glm::dvec4(0.3, -0.2, 0.1, 1.0);
     soup.instances[2].world_from_object = shift * soup.instances[2].world_from_object;
-    Matrix4 m;
-    for (int r = 0; r < 4; ++r)
-      for (int c = 0; c < 4; ++c) m[4 * r + c] = soup.instances[2].world_from_object[c][r];
-    moving.set_transform(2, m);
+    moving.set_transform(2, to_matrix(soup.instances[2].world_from_object));
     Renderer fresh(to_public(soup), o);
     for (Fold f : {Fold::none, Fold::xy})
       EXPECT_EQ(compare_hits(to_hits(fresh.render(camera, f)), to_hits(renderer.render(camera, f)), 35), "")
@@ -595,9 +590,7 @@ TEST(Api, SavedScenesRenderTheOriginalsBitsWithTheirTrees) {
   EXPECT_EQ(loaded.state()->trees->blas.nodes.size(), scene.state()->trees->blas.nodes.size());
   for (int view = 0; view < 2; ++view) {
     const core::CameraSpec spec = core::testing::random_camera(rng, soup.world_bounds());
-    const Camera camera =
-        Camera::look_at({spec.eye.x, spec.eye.y, spec.eye.z}, {spec.look_at.x, spec.look_at.y, spec.look_at.z},
-                        {spec.up.x, spec.up.y, spec.up.z}, spec.vfov_degrees, 33, 21);
+    const Camera camera = to_camera(spec, 33, 21);
     for (auto [backend, kernel] : {std::pair{Backend::cpu, Kernel::automatic}, std::pair{Backend::opencl, Kernel::tile},
                                    std::pair{Backend::opencl, Kernel::single}}) {
       RendererOptions o;
