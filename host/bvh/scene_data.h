@@ -15,24 +15,31 @@
 namespace rayfold::core {
 
 // Partial re-braiding (Benthin, Wald, Woop, Afra 2017): the top-level tree
-// is built not over whole instances but over a cut through each instance's
-// bottom-level tree, opened largest-first in world space. Meshes grouped by
-// material overlap the whole scene; their upper nodes in the top level make it
-// a spatial tree again, where near-to-far order stops rays early and culling
-// (per fold group) drops the parts of a mesh a quadrant cannot see.
+// is built not over whole instances but over a cut through each traced
+// instance's bottom-level tree, opened largest-first in world space, so
+// that instances whose trees overlap meet as their parts, where near-to-far
+// order stops rays early and culling (per fold group) drops the parts a
+// quadrant cannot see.
+//
+// Meshes grouped by material, which overlap the whole scene, needed much
+// of it (min_items and loose_ratio below: Lost Empire 2x, the Dabrovic
+// Sponza 1.4x). Since such meshes share one merged tree (bvh/blas.h), the
+// tile kernel traces that tree's upper levels faster in its own 4-wide
+// nodes than as top-level items: on random views (docs/results.md) the
+// budget alone traced Sponza and the conference room 1.28x faster than with
+// the minimum and the loose rule, the car 1.16x, Lost Empire and the
+// armadillo 1.1x, the atrium (240 instances of their own transforms) 1.08x.
 struct BraidOptions {
   bool enabled = true;
-  size_t items_per_instance = 2;    // budget: this many items per instance on average...
-  size_t min_items = 256;           // ...but at least this many, so scenes of a few big meshes open
+  size_t items_per_instance = 2;    // budget: this many items per traced instance on average...
+  size_t min_items = 0;             // ...but at least this many
   double min_area_fraction = 1e-3;  // never open a node smaller than this share of the scene
   // Past the budget, a node still opens when its children's world boxes
   // together have less than loose_ratio times its surface: its triangles lie
   // apart and its box is mostly empty space, the space where the boxes of a
-  // building's per-material meshes overlap. Measured on random views
-  // (docs/results.md): 1.0 traces Lost Empire 2x and the Dabrovic Sponza
-  // 1.4x faster than the budget alone, the other scenes alike, for a top
-  // level of up to 3,000 items; 1.3 opens 3x more for little more.
-  double loose_ratio = 1.0;
+  // building's per-material meshes overlap when they are not merged (1.0,
+  // with min_items 256, was the default before merged trees).
+  double loose_ratio = 0.0;
 };
 
 struct SceneData {

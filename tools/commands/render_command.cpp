@@ -61,7 +61,7 @@ const char* kRenderUsage =
     "                         --fold none has nothing to compare and is refused);\n"
     "                         exit code 3, and no file written, when they differ\n"
     "  --braid N              top level opens the instances' trees into about N items\n"
-    "                         per instance, at least 256 (partial re-braiding;\n"
+    "                         per traced instance (partial re-braiding;\n"
     "                         default 2, 0 = whole instances)\n"
     "  --no-merge             a tree per mesh, also for static instances that share\n"
     "                         a transform (by default they share one tree)\n"
