@@ -22,10 +22,12 @@
 typedef float16 rf_vf;
 typedef int16 rf_vi;
 typedef uint16 rf_vu;
+#define rf_lanes_load_u vload16 /* RF_LANES consecutive rf_u32 as rf_vu */
 #elif RF_LANES == 8
 typedef float8 rf_vf;
 typedef int8 rf_vi;
 typedef uint8 rf_vu;
+#define rf_lanes_load_u vload8
 #else
 #error "RF_LANES must be 8 or 16"
 #endif
