@@ -214,10 +214,11 @@ BlasSet build_blas_set(const Scene& scene, const BuildOptions& options, unsigned
       while (i >= tri_base[s + 1]) ++s;
       const TreeSource& src = sources[s];
       const size_t t = trees[s].order[i - tri_base[s]];
-      const TreeSource::Part& part = src.parts[src.part_of(t)];
+      const size_t at = src.part_of(t);
+      const TreeSource::Part& part = src.parts[at];
       const Mesh& mesh = scene.meshes[part.mesh];
       const std::vector<glm::vec3>& p = positions[part.mesh];
-      const size_t local = t - src.first[src.part_of(t)];
+      const size_t local = t - src.first[at];
       rf_tri& tri = set.tris[i];
       for (int k = 0; k < 3; ++k) {
         tri.v0[k] = p[mesh.indices[3 * local]][k];
