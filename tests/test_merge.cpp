@@ -9,6 +9,7 @@
 #include <utility>
 
 #include "bvh/scene_data.h"
+#include "bvh/scene_file.h"
 #include "renderer.h"
 #include "scene/animation.h"
 #include "test_util.h"
@@ -103,6 +104,28 @@ TEST(Merge, MergedTreesGiveBruteForceHitsInEveryTracerAndFold) {
       EXPECT_EQ(r.differences(cam), "") << "seed " << seed << " view " << v;
     }
   }
+}
+
+// Merged trees through scene-file bytes (Scene::save): the same bits, in
+// the tile kernel too, and the merge's lists as written.
+TEST(Merge, SceneFilesKeepMergedTreesAndTheirBits) {
+  const Scene s = shared_transform_scene(4, 10);
+  const SceneData data = prepare_scene(s, 2);
+  ASSERT_TRUE(data.blas.merged[0]);
+  const std::string bytes = scene_file_bytes(SceneFile{s, data, "", {}}, "test");
+  const SceneFile back = read_scene_file(bytes.data(), bytes.size(), "merged.rfscene", "test");
+  EXPECT_EQ(back.data.blas.traced_by, data.blas.traced_by);
+  EXPECT_EQ(back.data.blas.instance_roots, data.blas.instance_roots);
+  EXPECT_EQ(back.data.blas.merged, data.blas.merged);
+  testing::Rng rng(3);
+  const Camera cam = make_camera(testing::random_camera(rng, s.world_bounds()), 41, 27);
+  RendererOptions o;
+  o.backend = Backend::cpu;
+  const std::vector<rf_pixel_hit> want = Renderer(s, o).render(cam).hits;
+  o.backend = Backend::opencl;
+  o.kernel = KernelChoice::tile;
+  Renderer loaded(back.scene, o, std::make_shared<const SceneData>(back.data));
+  EXPECT_EQ(testing::compare_hits(want, loaded.render(cam).hits, 41), "");
 }
 
 // Two copies of one cube at one place, and a third instance between their
