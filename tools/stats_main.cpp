@@ -84,8 +84,7 @@ int main(int argc, char** argv) {
   using namespace rayfold::core;
   return cli::guarded_main([&] {
     const char* usage =
-        "usage: rayfold-stats SCENE [--eye X,Y,Z --look-at X,Y,Z [--up X,Y,Z]] [--size WxH] [--fold MODE] "
-        "[--no-braid]\n"
+        "usage: rayfold-stats SCENE [--eye X,Y,Z --look-at X,Y,Z [--up X,Y,Z]] [--size WxH] [--fold MODE] [--no-braid]\n"
         "                     [--no-merge]\n"
         "                     [--braid-items N] [--braid-min N] [--braid-loose R] [--vfov DEG] [--depth-sources]\n"
         "Traversal counters per ray and per pixel: the single-ray kernel's on the CPU reference, the tile\n"

@@ -43,12 +43,12 @@ struct Renderer::Impl {
   std::shared_ptr<detail::SceneState> state;
   core::RendererOptions options;
   std::unique_ptr<core::Renderer> core;
-  uint64_t built_version = 0;            // SceneState::structure_version the trees were built for
-  uint64_t built_clock = 0;              // SceneState::clock then: later set_transforms are moves
-  core::RenderResult result;             // its hit buffer is reused render to render
-  core::RenderResult second_result;      // the pass in flight beside it (render_views, packed readback)
+  uint64_t built_version = 0;  // SceneState::structure_version the trees were built for
+  uint64_t built_clock = 0;    // SceneState::clock then: later set_transforms are moves
+  core::RenderResult result;   // its hit buffer is reused render to render
+  core::RenderResult second_result;  // the pass in flight beside it (render_views, packed readback)
   std::vector<rf_pixel_hit> query_hits;  // a query chunk's answers, kept from query to query
-  bool planar_depth = false;             // RendererOptions::depth
+  bool planar_depth = false;   // RendererOptions::depth
 
   void build() {
     core.reset();
@@ -114,8 +114,9 @@ std::vector<std::string> query_chunks(core::Renderer& r, std::vector<rf_pixel_hi
   for (size_t begin = 0; begin < n; begin += kChunk) {
     const size_t count = std::min(kChunk, n - begin);
     hits.resize(count);
-    for (std::string& w : r.intersect(origins + 3 * begin, directions + 3 * begin, count, tmin, tmax, any_hit, options,
-                                      hits.data(), row_length))
+    for (std::string& w :
+         r.intersect(origins + 3 * begin, directions + 3 * begin, count, tmin, tmax, any_hit, options, hits.data(),
+                     row_length))
       if (std::find(warnings.begin(), warnings.end(), w) == warnings.end()) warnings.push_back(std::move(w));
     take(begin, hits);
   }
@@ -134,38 +135,38 @@ RayHits Renderer::intersect(const float* origins, const float* directions, size_
   out.uv.resize(2 * n);
   out.instance_id.resize(n);
   out.primitive_id.resize(n);
-  out.warnings = query_chunks(*impl_->core, impl_->query_hits, origins, directions, n, tmin, tmax, false, options,
-                              row_length, [&](size_t begin, const std::vector<rf_pixel_hit>& hits) {
-                                core::parallel_for(hits.size(), impl_->options.threads, size_t{1} << 15,
-                                                   [&](size_t lo, size_t hi) {
-                                                     for (size_t k = lo; k < hi; ++k) {
-                                                       const rf_pixel_hit& h = hits[k];
-                                                       const size_t i = begin + k;
-                                                       out.t[i] = h.z;
-                                                       out.normal[3 * i] = h.nx;
-                                                       out.normal[3 * i + 1] = h.ny;
-                                                       out.normal[3 * i + 2] = h.nz;
-                                                       out.uv[2 * i] = h.u;
-                                                       out.uv[2 * i + 1] = h.v;
-                                                       out.instance_id[i] = h.instance;
-                                                       out.primitive_id[i] = h.primitive;
-                                                     }
-                                                   });
-                              });
+  out.warnings = query_chunks(
+      *impl_->core, impl_->query_hits, origins, directions, n, tmin, tmax, false, options, row_length,
+      [&](size_t begin, const std::vector<rf_pixel_hit>& hits) {
+        core::parallel_for(hits.size(), impl_->options.threads, size_t{1} << 15, [&](size_t lo, size_t hi) {
+          for (size_t k = lo; k < hi; ++k) {
+            const rf_pixel_hit& h = hits[k];
+            const size_t i = begin + k;
+            out.t[i] = h.z;
+            out.normal[3 * i] = h.nx;
+            out.normal[3 * i + 1] = h.ny;
+            out.normal[3 * i + 2] = h.nz;
+            out.uv[2 * i] = h.u;
+            out.uv[2 * i + 1] = h.v;
+            out.instance_id[i] = h.instance;
+            out.primitive_id[i] = h.primitive;
+          }
+        });
+      });
   return out;
 }
 
-std::vector<uint8_t> Renderer::occluded(const float* origins, const float* directions, size_t n, float tmin, float tmax,
-                                        std::vector<std::string>* warnings, size_t row_length) {
+std::vector<uint8_t> Renderer::occluded(const float* origins, const float* directions, size_t n, float tmin,
+                                        float tmax, std::vector<std::string>* warnings, size_t row_length) {
   core::FrameOptions options;
   options.moved = impl_->moved();
   options.normals = false;
   std::vector<uint8_t> out(n);
-  std::vector<std::string> w =
-      query_chunks(*impl_->core, impl_->query_hits, origins, directions, n, tmin, tmax, true, options, row_length,
-                   [&](size_t begin, const std::vector<rf_pixel_hit>& hits) {
-                     for (size_t k = 0; k < hits.size(); ++k) out[begin + k] = hits[k].instance != RF_INVALID;
-                   });
+  std::vector<std::string> w = query_chunks(
+      *impl_->core, impl_->query_hits, origins, directions, n, tmin, tmax, true, options, row_length,
+      [&](size_t begin, const std::vector<rf_pixel_hit>& hits) {
+        for (size_t k = 0; k < hits.size(); ++k) out[begin + k] = hits[k].instance != RF_INVALID;
+      });
   if (warnings) *warnings = std::move(w);
   return out;
 }
@@ -180,18 +181,16 @@ namespace {
 
 void check_channels(unsigned channels) {
   if (channels == 0u || (channels & ~static_cast<unsigned>(kAllChannels)) != 0u)
-    throw InputError("",
-                     "channels must be a nonzero combination of kDepth, kNormal, kUv, kInstanceId and "
-                     "kPrimitiveId, not " +
-                         std::to_string(channels));
+    throw InputError("", "channels must be a nonzero combination of kDepth, kNormal, kUv, kInstanceId and "
+                         "kPrimitiveId, not " + std::to_string(channels));
 }
 
 // A core result (one view's) as the public planes asked for, on `threads`
 // threads: a 720p frame's 30 MB of planes cost a fifth of the trace on one.
 // A packed readback's planes (core::RenderResult::planes) are already laid
 // out as these: one copy each.
-void fill_gbuffer(GBuffer& g, const core::RenderResult& r, int width, int height, unsigned threads, unsigned channels,
-                  Depth depth_kind) {
+void fill_gbuffer(GBuffer& g, const core::RenderResult& r, int width, int height, unsigned threads,
+                  unsigned channels, Depth depth_kind) {
   const size_t n = static_cast<size_t>(width) * height;
   g.width = width;
   g.height = height;
@@ -285,16 +284,14 @@ void Renderer::render_into(GBuffer& g, const Camera& camera, Fold fold, unsigned
   const core::FrameOptions frame = frame_options(fold, impl_->moved(), channels, impl_->planar_depth);
   core::RenderResult& r = impl_->result;
   impl_->core->render_into(r, camera.core(), 1, frame);
-  fill_gbuffer(g, r, camera.width(), camera.height(), impl_->options.threads, channels,
-               impl_->planar_depth ? Depth::planar : Depth::distance);
+  fill_gbuffer(g, r, camera.width(), camera.height(), impl_->options.threads, channels, impl_->planar_depth ? Depth::planar : Depth::distance);
   g.frame_ms = core::ms_since(t0);
 }
 
 std::vector<GBuffer> Renderer::render_views(const std::vector<Camera>& cameras, Fold fold, int align,
-                                            unsigned channels) {
+                                           unsigned channels) {
   std::vector<GBuffer> out(cameras.size());
-  render_views(
-      cameras, [&](size_t i, GBuffer&& g) { out[i] = std::move(g); }, fold, align, channels);
+  render_views(cameras, [&](size_t i, GBuffer&& g) { out[i] = std::move(g); }, fold, align, channels);
   return out;
 }
 

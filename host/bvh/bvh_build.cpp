@@ -297,8 +297,8 @@ class Builder {
 
   // Puts the sweep's left primitives first, in their order along its axis;
   // returns the first right one, with both sides' boxes and centre boxes.
-  uint32_t apply_sweep(uint32_t first, uint32_t count, const Split& split, const uint8_t* order, Box4& lbox, Box4& rbox,
-                       Box4& lcentres, Box4& rcentres) const {
+  uint32_t apply_sweep(uint32_t first, uint32_t count, const Split& split, const uint8_t* order, Box4& lbox,
+                       Box4& rbox, Box4& lcentres, Box4& rcentres) const {
     PrimRef* r = refs_.data() + first;
     PrimRef sorted[kSweepNode];
     for (uint32_t k = 0; k < count; ++k) sorted[k] = r[order[k]];

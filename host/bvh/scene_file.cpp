@@ -214,7 +214,8 @@ std::string scene_file_bytes(const SceneFile& f, const std::string& rayfold_vers
   return out;
 }
 
-SceneFile read_scene_file(const char* bytes, size_t size, const std::string& what, const std::string& rayfold_version) {
+SceneFile read_scene_file(const char* bytes, size_t size, const std::string& what,
+                          const std::string& rayfold_version) {
   Reader head(bytes, size, what);
   if (!is_scene_file(bytes, size)) head.fail("it does not start with \"rayfold-scene\"");
   if (size < kHeader + 8) head.fail("it ends early");
@@ -227,9 +228,8 @@ SceneFile read_scene_file(const char* bytes, size_t size, const std::string& wha
     throw InputError(what, "is a rayfold scene file of format " + std::to_string(format) + "; this rayfold reads " +
                                "format " + std::to_string(kSceneFormat) + ": save it again from the glTF file");
   if (layout != layout_signature())
-    throw InputError(what,
-                     "is a rayfold scene file written with other device structs (another machine or "
-                     "build): save it again here");
+    throw InputError(what, "is a rayfold scene file written with other device structs (another machine or "
+                           "build): save it again here");
   if (length != size - kHeader - 8)
     head.fail("it holds " + std::to_string(size - kHeader - 8) + " payload bytes, its header says " +
               std::to_string(length));
