@@ -11,6 +11,7 @@
 #include "util/timer.h"
 
 #include "fold/ray_list.h"
+#include "rays/ray_order.h"
 #include "rays/ray_queries.h"
 #include "reference/cpu_tracer.h"
 #include "util/parallel.h"
@@ -353,13 +354,19 @@ std::vector<std::string> Renderer::intersect(const float* origins, const float* 
     // same bits, traced in vector lanes.
     QueryTiles& tiles = query_plan_;
     tiles.tiles.clear();
+    tiles.scattered.clear();
     if (tracer_ && kernel_ == KernelKind::tile)
       plan_query_tiles(origins + 3 * begin, end - begin, row_length, kMinQueryTileRays, tiles);
+    // The others one by one, neighbours in space and direction one after
+    // the other.
+    if (tiles.tiles.empty())
+      scattered_ray_order(origins + 3 * begin, directions + 3 * begin, end - begin, tiles.scattered,
+                          options_.threads);
     to_trace_space(origins, directions, begin, end, tmin, tmax, frame, chunk, tiles.traced_order());
     if (tracer_)
-      tracer_->trace_queries(chunk, any_hit, flags, out + begin, tiles.tiles.empty() ? nullptr : &tiles);
+      tracer_->trace_queries(chunk, any_hit, flags, out + begin, &tiles);
     else
-      trace_queries_cpu(in, chunk, any_hit, flags, out + begin, options_.threads);
+      trace_queries_cpu(in, chunk, any_hit, flags, out + begin, options_.threads, tiles.scattered);
   }
   return warnings;
 }

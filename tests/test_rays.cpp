@@ -9,6 +9,7 @@
 #include <numeric>
 
 #include "rayfold/errors.h"
+#include "rays/ray_order.h"
 #include "rays/ray_queries.h"
 #include "rf_trace.h"
 #include "test_util.h"
@@ -166,6 +167,62 @@ TEST(RayQuery, SharedOriginTilesEqualTheCpuReference) {
   std::vector<float> scattered(3000, 0.0f);
   for (size_t i = 0; i < 1000; ++i) scattered[3 * i] = static_cast<float>(i);
   EXPECT_TRUE(plan_query_tiles(scattered.data(), 1000, 0, 128).tiles.empty());
+}
+
+// Rays from many origins are traced one by one in the order of their
+// origins' cells (a 16^3 grid over their box, in Morton order) and their
+// directions' octants: every ray once, keys never decreasing, ties in input
+// order, one order on any thread count; fewer than kMinOrderedRays keep the
+// input order. The answers' independence of the order is
+// AnswersDoNotDependOnOrderOrBatching's, their bits OpenClKernelEquals-
+// TheCpuReference's (both take this order for their scattered rays).
+TEST(RayQuery, ScatteredRaysGoInCellAndOctantOrder) {
+  // By hand: in the box (0, 0, 0) to (16, 16, 16) the origin
+  // (3.5, 0.5, 15.9) lies in cell (3, 0, 15), Morton 0b1001 | 0 << 1 |
+  // 0b1001001001 << 2 = 0x92d; the direction (-1, 2, -0) is in octant
+  // 1 | 4 (x and z have their sign bits set).
+  const float lo[3] = {0.0f, 0.0f, 0.0f}, hi[3] = {16.0f, 16.0f, 16.0f};
+  const float origin[3] = {3.5f, 0.5f, 15.9f}, direction[3] = {-1.0f, 2.0f, -0.0f};
+  EXPECT_EQ(scattered_ray_key(origin, direction, lo, hi), (0x92du << 3) | 5u);
+  const float outside[3] = {-1.0f, 17.0f, 16.0f};  // clamped to the edge cells
+  EXPECT_EQ(scattered_ray_key(outside, direction, lo, hi), ((0x492u | 0x924u) << 3) | 5u);
+
+  Rng rng(31);
+  const size_t n = 5000;
+  std::vector<float> o(3 * n), d(3 * n);
+  for (size_t i = 0; i < n; ++i)
+    for (int a = 0; a < 3; ++a) {
+      // Few distinct origins, so that many rays share a key.
+      o[3 * i + a] = static_cast<float>(rng.below(6)) * 4.0f - 10.0f;
+      d[3 * i + a] = rng.uniformf(-1.0f, 1.0f);
+    }
+  std::vector<uint32_t> one, two;
+  scattered_ray_order(o.data(), d.data(), n, one, 1);
+  scattered_ray_order(o.data(), d.data(), n, two, 2);
+  EXPECT_EQ(one, two) << "the order on 1 and 2 threads";
+  ASSERT_EQ(one.size(), n);
+  std::vector<uint32_t> sorted = one;
+  std::sort(sorted.begin(), sorted.end());
+  for (size_t i = 0; i < n; ++i) ASSERT_EQ(sorted[i], i) << "a permutation";
+  float blo[3] = {o[0], o[1], o[2]}, bhi[3] = {o[0], o[1], o[2]};
+  for (size_t i = 0; i < n; ++i)
+    for (int a = 0; a < 3; ++a) {
+      blo[a] = std::min(blo[a], o[3 * i + a]);
+      bhi[a] = std::max(bhi[a], o[3 * i + a]);
+    }
+  const auto key = [&](uint32_t i) { return scattered_ray_key(&o[3 * i], &d[3 * i], blo, bhi); };
+  size_t ties = 0;
+  for (size_t k = 1; k < n; ++k) {
+    const uint32_t a = key(one[k - 1]), b = key(one[k]);
+    ASSERT_LE(a, b) << "keys at " << k;
+    if (a == b) {
+      ++ties;
+      ASSERT_LT(one[k - 1], one[k]) << "ties in input order at " << k;
+    }
+  }
+  EXPECT_GT(ties, n / 2) << "too few ties for the test to mean anything";
+  scattered_ray_order(o.data(), d.data(), kMinOrderedRays - 1, one, 2);
+  EXPECT_TRUE(one.empty()) << "few rays keep the input order";
 }
 
 // An image's rays (rows of row_length, one origin) go in 16x16 blocks, the

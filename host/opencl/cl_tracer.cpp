@@ -7,6 +7,7 @@
 
 #include "opencl/kernel_sources.h"
 #include "util/errors.h"
+#include "util/parallel.h"
 #include "util/timer.h"
 
 namespace rayfold::core {
@@ -376,10 +377,14 @@ ClTracer::PackedPlanes ClTracer::wait_packed(int slot) {
 double ClTracer::trace_queries(const std::vector<rf_query_ray>& rays, bool any_hit, unsigned write_flags,
                                rf_pixel_hit* out, const QueryTiles* plan) {
   if (rays.empty()) return 0.0;
-  const std::vector<uint32_t>* tiles = plan ? &plan->tiles : nullptr;
+  const std::vector<uint32_t>* tiles = plan && !plan->tiles.empty() ? &plan->tiles : nullptr;
   RF_CHECK(!tiles || (tiles->size() >= 2 && tiles->front() == 0 && tiles->back() == rays.size()),
            "query tiles do not cover the rays");
-  RF_CHECK(!plan || plan->order.empty() || plan->order.size() == rays.size(), "query order of another length");
+  // The tile kernel's answer order, or the order the single-ray kernel
+  // takes the rays in.
+  static const std::vector<uint32_t> input_order;
+  const std::vector<uint32_t>& order = !plan ? input_order : tiles ? plan->order : plan->scattered;
+  RF_CHECK(order.empty() || order.size() == rays.size(), "query order of another length");
   Programs& programs = programs_for(RF_MIRRORS);
   const auto t0 = Clock::now();
   const size_t ray_bytes = rays.size() * sizeof(rf_query_ray), hit_bytes = rays.size() * sizeof(rf_pixel_hit);
@@ -390,10 +395,15 @@ double ClTracer::trace_queries(const std::vector<rf_query_ray>& rays, bool any_h
     // place (buffers over the caller's memory): a million rays' two 32 MB
     // copies were a fifth of a query. Elsewhere, device buffers and copies.
     cl::Buffer rays_buf, hits_buf;
+    // The single-ray kernel in an order answers in that order (into
+    // `answers`), put back into `out` below.
+    const bool staged = !order.empty() && !tiles;
+    if (staged) query_staged_.resize(rays.size());
+    rf_pixel_hit* answers = staged ? query_staged_.data() : out;
     const bool in_place = device_.info().is_cpu;
     if (in_place) {
       rays_buf = cl::Buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_USE_HOST_PTR, ray_bytes, const_cast<rf_query_ray*>(rays.data()));
-      hits_buf = cl::Buffer(ctx, CL_MEM_WRITE_ONLY | CL_MEM_USE_HOST_PTR, hit_bytes, out);
+      hits_buf = cl::Buffer(ctx, CL_MEM_WRITE_ONLY | CL_MEM_USE_HOST_PTR, hit_bytes, answers);
     } else {
       if (rays.size() > query_capacity_) {
         query_rays_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, ray_bytes);
@@ -404,19 +414,18 @@ double ClTracer::trace_queries(const std::vector<rf_query_ray>& rays, bool any_h
       rays_buf = query_rays_;
       hits_buf = query_hits_;
     }
+    const bool ordered = !order.empty();
+    if (ordered && order.size() > query_order_capacity_) {
+      query_order_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, order.size() * sizeof(uint32_t));
+      query_order_capacity_ = order.size();
+    }
+    if (ordered) q.enqueueWriteBuffer(query_order_, CL_FALSE, 0, order.size() * sizeof(uint32_t), order.data());
     if (tiles) {
       if (tiles->size() > query_tiles_capacity_) {
         query_tiles_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, tiles->size() * sizeof(uint32_t));
         query_tiles_capacity_ = tiles->size();
       }
       q.enqueueWriteBuffer(query_tiles_, CL_FALSE, 0, tiles->size() * sizeof(uint32_t), tiles->data());
-      const bool ordered = !plan->order.empty();
-      if (ordered && plan->order.size() > query_order_capacity_) {
-        query_order_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, plan->order.size() * sizeof(uint32_t));
-        query_order_capacity_ = plan->order.size();
-      }
-      if (ordered)
-        q.enqueueWriteBuffer(query_order_, CL_FALSE, 0, plan->order.size() * sizeof(uint32_t), plan->order.data());
       cl::Kernel& kernel = programs.query_tiles;
       int a = 0;
       kernel.setArg(a++, nodes_);
@@ -446,6 +455,8 @@ double ClTracer::trace_queries(const std::vector<rf_query_ray>& rays, bool any_h
       kernel.setArg(a++, static_cast<uint32_t>(rays.size()));
       kernel.setArg(a++, static_cast<uint32_t>(any_hit ? 1u : 0u));
       kernel.setArg(a++, static_cast<uint32_t>(write_flags));
+      kernel.setArg(a++, ordered ? query_order_ : rays_buf);  // read only when ordered
+      kernel.setArg(a++, static_cast<uint32_t>(ordered ? 1u : 0u));
       kernel.setArg(a++, hits_buf);
       constexpr size_t kGroup = 64;
       const size_t global = (rays.size() + kGroup - 1) / kGroup * kGroup;
@@ -454,12 +465,16 @@ double ClTracer::trace_queries(const std::vector<rf_query_ray>& rays, bool any_h
     if (in_place) {
       // Mapping hands the caller's memory back, synchronised (read_hits).
       void* p = q.enqueueMapBuffer(hits_buf, CL_TRUE, CL_MAP_READ, 0, hit_bytes);
-      if (p != out) std::memcpy(out, p, hit_bytes);
+      if (p != answers) std::memcpy(answers, p, hit_bytes);
       q.enqueueUnmapMemObject(hits_buf, p);
       q.finish();
     } else {
-      q.enqueueReadBuffer(hits_buf, CL_TRUE, 0, hit_bytes, out);
+      q.enqueueReadBuffer(hits_buf, CL_TRUE, 0, hit_bytes, answers);
     }
+    if (staged)
+      parallel_for(rays.size(), 0, size_t{1} << 15, [&](size_t lo, size_t hi) {
+        for (size_t k = lo; k < hi; ++k) out[order[k]] = answers[k];
+      });
   } catch (const cl::Error& e) {
     throw RuntimeFailure("ray query kernel failed on '" + device_.info().name + "': " + cl_error_text(e));
   }

@@ -140,6 +140,7 @@ class ClTracer {
   cl::Buffer stats_;
   cl::Buffer query_rays_, query_hits_, query_tiles_, query_order_;  // grown as queries need
   size_t query_capacity_ = 0, query_tiles_capacity_ = 0, query_order_capacity_ = 0;
+  std::vector<rf_pixel_hit> query_staged_;  // answers in a scattered order (trace_queries)
   // Packed readback, per slot: the device's packed planes and per-view hit
   // counts, and the pinned host memory (CL_MEM_ALLOC_HOST_PTR, mapped once)
   // they are read into; grown as passes need. The reads go through their

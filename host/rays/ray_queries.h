@@ -46,6 +46,10 @@ struct QueryTiles {
   std::vector<uint32_t> order;
   // The order traced: `order` with tiles, the input order without.
   const std::vector<uint32_t>& traced_order() const;
+  // Without tiles, the order the single-ray kernel takes the rays in, the
+  // rays and answers staying in the input order (rays/ray_order.h; empty:
+  // the input order).
+  std::vector<uint32_t> scattered;
   // The image order `order` holds (rows x row_length, 0: none) and its
   // tiles' first rays, kept for the next plan of the same size.
   size_t image_rows = 0, image_row_length = 0;
@@ -59,8 +63,9 @@ void plan_query_tiles(const float* origins, size_t n, size_t row_length, size_t 
 // of RF_TILE_SIDE rows of row_length where that is given.
 size_t query_chunk_rays(size_t row_length);
 
-// The CPU reference's answers, one rf_pixel_hit per ray (z = t).
+// The CPU reference's answers, one rf_pixel_hit per ray (z = t), the rays
+// taken in `order` where it is given (QueryTiles::scattered).
 void trace_queries_cpu(const TraceInputs& in, const std::vector<rf_query_ray>& rays, bool any_hit, unsigned write_flags,
-                       rf_pixel_hit* out, unsigned threads);
+                       rf_pixel_hit* out, unsigned threads, const std::vector<uint32_t>& order = {});
 
 }  // namespace rayfold::core
