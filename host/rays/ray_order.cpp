@@ -13,22 +13,33 @@ constexpr uint32_t kKeys = 1u << (3 * kCellBits + 3);  // 2^15: a 128 KiB count 
 constexpr uint32_t kSpread[16] = {0x000, 0x001, 0x008, 0x009, 0x040, 0x041, 0x048, 0x049,
                                   0x200, 0x201, 0x208, 0x209, 0x240, 0x241, 0x248, 0x249};  // bit b to bit 3b
 
-}  // namespace
+constexpr float kCells = static_cast<float>(1 << kCellBits);
 
-uint32_t scattered_ray_key(const float* origin, const float* direction, const float lo[3], const float hi[3]) {
-  constexpr float kCells = static_cast<float>(1 << kCellBits);
+// Cells per unit along each axis of the box (lo, hi); 0 on a flat axis,
+// whose origins all go to cell 0.
+void cell_scale(const float lo[3], const float hi[3], float scale[3]) {
+  for (int a = 0; a < 3; ++a) scale[a] = hi[a] > lo[a] ? kCells / (hi[a] - lo[a]) : 0.0f;
+}
+
+uint32_t key_in_grid(const float* origin, const float* direction, const float lo[3], const float scale[3]) {
   uint32_t morton = 0, octant = 0;
   for (int a = 0; a < 3; ++a) {
-    const float extent = hi[a] - lo[a];
-    // Clamped in float: a flat box (extent 0) puts every origin in cell 0.
-    float c = extent > 0.0f ? (origin[a] - lo[a]) * (kCells / extent) : 0.0f;
-    c = std::min(std::max(c, 0.0f), kCells - 1.0f);
+    // Clamped in float, before the conversion to an integer.
+    const float c = std::min(std::max((origin[a] - lo[a]) * scale[a], 0.0f), kCells - 1.0f);
     morton |= kSpread[static_cast<uint32_t>(c)] << a;
     uint32_t bits;
     std::memcpy(&bits, &direction[a], sizeof bits);
     octant |= (bits >> 31) << a;
   }
   return (morton << 3) | octant;
+}
+
+}  // namespace
+
+uint32_t scattered_ray_key(const float* origin, const float* direction, const float lo[3], const float hi[3]) {
+  float scale[3];
+  cell_scale(lo, hi, scale);
+  return key_in_grid(origin, direction, lo, scale);
 }
 
 void scattered_ray_order(const float* origins, const float* directions, size_t n, std::vector<uint32_t>& order,
@@ -47,12 +58,14 @@ void scattered_ray_order(const float* origins, const float* directions, size_t n
   // parts before p.
   const size_t parts = std::max<size_t>(1, std::min<size_t>(resolve_threads(threads), n / kMinOrderedRays));
   const size_t part_size = (n + parts - 1) / parts;
+  float scale[3];
+  cell_scale(lo, hi, scale);
   std::vector<uint32_t> keys(n);
   std::vector<std::vector<uint32_t>> next(parts, std::vector<uint32_t>(kKeys, 0));
   parallel_for(parts, threads, 1, [&](size_t p0, size_t p1) {
     for (size_t p = p0; p < p1; ++p)
       for (size_t i = p * part_size; i < std::min(n, (p + 1) * part_size); ++i) {
-        keys[i] = scattered_ray_key(origins + 3 * i, directions + 3 * i, lo, hi);
+        keys[i] = key_in_grid(origins + 3 * i, directions + 3 * i, lo, scale);
         ++next[p][keys[i]];
       }
   });
