@@ -24,6 +24,12 @@ typedef uint rf_u32;
 typedef int rf_i32;
 #define RF_GLOBAL __global
 #define RF_INLINE inline
+/* Inlined whatever the compiler's estimate: PoCL left the scalar
+ * triangle test a call in the single-ray kernel, and inlining it made
+ * scattered ray queries 1.02x to 1.16x faster (alternated runs, 1M rays,
+ * 7 scene runs); always inlining every helper made the tile kernel 4% to
+ * 11% slower. */
+#define RF_INLINE_ALWAYS inline __attribute__((always_inline))
 #define RF_SQRT(x) sqrt(x)
 #define RF_FABS(x) fabs(x)
 #define RF_COPYSIGN(x, y) copysign(x, y)
@@ -36,6 +42,7 @@ typedef uint32_t rf_u32;
 typedef int32_t rf_i32;
 #define RF_GLOBAL
 #define RF_INLINE static inline
+#define RF_INLINE_ALWAYS static inline
 #define RF_SQRT(x) std::sqrt((float)(x))
 #define RF_FABS(x) std::fabs((float)(x))
 #define RF_COPYSIGN(x, y) std::copysign((float)(x), (float)(y))

@@ -216,8 +216,8 @@ RF_INLINE int rf_woop_distance_suits(float a_z, float b_z, float c_z) {
  * denominator is 0 (a ray in the plane, as rounded).
  * Returns 1 with t, u (weight of v1), v (weight of v2) when the ray's line
  * meets the triangle; the caller checks t against its interval. */
-RF_INLINE int rf_intersect_triangle(const RF_GLOBAL rf_tri* tri, const rf_ray* r, float* t_out, float* u_out,
-                                    float* v_out) {
+RF_INLINE_ALWAYS int rf_intersect_triangle(const RF_GLOBAL rf_tri* tri, const rf_ray* r, float* t_out,
+                                           float* u_out, float* v_out) {
   const rf_i32 kx = r->kx, ky = r->ky, kz = r->kz;
   const float a_x = tri->v0[kx] - r->o[kx], a_y = tri->v0[ky] - r->o[ky], a_z = tri->v0[kz] - r->o[kz];
   const float b_x = tri->v1[kx] - r->o[kx], b_y = tri->v1[ky] - r->o[ky], b_z = tri->v1[kz] - r->o[kz];
