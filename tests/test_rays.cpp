@@ -186,6 +186,8 @@ TEST(RayQuery, ScatteredRaysGoInCellAndOctantOrder) {
   EXPECT_EQ(scattered_ray_key(origin, direction, lo, hi), (0x92du << 3) | 5u);
   const float outside[3] = {-1.0f, 17.0f, 16.0f};  // clamped to the edge cells
   EXPECT_EQ(scattered_ray_key(outside, direction, lo, hi), ((0x492u | 0x924u) << 3) | 5u);
+  const float nan_origin[3] = {NAN, 17.0f, 16.0f};  // a defined cell, not a float-to-int of NaN
+  EXPECT_EQ(scattered_ray_key(nan_origin, direction, lo, hi), ((0x492u | 0x924u) << 3) | 5u);
 
   Rng rng(31);
   const size_t n = 5000;

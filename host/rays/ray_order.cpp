@@ -24,8 +24,10 @@ void cell_scale(const float lo[3], const float hi[3], float scale[3]) {
 uint32_t key_in_grid(const float* origin, const float* direction, const float lo[3], const float scale[3]) {
   uint32_t morton = 0, octant = 0;
   for (int a = 0; a < 3; ++a) {
-    // Clamped in float, before the conversion to an integer.
-    const float c = std::min(std::max((origin[a] - lo[a]) * scale[a], 0.0f), kCells - 1.0f);
+    // Clamped in float before the conversion to an integer, NaN to 0.
+    float c = (origin[a] - lo[a]) * scale[a];
+    c = c > 0.0f ? c : 0.0f;
+    c = c < kCells - 1.0f ? c : kCells - 1.0f;
     morton |= kSpread[static_cast<uint32_t>(c)] << a;
     uint32_t bits;
     std::memcpy(&bits, &direction[a], sizeof bits);
