@@ -19,6 +19,54 @@ namespace rayfold {
 namespace {
 
 using core::testing::compare_hits;
+// Ray queries fill the channels asked for, each the full query's bits (t
+// under kDepth); the others stay empty, and no channel or an unknown bit is
+// an error. Without kNormal the normal is not computed, the rest unchanged,
+// on each backend and kernel, for rays in lanes (one origin) and one by one.
+TEST(Api, RayQueriesFillOnlyTheChannelsAskedFor) {
+  const Scene scene = Scene::load(RAYFOLD_SOURCE_DIR "/scenes/atrium.glb");
+  const Camera cam = scene.default_camera(48, 30);
+  std::vector<float> o, d, scattered;
+  for (int y = 0; y < 30; ++y)
+    for (int x = 0; x < 48; ++x) {
+      const Vec3 e = cam.ray_origin(x, y), v = cam.ray_direction(x, y);
+      o.insert(o.end(), {float(e[0]), float(e[1]), float(e[2])});
+      d.insert(d.end(), {float(v[0]), float(v[1]), float(v[2])});
+      // The same rays from points spread along them: not one origin.
+      const float back = static_cast<float>((x * 7 + y * 3) % 5) * 0.1f;
+      scattered.insert(scattered.end(), {float(e[0] - back * v[0]), float(e[1] - back * v[1]), float(e[2] - back * v[2])});
+    }
+  const size_t n = o.size() / 3;
+  for (auto [backend, kernel] : {std::pair{Backend::cpu, Kernel::automatic}, std::pair{Backend::opencl, Kernel::tile},
+                                 std::pair{Backend::opencl, Kernel::single}}) {
+    RendererOptions opt;
+    opt.backend = backend;
+    opt.kernel = kernel;
+    Renderer r(scene, opt);
+    for (const std::vector<float>* origins : {&o, &scattered}) {
+      const std::string what = "backend " + std::to_string(int(backend)) + " kernel " + std::to_string(int(kernel)) +
+                               (origins == &o ? ", one origin" : ", scattered");
+      const RayHits all = r.intersect(origins->data(), d.data(), n);
+      EXPECT_EQ(all.channels, kAllChannels);
+      size_t hits = 0;
+      for (uint32_t id : all.instance_id) hits += id != kMiss;
+      EXPECT_GT(hits, n / 4) << what;
+      const RayHits some = r.intersect(origins->data(), d.data(), n, 0.0f, INFINITY, 0, kDepth | kInstanceId);
+      EXPECT_EQ(some.channels, kDepth | kInstanceId);
+      ASSERT_EQ(some.t.size(), n) << what;
+      EXPECT_EQ(std::memcmp(some.t.data(), all.t.data(), n * sizeof(float)), 0) << what;
+      EXPECT_EQ(some.instance_id, all.instance_id) << what;
+      EXPECT_TRUE(some.normal.empty() && some.uv.empty() && some.primitive_id.empty()) << what;
+      const RayHits no_normal =
+          r.intersect(origins->data(), d.data(), n, 0.0f, INFINITY, 0, kAllChannels & ~static_cast<unsigned>(kNormal));
+      EXPECT_TRUE(no_normal.normal.empty()) << what;
+      EXPECT_EQ(std::memcmp(no_normal.uv.data(), all.uv.data(), 2 * n * sizeof(float)), 0) << what;
+      EXPECT_EQ(no_normal.primitive_id, all.primitive_id) << what;
+      EXPECT_THROW(r.intersect(origins->data(), d.data(), n, 0.0f, INFINITY, 0, 0u), InputError);
+      EXPECT_THROW(r.intersect(origins->data(), d.data(), n, 0.0f, INFINITY, 0, 64u), InputError);
+    }
+  }
+}
 
 // A core transform as the public API's row-major matrix.
 Matrix4 to_matrix(const core::Xform& x) {

@@ -102,6 +102,12 @@ Renderer& Renderer::operator=(Renderer&&) noexcept = default;
 
 namespace {
 
+void check_channels(unsigned channels) {
+  if (channels == 0u || (channels & ~static_cast<unsigned>(kAllChannels)) != 0u)
+    throw InputError("", "channels must be a nonzero combination of kDepth, kNormal, kUv, kInstanceId and "
+                         "kPrimitiveId, not " + std::to_string(channels));
+}
+
 // Answers in chunks: the core's 32-byte hits of one chunk at a time.
 // Returns the warnings, each once.
 template <class Take>
@@ -126,15 +132,20 @@ std::vector<std::string> query_chunks(core::Renderer& r, std::vector<rf_pixel_hi
 }  // namespace
 
 RayHits Renderer::intersect(const float* origins, const float* directions, size_t n, float tmin, float tmax,
-                            size_t row_length) {
+                            size_t row_length, unsigned channels) {
+  check_channels(channels);
+  const bool t = channels & kDepth, normal = channels & kNormal, uv = channels & kUv;
+  const bool instance = channels & kInstanceId, primitive = channels & kPrimitiveId;
   core::FrameOptions options;
   options.moved = impl_->moved();
+  options.normals = normal;
   RayHits out;
-  out.t.resize(n);
-  out.normal.resize(3 * n);
-  out.uv.resize(2 * n);
-  out.instance_id.resize(n);
-  out.primitive_id.resize(n);
+  out.channels = channels;
+  if (t) out.t.resize(n);
+  if (normal) out.normal.resize(3 * n);
+  if (uv) out.uv.resize(2 * n);
+  if (instance) out.instance_id.resize(n);
+  if (primitive) out.primitive_id.resize(n);
   out.warnings = query_chunks(
       *impl_->core, impl_->query_hits, origins, directions, n, tmin, tmax, false, options, row_length,
       [&](size_t begin, const std::vector<rf_pixel_hit>& hits) {
@@ -142,14 +153,18 @@ RayHits Renderer::intersect(const float* origins, const float* directions, size_
           for (size_t k = lo; k < hi; ++k) {
             const rf_pixel_hit& h = hits[k];
             const size_t i = begin + k;
-            out.t[i] = h.z;
-            out.normal[3 * i] = h.nx;
-            out.normal[3 * i + 1] = h.ny;
-            out.normal[3 * i + 2] = h.nz;
-            out.uv[2 * i] = h.u;
-            out.uv[2 * i + 1] = h.v;
-            out.instance_id[i] = h.instance;
-            out.primitive_id[i] = h.primitive;
+            if (t) out.t[i] = h.z;
+            if (normal) {
+              out.normal[3 * i] = h.nx;
+              out.normal[3 * i + 1] = h.ny;
+              out.normal[3 * i + 2] = h.nz;
+            }
+            if (uv) {
+              out.uv[2 * i] = h.u;
+              out.uv[2 * i + 1] = h.v;
+            }
+            if (instance) out.instance_id[i] = h.instance;
+            if (primitive) out.primitive_id[i] = h.primitive;
           }
         });
       });
@@ -178,12 +193,6 @@ GBuffer Renderer::render(const Camera& camera, Fold fold, unsigned channels) {
 }
 
 namespace {
-
-void check_channels(unsigned channels) {
-  if (channels == 0u || (channels & ~static_cast<unsigned>(kAllChannels)) != 0u)
-    throw InputError("", "channels must be a nonzero combination of kDepth, kNormal, kUv, kInstanceId and "
-                         "kPrimitiveId, not " + std::to_string(channels));
-}
 
 // A core result (one view's) as the public planes asked for, on `threads`
 // threads: a 720p frame's 30 MB of planes cost a fifth of the trace on one.

@@ -660,27 +660,35 @@ NB_MODULE(_core, m) {
   scene_class.def(
       "intersect",
       [scene_renderer](PyScene& s, nb::handle origins, nb::handle directions, float tmin, float tmax,
-                       const std::string& backend, const std::string& device, unsigned threads) {
+                       const std::string& backend, const std::string& device, unsigned threads, nb::handle channels) {
+        const unsigned mask = parse_channels(channels);
         const QueryArrays q = query_arrays(origins, directions);
         rayfold::RayHits h = locked(s, [&] {
           return scene_renderer(s, backend, device, threads)
-              .intersect(q.origins.data(), q.directions.data(), q.count, tmin, tmax, q.row_length());
+              .intersect(q.origins.data(), q.directions.data(), q.count, tmin, tmax, q.row_length(), mask);
         });
         warn_all(h.warnings);
         nb::dict out;
-        out["t"] = shaped(std::move(h.t), q.shape, 1);
-        out["instance_id"] = shaped(std::move(h.instance_id), q.shape, 1);
-        out["primitive_id"] = shaped(std::move(h.primitive_id), q.shape, 1);
-        out["uv"] = shaped(std::move(h.uv), q.shape, 2);
-        out["normal"] = shaped(std::move(h.normal), q.shape, 3);
+        const auto put = [&](const char* key, unsigned bit, auto&& plane, size_t per_ray) {
+          if (mask & bit)
+            out[key] = shaped(std::move(plane), q.shape, per_ray);
+          else
+            out[key] = nb::none();
+        };
+        put("t", rayfold::kDepth, h.t, 1);
+        put("instance_id", rayfold::kInstanceId, h.instance_id, 1);
+        put("primitive_id", rayfold::kPrimitiveId, h.primitive_id, 1);
+        put("uv", rayfold::kUv, h.uv, 2);
+        put("normal", rayfold::kNormal, h.normal, 3);
         return out;
       },
       "origins"_a, "directions"_a, "tmin"_a = 0.0f, "tmax"_a = INFINITY, "backend"_a = "opencl", "device"_a = "",
-      "threads"_a = 0,
+      "threads"_a = 0, "channels"_a = nb::none(),
       "The closest hit of each ray with tmin < t <= tmax. origins, directions: (..., 3) world space (float64 is "
       "rounded once to float32); directions need not be unit length, t is along them. Returns a dict of arrays "
       "of the leading shape: t (inf on a miss), instance_id and primitive_id (MISS on a miss), uv (..., 2), "
-      "normal (..., 3), as a G-buffer's. The same bits on every backend. InputError names the first ray whose "
+      "normal (..., 3), as a G-buffer's; channels names the ones to fill (a list or 't,instance_id'; default all), "
+      "the others None, and without 'normal' none is computed. The same bits on every backend. InputError names the first ray whose "
       "origin or direction is not finite or whose direction is zero; what the answers may have lost (as "
       "GBuffer.warnings) comes as a RuntimeWarning. Releases the GIL.");
   scene_class.def(

@@ -11,7 +11,7 @@ unsigned parse_channels(const std::string& list) {
   static const std::pair<const char*, unsigned> kNames[] = {
       {"Z", kDepth},         {"N", kNormal},           {"UV", kUv},  {"InstanceID", kInstanceId},
       {"PrimitiveID", kPrimitiveId}, {"depth", kDepth}, {"normal", kNormal}, {"uv", kUv},
-      {"instance_id", kInstanceId},  {"primitive_id", kPrimitiveId}};
+      {"instance_id", kInstanceId},  {"primitive_id", kPrimitiveId}, {"t", kDepth}};
   unsigned mask = 0;
   for (size_t start = 0; start <= list.size();) {
     const size_t end = std::min(list.find(',', start), list.size());
@@ -29,7 +29,7 @@ unsigned parse_channels(const std::string& list) {
     if (!known)
       throw InputError("", "channels: unknown channel '" + name +
                                "' (Z, N, UV, InstanceID, PrimitiveID; or depth, normal, uv, instance_id, "
-                               "primitive_id)");
+                               "primitive_id; t is depth's name for ray queries)");
   }
   if (mask == 0) throw InputError("", "channels: name at least one channel");
   return mask;

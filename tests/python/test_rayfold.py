@@ -583,6 +583,27 @@ def test_intersect_from_camera_rays_finds_the_render_hits(atrium):
     np.testing.assert_array_equal(occluded, h["instance_id"] != rayfold.MISS)
 
 
+def test_intersect_fills_the_channels_asked_for(atrium):
+    """channels names the planes filled, each the bits of a full query; the
+    others are None; an unknown name is an error."""
+    camera = atrium.default_camera(64, 36)
+    d = camera.ray_directions()
+    o = np.broadcast_to(camera.ray_origins(), d.shape)
+    full = atrium.intersect(o, d)
+    assert (full["instance_id"] != rayfold.MISS).sum() > 500
+    for channels in (["t"], "t,instance_id", ["normal", "uv"], "primitive_id", ["depth"]):
+        h = atrium.intersect(o, d, channels=channels)
+        names = channels.split(",") if isinstance(channels, str) else channels
+        names = ["t" if n == "depth" else n for n in names]
+        for k in full:
+            if k in names:
+                np.testing.assert_array_equal(bits(h[k]), bits(full[k]), err_msg=f"{k} of {channels}")
+            else:
+                assert h[k] is None, (k, channels)
+    with pytest.raises(rayfold.InputError, match="unknown channel 'z'"):
+        atrium.intersect(o, d, channels="t,z")
+
+
 def test_intersect_memory_is_its_arrays_whatever_the_ray_count(atrium_path):
     """Rays go through in chunks of 2^20: from 2^20 to 2^23 rays the peak
     grows by the arrays in and out (56 bytes a ray), not by the 64 bytes a

@@ -48,6 +48,7 @@ struct RayHits {
   // What the answers may have lost, in words (as GBuffer::warnings): empty
   // within rayfold's exact range.
   std::vector<std::string> warnings;
+  unsigned channels = kAllChannels;  // the planes filled (Channels, kDepth for t); the others are empty
 };
 
 // The most views one trace answers unfolded (32 transform groups).
@@ -98,8 +99,12 @@ class Renderer {
   // from one origin trace together in vector lanes (the same bits); with
   // row_length, the rays are an image's rows of that many pixels (row-major,
   // n a multiple of it), traced in 16x16 blocks: faster for camera rays.
+  // channels (Channels; kDepth names t) the planes filled, the others left
+  // empty, and without kNormal no normal is computed; InputError for none or
+  // an unknown bit.
   RayHits intersect(const float* origins, const float* directions, size_t n, float tmin = 0.0f,
-                    float tmax = std::numeric_limits<float>::infinity(), size_t row_length = 0);
+                    float tmax = std::numeric_limits<float>::infinity(), size_t row_length = 0,
+                    unsigned channels = kAllChannels);
   // Whether each ray has any hit with tmin < t <= tmax (1) or none (0); each
   // ray stops at the first hit it finds. Inputs as intersect; warnings, when
   // given, receives RayHits::warnings.
