@@ -60,6 +60,7 @@ TEST(Api, RayQueriesFillOnlyTheChannelsAskedFor) {
       const RayHits no_normal =
           r.intersect(origins->data(), d.data(), n, 0.0f, INFINITY, 0, kAllChannels & ~static_cast<unsigned>(kNormal));
       EXPECT_TRUE(no_normal.normal.empty()) << what;
+      ASSERT_EQ(no_normal.uv.size(), 2 * n) << what;
       EXPECT_EQ(std::memcmp(no_normal.uv.data(), all.uv.data(), 2 * n * sizeof(float)), 0) << what;
       EXPECT_EQ(no_normal.primitive_id, all.primitive_id) << what;
       EXPECT_THROW(r.intersect(origins->data(), d.data(), n, 0.0f, INFINITY, 0, 0u), InputError);

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <numeric>
 
 #include "rayfold/errors.h"
@@ -190,7 +191,7 @@ TEST(RayQuery, ScatteredRaysGoInCellAndOctantOrder) {
   EXPECT_EQ(scattered_ray_key(nan_origin, direction, lo, hi), ((0x492u | 0x924u) << 3) | 5u);
 
   Rng rng(31);
-  const size_t n = 5000;
+  const size_t n = 5001;  // parts of unequal length on 3 threads
   std::vector<float> o(3 * n), d(3 * n);
   for (size_t i = 0; i < n; ++i)
     for (int a = 0; a < 3; ++a) {
@@ -198,10 +199,12 @@ TEST(RayQuery, ScatteredRaysGoInCellAndOctantOrder) {
       o[3 * i + a] = static_cast<float>(rng.below(6)) * 4.0f - 10.0f;
       d[3 * i + a] = rng.uniformf(-1.0f, 1.0f);
     }
-  std::vector<uint32_t> one, two;
+  std::vector<uint32_t> one, two, three;
   scattered_ray_order(o.data(), d.data(), n, one, 1);
   scattered_ray_order(o.data(), d.data(), n, two, 2);
+  scattered_ray_order(o.data(), d.data(), n, three, 3);
   EXPECT_EQ(one, two) << "the order on 1 and 2 threads";
+  EXPECT_EQ(one, three) << "the order on 1 and 3 threads";
   ASSERT_EQ(one.size(), n);
   std::vector<uint32_t> sorted = one;
   std::sort(sorted.begin(), sorted.end());
@@ -428,6 +431,38 @@ TEST(RayQuery, AnswersDoNotDependOnOrderOrBatching) {
   // batch's origins), the same answers.
   Rays ten{{rays.o.begin(), rays.o.begin() + 30}, {rays.d.begin(), rays.d.begin() + 30}};
   EXPECT_EQ(differences({all.begin(), all.begin() + 10}, query(r, ten)), "");
+}
+
+// A scattered query longer than a chunk (2^20 rays) is ordered chunk by
+// chunk: 3000 random rays repeated past 2^20 give every copy the CPU
+// reference's answers for the 3000, the chunk after the first included.
+TEST(RayQuery, ScatteredRaysPastOneChunkKeepTheirAnswers) {
+  Rng rng(8);
+  const Scene scene = testing::random_scene(rng, 3, 10, 200);
+  RendererOptions opt;
+  opt.backend = Backend::cpu;
+  Renderer cpu(scene, opt);
+  opt.backend = Backend::opencl;
+  Renderer cl(scene, opt);
+  const Rays base = random_rays(rng, scene, 3000);
+  const std::vector<rf_pixel_hit> want = query(cpu, base);
+  const size_t n = (size_t{1} << 20) + 2500;
+  Rays many;
+  many.o.reserve(3 * n);
+  many.d.reserve(3 * n);
+  for (size_t i = 0; i < n; ++i) {
+    const size_t j = i % base.size();
+    many.o.insert(many.o.end(), base.o.begin() + 3 * j, base.o.begin() + 3 * j + 3);
+    many.d.insert(many.d.end(), base.d.begin() + 3 * j, base.d.begin() + 3 * j + 3);
+  }
+  const std::vector<rf_pixel_hit> got = query(cl, many);
+  size_t differ = 0, first = n;
+  for (size_t i = 0; i < n; ++i)
+    if (std::memcmp(&got[i], &want[i % base.size()], sizeof(rf_pixel_hit)) != 0) {
+      ++differ;
+      first = std::min(first, i);
+    }
+  EXPECT_EQ(differ, 0u) << "first at ray " << first;
 }
 
 TEST(RayQuery, InstancesBeyondTheFloatRangeAreReported) {

@@ -476,6 +476,12 @@ double ClTracer::trace_queries(const std::vector<rf_query_ray>& rays, bool any_h
         for (size_t k = lo; k < hi; ++k) out[order[k]] = answers[k];
       });
   } catch (const cl::Error& e) {
+    // Writes queued without waiting read the caller's rays and this
+    // tracer's order: let them end before those can go.
+    try {
+      device_.queue().finish();
+    } catch (const cl::Error&) {
+    }
     throw RuntimeFailure("ray query kernel failed on '" + device_.info().name + "': " + cl_error_text(e));
   }
   return ms_since(t0);

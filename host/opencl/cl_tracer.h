@@ -91,7 +91,9 @@ class ClTracer {
   // With tiles (plan_query_tiles: rays of one origin, their answers
   // going to out[order[k]] when it is not empty), the query tile kernel
   // answers them, closest hits only: an any-hit query's answer, hit or
-  // not, is the same.
+  // not, is the same. Without, the single-ray kernel takes the rays in
+  // plan->scattered's order (rays/ray_order.h), answering into a staging
+  // buffer in that order, put back into `out` here.
   double trace_queries(const std::vector<rf_query_ray>& rays, bool any_hit, unsigned write_flags, rf_pixel_hit* out,
                        const QueryTiles* tiles = nullptr);
   // Milliseconds spent building programs so far: about 2 s on a machine's

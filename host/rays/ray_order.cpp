@@ -1,8 +1,10 @@
 #include "rays/ray_order.h"
 
 #include <algorithm>
+#include <cstdint>
 #include <cstring>
 
+#include "util/errors.h"
 #include "util/parallel.h"
 
 namespace rayfold::core {
@@ -48,6 +50,7 @@ void scattered_ray_order(const float* origins, const float* directions, size_t n
                          unsigned threads) {
   order.clear();
   if (n < kMinOrderedRays) return;
+  RF_CHECK(n <= UINT32_MAX, "scattered_ray_order: more rays than 32-bit indices name");
   float lo[3], hi[3];
   for (int a = 0; a < 3; ++a) lo[a] = hi[a] = origins[a];
   for (size_t i = 0; i < n; ++i)
@@ -58,7 +61,10 @@ void scattered_ray_order(const float* origins, const float* directions, size_t n
   // A stable counting sort in parts side by side: part p's rays of key k go
   // after every ray of a smaller key and after the rays of key k of the
   // parts before p.
-  const size_t parts = std::max<size_t>(1, std::min<size_t>(resolve_threads(threads), n / kMinOrderedRays));
+  // At most kMaxParts: each part's count table is 128 KiB to clear and sum.
+  constexpr size_t kMaxParts = 16;
+  const size_t parts =
+      std::max<size_t>(1, std::min({size_t{resolve_threads(threads)}, kMaxParts, n / kMinOrderedRays}));
   const size_t part_size = (n + parts - 1) / parts;
   float scale[3];
   cell_scale(lo, hi, scale);

@@ -29,7 +29,7 @@ unsigned parse_channels(const std::string& list) {
     if (!known)
       throw InputError("", "channels: unknown channel '" + name +
                                "' (Z, N, UV, InstanceID, PrimitiveID; or depth, normal, uv, instance_id, "
-                               "primitive_id; t is depth's name for ray queries)");
+                               "primitive_id; t is another name for depth, as ray queries call it)");
   }
   if (mask == 0) throw InputError("", "channels: name at least one channel");
   return mask;

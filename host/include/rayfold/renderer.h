@@ -48,7 +48,7 @@ struct RayHits {
   // What the answers may have lost, in words (as GBuffer::warnings): empty
   // within rayfold's exact range.
   std::vector<std::string> warnings;
-  unsigned channels = kAllChannels;  // the planes filled (Channels, kDepth for t); the others are empty
+  unsigned channels = 0;  // the planes filled (Channels, kDepth for t; none until a query fills them)
 };
 
 // The most views one trace answers unfolded (32 transform groups).
