@@ -108,6 +108,61 @@ void check_channels(unsigned channels) {
                          "kPrimitiveId, not " + std::to_string(channels));
 }
 
+// A G-buffer's planes and a ray query's answers have one layout: per pixel
+// or ray a depth (t), a normal (3), uv (2), an instance and a primitive.
+// Sizes the planes `channels` names for n of them and empties the others.
+void size_planes(unsigned channels, size_t n, std::vector<float>& depth, std::vector<float>& normal,
+                 std::vector<float>& uv, std::vector<uint32_t>& instance_id, std::vector<uint32_t>& primitive_id) {
+  auto plane = [&](auto& v, unsigned bit, size_t per_item) {
+    if (channels & bit) {
+      v.resize(per_item * n);
+    } else {
+      v.clear();
+      v.shrink_to_fit();
+    }
+  };
+  plane(depth, kDepth, 1);
+  plane(normal, kNormal, 3);
+  plane(uv, kUv, 2);
+  plane(instance_id, kInstanceId, 1);
+  plane(primitive_id, kPrimitiveId, 1);
+}
+
+// Writes core hits into such planes, those left empty skipped.
+class PlaneWriter {
+ public:
+  PlaneWriter(std::vector<float>& depth, std::vector<float>& normal, std::vector<float>& uv,
+              std::vector<uint32_t>& instance_id, std::vector<uint32_t>& primitive_id)
+      : depth_(data_or_null(depth)),
+        normal_(data_or_null(normal)),
+        uv_(data_or_null(uv)),
+        instance_(data_or_null(instance_id)),
+        primitive_(data_or_null(primitive_id)) {}
+  // Hit h into element i.
+  void put(size_t i, const rf_pixel_hit& h) const {
+    if (depth_) depth_[i] = h.z;
+    if (normal_) {
+      normal_[3 * i] = h.nx;
+      normal_[3 * i + 1] = h.ny;
+      normal_[3 * i + 2] = h.nz;
+    }
+    if (uv_) {
+      uv_[2 * i] = h.u;
+      uv_[2 * i + 1] = h.v;
+    }
+    if (instance_) instance_[i] = h.instance;
+    if (primitive_) primitive_[i] = h.primitive;
+  }
+
+ private:
+  template <class T>
+  static T* data_or_null(std::vector<T>& v) {
+    return v.empty() ? nullptr : v.data();
+  }
+  float *depth_, *normal_, *uv_;
+  uint32_t *instance_, *primitive_;
+};
+
 // Answers in chunks: the core's 32-byte hits of one chunk at a time.
 // Returns the warnings, each once.
 template <class Take>
@@ -134,38 +189,18 @@ std::vector<std::string> query_chunks(core::Renderer& r, std::vector<rf_pixel_hi
 RayHits Renderer::intersect(const float* origins, const float* directions, size_t n, float tmin, float tmax,
                             size_t row_length, unsigned channels) {
   check_channels(channels);
-  const bool t = channels & kDepth, normal = channels & kNormal, uv = channels & kUv;
-  const bool instance = channels & kInstanceId, primitive = channels & kPrimitiveId;
   core::FrameOptions options;
   options.moved = impl_->moved();
-  options.normals = normal;
+  options.normals = (channels & kNormal) != 0;
   RayHits out;
   out.channels = channels;
-  if (t) out.t.resize(n);
-  if (normal) out.normal.resize(3 * n);
-  if (uv) out.uv.resize(2 * n);
-  if (instance) out.instance_id.resize(n);
-  if (primitive) out.primitive_id.resize(n);
+  size_planes(channels, n, out.t, out.normal, out.uv, out.instance_id, out.primitive_id);
+  const PlaneWriter writer(out.t, out.normal, out.uv, out.instance_id, out.primitive_id);
   out.warnings = query_chunks(
       *impl_->core, impl_->query_hits, origins, directions, n, tmin, tmax, false, options, row_length,
       [&](size_t begin, const std::vector<rf_pixel_hit>& hits) {
         core::parallel_for(hits.size(), impl_->options.threads, size_t{1} << 15, [&](size_t lo, size_t hi) {
-          for (size_t k = lo; k < hi; ++k) {
-            const rf_pixel_hit& h = hits[k];
-            const size_t i = begin + k;
-            if (t) out.t[i] = h.z;
-            if (normal) {
-              out.normal[3 * i] = h.nx;
-              out.normal[3 * i + 1] = h.ny;
-              out.normal[3 * i + 2] = h.nz;
-            }
-            if (uv) {
-              out.uv[2 * i] = h.u;
-              out.uv[2 * i + 1] = h.v;
-            }
-            if (instance) out.instance_id[i] = h.instance;
-            if (primitive) out.primitive_id[i] = h.primitive;
-          }
+          for (size_t k = lo; k < hi; ++k) writer.put(begin + k, hits[k]);
         });
       });
   return out;
@@ -205,19 +240,7 @@ void fill_gbuffer(GBuffer& g, const core::RenderResult& r, int width, int height
   g.height = height;
   g.channels = channels;
   g.depth_kind = depth_kind;
-  auto plane = [&](auto& v, unsigned bit, size_t per_pixel) {
-    if (channels & bit) {
-      v.resize(per_pixel * n);
-    } else {
-      v.clear();
-      v.shrink_to_fit();
-    }
-  };
-  plane(g.depth, kDepth, 1);
-  plane(g.normal, kNormal, 3);
-  plane(g.uv, kUv, 2);
-  plane(g.instance_id, kInstanceId, 1);
-  plane(g.primitive_id, kPrimitiveId, 1);
+  size_planes(channels, n, g.depth, g.normal, g.uv, g.instance_id, g.primitive_id);
   g.fold = from_core(r.fold);
   g.rays = r.rays;
   g.trace_ms = r.median.trace_ms;
@@ -240,27 +263,14 @@ void fill_gbuffer(GBuffer& g, const core::RenderResult& r, int width, int height
     return;
   }
   RF_CHECK(r.hits.size() == n, "a view's hits of another size");
-  const bool depth = channels & kDepth, normal = channels & kNormal, uv = channels & kUv;
-  const bool instance = channels & kInstanceId, primitive = channels & kPrimitiveId;
+  const PlaneWriter writer(g.depth, g.normal, g.uv, g.instance_id, g.primitive_id);
   constexpr size_t kChunk = size_t{1} << 15;
   std::vector<size_t> chunk_hits((n + kChunk - 1) / kChunk, 0);
   core::parallel_for(n, threads, kChunk, [&](size_t begin, size_t end) {
     size_t hits = 0;
     for (size_t i = begin; i < end; ++i) {
-      const rf_pixel_hit& h = r.hits[i];
-      if (depth) g.depth[i] = h.z;
-      if (normal) {
-        g.normal[3 * i] = h.nx;
-        g.normal[3 * i + 1] = h.ny;
-        g.normal[3 * i + 2] = h.nz;
-      }
-      if (uv) {
-        g.uv[2 * i] = h.u;
-        g.uv[2 * i + 1] = h.v;
-      }
-      if (instance) g.instance_id[i] = h.instance;
-      if (primitive) g.primitive_id[i] = h.primitive;
-      hits += h.instance != RF_INVALID;
+      writer.put(i, r.hits[i]);
+      hits += r.hits[i].instance != RF_INVALID;
     }
     chunk_hits[begin / kChunk] = hits;
   });
