@@ -44,7 +44,9 @@ void to_trace_space(const float* origins, const float* directions, size_t begin,
 struct QueryTiles {
   std::vector<uint32_t> tiles;  // empty: too few rays a tile on average (min_rays), trace them one by one
   std::vector<uint32_t> order;
-  // The order traced: `order` with tiles, the input order without.
+  // The order the trace-space rays are written in: `order` with tiles, the
+  // input order without (the single-ray kernel then takes them in
+  // `scattered`'s order).
   const std::vector<uint32_t>& traced_order() const;
   // Without tiles, the order the single-ray kernel takes the rays in, the
   // rays and answers staying in the input order (rays/ray_order.h; empty:
