@@ -255,7 +255,7 @@ TEST(RayQuery, ImageRaysInBlocksEqualTheCpuReference) {
   EXPECT_TRUE(plan_query_tiles(rays.o.data(), rays.size() - 1, width, 128).order.empty()) << "not whole rows";
   // A kept plan gives a fresh plan's tiles and order, whatever size came before.
   QueryTiles kept;
-  for (size_t rows : {size_t{37}, size_t{20}, size_t{37}}) {
+  for (size_t rows : {size_t{37}, size_t{20}, size_t{37}, size_t{20}, size_t{9}, size_t{37}, size_t{9}}) {
     plan_query_tiles(rays.o.data(), rows * width, width, 128, kept);
     const QueryTiles fresh = plan_query_tiles(rays.o.data(), rows * width, width, 128);
     EXPECT_EQ(kept.tiles, fresh.tiles) << rows << " rows";
@@ -275,9 +275,27 @@ TEST(RayQuery, ImageRaysInBlocksEqualTheCpuReference) {
   tiles.intersect(rays.o.data(), rays.d.data(), rays.size(), 0.0f, INFINITY, false, FrameOptions{}, got.data(), width);
   EXPECT_EQ(differences(want, got), "") << "in blocks";
   EXPECT_EQ(differences(want, query(tiles, rays)), "") << "in rows";
-  // Chunks are whole bands of 16 rows.
+  // An image's chunks are whole bands of 16 rows, about 2^17 rays and at
+  // least one band; scattered rays' 2^20.
   EXPECT_EQ(query_chunk_rays(1280) % (16 * 1280), 0u);
+  EXPECT_LE(query_chunk_rays(1280), size_t{1} << 17);
+  EXPECT_GT(query_chunk_rays(1280), (size_t{1} << 17) - 16 * 1280);
+  EXPECT_EQ(query_chunk_rays(16384), size_t{16} * 16384);
   EXPECT_EQ(query_chunk_rays(0), size_t{1} << 20);
+  // An image of more than one chunk, its last one shorter: each chunk's
+  // blocks and answers in their places.
+  const int tall = static_cast<int>(query_chunk_rays(width) / width) + 100;
+  Rays image;
+  for (int y = 0; y < tall; ++y)
+    for (int x = 0; x < width; ++x) {
+      image.o.insert(image.o.end(), {eye.x, eye.y, eye.z});
+      image.d.insert(image.d.end(), {(x + 0.5f) / width - 0.5f, 0.5f - (y + 0.5f) / tall, -2.5f});
+    }
+  const std::vector<rf_pixel_hit> want_image = query(cpu, image);
+  std::vector<rf_pixel_hit> got_image(image.size());
+  tiles.intersect(image.o.data(), image.d.data(), image.size(), 0.0f, INFINITY, false, FrameOptions{},
+                  got_image.data(), width);
+  EXPECT_EQ(differences(want_image, got_image), "") << "an image of " << tall << " rows in chunks";
 }
 
 // The exact (double) hit of the same float ray on every triangle in world

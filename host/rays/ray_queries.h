@@ -53,9 +53,13 @@ struct QueryTiles {
   // the input order).
   std::vector<uint32_t> scattered;
   // The image order `order` holds (rows x row_length, 0: none) and its
-  // tiles' first rays, kept for the next plan of the same size.
+  // tiles' first rays, kept for the next plan of the same size; the size
+  // before it is kept aside too (an image's chunks are whole bands, its
+  // last one often shorter).
   size_t image_rows = 0, image_row_length = 0;
   std::vector<uint32_t> image_tiles;
+  size_t spare_rows = 0, spare_row_length = 0;
+  std::vector<uint32_t> spare_order, spare_tiles;
 };
 QueryTiles plan_query_tiles(const float* origins, size_t n, size_t row_length, size_t min_rays);
 // The same into `plan`, reusing the image order it holds when the image
