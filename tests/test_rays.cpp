@@ -239,12 +239,17 @@ TEST(RayQuery, ImageRaysInBlocksEqualTheCpuReference) {
   const Aabb b = scene.world_bounds();
   const glm::vec3 eye = b.lo + 0.5f * b.extent() + glm::vec3(0.0f, 0.0f, 1.5f * b.extent().z);
   const int width = 70, height = 37;  // neither a multiple of 16
-  Rays rays;
-  for (int y = 0; y < height; ++y)
-    for (int x = 0; x < width; ++x) {
-      rays.o.insert(rays.o.end(), {eye.x, eye.y, eye.z});
-      rays.d.insert(rays.d.end(), {(x + 0.5f) / width - 0.5f, 0.5f - (y + 0.5f) / height, -2.5f});
-    }
+  // A camera's rays from eye, rows of `width`.
+  const auto image_rays = [&](int rows) {
+    Rays r;
+    for (int y = 0; y < rows; ++y)
+      for (int x = 0; x < width; ++x) {
+        r.o.insert(r.o.end(), {eye.x, eye.y, eye.z});
+        r.d.insert(r.d.end(), {(x + 0.5f) / width - 0.5f, 0.5f - (y + 0.5f) / rows, -2.5f});
+      }
+    return r;
+  };
+  const Rays rays = image_rays(height);
   const QueryTiles plan = plan_query_tiles(rays.o.data(), rays.size(), width, 128);
   ASSERT_EQ(plan.tiles.size(), 1u + 3 * 5) << "3 block rows of 5 blocks";
   std::vector<uint32_t> sorted = plan.order;
@@ -281,12 +286,7 @@ TEST(RayQuery, ImageRaysInBlocksEqualTheCpuReference) {
   // An image of more than one chunk, its last one shorter: each chunk's
   // blocks and answers in their places.
   const int tall = static_cast<int>(query_chunk_rays(width) / width) + 100;
-  Rays image;
-  for (int y = 0; y < tall; ++y)
-    for (int x = 0; x < width; ++x) {
-      image.o.insert(image.o.end(), {eye.x, eye.y, eye.z});
-      image.d.insert(image.d.end(), {(x + 0.5f) / width - 0.5f, 0.5f - (y + 0.5f) / tall, -2.5f});
-    }
+  const Rays image = image_rays(tall);
   const std::vector<rf_pixel_hit> want_image = query(cpu, image);
   std::vector<rf_pixel_hit> got_image(image.size());
   tiles.intersect(image.o.data(), image.d.data(), image.size(), 0.0f, INFINITY, false, FrameOptions{},
