@@ -385,6 +385,8 @@ TraceInputs Renderer::host_inputs(const Frame& frame) {
   in.normal_xforms = normals.data();
   in.normal_xform_count = normals.size();
   in.tlas_root = frame.tlas_root;
+  in.depth_xforms = frame.depth_xforms.empty() ? nullptr : frame.depth_xforms.data();
+  in.depth_instances = frame.depth_instances;
   return in;
 }
 

@@ -5,10 +5,10 @@
 
 /* The camera and pass (rf_camera) as kernel arguments, field by field, then
  * one depth scale per view of the pass. */
-#define RF_CAMERA_ARGS                                                                                            \
-  float scale_x, float scale_y, int kx0, int ky0, int width, int height, int xpair, int ypair, float frac_x,      \
-      float frac_y, int ortho, uint views, uint group_shift, uint slot_mirrors, uint view_rep, uint write_flags,  \
-      __global const float *depth_scales
+#define RF_CAMERA_ARGS                                                                                           \
+  float scale_x, float scale_y, int kx0, int ky0, int width, int height, int xpair, int ypair, float frac_x,     \
+      float frac_y, int ortho, uint views, uint group_shift, uint slot_mirrors, uint view_rep, uint write_flags, \
+      __global const float *depth_scales, __global const rf_depth_xform *depth_xforms, uint depth_instances
 
 RF_INLINE rf_camera rf_make_camera(float scale_x, float scale_y, int kx0, int ky0, int width, int height, int xpair,
                                    int ypair, float frac_x, float frac_y, int ortho, uint views, uint group_shift,
@@ -33,7 +33,7 @@ RF_INLINE rf_camera rf_make_camera(float scale_x, float scale_y, int kx0, int ky
   return cam;
 }
 
-#define RF_MAKE_CAMERA()                                                                                           \
+#define RF_MAKE_CAMERA()                                                                                             \
   rf_make_camera(scale_x, scale_y, kx0, ky0, width, height, xpair, ypair, frac_x, frac_y, ortho, views, group_shift, \
                  slot_mirrors, view_rep, write_flags)
 
@@ -45,7 +45,8 @@ __kernel void rf_trace_primary(__global const rf_node* nodes, __global const rf_
   const uint i = get_global_id(0);
   if (i >= ray_count) return;
   const rf_camera cam = RF_MAKE_CAMERA();
-  rf_trace_entry(rays[i], &cam, depth_scales, nodes, tris, instances, normal_xforms, tlas_root, out);
+  const rf_depth_table depths = {depth_xforms, depth_instances};
+  rf_trace_entry(rays[i], &cam, depth_scales, &depths, nodes, tris, instances, normal_xforms, tlas_root, out);
 }
 
 /* Ray queries: one work-item per ray; any_hit for occlusion. With
@@ -58,8 +59,7 @@ __kernel void rf_trace_primary(__global const rf_node* nodes, __global const rf_
 __kernel void rf_trace_queries(__global const rf_node* nodes, __global const rf_tri* tris,
                                __global const rf_instance* instances, __global const rf_normal_xform* normal_xforms,
                                uint tlas_root, __global const rf_query_ray* rays, uint ray_count, uint any_hit,
-                               uint write_flags, __global const uint* order, uint ordered,
-                               __global rf_pixel_hit* out) {
+                               uint write_flags, __global const uint* order, uint ordered, __global rf_pixel_hit* out) {
   const uint k = get_global_id(0);
   if (k >= ray_count) return;
   uint i = k;
@@ -95,10 +95,9 @@ __kernel void rf_trace_query_tiles(__global const rf_node* nodes, __global const
  * covers rays[tiles[t] .. tiles[t + 1]). PoCL runs it fastest with one
  * work-item per work-group: the SIMD is inside the work-item. */
 __kernel void rf_trace_tiles(__global const rf_node* nodes, __global const rf_wide_node* wide,
-                             __global const rf_tri* tris,
-                             __global const rf_instance* instances, __global const rf_normal_xform* normal_xforms,
-                             uint tlas_root, __global const uint* rays, __global const uint* tiles, uint tile_count,
-                             RF_CAMERA_ARGS, __global rf_pixel_hit* out
+                             __global const rf_tri* tris, __global const rf_instance* instances,
+                             __global const rf_normal_xform* normal_xforms, uint tlas_root, __global const uint* rays,
+                             __global const uint* tiles, uint tile_count, RF_CAMERA_ARGS, __global rf_pixel_hit* out
 #ifdef RF_TILE_STATS
                              ,
                              __global uint* tile_stats
@@ -112,9 +111,9 @@ __kernel void rf_trace_tiles(__global const rf_node* nodes, __global const rf_wi
   uint stats[RF_TILE_STAT_COUNT];
   for (int k = 0; k < RF_TILE_STAT_COUNT; ++k) stats[k] = 0u;
 #endif
-  rf_trace_tile(rays, begin, tiles[t + 1] - begin, &cam, depth_scales, nodes, wide, tris, instances, normal_xforms,
-                tlas_root,
-                out RF_TSTAT_ARG);
+  const rf_depth_table depths = {depth_xforms, depth_instances};
+  rf_trace_tile(rays, begin, tiles[t + 1] - begin, &cam, depth_scales, &depths, nodes, wide, tris, instances,
+                normal_xforms, tlas_root, out RF_TSTAT_ARG);
 #ifdef RF_TILE_STATS
   for (int k = 0; k < RF_TILE_STAT_COUNT; ++k) tile_stats[t * RF_TILE_STAT_COUNT + k] = stats[k];
 #endif

@@ -31,6 +31,8 @@ typedef int rf_i32;
  * 11% slower. */
 #define RF_INLINE_ALWAYS inline __attribute__((always_inline))
 #define RF_SQRT(x) sqrt(x)
+/* Fused multiply-add, rounded once (double-float arithmetic, rf_depth.h). */
+#define RF_FMA(a, b, c) fma(a, b, c)
 #define RF_FABS(x) fabs(x)
 #define RF_COPYSIGN(x, y) copysign(x, y)
 #define RF_INF INFINITY
@@ -44,6 +46,7 @@ typedef int32_t rf_i32;
 #define RF_INLINE static inline
 #define RF_INLINE_ALWAYS static inline
 #define RF_SQRT(x) std::sqrt((float)(x))
+#define RF_FMA(a, b, c) std::fma((float)(a), (float)(b), (float)(c))
 #define RF_FABS(x) std::fabs((float)(x))
 #define RF_COPYSIGN(x, y) std::copysign((float)(x), (float)(y))
 #define RF_INF INFINITY

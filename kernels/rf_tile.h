@@ -50,6 +50,9 @@
 typedef struct {
   rf_vf dx[RF_LANE_GROUPS], dy[RF_LANE_GROUPS];
   rf_vf ix[RF_LANE_GROUPS], iy[RF_LANE_GROUPS];
+  /* The pixel offsets 2x + kx0 and ky0 - 2y, exact in float (the exact
+   * depth's, rf_depth.h; camera tiles only). */
+  rf_vf kx[RF_LANE_GROUPS], ky[RF_LANE_GROUPS];
   float lo[3], hi[3];
 } rf_tile_camera;
 
@@ -204,20 +207,18 @@ RF_INLINE int rf_tile_triangle(const RF_GLOBAL rf_tri* tri, rf_u32 ti, const rf_
     rf_vf t, ev, ew, det;
     rf_vi ok;
     if (r->uniform) {
-      ok =
-          rf_lanes_triangle((rf_vf)(uax), (rf_vf)(uay), (rf_vf)(uaz), (rf_vf)(ubx), (rf_vf)(uby), (rf_vf)(ubz),
-                            (rf_vf)(ucx), (rf_vf)(ucy), (rf_vf)(ucz), r->sx[j], r->sy[j], r->sz[j], (rf_vf)(unx),
-                            (rf_vf)(uny), (rf_vf)(unz), (rf_vi)(woop_u ? -1 : 0), offset, &t, &ev, &ew, &det);
+      ok = rf_lanes_triangle((rf_vf)(uax), (rf_vf)(uay), (rf_vf)(uaz), (rf_vf)(ubx), (rf_vf)(uby), (rf_vf)(ubz),
+                             (rf_vf)(ucx), (rf_vf)(ucy), (rf_vf)(ucz), r->sx[j], r->sy[j], r->sz[j], (rf_vf)(unx),
+                             (rf_vf)(uny), (rf_vf)(unz), (rf_vi)(woop_u ? -1 : 0), offset, &t, &ev, &ew, &det);
     } else {
       const rf_vi kx = r->pkx[j], ky = r->pky[j], kz = r->pkz[j];
       const rf_vf az = rf_lanes_pick(a0, a1, a2, kz), bz = rf_lanes_pick(b0, b1, b2, kz);
       const rf_vf cz = rf_lanes_pick(c0, c1, c2, kz);
-      ok = rf_lanes_triangle(rf_lanes_pick(a0, a1, a2, kx), rf_lanes_pick(a0, a1, a2, ky), az,
-                             rf_lanes_pick(b0, b1, b2, kx), rf_lanes_pick(b0, b1, b2, ky), bz,
-                             rf_lanes_pick(c0, c1, c2, kx), rf_lanes_pick(c0, c1, c2, ky), cz, r->sx[j], r->sy[j],
-                             r->sz[j], rf_lanes_pick(n[0], n[1], n[2], kx), rf_lanes_pick(n[0], n[1], n[2], ky),
-                             rf_lanes_pick(n[0], n[1], n[2], kz), rf_lanes_woop_suits(az, bz, cz), offset, &t, &ev,
-                             &ew, &det);
+      ok = rf_lanes_triangle(
+          rf_lanes_pick(a0, a1, a2, kx), rf_lanes_pick(a0, a1, a2, ky), az, rf_lanes_pick(b0, b1, b2, kx),
+          rf_lanes_pick(b0, b1, b2, ky), bz, rf_lanes_pick(c0, c1, c2, kx), rf_lanes_pick(c0, c1, c2, ky), cz, r->sx[j],
+          r->sy[j], r->sz[j], rf_lanes_pick(n[0], n[1], n[2], kx), rf_lanes_pick(n[0], n[1], n[2], ky),
+          rf_lanes_pick(n[0], n[1], n[2], kz), rf_lanes_woop_suits(az, bz, cz), offset, &t, &ev, &ew, &det);
     }
     if (!rf_lanes_any(ok)) continue;
     const rf_vi positive = t > (tmin ? tmin[j] : (rf_vf)(0.0f)); /* beyond tmin: 0 for camera rays */
@@ -515,10 +516,9 @@ RF_INLINE float rf_tile_group_bound(rf_u32 groups, const rf_tile_hits* hits) {
  * tile_groups: the groups some lane answers (the others' hits are not
  * set). */
 RF_INLINE void rf_tile_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_wide_node* wide,
-                                  const RF_GLOBAL rf_tri* tris,
-                                  const RF_GLOBAL rf_instance* instances, rf_u32 tlas_root, const rf_tile_camera* cam,
-                                  const rf_tile_query* q, rf_u32 tile_groups, rf_tile_ray* ro,
-                                  rf_tile_hits* hits RF_TSTAT_PARAM) {
+                                  const RF_GLOBAL rf_tri* tris, const RF_GLOBAL rf_instance* instances,
+                                  rf_u32 tlas_root, const rf_tile_camera* cam, const rf_tile_query* q,
+                                  rf_u32 tile_groups, rf_tile_ray* ro, rf_tile_hits* hits RF_TSTAT_PARAM) {
   /* Camera rays start at the trace-space origin; boxes less +0 keep their
    * bits, as the scalar code's box minus its origin does. */
   const float o0 = q ? q->o[0] : 0.0f, o1 = q ? q->o[1] : 0.0f, o2 = q ? q->o[2] : 0.0f;
@@ -586,51 +586,80 @@ RF_INLINE void rf_tile_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBA
   }
 }
 
+/* The triangles of lane group j's hits, for the normals and the depth:
+ * their vertices (lane 0's where a lane missed; its results are not used)
+ * and each lane's rf_depth_key. One load for the whole vector when its lanes
+ * agree, as on large triangles, else a gather. */
+typedef struct {
+  rf_vf v[9]; /* v0, v1, v2 by coordinate */
+  rf_vu key;
+  int one_tri; /* every lane that hit has lane 0's triangle */
+  int one_key; /* every lane that hit has lane 0's key */
+  rf_u32 key0;
+  float v0[9]; /* lane 0's vertices */
+} rf_tile_lane_tris;
+
+RF_INLINE void rf_tile_gather_tris(const rf_tile_hits* h, int j, rf_vi hit, const RF_GLOBAL rf_tri* tris,
+                                   rf_tile_lane_tris* lt) {
+  float gv[9][RF_LANES];
+  rf_u32 gkey[RF_LANES];
+  const rf_u32* tri_idx = (const rf_u32*)&h->tri[j];
+  const rf_u32* inst_idx = (const rf_u32*)&h->instance[j];
+  const rf_vi missed = ~hit;
+  const int one_tri = !rf_lanes_any(missed | (h->tri[j] != (rf_vu)(tri_idx[0])));
+  for (int l = 0; l < RF_LANES; ++l) {
+    if (one_tri && l > 0) break;
+    const int lane_hit = inst_idx[l] != RF_INVALID;
+    const RF_GLOBAL rf_tri* tri = &tris[lane_hit ? tri_idx[l] : 0u];
+    for (int k = 0; k < 3; ++k) {
+      gv[k][l] = tri->v0[k];
+      gv[3 + k][l] = tri->v1[k];
+      gv[6 + k][l] = tri->v2[k];
+    }
+    gkey[l] = lane_hit ? rf_depth_key(inst_idx[l], tri) : 0u;
+  }
+  for (int k = 0; k < 9; ++k) {
+    lt->v[k] = one_tri ? (rf_vf)(gv[k][0]) : *(const rf_vf*)gv[k];
+    lt->v0[k] = gv[k][0];
+  }
+  lt->one_tri = one_tri;
+  lt->key0 = gkey[0];
+  lt->key = one_tri ? (rf_vu)(gkey[0]) : rf_lanes_load_u(0, gkey);
+  lt->one_key = !rf_lanes_any(missed | (lt->key != (rf_vu)(gkey[0])));
+}
+
+/* rf_tri_set_normal's cross product on lanes: the same floats. */
+RF_INLINE void rf_tile_lane_cross(const rf_tile_lane_tris* lt, rf_vf* c) {
+  const rf_vf* v = lt->v;
+  const rf_vf e1x = v[3] - v[0], e1y = v[4] - v[1], e1z = v[5] - v[2];
+  const rf_vf e2x = v[6] - v[0], e2y = v[7] - v[1], e2z = v[8] - v[2];
+  c[0] = e1y * e2z - e1z * e2y;
+  c[1] = e1z * e2x - e1x * e2z;
+  c[2] = e1x * e2y - e1y * e2x;
+}
+
 /* rf_geometric_normal for the lanes of lane group j that hit (hit: their
  * mask), with the scalar code's operations per lane; 0 where a lane
  * missed or its triangle is degenerate. */
-RF_INLINE void rf_tile_lane_normals(const rf_tile_hits* h, int j, rf_vi hit, const RF_GLOBAL rf_tri* tris,
-                                    const RF_GLOBAL rf_normal_xform* normal_xforms, rf_vf* nx, rf_vf* ny,
-                                    rf_vf* nz) {
-  /* Each lane's triangle and normal matrix (lane 0's where a lane missed;
-   * its result is replaced below): one load for the whole vector when its
-   * lanes agree, as on large triangles and within one instance, else a
-   * gather. */
-  float gv[9][RF_LANES], gm[9][RF_LANES];
-  const rf_u32* tri_idx = (const rf_u32*)&h->tri[j];
+RF_INLINE void rf_tile_lane_normals(const rf_tile_hits* h, int j, rf_vi hit, const rf_tile_lane_tris* lt,
+                                    const RF_GLOBAL rf_normal_xform* normal_xforms, rf_vf* nx, rf_vf* ny, rf_vf* nz) {
+  /* Each lane's normal matrix (lane 0's where a lane missed): one load
+   * for the whole vector when its lanes agree, as within one instance,
+   * else a gather. */
+  float gm[9][RF_LANES];
   const rf_u32* inst_idx = (const rf_u32*)&h->instance[j];
-  const rf_vi all_hit = ~hit;
-  const int one_tri = !rf_lanes_any(all_hit | (h->tri[j] != (rf_vu)(tri_idx[0])));
-  const int one_inst = !rf_lanes_any(all_hit | (h->instance[j] != (rf_vu)(inst_idx[0])));
+  const int one_inst = !rf_lanes_any(~hit | (h->instance[j] != (rf_vu)(inst_idx[0])));
   for (int l = 0; l < RF_LANES; ++l) {
-    const int lane_hit = inst_idx[l] != RF_INVALID;
-    if (!one_tri || l == 0) {
-      const RF_GLOBAL rf_tri* tri = &tris[lane_hit ? tri_idx[l] : 0u];
-      for (int k = 0; k < 3; ++k) {
-        gv[k][l] = tri->v0[k];
-        gv[3 + k][l] = tri->v1[k];
-        gv[6 + k][l] = tri->v2[k];
-      }
-    }
-    if (!one_inst || l == 0) {
-      const RF_GLOBAL float* m = normal_xforms[lane_hit ? inst_idx[l] : 0u].m;
-      for (int k = 0; k < 9; ++k) gm[k][l] = m[k];
-    }
+    if (one_inst && l > 0) break;
+    const RF_GLOBAL float* m = normal_xforms[inst_idx[l] != RF_INVALID ? inst_idx[l] : 0u].m;
+    for (int k = 0; k < 9; ++k) gm[k][l] = m[k];
   }
-#define RF_G(a, k) (one_##a ? (rf_vf)(a[k][0]) : *(const rf_vf*)a[k])
-#define one_gv one_tri
-#define one_gm one_inst
-  const rf_vf e1x = RF_G(gv, 3) - RF_G(gv, 0), e1y = RF_G(gv, 4) - RF_G(gv, 1), e1z = RF_G(gv, 5) - RF_G(gv, 2);
-  const rf_vf e2x = RF_G(gv, 6) - RF_G(gv, 0), e2y = RF_G(gv, 7) - RF_G(gv, 1), e2z = RF_G(gv, 8) - RF_G(gv, 2);
-  const rf_vf cx = e1y * e2z - e1z * e2y;
-  const rf_vf cy = e1z * e2x - e1x * e2z;
-  const rf_vf cz = e1x * e2y - e1y * e2x;
-  rf_vf wx = RF_G(gm, 0) * cx + RF_G(gm, 1) * cy + RF_G(gm, 2) * cz;
-  rf_vf wy = RF_G(gm, 3) * cx + RF_G(gm, 4) * cy + RF_G(gm, 5) * cz;
-  rf_vf wz = RF_G(gm, 6) * cx + RF_G(gm, 7) * cy + RF_G(gm, 8) * cz;
-#undef RF_G
-#undef one_gv
-#undef one_gm
+  rf_vf c[3], m[9];
+  rf_tile_lane_cross(lt, c);
+  for (int k = 0; k < 9; ++k) m[k] = one_inst ? (rf_vf)(gm[k][0]) : *(const rf_vf*)gm[k];
+  rf_vf wx = m[0] * c[0] + m[1] * c[1] + m[2] * c[2];
+  rf_vf wy = m[3] * c[0] + m[4] * c[1] + m[5] * c[2];
+  rf_vf wz = m[6] * c[0] + m[7] * c[1] + m[8] * c[2];
   const rf_vf big = rf_lanes_max(rf_lanes_max(fabs(wx), fabs(wy)), fabs(wz));
   const rf_vi degenerate = ~(big > (rf_vf)(0.0f));
   wx = wx / big;
@@ -643,17 +672,81 @@ RF_INLINE void rf_tile_lane_normals(const rf_tile_hits* h, int j, rf_vi hit, con
   *nz = select(wz / len, (rf_vf)(0.0f), zero);
 }
 
+/* rf_depth.h's arithmetic on lanes: each lane's operations are the scalar
+ * code's. */
+RF_DEPTH_DEFINE(rf_vf, v)
+
+/* rf_pixel_depth for the lanes of lane group j that hit, in vectors: for
+ * group g's view and pixels, the depth of rf_depth.h where it is finite and
+ * positive, else z. */
+/* The plane part of the last lane group whose lanes shared one triangle and
+ * tree: large triangles cover many lane groups in a row. */
+typedef struct {
+  rf_u32 tri, key, view; /* tri RF_INVALID: empty */
+  float pl[8];
+} rf_tile_plane_cache;
+
+RF_INLINE rf_vf rf_tile_lane_depths(const rf_tile_camera* tc, int j, const rf_camera* cam, rf_u32 g,
+                                    const rf_tile_hits* h, rf_vi hit, const rf_tile_lane_tris* lt,
+                                    const rf_depth_table* dt, float depth_scale, rf_tile_plane_cache* cache, rf_vf z) {
+  const rf_u32 view = g >> cam->group_shift;
+  const rf_u32 mirror = rf_group_mirror(g, cam);
+  const RF_GLOBAL rf_depth_xform* cam_xf = &dt->xforms[(size_t)view * (dt->instances + 1u)];
+  /* The mirrored pixel's offsets: 2 (xpair - x) + kx0, exact. */
+  const rf_vf ix = (mirror & 1u) ? (rf_vf)((float)(2 * cam->xpair + 2 * cam->kx0)) - tc->kx[j] : tc->kx[j];
+  const rf_vf iy = (mirror & 2u) ? (rf_vf)((float)(2 * cam->ky0 - 2 * cam->ypair)) - tc->ky[j] : tc->ky[j];
+  /* The plane part: once for the vector where its lanes share the
+   * triangle and the tree (large triangles), else per lane, each lane's
+   * transform gathered unless the lanes share a tree. */
+  rf_vf pl[8];
+  if (lt->one_tri && lt->one_key) {
+    const rf_u32 tri0 = ((const rf_u32*)&h->tri[j])[0];
+    if (cache->tri != tri0 || cache->key != lt->key0 || cache->view != view) {
+      float v0[9], m0[24];
+      const RF_GLOBAL float* mk = cam_xf[1u + lt->key0].m;
+      for (int k = 0; k < 9; ++k) v0[k] = lt->v0[k];
+      for (int k = 0; k < 24; ++k) m0[k] = mk[k];
+      rf_depth_plane_f(v0, m0, cache->pl);
+      cache->tri = tri0;
+      cache->key = lt->key0;
+      cache->view = view;
+    }
+    for (int k = 0; k < 8; ++k) pl[k] = (rf_vf)(cache->pl[k]);
+  } else {
+    rf_vf m[24];
+    if (lt->one_key) {
+      const RF_GLOBAL float* mk = cam_xf[1u + lt->key0].m;
+      for (int k = 0; k < 24; ++k) m[k] = (rf_vf)(mk[k]);
+    } else {
+      float gm[24][RF_LANES];
+      const rf_u32* keys = (const rf_u32*)&lt->key;
+      for (int l = 0; l < RF_LANES; ++l) {
+        const RF_GLOBAL float* mk = cam_xf[1u + keys[l]].m;
+        for (int k = 0; k < 24; ++k) gm[k][l] = mk[k];
+      }
+      for (int k = 0; k < 24; ++k) m[k] = *(const rf_vf*)gm[k];
+    }
+    rf_depth_plane_v(lt->v, m, pl);
+  }
+  rf_vf cm[24];
+  for (int k = 0; k < 24; ++k) cm[k] = (rf_vf)(cam_xf->m[k]);
+  const rf_vf d = rf_depth_finish_v(pl, cm, ix, iy, cam->ortho, (cam->write_flags & RF_WRITE_PLANAR_DEPTH) != 0u);
+  return select(z, d * depth_scale, hit & (d > (rf_vf)(0.0f)) & (d < (rf_vf)(RF_FAR)));
+}
+
 /* rf_write_pixel for every lane of the tile that answers group g, lane by
  * lane: the normal (rf_geometric_normal) and depth in vectors, with the
  * scalar code's operations per lane, then one pixel store per lane. The
  * per-pixel normal, with its divisions and square root, costs as much as
  * the traversal when done one pixel at a time. */
 RF_INLINE void rf_tile_write_group(const RF_GLOBAL rf_u32* rays, rf_u32 begin, rf_u32 count, const rf_camera* cam,
-                                   const rf_u32* lane_groups, const rf_tile_camera* tc, const rf_tile_hits* h,
-                                   rf_u32 g, float depth_scale,
-                                   const RF_GLOBAL rf_tri* tris, const RF_GLOBAL rf_normal_xform* normal_xforms,
-                                   RF_GLOBAL rf_pixel_hit* out) {
+                                   const rf_u32* lane_groups, const rf_tile_camera* tc, const rf_tile_hits* h, rf_u32 g,
+                                   float depth_scale, const rf_depth_table* depths, const RF_GLOBAL rf_tri* tris,
+                                   const RF_GLOBAL rf_normal_xform* normal_xforms, RF_GLOBAL rf_pixel_hit* out) {
   rf_vf z[RF_LANE_GROUPS], nx[RF_LANE_GROUPS], ny[RF_LANE_GROUPS], nz[RF_LANE_GROUPS];
+  const int exact_depth = (cam->write_flags & RF_WRITE_EXACT_DEPTH) != 0u;
+  rf_tile_plane_cache plane_cache;
+  plane_cache.tri = RF_INVALID;
   for (int j = 0; j < RF_LANE_GROUPS; ++j) {
     const rf_vi hit = h->instance[j] != (rf_vu)(RF_INVALID);
     const rf_vf dz = (rf_vf)(-1.0f);
@@ -662,11 +755,13 @@ RF_INLINE void rf_tile_write_group(const RF_GLOBAL rf_u32* rays, rf_u32 begin, r
                             : sqrt(tc->dx[j] * tc->dx[j] + tc->dy[j] * tc->dy[j] + dz * dz);
     /* Planar: t * depth_scale, as the scalar code (t * 1 is t). */
     z[j] = select((rf_vf)(RF_INF), (h->t[j] * len_d) * depth_scale, hit);
-    if (!rf_lanes_any(hit) || (cam->write_flags & RF_WRITE_NO_NORMALS)) {
-      nx[j] = ny[j] = nz[j] = (rf_vf)(0.0f);
-      continue;
-    }
-    rf_tile_lane_normals(h, j, hit, tris, normal_xforms, &nx[j], &ny[j], &nz[j]);
+    nx[j] = ny[j] = nz[j] = (rf_vf)(0.0f);
+    const int normals = (cam->write_flags & RF_WRITE_NO_NORMALS) == 0u;
+    if (!rf_lanes_any(hit) || !(normals || exact_depth)) continue;
+    rf_tile_lane_tris lt;
+    rf_tile_gather_tris(h, j, hit, tris, &lt);
+    if (exact_depth) z[j] = rf_tile_lane_depths(tc, j, cam, g, h, hit, &lt, depths, depth_scale, &plane_cache, z[j]);
+    if (normals) rf_tile_lane_normals(h, j, hit, &lt, normal_xforms, &nx[j], &ny[j], &nz[j]);
   }
   const float* zs = (const float*)z;
   const float* xs = (const float*)nx;
@@ -698,16 +793,19 @@ RF_INLINE void rf_tile_write_group(const RF_GLOBAL rf_u32* rays, rf_u32 begin, r
 /* Traces tile `tile` of the ray list: rays[begin .. begin + count), count at
  * most RF_TILE_RAYS, and writes every pixel its rays answer. */
 RF_INLINE void rf_trace_tile(const RF_GLOBAL rf_u32* rays, rf_u32 begin, rf_u32 count, const rf_camera* cam,
-                             const RF_GLOBAL float* depth_scales, const RF_GLOBAL rf_node* nodes,
-                             const RF_GLOBAL rf_wide_node* wide, const RF_GLOBAL rf_tri* tris,
-                             const RF_GLOBAL rf_instance* instances, const RF_GLOBAL rf_normal_xform* normal_xforms,
-                             rf_u32 tlas_root, RF_GLOBAL rf_pixel_hit* out RF_TSTAT_PARAM) {
+                             const RF_GLOBAL float* depth_scales, const rf_depth_table* depths,
+                             const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_wide_node* wide,
+                             const RF_GLOBAL rf_tri* tris, const RF_GLOBAL rf_instance* instances,
+                             const RF_GLOBAL rf_normal_xform* normal_xforms, rf_u32 tlas_root,
+                             RF_GLOBAL rf_pixel_hit* out RF_TSTAT_PARAM) {
   rf_tile_camera tc;
   rf_tile_hits hits[RF_MAX_GROUPS];
   rf_tile_ray ro[RF_TILE_SETUPS];
   for (int s = 0; s < RF_TILE_SETUPS; ++s) ro[s].valid = 0;
   float* dx = (float*)tc.dx;
   float* dy = (float*)tc.dy;
+  float* kx = (float*)tc.kx;
+  float* ky = (float*)tc.ky;
   /* The groups of each lane's ray, by its entry's two mirror bits (a table:
    * the entries' decoding costs as much as a traversal step otherwise);
    * the traversal masks out the groups no ray of the tile answers. */
@@ -722,6 +820,8 @@ RF_INLINE void rf_trace_tile(const RF_GLOBAL rf_u32* rays, rf_u32 begin, rf_u32 
     lane_groups[l] = ray.groups;
     dx[l] = ray.dx;
     dy[l] = ray.dy;
+    kx[l] = (float)(2 * ray.x + cam->kx0);
+    ky[l] = (float)(cam->ky0 - 2 * ray.y);
     tile_groups |= ray.groups;
   }
   rf_vf lo0 = (rf_vf)(RF_FAR), lo1 = lo0, hi0 = (rf_vf)(-RF_FAR), hi1 = hi0;
@@ -758,7 +858,7 @@ RF_INLINE void rf_trace_tile(const RF_GLOBAL rf_u32* rays, rf_u32 begin, rf_u32 
 
   RF_FOR_EACH_GROUP(g, tile_groups) {
     rf_tile_write_group(rays, begin, count, cam, lane_groups, &tc, &hits[g], g, depth_scales[g >> cam->group_shift],
-                        tris, normal_xforms, out);
+                        depths, tris, normal_xforms, out);
   }
 }
 
@@ -772,9 +872,8 @@ RF_INLINE void rf_trace_tile(const RF_GLOBAL rf_u32* rays, rf_u32 begin, rf_u32 
 RF_INLINE void rf_trace_query_tile(const RF_GLOBAL rf_query_ray* rays, rf_u32 begin, rf_u32 count,
                                    const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_wide_node* wide,
                                    const RF_GLOBAL rf_tri* tris, const RF_GLOBAL rf_instance* instances,
-                                   const RF_GLOBAL rf_normal_xform* normal_xforms, rf_u32 tlas_root,
-                                   rf_u32 write_flags, const RF_GLOBAL rf_u32* order,
-                                   RF_GLOBAL rf_pixel_hit* out RF_TSTAT_PARAM) {
+                                   const RF_GLOBAL rf_normal_xform* normal_xforms, rf_u32 tlas_root, rf_u32 write_flags,
+                                   const RF_GLOBAL rf_u32* order, RF_GLOBAL rf_pixel_hit* out RF_TSTAT_PARAM) {
   rf_tile_camera tc;
   rf_tile_query q;
   rf_tile_hits hits[1];
@@ -828,7 +927,9 @@ RF_INLINE void rf_trace_query_tile(const RF_GLOBAL rf_query_ray* rays, rf_u32 be
       nx[j] = ny[j] = nz[j] = (rf_vf)(0.0f);
       continue;
     }
-    rf_tile_lane_normals(&hits[0], j, hit, tris, normal_xforms, &nx[j], &ny[j], &nz[j]);
+    rf_tile_lane_tris lt;
+    rf_tile_gather_tris(&hits[0], j, hit, tris, &lt);
+    rf_tile_lane_normals(&hits[0], j, hit, &lt, normal_xforms, &nx[j], &ny[j], &nz[j]);
   }
   const float* ts = (const float*)hits[0].t;
   const float* xs = (const float*)nx;
@@ -842,9 +943,9 @@ RF_INLINE void rf_trace_query_tile(const RF_GLOBAL rf_query_ray* rays, rf_u32 be
     const int hit = is[l] != RF_INVALID;
     /* z: t * 1 * 1, as rf_write_pixel's query form; as integers, as the
      * camera tile's stores. */
-    const uint8 px_hit = (uint8)(as_uint(hit ? ts[l] : RF_INF), as_uint(xs[l]), as_uint(ys[l]), as_uint(ws[l]),
-                                 as_uint(hit ? us[l] : 0.0f), as_uint(hit ? vs[l] : 0.0f), is[l],
-                                 hit ? ps[l] : RF_INVALID);
+    const uint8 px_hit =
+        (uint8)(as_uint(hit ? ts[l] : RF_INF), as_uint(xs[l]), as_uint(ys[l]), as_uint(ws[l]),
+                as_uint(hit ? us[l] : 0.0f), as_uint(hit ? vs[l] : 0.0f), is[l], hit ? ps[l] : RF_INVALID);
     vstore8(px_hit, 0, (RF_GLOBAL rf_u32*)&out[order ? order[begin + l] : begin + l]);
   }
 }

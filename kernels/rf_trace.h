@@ -6,6 +6,7 @@
 
 #ifndef __OPENCL_C_VERSION__
 #include "rf_common.h"
+#include "rf_depth.h"
 #include "rf_geometry.h"
 #include "rf_types.h"
 #endif
@@ -295,26 +296,36 @@ RF_INLINE size_t rf_group_pixel_index(rf_i32 x, rf_i32 y, rf_u32 g, const rf_cam
 }
 
 /* Writes the hit info of every pixel a ray answers: group g's hit goes to
- * its view's image, at the pixel mirrored as g says. depth_scales: one per
- * view. */
+ * its view's image, at the pixel mirrored as g says, with the depth of
+ * rf_depth.h where the camera asks for it. depth_scales: one per view. */
 RF_INLINE void rf_write_answers(const rf_camera_ray* ray, const rf_hit* hits, const rf_camera* cam,
-                                const RF_GLOBAL float* depth_scales, const RF_GLOBAL rf_tri* tris,
-                                const RF_GLOBAL rf_normal_xform* normal_xforms, RF_GLOBAL rf_pixel_hit* out) {
+                                const RF_GLOBAL float* depth_scales, const rf_depth_table* depths,
+                                const RF_GLOBAL rf_tri* tris, const RF_GLOBAL rf_normal_xform* normal_xforms,
+                                RF_GLOBAL rf_pixel_hit* out) {
   const float dz = -1.0f;
   const float len_d = cam->ortho ? 1.0f : RF_SQRT(ray->dx * ray->dx + ray->dy * ray->dy + dz * dz);
+  const int exact_depth = (cam->write_flags & RF_WRITE_EXACT_DEPTH) != 0u;
   RF_FOR_EACH_GROUP(g, ray->groups) {
     const rf_u32 view = g >> cam->group_shift;
     const size_t at = rf_group_pixel_index(ray->x, ray->y, g, cam);
     rf_write_pixel(&out[at], &hits[g], len_d, depth_scales[view], tris, normal_xforms, cam->write_flags);
+    if (exact_depth && hits[g].instance != RF_INVALID) {
+      const rf_u32 m = rf_group_mirror(g, cam);
+      const rf_i32 px = (m & 1u) ? cam->xpair - ray->x : ray->x;
+      const rf_i32 py = (m & 2u) ? cam->ypair - ray->y : ray->y;
+      out[at].z = rf_pixel_depth(depths, view, hits[g].instance, &tris[hits[g].tri], cam, px, py, depth_scales[view],
+                                 out[at].z);
+    }
   }
 }
 
 /* Traces one entry of the compacted ray list and writes the hit info of every
  * pixel it answers (1, 2 or 4 per view). */
 RF_INLINE void rf_trace_entry(rf_u32 entry, const rf_camera* cam, const RF_GLOBAL float* depth_scales,
-                              const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_tri* tris,
-                              const RF_GLOBAL rf_instance* instances, const RF_GLOBAL rf_normal_xform* normal_xforms,
-                              rf_u32 tlas_root, RF_GLOBAL rf_pixel_hit* out) {
+                              const rf_depth_table* depths, const RF_GLOBAL rf_node* nodes,
+                              const RF_GLOBAL rf_tri* tris, const RF_GLOBAL rf_instance* instances,
+                              const RF_GLOBAL rf_normal_xform* normal_xforms, rf_u32 tlas_root,
+                              RF_GLOBAL rf_pixel_hit* out) {
   const rf_camera_ray ray = rf_decode_entry(entry, cam);
   rf_hit hits[RF_MAX_GROUPS];
   RF_FOR_EACH_GROUP(g, ray.groups) { rf_hit_reset(&hits[g]); }
@@ -322,7 +333,7 @@ RF_INLINE void rf_trace_entry(rf_u32 entry, const rf_camera* cam, const RF_GLOBA
     rf_trace_tlas(nodes, tris, instances, tlas_root, cam->ortho ? RF_ORIGIN_PLANE : RF_ORIGIN_EYE,
                   cam->ortho ? ray.dx : 0.0f, cam->ortho ? ray.dy : 0.0f, 0.0f, cam->ortho ? 0.0f : ray.dx,
                   cam->ortho ? 0.0f : ray.dy, -1.0f, 0.0f, 0, ray.groups, hits);
-  rf_write_answers(&ray, hits, cam, depth_scales, tris, normal_xforms, out);
+  rf_write_answers(&ray, hits, cam, depth_scales, depths, tris, normal_xforms, out);
 }
 
 /* Answers one ray query (scene.intersect, scene.occluded): its closest hit

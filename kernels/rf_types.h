@@ -163,6 +163,25 @@ typedef struct {
   float m[9];
 } rf_normal_xform;
 
+/* The exact-depth transform (rf_depth.h) of one scene instance in one view,
+ * 96 bytes: the pixel's exact ray in the instance's tree space as
+ * double-float pairs, each a value hi + lo (hi the float nearest the double,
+ * lo the float nearest the rest), of the pixel offsets ix = 2x + kx0 and
+ * iy = ky0 - 2y:
+ *   bytes  0..23  a  hi[3] then lo[3]: the ray's change per unit of ix
+ *   bytes 24..47  b  the same per unit of iy
+ *   bytes 48..71  c  perspective: the direction at ix = iy = 0;
+ *                    orthographic: the direction
+ *   bytes 72..95  o  perspective: the origin (the eye); orthographic: the
+ *                    origin at ix = iy = 0
+ * (perspective o + t (a ix + b iy + c), orthographic (o + a ix + b iy) + t c).
+ * A pass's table holds, view after view, the view's camera entry (the same
+ * in trace space: tree_from_trace the identity) then one entry per scene
+ * instance; hidden instances' entries are zero and never read. */
+typedef struct {
+  float m[24];
+} rf_depth_xform;
+
 /* The hit info of one pixel, 32 bytes: the layout of the output buffer.
  *   z          distance from the eye along the normalised ray, +inf on a miss
  *   nx, ny, nz world-space geometric normal, unit length (0 on a miss)
@@ -261,11 +280,16 @@ typedef struct {
  *                         render that asked for no normal plane: the
  *                         normal's divisions and square root were a tenth
  *                         of an interior's trace)
- *   RF_WRITE_PLANAR_DEPTH z is the depth along the camera's axis (t times
- *                         the depth scale, d's z being -1: one rounding)
- *                         instead of the distance along the ray */
+ *   RF_WRITE_PLANAR_DEPTH z is the depth along the camera's axis instead
+ *                         of the distance along the ray
+ *   RF_WRITE_EXACT_DEPTH  z is rf_depth.h's: from the pixel's exact ray
+ *                         and the hit triangle's plane in double-float,
+ *                         rounded once, instead of (t * |d|) times the
+ *                         depth scale (planar: t times it) from the
+ *                         traversal's float t */
 #define RF_WRITE_NO_NORMALS 1u
 #define RF_WRITE_PLANAR_DEPTH 2u
+#define RF_WRITE_EXACT_DEPTH 4u
 typedef struct {
   float scale_x, scale_y;
   rf_i32 kx0, ky0;

@@ -10,6 +10,7 @@
 #include <glm/gtc/matrix_transform.hpp>
 
 #include "../tools/scene_gen.h"
+#include "fold/depth_xform.h"
 #include "rf_trace.h"
 #include "scene/animation.h"
 #include "scene/gltf_loader.h"
@@ -67,10 +68,11 @@ BruteScene brute_scene(const Scene& scene, const SceneData& data, const Xform& w
 
 // The closest hit beyond tmin (best starts as the caller's bound) over
 // every triangle, each instance's ray from make_ray(instance), written out
-// with len_d and the G-buffer's normal.
+// with len_d and the G-buffer's normal; returns the hit triangle (null on a
+// miss).
 template <class MakeRay>
-void brute_closest(const BruteScene& b, const Scene& scene, const SceneData& data, float tmin, rf_hit best,
-                   float len_d, MakeRay&& make_ray, rf_pixel_hit* out) {
+const rf_tri* brute_closest(const BruteScene& b, const Scene& scene, const SceneData& data, float tmin, rf_hit best,
+                            float len_d, MakeRay&& make_ray, rf_pixel_hit* out) {
   const rf_tri* best_tri = nullptr;
   for (const rf_instance& inst : b.insts) {
     const rf_ray r = make_ray(inst);
@@ -90,13 +92,25 @@ void brute_closest(const BruteScene& b, const Scene& scene, const SceneData& dat
   // rf_write_pixel finds the triangle through an index; hand it this one.
   best.tri = 0;
   rf_write_pixel(out, &best, len_d, 1.0f, best_tri, data.normal_xforms.data(), 0u);
+  return best_tri;
 }
 
 }  // namespace
 
-std::vector<rf_pixel_hit> brute_force(const Scene& scene, const SceneData& data, const Camera& camera) {
+std::vector<rf_pixel_hit> brute_force(const Scene& scene, const SceneData& data, const Camera& camera,
+                                      bool exact_depth) {
   const rf_camera& cam = camera.params;
   const BruteScene b = brute_scene(scene, data, camera.world_from_camera);
+  // The exact depth in camera space and object space, which differ from
+  // trace and tree space by powers of two: the same bits (kernels/rf_depth.h).
+  std::vector<rf_depth_xform> depth_xforms(scene.instances.size() + 1);
+  depth_xforms[0] = make_depth_xform(Xform(1.0), camera, 0);
+  for (const rf_instance& inst : b.insts) {
+    Xform object_from_world;
+    affine_inverse(scene.instances[inst.instance_id].world_from_object, &object_from_world);
+    depth_xforms[1 + inst.instance_id] = make_depth_xform(object_from_world * camera.world_from_camera, camera, 0);
+  }
+  const rf_depth_table depths{depth_xforms.data(), static_cast<uint32_t>(scene.instances.size())};
   std::vector<rf_pixel_hit> out(static_cast<size_t>(cam.width) * cam.height);
   for (int y = 0; y < cam.height; ++y)
     for (int x = 0; x < cam.width; ++x) {
@@ -107,14 +121,19 @@ std::vector<rf_pixel_hit> brute_force(const Scene& scene, const SceneData& data,
       rf_hit best;
       rf_hit_reset(&best);
       const float len_d = cam.ortho ? 1.0f : RF_SQRT(dx * dx + dy * dy + dz * dz);
-      brute_closest(b, scene, data, 0.0f, best, len_d, [&](const rf_instance& inst) {
-        rf_ray r;
-        if (cam.ortho)
-          rf_ray_to_object_from(&r, inst.tree_from_trace, px, py, dx, dy, dz);
-        else
-          rf_ray_to_object(&r, inst.tree_from_trace, dx, dy, dz);
-        return r;
-      }, &out[static_cast<size_t>(y) * cam.width + x]);
+      rf_pixel_hit& px_out = out[static_cast<size_t>(y) * cam.width + x];
+      const rf_tri* tri = brute_closest(
+          b, scene, data, 0.0f, best, len_d,
+          [&](const rf_instance& inst) {
+            rf_ray r;
+            if (cam.ortho)
+              rf_ray_to_object_from(&r, inst.tree_from_trace, px, py, dx, dy, dz);
+            else
+              rf_ray_to_object(&r, inst.tree_from_trace, dx, dy, dz);
+            return r;
+          },
+          &px_out);
+      if (tri && exact_depth) px_out.z = rf_pixel_depth(&depths, 0, px_out.instance, tri, &cam, x, y, 1.0f, px_out.z);
     }
   return out;
 }
@@ -129,11 +148,14 @@ std::vector<rf_pixel_hit> brute_force_rays(const Scene& scene, const SceneData& 
     rf_hit best;
     rf_hit_reset(&best);
     best.t = tmax;
-    brute_closest(b, scene, data, tmin, best, 1.0f, [&](const rf_instance& inst) {
-      rf_ray r;
-      rf_ray_to_object_at(&r, inst.tree_from_trace, o[0], o[1], o[2], d[0], d[1], d[2]);
-      return r;
-    }, &out[q]);
+    brute_closest(
+        b, scene, data, tmin, best, 1.0f,
+        [&](const rf_instance& inst) {
+          rf_ray r;
+          rf_ray_to_object_at(&r, inst.tree_from_trace, o[0], o[1], o[2], d[0], d[1], d[2]);
+          return r;
+        },
+        &out[q]);
   }
   return out;
 }
@@ -226,17 +248,18 @@ ThreeWays::ThreeWays(const Scene& scene) {
   tile = std::make_unique<Renderer>(scene, o);
 }
 
-std::vector<rf_pixel_hit> ThreeWays::reference(const Camera& cam, int animate_frame) {
-  FrameOptions none;
+std::vector<rf_pixel_hit> ThreeWays::reference(const Camera& cam, int animate_frame, const FrameOptions& base) {
+  FrameOptions none = base;
+  none.fold = FoldMode::none;
   none.animate_frame = animate_frame;
   return cpu->render(cam, 1, none).hits;
 }
 
-std::string ThreeWays::differences(const Camera& cam, int animate_frame) {
-  const std::vector<rf_pixel_hit> ref = reference(cam, animate_frame);
+std::string ThreeWays::differences(const Camera& cam, int animate_frame, const FrameOptions& base) {
+  const std::vector<rf_pixel_hit> ref = reference(cam, animate_frame, base);
   std::string out;
   for (FoldMode f : kAllFolds) {
-    FrameOptions o;
+    FrameOptions o = base;
     o.animate_frame = animate_frame;
     o.fold = f;
     for (auto [name, r] : {std::pair<const char*, Renderer*>{"single", single.get()}, {"tile", tile.get()}}) {

@@ -31,8 +31,10 @@ class Rng {
 };
 
 // Every pixel's closest hit by testing every triangle of every instance with
-// the shared triangle test and tie rule: what the trees must reproduce.
-std::vector<rf_pixel_hit> brute_force(const Scene& scene, const SceneData& data, const Camera& camera);
+// the shared triangle test and tie rule: what the trees must reproduce;
+// exact_depth: the depth of kernels/rf_depth.h, in object space.
+std::vector<rf_pixel_hit> brute_force(const Scene& scene, const SceneData& data, const Camera& camera,
+                                      bool exact_depth = false);
 // The same for ray queries: n world-space rays (origins, directions n x 3),
 // hits with tmin < t <= tmax, z = t (Renderer::intersect's answers).
 std::vector<rf_pixel_hit> brute_force_rays(const Scene& scene, const SceneData& data, const float* origins,
@@ -70,10 +72,11 @@ inline constexpr FoldMode kAllFolds[] = {FoldMode::none, FoldMode::y, FoldMode::
 struct ThreeWays {
   explicit ThreeWays(const Scene& scene);
   // The CPU reference's unfolded render.
-  std::vector<rf_pixel_hit> reference(const Camera& cam, int animate_frame = -1);
+  std::vector<rf_pixel_hit> reference(const Camera& cam, int animate_frame = -1, const FrameOptions& base = {});
   // "" when, for every fold mode, the single-ray and tile kernels equal the
-  // CPU reference's unfolded render; else every difference found.
-  std::string differences(const Camera& cam, int animate_frame = -1);
+  // CPU reference's unfolded render; else every difference found. base: the
+  // frame options besides the fold and animation (the exact depth).
+  std::string differences(const Camera& cam, int animate_frame = -1, const FrameOptions& base = {});
 
   std::unique_ptr<Renderer> cpu, single, tile;
 };

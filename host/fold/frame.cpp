@@ -6,6 +6,7 @@
 #include <cstring>
 
 #include "bvh/bvh_flatten.h"
+#include "fold/depth_xform.h"
 #include "fold/fold.h"
 #include "scene/animation.h"
 #include "util/errors.h"
@@ -81,7 +82,8 @@ rf_camera frame_camera(const Camera& camera, const Frame& frame) {
   params.slot_mirrors = fold_slot_mirrors(frame.fold);
   params.view_rep = 0;
   for (uint32_t v = 0; v < params.views; ++v) params.view_rep |= 1u << (v << params.group_shift);
-  params.write_flags = (frame.normals ? 0u : RF_WRITE_NO_NORMALS) | (frame.planar_depth ? RF_WRITE_PLANAR_DEPTH : 0u);
+  params.write_flags = (frame.normals ? 0u : RF_WRITE_NO_NORMALS) | (frame.planar_depth ? RF_WRITE_PLANAR_DEPTH : 0u) |
+                       (frame.exact_depth ? RF_WRITE_EXACT_DEPTH : 0u);
   return params;
 }
 
@@ -99,6 +101,7 @@ Frame build_frame(const Scene& scene, const SceneData& data, const std::vector<C
   frame.fold = options.fold;
   frame.normals = options.normals;
   frame.planar_depth = options.planar_depth;
+  frame.exact_depth = options.exact_depth;
   frame.node_base = static_cast<uint32_t>(data.blas.nodes.size());
   std::vector<Xform> world_from_trace, trace_from_world;
   for (const Camera& camera : cameras) {
@@ -110,6 +113,16 @@ Frame build_frame(const Scene& scene, const SceneData& data, const std::vector<C
     world_from_trace.push_back(camera.world_from_camera * view.camera_from_trace);
     trace_from_world.push_back(uniform_scale(-view.trace_exponent) * camera.camera_from_world);
     frame.views.push_back(view);
+  }
+  // The exact depth's table: each view's camera entry, then its instances'
+  // (filled below for those traced; the others are never hit).
+  const size_t instance_count = scene.instances.size();
+  frame.depth_instances = static_cast<uint32_t>(instance_count);
+  if (frame.exact_depth) {
+    frame.depth_xforms.assign(cameras.size() * (instance_count + 1), rf_depth_xform{});
+    for (size_t v = 0; v < cameras.size(); ++v)
+      frame.depth_xforms[v * (instance_count + 1)] =
+          make_depth_xform(Xform(1.0), cameras[v], frame.views[v].trace_exponent);
   }
 
   auto t0 = Clock::now();
@@ -148,6 +161,9 @@ Frame build_frame(const Scene& scene, const SceneData& data, const std::vector<C
       frame.views[v].out_of_range++;
       return;
     }
+    if (frame.exact_depth)
+      frame.depth_xforms[v * (instance_count + 1) + 1 + i] =
+          make_depth_xform(tree_from_world * world_from_trace[v], cameras[v], frame.views[v].trace_exponent);
     // The object-space ray starts at the float-rounded eye (the translation
     // column), up to half an ulp of its coordinates beside the exact one;
     // mapped back to camera space that shift must fit inside the item's box,

@@ -27,6 +27,10 @@ struct FrameOptions {
   std::vector<uint32_t> moved{};
   bool normals = true;         // false: the kernels write zero normals (RF_WRITE_NO_NORMALS)
   bool planar_depth = false;  // true: z along the camera's axis (RF_WRITE_PLANAR_DEPTH)
+  // true: z from the pixel's exact ray and the hit triangle's plane in
+  // double-float, rounded once (RF_WRITE_EXACT_DEPTH, kernels/rf_depth.h);
+  // false: from the traversal's float t.
+  bool exact_depth = false;
   // The caller takes the planes `channels` (RF_PLANE_*) names packed
   // (RenderResult::planes) where the renderer reads them back so
   // (Renderer::packs_planes); otherwise every pixel's hit info (hits).
@@ -74,9 +78,14 @@ struct Frame {
   std::vector<rf_instance> instances;  // in TLAS leaf order
   bool normals = true;                 // FrameOptions::normals
   bool planar_depth = false;           // FrameOptions::planar_depth
+  bool exact_depth = false;            // FrameOptions::exact_depth
   // Normal matrices of every scene instance when animation moved some this
   // frame; empty when SceneData's still hold.
   std::vector<rf_normal_xform> normal_xforms;
+  // The exact depth's rays (rf_depth_xform), view after view: the view's
+  // camera entry, then one per scene instance (depth_instances of them).
+  std::vector<rf_depth_xform> depth_xforms;
+  uint32_t depth_instances = 0;
   FrameStats stats;
 
   // One depth scale per view, as the kernels read them.

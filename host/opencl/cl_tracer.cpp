@@ -87,6 +87,8 @@ void ClTracer::upload_scene(const SceneData& data, size_t max_tlas_nodes, size_t
       {"rays", at_least_one(max_rays) * sizeof(uint32_t)},
       {"hits", at_least_one(pixel_count) * sizeof(rf_pixel_hit)},
       {"wide_nodes", at_least_one(data.wide_nodes.size()) * sizeof(rf_wide_node)},
+      // One view's; a pass of several grows it (upload_frame).
+      {"depth_xforms", (data.normal_xforms.size() + 1) * sizeof(rf_depth_xform)},
   };
   const DeviceInfo& info = device_.info();
   for (const BufferInfo& b : buffer_info_) {
@@ -116,6 +118,8 @@ void ClTracer::upload_scene(const SceneData& data, size_t max_tlas_nodes, size_t
     slots_[0].rays_capacity = at_least_one(max_rays);
     hits_ = cl::Buffer(ctx, CL_MEM_WRITE_ONLY, buffer_info_[5].bytes);
     wide_nodes_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, buffer_info_[6].bytes);
+    depth_xforms_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, buffer_info_[7].bytes);
+    depth_xforms_capacity_ = buffer_info_[7].bytes;
     if (!blas.nodes.empty())
       q.enqueueWriteBuffer(nodes_, CL_FALSE, 0, blas.nodes.size() * sizeof(rf_node), blas.nodes.data());
     if (!data.wide_nodes.empty())
@@ -148,6 +152,19 @@ double ClTracer::upload_frame(const Frame& frame) {
     if (!frame.normal_xforms.empty())
       q.enqueueWriteBuffer(normal_xforms_, CL_FALSE, 0, frame.normal_xforms.size() * sizeof(rf_normal_xform),
                            frame.normal_xforms.data());
+    if (!frame.depth_xforms.empty()) {
+      const size_t bytes = frame.depth_xforms.size() * sizeof(rf_depth_xform);
+      if (bytes > depth_xforms_capacity_) {
+        if (bytes > device_.info().max_alloc_bytes)
+          throw RuntimeFailure("the exact depth's table of " + std::to_string(frame.views.size()) + " views needs " +
+                               std::to_string(bytes >> 20) + " MiB, more than the largest allocation '" +
+                               device_.info().name + "' allows");
+        depth_xforms_ = cl::Buffer(device_.context(), CL_MEM_READ_ONLY, bytes);
+        depth_xforms_capacity_ = bytes;
+      }
+      q.enqueueWriteBuffer(depth_xforms_, CL_FALSE, 0, bytes, frame.depth_xforms.data());
+    }
+    depth_instances_ = frame.depth_instances;
     const std::vector<float> scales = frame.depth_scales();
     RF_CHECK(scales.size() <= RF_GROUP_LIMIT, "more views than one pass holds");
     q.enqueueWriteBuffer(depth_scales_, CL_FALSE, 0, scales.size() * sizeof(float), scales.data());
@@ -259,6 +276,8 @@ void ClTracer::enqueue_trace(const rf_camera& cam, KernelKind kind) {
     kernel.setArg(a++, cam.view_rep);
     kernel.setArg(a++, cam.write_flags);
     kernel.setArg(a++, depth_scales_);
+    kernel.setArg(a++, depth_xforms_);
+    kernel.setArg(a++, depth_instances_);
     kernel.setArg(a++, host_out_ ? host_hits_ : hits_);
     if (kind == KernelKind::tile && tile_stats_) {
       stats_ = cl::Buffer(device_.context(), CL_MEM_WRITE_ONLY,

@@ -128,6 +128,11 @@ class ClTracer {
   KernelPrecision precision_;
   std::vector<Programs> programs_;
   cl::Buffer nodes_, wide_nodes_, tris_, instances_, normal_xforms_, hits_, depth_scales_;
+  // The frame's exact-depth table (Frame::depth_xforms), grown when a pass
+  // of more views needs it.
+  cl::Buffer depth_xforms_;
+  size_t depth_xforms_capacity_ = 0;
+  uint32_t depth_instances_ = 0;
   // One uploaded ray list and its tile table. Slot 0's rays buffer is made
   // with the scene (its size is checked against the device's memory); the
   // others grow on first use.

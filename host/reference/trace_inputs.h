@@ -6,6 +6,7 @@
 #include <cstdint>
 
 #include "device_layout.h"
+#include "rf_depth.h"
 
 namespace rayfold::core {
 
@@ -19,6 +20,11 @@ struct TraceInputs {
   const rf_normal_xform* normal_xforms = nullptr;
   size_t normal_xform_count = 0;
   uint32_t tlas_root = RF_INVALID;
+  // The exact depth's table (Frame::depth_xforms); null where the frame
+  // writes the float depth.
+  const rf_depth_xform* depth_xforms = nullptr;
+  uint32_t depth_instances = 0;
+  rf_depth_table depth_table() const { return rf_depth_table{depth_xforms, depth_instances}; }
 };
 
 }  // namespace rayfold::core

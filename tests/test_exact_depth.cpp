@@ -1,0 +1,158 @@
+// The exact depth (kernels/rf_depth.h, FrameOptions::exact_depth): every
+// tracer and fold gives the same bits as the CPU reference and as brute force
+// written in object space; each depth is within one rounding of the double
+// reference's, where the float depth of the same views is not; planar and
+// orthographic depths too.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+
+#include "reference/double_reference.h"
+#include "renderer.h"
+#include "scene/gltf_loader.h"
+#include "test_util.h"
+
+namespace rayfold::core {
+namespace {
+
+using testing::Rng;
+
+FrameOptions exact(FoldMode fold = FoldMode::none) {
+  FrameOptions o;
+  o.fold = fold;
+  o.exact_depth = true;
+  return o;
+}
+
+CameraSpec orthographic(Rng& rng, const Aabb& bounds) {
+  CameraSpec spec = testing::random_camera(rng, bounds);
+  spec.orthographic = true;
+  spec.ymag = 0.5 * glm::length(glm::dvec3(bounds.hi - bounds.lo)) * rng.uniform(0.2, 1.0);
+  const glm::dvec3 centre = 0.5 * (glm::dvec3(bounds.lo) + glm::dvec3(bounds.hi));
+  const glm::dvec3 dir = glm::normalize(spec.look_at - spec.eye);
+  spec.eye = centre - dir * glm::length(glm::dvec3(bounds.hi - bounds.lo));
+  spec.look_at = centre;
+  return spec;
+}
+
+TEST(ExactDepth, KernelsEqualTheCpuReferenceInEveryFold) {
+  // Mirrored, non-uniformly scaled instances; off-centre principal points;
+  // eyes inside objects; orthographic views; planar depth.
+  Rng rng(4242);
+  int views = 0;
+  for (int s = 0; s < 3; ++s) {
+    const Scene scene = testing::generated_atrium(700 + s, 20 + 40 * s, 12000);
+    testing::ThreeWays r(scene);
+    for (int v = 0; v < 8; ++v, ++views) {
+      CameraSpec spec =
+          v % 4 == 3 ? orthographic(rng, scene.world_bounds()) : testing::random_camera(rng, scene.world_bounds());
+      if (v % 4 == 1) testing::move_eye_inside_an_instance(rng, scene, spec);
+      const double sx = v % 3 == 0 ? rng.uniform(-0.8, 0.8) : 0.0;
+      const Camera cam = make_camera(spec, 24 + rng.below(60), 16 + rng.below(50), sx, 0.0);
+      FrameOptions o = exact();
+      o.planar_depth = v % 2 == 1;
+      EXPECT_EQ(r.differences(cam, -1, o), "") << "scene " << s << " view " << v;
+    }
+  }
+  Rng soups(77);
+  for (int s = 0; s < 2; ++s) {
+    const Scene scene = testing::random_scene(soups, 2, 12, 150);
+    testing::ThreeWays r(scene);
+    for (int v = 0; v < 3; ++v, ++views) {
+      const Camera cam = make_camera(testing::random_camera(soups, scene.world_bounds()), 33 + v, 24 + v);
+      EXPECT_EQ(r.differences(cam, -1, exact()), "") << "soup " << s << " view " << v;
+    }
+  }
+  EXPECT_GE(views, 30);
+}
+
+TEST(ExactDepth, EqualsBruteForceInObjectSpace) {
+  // Brute force takes the same double-float steps in object and camera
+  // space, which differ from tree and trace space by powers of two.
+  Rng rng(91);
+  for (int s = 0; s < 3; ++s) {
+    const Scene scene = testing::random_scene(rng, 2, 10, 120);
+    RendererOptions cpu;
+    cpu.backend = Backend::cpu;
+    Renderer r(scene, cpu);
+    for (int v = 0; v < 4; ++v) {
+      const Camera cam =
+          make_camera(testing::random_camera(rng, scene.world_bounds()), 31 + v, 22 + v, v % 2 ? 0.3 : 0.0, 0.0);
+      const std::vector<rf_pixel_hit> expected = testing::brute_force(scene, r.scene_data(), cam, true);
+      for (FoldMode f : {FoldMode::none, FoldMode::xy})
+        EXPECT_EQ(testing::compare_hits(expected, r.render(cam, 1, exact(f)).hits, cam.width), "")
+            << "scene " << s << " view " << v << " fold " << fold_name(f);
+    }
+  }
+}
+
+// The largest relative depth error against the double reference over the
+// pixels that hit its triangle, and how many there were.
+std::pair<double, size_t> worst_depth(const std::vector<ReferenceHit>& ref, const std::vector<rf_pixel_hit>& hits) {
+  double worst = 0.0;
+  size_t n = 0;
+  for (size_t i = 0; i < ref.size(); ++i) {
+    if (ref[i].instance == RF_INVALID || ref[i].instance != hits[i].instance || ref[i].primitive != hits[i].primitive)
+      continue;
+    worst = std::max(worst, std::fabs(hits[i].z - ref[i].distance) / ref[i].distance);
+    ++n;
+  }
+  return {worst, n};
+}
+
+TEST(ExactDepth, WithinOneRoundingOfTheDoubleReference) {
+  // Eyes inside generated interiors, looking anywhere: grazing floors and
+  // walls, hits near the eye far from their tree's origin. The exact depth is
+  // within 2^-23 (one rounding, with room for the reference's own) on every
+  // pixel; the float depth of the same views is not, so the views do reach
+  // the tail.
+  Rng rng(515);
+  double float_worst = 0.0;
+  size_t pixels = 0;
+  for (int s = 0; s < 2; ++s) {
+    const Scene scene = testing::generated_atrium(900 + s, 60, 20000);
+    RendererOptions o;
+    o.kernel = KernelChoice::tile;
+    Renderer r(scene, o);
+    for (int v = 0; v < 4; ++v) {
+      CameraSpec spec = testing::random_camera(rng, scene.world_bounds());
+      if (v % 2 == 0) testing::move_eye_inside_an_instance(rng, scene, spec);
+      const Camera cam = make_camera(spec, 160, 120);
+      const std::vector<ReferenceHit> ref = trace_double_reference(scene, r.scene_data(), cam);
+      const auto [worst, n] = worst_depth(ref, r.render(cam, 1, exact()).hits);
+      EXPECT_LE(worst, 0x1p-23) << "scene " << s << " view " << v;
+      float_worst = std::max(float_worst, worst_depth(ref, r.render(cam).hits).first);
+      pixels += n;
+    }
+  }
+  EXPECT_GT(pixels, 20000u);
+  EXPECT_GT(float_worst, 0x1p-21) << "the views never left the float depth's first bits";
+}
+
+TEST(ExactDepth, PlanarIsTheDistanceTimesTheAxisCosine) {
+  // On the bundled atrium: planar = distance * cos(angle to the axis), each
+  // exact to one rounding, so they agree to two.
+  const Scene scene = load_gltf(std::string(RAYFOLD_SOURCE_DIR) + "/scenes/atrium.glb");
+  RendererOptions cpu;
+  cpu.backend = Backend::cpu;
+  Renderer r(scene, cpu);
+  const Camera cam = make_camera(*scene.camera, 90, 50, 0.2, -0.1);
+  FrameOptions planar = exact();
+  planar.planar_depth = true;
+  const std::vector<rf_pixel_hit> a = r.render(cam, 1, exact()).hits, b = r.render(cam, 1, planar).hits;
+  size_t hits = 0;
+  for (int y = 0; y < cam.height; ++y)
+    for (int x = 0; x < cam.width; ++x) {
+      const size_t i = static_cast<size_t>(y) * cam.width + x;
+      if (a[i].instance == RF_INVALID) continue;
+      const glm::dvec3 d = exact_direction(cam, x, y);
+      const double expected = static_cast<double>(a[i].z) * (-d.z / glm::length(d));
+      EXPECT_NEAR(b[i].z, expected, 0x1p-22 * expected) << "pixel " << x << ", " << y;
+      ++hits;
+    }
+  EXPECT_GT(hits, a.size() / 4);
+}
+
+}  // namespace
+}  // namespace rayfold::core
