@@ -169,6 +169,9 @@ void Renderer::begin_views(RenderResult& result, const std::vector<Camera>& came
                            const FrameOptions& frame_options) {
   RF_CHECK(!cameras.empty(), "nothing to render");
   RF_CHECK(result.packed_slot < 0, "a result still in flight (submit_views_into without finish_views)");
+  if (tracer_ && frame_options.exact_depth && options_.precision == KernelPrecision::fast)
+    throw InputError("", "the exact depth runs on the exact build only; this renderer was made with the fast one, "
+                         "whose reordered arithmetic drops the double-float steps");
   const Camera& camera = cameras[0];
   const size_t view_pixels = static_cast<size_t>(camera.width) * camera.height;
   const size_t pixels = view_pixels * cameras.size();

@@ -428,6 +428,44 @@ TEST(Api, RenderViewsEqualsEachViewAloneWhateverTheAlignment) {
   EXPECT_THROW(Camera::stereo_pair(eye, {0.0, 2.0, 0.0}, {0.0, 1.0, 0.0}, 50.0, 48, 30, 0.0), InputError);
 }
 
+TEST(Api, ExactDepthOfViewsTracedTogetherEqualsEachAlone) {
+  // A pass of several views reads each view's part of the exact depth's
+  // table; its bits are each view's alone, on both backends and folds, and
+  // only the depth differs from the float render's.
+  const Scene scene = Scene::load(RAYFOLD_SOURCE_DIR "/scenes/atrium.glb");
+  const Camera base = scene.default_camera(48, 30);
+  const Vec3 eye = base.eye();
+  std::vector<Camera> views;
+  for (int k = 0; k < 4; ++k)
+    views.push_back(Camera::look_at({eye[0] + 0.4 * k, eye[1] - 0.2 * k, eye[2] - 0.5 * k}, {0.0, 2.0, 0.0},
+                                    {0.0, 1.0, 0.0}, 50.0, 48, 30));
+  for (Backend backend : {Backend::cpu, Backend::opencl}) {
+    RendererOptions o;
+    o.backend = backend;
+    Renderer plain(scene, o);
+    o.exact_depth = true;
+    Renderer exact(scene, o);
+    for (Fold f : {Fold::none, Fold::xy}) {
+      const std::vector<GBuffer> gs = exact.render_views(views, f, 0);
+      ASSERT_EQ(gs.size(), views.size());
+      EXPECT_EQ(gs[0].views_in_trace, 4);
+      size_t changed = 0;
+      for (size_t v = 0; v < views.size(); ++v) {
+        EXPECT_TRUE(gs[v].exact_depth);
+        EXPECT_EQ(compare_hits(to_hits(exact.render(views[v], f)), to_hits(gs[v]), 48), "")
+            << "backend " << int(backend) << " fold " << int(f) << " view " << v;
+        std::vector<rf_pixel_hit> a = to_hits(plain.render(views[v], f)), b = to_hits(gs[v]);
+        for (size_t i = 0; i < a.size(); ++i) {
+          changed += a[i].z != b[i].z;
+          a[i].z = b[i].z;
+        }
+        EXPECT_EQ(compare_hits(a, b, 48), "") << "view " << v;
+      }
+      EXPECT_GT(changed, 0u);
+    }
+  }
+}
+
 TEST(Api, BadInputsThrowWithTheReason) {
   const std::string missing = message_of<InputError>([] { Scene::load("/no/such/file.glb"); });
   EXPECT_NE(missing.find("/no/such/file.glb"), std::string::npos) << missing;

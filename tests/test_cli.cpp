@@ -379,6 +379,37 @@ TEST(Cli, PlanarDepthIsRecordedAndAtMostTheDistance) {
   EXPECT_NE(r.err.find("--depth: 'distance'"), std::string::npos) << r.err;
 }
 
+// --exact-depth: Z from the exact ray, within float rounding of the float
+// Z, every other channel the same bits; the header says so; --fast refuses.
+TEST(Cli, ExactDepthChangesOnlyZAndIsRecorded) {
+  const fs::path d = work_dir();
+  CliRun r = rayfold("render --size 48x30 -o " + (d / "float.exr").string());
+  ASSERT_EQ(r.code, 0) << r.err;
+  r = rayfold("render --size 48x30 --exact-depth --fold xy -o " + (d / "exact.exr").string());
+  ASSERT_EQ(r.code, 0) << r.err;
+  int w = 0, h = 0;
+  const auto plain = read_exr((d / "float.exr").string(), &w, &h);
+  const auto exact = read_exr((d / "exact.exr").string(), &w, &h);
+  size_t changed = 0;
+  for (size_t i = 0; i < plain.size(); ++i) {
+    rf_pixel_hit rest = exact[i];
+    rest.z = plain[i].z;
+    ASSERT_EQ(std::memcmp(&rest, &plain[i], sizeof rest), 0) << "pixel " << i;
+    if (plain[i].instance == RF_INVALID) continue;
+    ASSERT_NEAR(exact[i].z, plain[i].z, 1e-5f * plain[i].z) << "pixel " << i;
+    changed += exact[i].z != plain[i].z;
+  }
+  EXPECT_GT(changed, 0u);
+  Imf::InputFile in((d / "exact.exr").string().c_str());
+  const auto* depth = in.header().findTypedAttribute<Imf::StringAttribute>("rayfold:depth");
+  ASSERT_NE(depth, nullptr);
+  EXPECT_NE(depth->value().find("--exact-depth"), std::string::npos) << depth->value();
+  r = rayfold("render --size 48x30 --fast --exact-depth -o " + (d / "bad.exr").string());
+  EXPECT_EQ(r.code, 2) << r.err;
+  EXPECT_NE(r.err.find("--exact-depth runs on the exact kernels"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(d / "bad.exr"));
+}
+
 // --channels writes only the channels named, with the full file's values.
 TEST(Cli, ChannelsWriteOnlyTheChannelsNamed) {
   const fs::path d = work_dir();

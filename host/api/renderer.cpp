@@ -49,6 +49,7 @@ struct Renderer::Impl {
   core::RenderResult second_result;  // the pass in flight beside it (render_views, packed readback)
   std::vector<rf_pixel_hit> query_hits;  // a query chunk's answers, kept from query to query
   bool planar_depth = false;   // RendererOptions::depth
+  bool exact_depth = false;    // RendererOptions::exact_depth
 
   void build() {
     core.reset();
@@ -93,6 +94,7 @@ Renderer::Renderer(const Scene& scene, const RendererOptions& options) : impl_(s
   impl_->options.kernel = to_core(options.kernel);
   impl_->options.threads = options.threads;
   impl_->planar_depth = options.depth == Depth::planar;
+  impl_->exact_depth = options.exact_depth;
   impl_->build();
 }
 
@@ -234,12 +236,13 @@ namespace {
 // A packed readback's planes (core::RenderResult::planes) are already laid
 // out as these: one copy each.
 void fill_gbuffer(GBuffer& g, const core::RenderResult& r, int width, int height, unsigned threads,
-                  unsigned channels, Depth depth_kind) {
+                  unsigned channels, Depth depth_kind, bool exact_depth) {
   const size_t n = static_cast<size_t>(width) * height;
   g.width = width;
   g.height = height;
   g.channels = channels;
   g.depth_kind = depth_kind;
+  g.exact_depth = exact_depth && (channels & kDepth) != 0;
   size_planes(channels, n, g.depth, g.normal, g.uv, g.instance_id, g.primitive_id);
   g.fold = from_core(r.fold);
   g.rays = r.rays;
@@ -280,12 +283,14 @@ void fill_gbuffer(GBuffer& g, const core::RenderResult& r, int width, int height
 }
 
 // The frame options of a render that asks for these planes.
-core::FrameOptions frame_options(Fold fold, std::vector<uint32_t> moved, unsigned channels, bool planar_depth) {
+core::FrameOptions frame_options(Fold fold, std::vector<uint32_t> moved, unsigned channels, bool planar_depth,
+                                 bool exact_depth) {
   core::FrameOptions frame;
   frame.fold = to_core(fold);
   frame.moved = std::move(moved);
   frame.normals = (channels & kNormal) != 0;
   frame.planar_depth = planar_depth;
+  frame.exact_depth = exact_depth && (channels & kDepth) != 0;
   frame.planes = true;
   frame.channels = channels;
   return frame;
@@ -300,10 +305,11 @@ static_assert(kDepth == RF_PLANE_DEPTH && kNormal == RF_PLANE_NORMAL && kUv == R
 void Renderer::render_into(GBuffer& g, const Camera& camera, Fold fold, unsigned channels) {
   check_channels(channels);
   const auto t0 = core::Clock::now();
-  const core::FrameOptions frame = frame_options(fold, impl_->moved(), channels, impl_->planar_depth);
+  const core::FrameOptions frame = frame_options(fold, impl_->moved(), channels, impl_->planar_depth, impl_->exact_depth);
   core::RenderResult& r = impl_->result;
   impl_->core->render_into(r, camera.core(), 1, frame);
-  fill_gbuffer(g, r, camera.width(), camera.height(), impl_->options.threads, channels, impl_->planar_depth ? Depth::planar : Depth::distance);
+  fill_gbuffer(g, r, camera.width(), camera.height(), impl_->options.threads, channels, impl_->planar_depth ? Depth::planar : Depth::distance,
+               impl_->exact_depth);
   g.frame_ms = core::ms_since(t0);
 }
 
@@ -321,7 +327,7 @@ void Renderer::render_views(const std::vector<Camera>& cameras, const std::funct
     throw InputError("", "align must be 0 (as many as a pass holds) to " + std::to_string(kMaxAlignedViews) + ", not " +
                              std::to_string(align));
   if (cameras.empty()) return;
-  const core::FrameOptions frame = frame_options(fold, impl_->moved(), channels, impl_->planar_depth);
+  const core::FrameOptions frame = frame_options(fold, impl_->moved(), channels, impl_->planar_depth, impl_->exact_depth);
   std::vector<core::Camera> views;
   views.reserve(cameras.size());
   for (const Camera& c : cameras) views.push_back(c.core());
@@ -350,7 +356,8 @@ void Renderer::render_views(const std::vector<Camera>& cameras, const std::funct
       for (size_t k = 0; k < pass.size(); ++k) {
         GBuffer g;
         fill_gbuffer(g, core::view_result(r, k), cameras[pass[k]].width(), cameras[pass[k]].height(),
-                     impl_->options.threads, channels, impl_->planar_depth ? Depth::planar : Depth::distance);
+                     impl_->options.threads, channels, impl_->planar_depth ? Depth::planar : Depth::distance,
+               impl_->exact_depth);
         g.views_in_trace = static_cast<int>(pass.size());
         g.trace_ms = r.median.trace_ms / static_cast<double>(pass.size());
         g.frame_ms = ms;

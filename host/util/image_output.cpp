@@ -146,7 +146,7 @@ class CheckedExrStream : public Imf::OStream {
 }  // namespace
 
 ExrMetadata view_metadata(const Camera& camera, const Scene& scene, const std::string& scene_label,
-                          const std::string& fold, bool planar_depth, const std::string& version) {
+                          const std::string& fold, bool planar_depth, bool exact_depth, const std::string& version) {
   ExrMetadata m;
   const Intrinsics k = intrinsics(camera);
   m.view = ExrMetadata::View{camera.world_from_camera, k.fx, k.fy, k.cx, k.cy, is_orthographic(camera)};
@@ -154,10 +154,13 @@ ExrMetadata view_metadata(const Camera& camera, const Scene& scene, const std::s
   m.strings = {{"version", version},
                {"scene", scene_label},
                {"fold", fold},
-               {"depth", planar_depth
-                             ? "Z is the depth along the camera's axis (camera-space -z, --depth planar); +inf on a miss"
-                             : "Z is the distance from the eye along the pixel's ray (not camera-space z); +inf on a "
-                               "miss"},
+               {"depth", std::string(planar_depth ? "Z is the depth along the camera's axis (camera-space -z, "
+                                                    "--depth planar); +inf on a miss"
+                                                  : "Z is the distance from the eye along the pixel's ray (not "
+                                                    "camera-space z); +inf on a miss") +
+                             (exact_depth ? ". Exact: from the pixel's exact ray and the hit triangle's plane in "
+                                            "double-float, rounded once (--exact-depth)"
+                                          : "")},
                {"miss", "InstanceID and PrimitiveID are 4294967295 on a miss"}};
   return m;
 }

@@ -33,9 +33,9 @@ struct ExrMetadata {
 // The metadata of one view's EXR, the same from the CLI and the API: the
 // camera's pose and intrinsics, the scene's instance names, and the strings
 // version, scene (a label: the file's path), fold (the one asked for) and
-// what the depth and ids mean.
+// what the depth (planar or not, exact or not) and ids mean.
 ExrMetadata view_metadata(const Camera& camera, const Scene& scene, const std::string& scene_label,
-                          const std::string& fold, bool planar_depth, const std::string& version);
+                          const std::string& fold, bool planar_depth, bool exact_depth, const std::string& version);
 
 // One part, channels Z, N.X, N.Y, N.Z, U, V (FLOAT), InstanceID, PrimitiveID
 // (UINT). With metadata, the header also carries:

@@ -192,6 +192,35 @@ def test_channels_fill_only_the_planes_asked_for(atrium):
         atrium.render(camera, channels=[])
 
 
+def test_exact_depth_changes_only_the_depth_and_is_the_same_everywhere(atrium):
+    """exact_depth=True: each depth from the pixel's exact ray in double-float;
+    the other planes are the float render's bits, the depth within float
+    rounding of it, and every backend, kernel, fold and call gives the same
+    bits."""
+    camera = atrium.default_camera(48, 30)
+    plain = atrium.render(camera)
+    exact = atrium.render(camera, exact_depth=True)
+    hit = np.isfinite(plain.depth)
+    assert hit.sum() > 200
+    np.testing.assert_allclose(exact.depth[hit], plain.depth[hit], rtol=1e-5)
+    assert np.all(np.isinf(exact.depth[~hit]))
+    assert np.any(bits(exact.depth) != bits(plain.depth)), "no pixel's depth changed"
+    assert exact.exact_depth and not plain.exact_depth
+    for plane in ("normal", "uv", "instance_id", "primitive_id"):
+        np.testing.assert_array_equal(bits(getattr(exact, plane)), bits(getattr(plain, plane)))
+    for g in [atrium.render(camera, fold="xy", exact_depth=True),
+              atrium.render(camera, backend="cpu", exact_depth=True),
+              atrium.render(camera, kernel="single", exact_depth=True),
+              atrium.render_views([camera], exact_depth=True)[0],
+              next(atrium.iter_views([camera], exact_depth=True)),
+              rayfold.Renderer(atrium, exact_depth=True).render(camera)]:
+        np.testing.assert_array_equal(bits(g.depth), bits(exact.depth))
+    planar = atrium.render(camera, depth="planar", exact_depth=True)
+    axis = -camera.camera_to_world[:3, 2]
+    cosine = camera.ray_directions() @ axis
+    np.testing.assert_allclose(planar.depth[hit], exact.depth[hit] * cosine[hit], rtol=1e-6)
+
+
 def test_planar_depth_is_the_distance_along_the_camera_axis(atrium):
     """depth='planar': the distance times the cosine of each pixel's ray to the
     camera's axis, the same bits on every backend and kernel and through every

@@ -13,7 +13,8 @@
 namespace rayfold::core::commands {
 
 ExrMetadata exr_metadata(const Camera& camera, const Scene& scene, const RenderArgs& args) {
-  return view_metadata(camera, scene, args.scene, fold_name(args.frame.fold), args.frame.planar_depth, RAYFOLD_VERSION);
+  return view_metadata(camera, scene, args.scene, fold_name(args.frame.fold), args.frame.planar_depth,
+                       args.frame.exact_depth, RAYFOLD_VERSION);
 }
 
 nlohmann::json camera_json(const Camera& camera) {

@@ -50,6 +50,7 @@ struct GBuffer {
   std::vector<uint32_t> primitive_id;  // triangle index within the mesh, kMiss on a miss
   unsigned channels = kAllChannels;    // the planes filled (Channels); the others are empty
   Depth depth_kind = Depth::distance;  // what `depth` measures (RendererOptions::depth)
+  bool exact_depth = false;            // depth from the exact ray in double-float (RendererOptions::exact_depth)
 
   Fold fold = Fold::none;  // the fold traced (one the camera allows; Camera::can_fold_columns)
   size_t rays = 0;         // rays traced

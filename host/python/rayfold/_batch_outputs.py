@@ -178,8 +178,9 @@ class ZarrOutput:
             "scene": scene.path,
             "instance_names": list(scene.instance_names),
             "fold": options["fold"],
-            "depth": "distance along each pixel's ray" if options["depth"] == "distance"
-                     else "depth along the camera's axis (planar)",
+            "depth": ("distance along each pixel's ray" if options["depth"] == "distance"
+                      else "depth along the camera's axis (planar)") +
+                     (", exact (double-float, within 2^-24)" if options.get("exact_depth") else ""),
             "unwritten": "depth, normal, uv NaN; ids 4294967295 (also a miss's id)",
             "miss": "depth inf, normal and uv 0, instance_id and primitive_id 4294967295",
             "pixel_centres": "at (x + 0.5, y + 0.5) from the top-left corner, rows going down",

@@ -16,15 +16,15 @@ CHUNK_VIEWS = 32
 
 
 def iter_views(scene, cameras, fold="none", align=0, backend="opencl", device="", kernel="auto", threads=0,
-               channels=None, depth="distance"):
+               channels=None, depth="distance", exact_depth=False):
     """Yields the GBuffer of each camera, in the order given; each view's bits
     equal scene.render(camera, fold=fold).
 
     cameras may be any iterable, a generator too: it is read 32 views at a
     time, and only those views' G-buffers are held, so memory stays flat
     however many views there are. align as in render_views (views of the same
-    size and intrinsics within 32 of each other trace together), channels and
-    depth as in render. A GBuffer the caller keeps stays valid; the next ones are new
+    size and intrinsics within 32 of each other trace together), channels,
+    depth and exact_depth as in render. A GBuffer the caller keeps stays valid; the next ones are new
     arrays."""
     it = iter(cameras)
     index = 0
@@ -36,7 +36,7 @@ def iter_views(scene, cameras, fold="none", align=0, backend="opencl", device=""
             if not isinstance(c, Camera):
                 raise TypeError(f"iter_views: camera {index + k} is a {type(c).__name__}, not a rayfold.Camera")
         yield from scene.render_views(chunk, fold=fold, align=align, backend=backend, device=device, kernel=kernel,
-                                      threads=threads, channels=channels, depth=depth)
+                                      threads=threads, channels=channels, depth=depth, exact_depth=exact_depth)
         index += len(chunk)
 
 

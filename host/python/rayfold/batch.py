@@ -202,7 +202,7 @@ class _Progress:
 
 
 def render(scene, cameras, out, *, workers=1, address=None, fold="none", align=0, channels=None,
-           depth="distance", backend="opencl", device="", kernel="auto", verify=True, retries=3,
+           depth="distance", exact_depth=False, backend="opencl", device="", kernel="auto", verify=True, retries=3,
            batch_views=BATCH_VIEWS, width=0, height=0, progress=True, send="auto", gpu_workers=0,
            exr_compression=None, _after_ray_start=None):
     """Renders every camera's view of `scene` (a rayfold.Scene, or the path
@@ -257,13 +257,14 @@ def render(scene, cameras, out, *, workers=1, address=None, fold="none", align=0
     output = make_output(out, len(cameras), exr_compression)
     manifest_dir = os.path.join(output.folder, MANIFEST_DIR)
     options = dict(fold=fold, align=align, backend=backend, device=device, kernel=kernel, channels=channels,
-                   depth=depth)
+                   depth=depth, exact_depth=bool(exact_depth))
     output.prepare(cameras, loaded, options)
     # What a view's file shows: a rerun keeps the file only when all of it is the same.
     scene_bytes = None if scene_path else loaded.to_bytes()
     scene_digest = sha256_file(scene_path) if scene_path else hashlib.sha256(scene_bytes).hexdigest()
     common = json.dumps([scene_digest, fold, str(channels), depth, __version__] +
-                        ([exr_compression] if exr_compression not in (None, "zip") else [])).encode()
+                        ([exr_compression] if exr_compression not in (None, "zip") else []) +
+                        (["exact_depth"] if exact_depth else [])).encode()
     keys = [hashlib.sha256(common + c.__getstate__()).hexdigest() if c is not None else None for c in cameras]
 
     records = _read_manifest(manifest_dir)
@@ -413,6 +414,9 @@ def main(argv=None):
     p.add_argument("--align", type=int, default=0, help="views traced together (0: as many as a trace holds)")
     p.add_argument("--channels", help="the planes written, for example depth,instance_id (default all)")
     p.add_argument("--depth", default="distance", choices=["distance", "planar"])
+    p.add_argument("--exact-depth", action="store_true",
+                   help="each depth from the pixel's exact ray in double-float, within 2^-24 of the exact value "
+                        "(about 1.1x to 1.25x the frame time on a CPU)")
     p.add_argument("--exr-compression", choices=["zip", "zips", "piz", "rle", "none"],
                    help="the EXRs' lossless compression: zip (default); none writes 3 to 4 times faster at 10 times "
                         "the bytes")
@@ -437,7 +441,8 @@ def main(argv=None):
                 raise InputError(f"--size {a.size!r}: expected WxH, for example 640x480")
         cameras = a.cameras if a.cameras else a.colmap
         s = render(a.scene, cameras, a.output, workers=a.workers, address=a.address, fold=a.fold, align=a.align,
-                   channels=a.channels, depth=a.depth, backend=a.backend, device=a.device, verify=not a.no_verify,
+                   channels=a.channels, depth=a.depth, exact_depth=a.exact_depth, backend=a.backend,
+                   device=a.device, verify=not a.no_verify,
                    retries=a.retries, width=width, height=height, progress=not a.quiet, send=a.send,
                    gpu_workers=a.gpu_workers, exr_compression=a.exr_compression,
                    _after_ray_start=_unwind_on_signals)
