@@ -29,9 +29,9 @@ PeerOptions small_run(int width, int height) {
 TEST(Peers, EveryVariantIsMeasured) {
   const PeerOptions opt = small_run(96, 54);
   const PeerReport r = run_peers(opt);
-  // Four rayfold variants in four fold modes, then Embree instanced, flat and
+  // Five rayfold variants in four fold modes, then Embree instanced, flat and
   // flat at high build quality, single rays and packets.
-  ASSERT_EQ(r.rows.size(), EmbreePeer::available() ? 22u : 16u);
+  ASSERT_EQ(r.rows.size(), EmbreePeer::available() ? 26u : 20u);
   if (!EmbreePeer::available()) {
     EXPECT_FALSE(r.embree_note.empty());
   }
@@ -51,6 +51,14 @@ TEST(Peers, EveryVariantIsMeasured) {
   EXPECT_EQ(r.rows[0].variant, "OpenCL tile");
   EXPECT_TRUE(r.rows[0].exact);
   EXPECT_FALSE(r.rows[8].exact) << r.rows[8].variant;  // the fast build promises no bits
+  // The exact depth: validated against the CPU reference's exact depth, and
+  // within one rounding of the double reference where the tile's is not.
+  for (int k = 12; k < 16; ++k) {
+    EXPECT_EQ(r.rows[k].variant, "OpenCL tile exact depth");
+    EXPECT_TRUE(r.rows[k].exact);
+    EXPECT_LE(r.rows[k].accuracy.depth_max, 0x1p-23) << r.rows[k].fold;
+    EXPECT_LT(r.rows[k].accuracy.depth_max, r.rows[0].accuracy.depth_max) << r.rows[k].fold;
+  }
   const std::string md = peers_markdown(r);
   EXPECT_NE(md.find("| OpenCL tile | xy |"), std::string::npos);
   EXPECT_NE(md.find("| OpenCL single | xy |"), std::string::npos);

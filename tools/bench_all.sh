@@ -27,9 +27,11 @@
 # where a scene's description says otherwise (Lost Empire: a Minecraft
 # interior). The stats and the alignment paths start from the scenes'
 # suggested views (../shared/scenes/README.md). rayfold-peers times the
-# variants $PEER_VARIANTS (default tile,fast: on a CPU device the single-ray
-# kernel is 3 to 20 times slower than the tile kernel, docs/results.md; the
-# CPU reference validates every exact image whatever is timed). Extra
+# variants $PEER_VARIANTS (default tile,fast,exact-depth: on a CPU device the
+# single-ray kernel is 3 to 20 times slower than the tile kernel,
+# docs/results.md; exact-depth is the tile kernel with the exact depth, for
+# its speed against its depth tail; the CPU reference validates every exact
+# image whatever is timed). Extra
 # arguments go to every tool (e.g. --frames 3 for a shorter run).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -39,7 +41,7 @@ stats=${RAYFOLD_STATS:-build/rayfold-stats}
 shared=${RAYFOLD_SCENES_DIR:-../shared/scenes}
 out=${OUT_DIR:-out/bench}
 random=(--random-views "${RANDOM_VIEWS:-16}" --seed "${SEED:-1}")
-variants=${PEER_VARIANTS:-tile,fast}
+variants=${PEER_VARIANTS:-tile,fast,exact-depth}
 python_peers=${BENCH_PYTHON:-}
 mkdir -p "$out"
 args=("$@")

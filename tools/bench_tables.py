@@ -82,10 +82,15 @@ def load_peers(paths):
     return reports
 
 
-def fastest(r, embree):
-    """The fastest exact OpenCL row (embree False) or Embree row (True)."""
+EXACT_DEPTH = "exact depth"
+
+
+def fastest(r, embree, exact_depth=False):
+    """The fastest exact OpenCL row (embree False; exact_depth: of the
+    variants with the exact depth, else of the others) or Embree row (True)."""
     rows = [x for x in r["rows"] if x["variant"].startswith("Embree") == embree and x["ms"] > 0 and
-            (embree or (x["exact"] and x["variant"].startswith("OpenCL")))]
+            (embree or (x["exact"] and x["variant"].startswith("OpenCL") and
+                        x["variant"].endswith(EXACT_DEPTH) == exact_depth))]
     return max(rows, key=lambda x: x["mpixels_per_s"]) if rows else None
 
 
@@ -105,12 +110,16 @@ def peers_tables(paths, file_paths=()):
           "Embree's flat scene build (ms), and their peak resident memory (bytes per scene triangle, instances counted each time; the high-water "
           "mark during the build, less where it started). First G-buffer: rayfold's load, renderer (trees, device, "
           "programs) and first frame against Embree's default flat build and first frame (ms). Depth: relative error "
-          "against the double-precision reference on same-triangle pixels, worst view's p99 and maximum.\n")
+          "against the double-precision reference on same-triangle pixels, worst view's p99 and maximum. Exact "
+          "depth: the tile kernel with each depth from the pixel's exact ray in double-float (--exact-depth), its "
+          "fastest fold, against Embree's fastest mode, and its depth error.\n")
     print("| scene | views | rayfold (mode) | Embree flat 16 | Embree flat high 16 | vs Embree fastest | file camera | "
           "build rayfold | build Embree / high | B/triangle rayfold / Embree | first G-buffer rayfold / Embree | "
-          "depth p99 rayfold / Embree | depth max rayfold / Embree |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+          "depth p99 rayfold / Embree | depth max rayfold / Embree | exact depth: vs Embree fastest | "
+          "exact depth: p99 / max |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     ratios, invalid, worse_depth, slower_build, slower_first = {}, [], [], [], []
+    exact_ratios, exact_worse_depth = {}, []
     for r in reports:
         if not r.get("valid", True):
             invalid.append(r["name"])
@@ -135,6 +144,14 @@ def peers_tables(paths, file_paths=()):
         if first_theirs and first_ours > first_theirs:
             slower_first.append(r["name"])
         first = f"{first_ours:.0f} / {first_theirs:.0f}" if first_ours else "-"
+        ex = fastest(r, False, exact_depth=True)
+        exact_cells = "- | -"
+        if ex:
+            exact_ratios[r["name"]] = ex["mpixels_per_s"] / theirs["mpixels_per_s"]
+            if ex["depth_error_p99"] > theirs["depth_error_p99"] or ex["depth_error_max"] > theirs["depth_error_max"]:
+                exact_worse_depth.append(r["name"])
+            exact_cells = (f"{exact_ratios[r['name']]:.2f}x ({ex['fold']}) | {ex['depth_error_p99']:.1e} / "
+                           f"{ex['depth_error_max']:.1e}")
         mode = ours["variant"].replace("OpenCL ", "") + " " + ours["fold"]
         note = r.get("views_note", "")
         views = " ".join(note.split()[1:3] + note.split()[4:6]).rstrip(" (") if note else "path"
@@ -143,7 +160,8 @@ def peers_tables(paths, file_paths=()):
               f"{r.get('rayfold_build_ms', 0):.0f} | {r.get('embree_build_ms', 0):.0f} / "
               f"{r.get('embree_high_build_ms', 0):.0f} | {r.get('rayfold_build_bytes_per_triangle', 0):.0f} / "
               f"{r.get('embree_build_bytes_per_triangle', 0):.0f} | {first} | {ours['depth_error_p99']:.1e} / "
-              f"{theirs['depth_error_p99']:.1e} | {ours['depth_error_max']:.1e} / {theirs['depth_error_max']:.1e} |")
+              f"{theirs['depth_error_p99']:.1e} | {ours['depth_error_max']:.1e} / {theirs['depth_error_max']:.1e} | "
+              f"{exact_cells} |")
     if ratios:
         med, low = median(list(ratios.values())), min(ratios.values())
         lowest = min(ratios, key=ratios.get)
@@ -156,6 +174,11 @@ def peers_tables(paths, file_paths=()):
               f"slower than Embree's default: {'met' if not slower_build else 'NOT met on ' + ', '.join(slower_build)}. "
               f"First G-buffer no slower than Embree's build and first frame: "
               f"{'met' if not slower_first else 'NOT met on ' + ', '.join(slower_first)}.")
+    if exact_ratios:
+        print(f"With the exact depth: median **{median(list(exact_ratios.values())):.2f}x** Embree's fastest mode, "
+              f"lowest {min(exact_ratios.values()):.2f}x on {min(exact_ratios, key=exact_ratios.get)}; depth error "
+              f"no worse than Embree's (p99 and max): "
+              f"{'met' if not exact_worse_depth else 'NOT met on ' + ', '.join(exact_worse_depth)}.")
     if invalid:
         print(f"\n**Not exact on {', '.join(invalid)}: those figures are not valid.**")
     print("\nAccuracy of every variant against the double-precision reference (other triangle; relative "

@@ -62,11 +62,14 @@ PeerReport run_peers(const PeerOptions& opt) {
     Backend backend;
     KernelChoice kernel;
     KernelPrecision precision;
+    bool exact_depth;  // FrameOptions::exact_depth
   };
-  const Ours all_ours[] = {{"tile", "OpenCL tile", Backend::opencl, KernelChoice::tile, KernelPrecision::exact},
-                           {"single", "OpenCL single", Backend::opencl, KernelChoice::single, KernelPrecision::exact},
-                           {"fast", "OpenCL tile fast", Backend::opencl, KernelChoice::tile, KernelPrecision::fast},
-                           {"cpu", "CPU reference", Backend::cpu, KernelChoice::automatic, KernelPrecision::exact}};
+  const Ours all_ours[] = {
+      {"tile", "OpenCL tile", Backend::opencl, KernelChoice::tile, KernelPrecision::exact, false},
+      {"single", "OpenCL single", Backend::opencl, KernelChoice::single, KernelPrecision::exact, false},
+      {"fast", "OpenCL tile fast", Backend::opencl, KernelChoice::tile, KernelPrecision::fast, false},
+      {"exact-depth", "OpenCL tile exact depth", Backend::opencl, KernelChoice::tile, KernelPrecision::exact, true},
+      {"cpu", "CPU reference", Backend::cpu, KernelChoice::automatic, KernelPrecision::exact, false}};
   // The CPU reference renderer always exists (it validates every exact row);
   // its rows are timed only when asked for.
   std::vector<Ours> ours;
@@ -159,6 +162,13 @@ PeerReport run_peers(const PeerOptions& opt) {
     // Exact variants are validated against the CPU reference's unfolded
     // image, bit for bit, before their figures count.
     const std::vector<rf_pixel_hit> exact = renderers.back()->render(cam, 1, FrameOptions{}).hits;
+    std::vector<rf_pixel_hit> exact_depth;  // the same with the exact depth, when a variant has it
+    for (size_t r = 0; r < timed_renderers; ++r)
+      if (ours[r].exact_depth && exact_depth.empty()) {
+        FrameOptions fo;
+        fo.exact_depth = true;
+        exact_depth = renderers.back()->render(cam, 1, fo).hits;
+      }
     if (embree) embree->set_camera(cam);
     // Every variant once to warm up, then all take turns frame by frame, so
     // that the drift of a noisy machine affects them alike.
@@ -172,6 +182,7 @@ PeerReport run_peers(const PeerOptions& opt) {
         for (FoldMode fold : folds) {
           FrameOptions fo;
           fo.fold = fold;
+          fo.exact_depth = ours[r].exact_depth;
           RenderResult& res = last[a];  // its hit buffer is reused frame to frame
           renderers[r]->render_into(res, cam, 1, fo);
           if (f >= 0) ms[a].push_back(res.frames[0].ray_list_ms + res.frames[0].trace_ms + res.frames[0].readback_ms);
@@ -192,7 +203,7 @@ PeerReport run_peers(const PeerOptions& opt) {
         const RenderResult& res = last[a];
         if (ours[r].precision == KernelPrecision::exact) {
           acc[a].row.exact = true;
-          acc[a].row.mismatched_pixels += count_differing_pixels(exact, res.hits);
+          acc[a].row.mismatched_pixels += count_differing_pixels(ours[r].exact_depth ? exact_depth : exact, res.hits);
         }
         acc[a].add(median(ms[a]), res.rays, res.hits.size(), measure_accuracy(reference, res.hits), opt.views);
       }

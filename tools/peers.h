@@ -23,7 +23,7 @@ struct PeerOptions : ViewPath {
   // rayfold's rows: tile, single (the single-ray kernel), fast (the tile
   // kernel's fast build), cpu (the CPU reference, timed; it validates every
   // exact row whether timed or not).
-  std::set<std::string> variants{"tile", "single", "fast", "cpu"};
+  std::set<std::string> variants{"tile", "single", "fast", "exact-depth", "cpu"};
   bool merge = true;  // static instances of one transform share a tree (MergeOptions)
 };
 

@@ -30,10 +30,11 @@ int main(int argc, char** argv) {
         std::puts(
             "usage: rayfold-peers [SCENE] [--size WxH] [--views K] [--frames N] [--warmup N] [--threads N]\n"
             "                     [--eye X,Y,Z --look-at X,Y,Z | --random-views K [--seed S]\n"
-            "                     [--view-kind auto|interior|object]] [--variants tile,single,fast,cpu]\n"
+            "                     [--view-kind auto|interior|object]]\n"
+            "                     [--variants tile,single,fast,exact-depth,cpu]\n"
             "                     [--device NAME] [--rays N] [--no-merge] [--json F] [--md F]\n"
-            "Speed against accuracy: rayfold's OpenCL tile and single-ray kernels, the fast build and the\n"
-            "CPU reference in every fold mode, and Embree's rtcIntersect1 and rtcIntersect16 over an\n"
+            "Speed against accuracy: rayfold's OpenCL tile and single-ray kernels, the fast build, the\n"
+            "tile kernel with the exact depth and the CPU reference in every fold mode, and Embree's rtcIntersect1 and rtcIntersect16 over an\n"
             "instanced and a flat scene (when installed), on the same views, each measured against a\n"
             "double-precision reference. Exact variants are checked bit for bit against the CPU reference\n"
             "first (exit code 3 when one differs). --rays N adds ray queries (Renderer::intersect) against\n"
@@ -48,8 +49,8 @@ int main(int argc, char** argv) {
       } else if (a == "--variants") {
         opt.variants.clear();
         for (const std::string& v : cli::split_list(a, args.value(a))) {
-          if (v != "tile" && v != "single" && v != "fast" && v != "cpu")
-            throw UsageError("--variants: expected a list of tile, single, fast, cpu; got '" + v + "'");
+          if (v != "tile" && v != "single" && v != "fast" && v != "exact-depth" && v != "cpu")
+            throw UsageError("--variants: expected a list of tile, single, fast, exact-depth, cpu; got '" + v + "'");
           opt.variants.insert(v);
         }
       } else if (a == "--device") {
