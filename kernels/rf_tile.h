@@ -602,7 +602,7 @@ typedef struct {
 RF_INLINE void rf_tile_gather_tris(const rf_tile_hits* h, int j, rf_vi hit, const RF_GLOBAL rf_tri* tris,
                                    rf_tile_lane_tris* lt) {
   float gv[9][RF_LANES];
-  rf_u32 gkey[RF_LANES];
+  rf_u32 ginst[RF_LANES];
   const rf_u32* tri_idx = (const rf_u32*)&h->tri[j];
   const rf_u32* inst_idx = (const rf_u32*)&h->instance[j];
   const rf_vi missed = ~hit;
@@ -616,16 +616,19 @@ RF_INLINE void rf_tile_gather_tris(const rf_tile_hits* h, int j, rf_vi hit, cons
       gv[3 + k][l] = tri->v1[k];
       gv[6 + k][l] = tri->v2[k];
     }
-    gkey[l] = lane_hit ? rf_depth_key(inst_idx[l], tri) : 0u;
+    ginst[l] = tri->inst;
   }
   for (int k = 0; k < 9; ++k) {
     lt->v[k] = one_tri ? (rf_vf)(gv[k][0]) : *(const rf_vf*)gv[k];
     lt->v0[k] = gv[k][0];
   }
   lt->one_tri = one_tri;
-  lt->key0 = gkey[0];
-  lt->key = one_tri ? (rf_vu)(gkey[0]) : rf_lanes_load_u(0, gkey);
-  lt->one_key = !rf_lanes_any(missed | (lt->key != (rf_vu)(gkey[0])));
+  /* rf_depth_key per lane: lanes on one triangle index may still hit
+   * different instances of its mesh. */
+  const rf_vu tri_inst = one_tri ? (rf_vu)(ginst[0]) : rf_lanes_load_u(0, ginst);
+  lt->key = select((rf_vu)(0u), h->instance[j] - tri_inst, hit);
+  lt->key0 = ((const rf_u32*)&lt->key)[0];
+  lt->one_key = !rf_lanes_any(missed | (lt->key != (rf_vu)(lt->key0)));
 }
 
 /* rf_tri_set_normal's cross product on lanes: the same floats. */
