@@ -50,9 +50,6 @@
 typedef struct {
   rf_vf dx[RF_LANE_GROUPS], dy[RF_LANE_GROUPS];
   rf_vf ix[RF_LANE_GROUPS], iy[RF_LANE_GROUPS];
-  /* The pixel offsets 2x + kx0 and ky0 - 2y, exact in float (the exact
-   * depth's, rf_depth.h; camera tiles only). */
-  rf_vf kx[RF_LANE_GROUPS], ky[RF_LANE_GROUPS];
   float lo[3], hi[3];
 } rf_tile_camera;
 
@@ -586,10 +583,12 @@ RF_INLINE void rf_tile_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBA
   }
 }
 
-/* The triangles of lane group j's hits, for the normals and the depth:
- * their vertices (lane 0's where a lane missed; its results are not used)
- * and each lane's rf_depth_key. One load for the whole vector when its lanes
- * agree, as on large triangles, else a gather. */
+/* The triangles of lane group j's hits, for the exact depth: their
+ * vertices (lane 0's where a lane missed; its results are not used) and
+ * each lane's rf_depth_key. One load for the whole vector when its lanes
+ * agree, as on large triangles, else a gather. (The normals gather their
+ * own: sharing this one slowed the float depth's frames, which do not need
+ * the keys, by a tenth on Sponza.) */
 typedef struct {
   rf_vf v[9]; /* v0, v1, v2 by coordinate */
   rf_vu key;
@@ -631,38 +630,51 @@ RF_INLINE void rf_tile_gather_tris(const rf_tile_hits* h, int j, rf_vi hit, cons
   lt->one_key = !rf_lanes_any(missed | (lt->key != (rf_vu)(lt->key0)));
 }
 
-/* rf_tri_set_normal's cross product on lanes: the same floats. */
-RF_INLINE void rf_tile_lane_cross(const rf_tile_lane_tris* lt, rf_vf* c) {
-  const rf_vf* v = lt->v;
-  const rf_vf e1x = v[3] - v[0], e1y = v[4] - v[1], e1z = v[5] - v[2];
-  const rf_vf e2x = v[6] - v[0], e2y = v[7] - v[1], e2z = v[8] - v[2];
-  c[0] = e1y * e2z - e1z * e2y;
-  c[1] = e1z * e2x - e1x * e2z;
-  c[2] = e1x * e2y - e1y * e2x;
-}
-
 /* rf_geometric_normal for the lanes of lane group j that hit (hit: their
  * mask), with the scalar code's operations per lane; 0 where a lane
  * missed or its triangle is degenerate. */
-RF_INLINE void rf_tile_lane_normals(const rf_tile_hits* h, int j, rf_vi hit, const rf_tile_lane_tris* lt,
-                                    const RF_GLOBAL rf_normal_xform* normal_xforms, rf_vf* nx, rf_vf* ny, rf_vf* nz) {
-  /* Each lane's normal matrix (lane 0's where a lane missed): one load
-   * for the whole vector when its lanes agree, as within one instance,
-   * else a gather. */
-  float gm[9][RF_LANES];
+RF_INLINE void rf_tile_lane_normals(const rf_tile_hits* h, int j, rf_vi hit, const RF_GLOBAL rf_tri* tris,
+                                    const RF_GLOBAL rf_normal_xform* normal_xforms, rf_vf* nx, rf_vf* ny,
+                                    rf_vf* nz) {
+  /* Each lane's triangle and normal matrix (lane 0's where a lane missed;
+   * its result is replaced below): one load for the whole vector when its
+   * lanes agree, as on large triangles and within one instance, else a
+   * gather. */
+  float gv[9][RF_LANES], gm[9][RF_LANES];
+  const rf_u32* tri_idx = (const rf_u32*)&h->tri[j];
   const rf_u32* inst_idx = (const rf_u32*)&h->instance[j];
-  const int one_inst = !rf_lanes_any(~hit | (h->instance[j] != (rf_vu)(inst_idx[0])));
+  const rf_vi all_hit = ~hit;
+  const int one_tri = !rf_lanes_any(all_hit | (h->tri[j] != (rf_vu)(tri_idx[0])));
+  const int one_inst = !rf_lanes_any(all_hit | (h->instance[j] != (rf_vu)(inst_idx[0])));
   for (int l = 0; l < RF_LANES; ++l) {
-    if (one_inst && l > 0) break;
-    const RF_GLOBAL float* m = normal_xforms[inst_idx[l] != RF_INVALID ? inst_idx[l] : 0u].m;
-    for (int k = 0; k < 9; ++k) gm[k][l] = m[k];
+    const int lane_hit = inst_idx[l] != RF_INVALID;
+    if (!one_tri || l == 0) {
+      const RF_GLOBAL rf_tri* tri = &tris[lane_hit ? tri_idx[l] : 0u];
+      for (int k = 0; k < 3; ++k) {
+        gv[k][l] = tri->v0[k];
+        gv[3 + k][l] = tri->v1[k];
+        gv[6 + k][l] = tri->v2[k];
+      }
+    }
+    if (!one_inst || l == 0) {
+      const RF_GLOBAL float* m = normal_xforms[lane_hit ? inst_idx[l] : 0u].m;
+      for (int k = 0; k < 9; ++k) gm[k][l] = m[k];
+    }
   }
-  rf_vf c[3], m[9];
-  rf_tile_lane_cross(lt, c);
-  for (int k = 0; k < 9; ++k) m[k] = one_inst ? (rf_vf)(gm[k][0]) : *(const rf_vf*)gm[k];
-  rf_vf wx = m[0] * c[0] + m[1] * c[1] + m[2] * c[2];
-  rf_vf wy = m[3] * c[0] + m[4] * c[1] + m[5] * c[2];
-  rf_vf wz = m[6] * c[0] + m[7] * c[1] + m[8] * c[2];
+#define RF_G(a, k) (one_##a ? (rf_vf)(a[k][0]) : *(const rf_vf*)a[k])
+#define one_gv one_tri
+#define one_gm one_inst
+  const rf_vf e1x = RF_G(gv, 3) - RF_G(gv, 0), e1y = RF_G(gv, 4) - RF_G(gv, 1), e1z = RF_G(gv, 5) - RF_G(gv, 2);
+  const rf_vf e2x = RF_G(gv, 6) - RF_G(gv, 0), e2y = RF_G(gv, 7) - RF_G(gv, 1), e2z = RF_G(gv, 8) - RF_G(gv, 2);
+  const rf_vf cx = e1y * e2z - e1z * e2y;
+  const rf_vf cy = e1z * e2x - e1x * e2z;
+  const rf_vf cz = e1x * e2y - e1y * e2x;
+  rf_vf wx = RF_G(gm, 0) * cx + RF_G(gm, 1) * cy + RF_G(gm, 2) * cz;
+  rf_vf wy = RF_G(gm, 3) * cx + RF_G(gm, 4) * cy + RF_G(gm, 5) * cz;
+  rf_vf wz = RF_G(gm, 6) * cx + RF_G(gm, 7) * cy + RF_G(gm, 8) * cz;
+#undef RF_G
+#undef one_gv
+#undef one_gm
   const rf_vf big = rf_lanes_max(rf_lanes_max(fabs(wx), fabs(wy)), fabs(wz));
   const rf_vi degenerate = ~(big > (rf_vf)(0.0f));
   wx = wx / big;
@@ -689,15 +701,29 @@ typedef struct {
   float pl[8];
 } rf_tile_plane_cache;
 
-RF_INLINE rf_vf rf_tile_lane_depths(const rf_tile_camera* tc, int j, const rf_camera* cam, rf_u32 g,
+RF_INLINE rf_vf rf_tile_lane_depths(const RF_GLOBAL rf_u32* rays, rf_u32 begin, rf_u32 count, int j,
+                                    const rf_camera* cam, rf_u32 g,
                                     const rf_tile_hits* h, rf_vi hit, const rf_tile_lane_tris* lt,
                                     const rf_depth_table* dt, float depth_scale, rf_tile_plane_cache* cache, rf_vf z) {
   const rf_u32 view = g >> cam->group_shift;
   const rf_u32 mirror = rf_group_mirror(g, cam);
   const RF_GLOBAL rf_depth_xform* cam_xf = &dt->xforms[(size_t)view * (dt->instances + 1u)];
-  /* The mirrored pixel's offsets: 2 (xpair - x) + kx0, exact. */
-  const rf_vf ix = (mirror & 1u) ? (rf_vf)((float)(2 * cam->xpair + 2 * cam->kx0)) - tc->kx[j] : tc->kx[j];
-  const rf_vf iy = (mirror & 2u) ? (rf_vf)((float)(2 * cam->ky0 - 2 * cam->ypair)) - tc->ky[j] : tc->ky[j];
+  /* Each lane's pixel offsets 2 px + kx0 and ky0 - 2 py (px, py its ray's
+   * pixel mirrored as g says; rays j * RF_LANES + l of the tile), exact in
+   * float. Decoded here rather than kept with the tile's rays, which the
+   * float depth's frames would pay for. */
+  float gix[RF_LANES], giy[RF_LANES];
+  for (int l = 0; l < RF_LANES; ++l) {
+    const rf_u32 r = (rf_u32)(j * RF_LANES + l);
+    const rf_u32 entry = rays[begin + (r < count ? r : count - 1u)];
+    const rf_i32 x = (rf_i32)(entry & RF_RAY_COORD_MASK);
+    const rf_i32 y = (rf_i32)((entry >> RF_RAY_COORD_BITS) & RF_RAY_COORD_MASK);
+    const rf_i32 px = (mirror & 1u) ? cam->xpair - x : x;
+    const rf_i32 py = (mirror & 2u) ? cam->ypair - y : y;
+    gix[l] = (float)(2 * px + cam->kx0);
+    giy[l] = (float)(cam->ky0 - 2 * py);
+  }
+  const rf_vf ix = *(const rf_vf*)gix, iy = *(const rf_vf*)giy;
   /* The plane part: once for the vector where its lanes share the
    * triangle and the tree (large triangles), else per lane, each lane's
    * transform gathered unless the lanes share a tree. */
@@ -758,13 +784,17 @@ RF_INLINE void rf_tile_write_group(const RF_GLOBAL rf_u32* rays, rf_u32 begin, r
                             : sqrt(tc->dx[j] * tc->dx[j] + tc->dy[j] * tc->dy[j] + dz * dz);
     /* Planar: t * depth_scale, as the scalar code (t * 1 is t). */
     z[j] = select((rf_vf)(RF_INF), (h->t[j] * len_d) * depth_scale, hit);
-    nx[j] = ny[j] = nz[j] = (rf_vf)(0.0f);
-    const int normals = (cam->write_flags & RF_WRITE_NO_NORMALS) == 0u;
-    if (!rf_lanes_any(hit) || !(normals || exact_depth)) continue;
-    rf_tile_lane_tris lt;
-    rf_tile_gather_tris(h, j, hit, tris, &lt);
-    if (exact_depth) z[j] = rf_tile_lane_depths(tc, j, cam, g, h, hit, &lt, depths, depth_scale, &plane_cache, z[j]);
-    if (normals) rf_tile_lane_normals(h, j, hit, &lt, normal_xforms, &nx[j], &ny[j], &nz[j]);
+    if (exact_depth && rf_lanes_any(hit)) {
+      rf_tile_lane_tris lt;
+      rf_tile_gather_tris(h, j, hit, tris, &lt);
+      z[j] = rf_tile_lane_depths(rays, begin, count, j, cam, g, h, hit, &lt, depths, depth_scale, &plane_cache,
+                                 z[j]);
+    }
+    if (!rf_lanes_any(hit) || (cam->write_flags & RF_WRITE_NO_NORMALS)) {
+      nx[j] = ny[j] = nz[j] = (rf_vf)(0.0f);
+      continue;
+    }
+    rf_tile_lane_normals(h, j, hit, tris, normal_xforms, &nx[j], &ny[j], &nz[j]);
   }
   const float* zs = (const float*)z;
   const float* xs = (const float*)nx;
@@ -807,8 +837,6 @@ RF_INLINE void rf_trace_tile(const RF_GLOBAL rf_u32* rays, rf_u32 begin, rf_u32 
   for (int s = 0; s < RF_TILE_SETUPS; ++s) ro[s].valid = 0;
   float* dx = (float*)tc.dx;
   float* dy = (float*)tc.dy;
-  float* kx = (float*)tc.kx;
-  float* ky = (float*)tc.ky;
   /* The groups of each lane's ray, by its entry's two mirror bits (a table:
    * the entries' decoding costs as much as a traversal step otherwise);
    * the traversal masks out the groups no ray of the tile answers. */
@@ -823,8 +851,6 @@ RF_INLINE void rf_trace_tile(const RF_GLOBAL rf_u32* rays, rf_u32 begin, rf_u32 
     lane_groups[l] = ray.groups;
     dx[l] = ray.dx;
     dy[l] = ray.dy;
-    kx[l] = (float)(2 * ray.x + cam->kx0);
-    ky[l] = (float)(cam->ky0 - 2 * ray.y);
     tile_groups |= ray.groups;
   }
   rf_vf lo0 = (rf_vf)(RF_FAR), lo1 = lo0, hi0 = (rf_vf)(-RF_FAR), hi1 = hi0;
@@ -930,9 +956,7 @@ RF_INLINE void rf_trace_query_tile(const RF_GLOBAL rf_query_ray* rays, rf_u32 be
       nx[j] = ny[j] = nz[j] = (rf_vf)(0.0f);
       continue;
     }
-    rf_tile_lane_tris lt;
-    rf_tile_gather_tris(&hits[0], j, hit, tris, &lt);
-    rf_tile_lane_normals(&hits[0], j, hit, &lt, normal_xforms, &nx[j], &ny[j], &nz[j]);
+    rf_tile_lane_normals(&hits[0], j, hit, tris, normal_xforms, &nx[j], &ny[j], &nz[j]);
   }
   const float* ts = (const float*)hits[0].t;
   const float* xs = (const float*)nx;
