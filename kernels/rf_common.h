@@ -30,6 +30,14 @@ typedef int rf_i32;
  * 7 scene runs); always inlining every helper made the tile kernel 4% to
  * 11% slower. */
 #define RF_INLINE_ALWAYS inline __attribute__((always_inline))
+/* A call kept a call where the compiler is clang for a CPU (PoCL;
+ * RF_CLANG_BUILTINS below): for code a kernel seldom runs whose inlined
+ * body slowed the code around it. */
+#ifdef RF_CLANG_BUILTINS
+#define RF_NOINLINE __attribute__((noinline))
+#else
+#define RF_NOINLINE
+#endif
 #define RF_SQRT(x) sqrt(x)
 /* Fused multiply-add, rounded once (double-float arithmetic, rf_depth.h). */
 #define RF_FMA(a, b, c) fma(a, b, c)
@@ -45,6 +53,7 @@ typedef int32_t rf_i32;
 #define RF_GLOBAL
 #define RF_INLINE static inline
 #define RF_INLINE_ALWAYS static inline
+#define RF_NOINLINE static
 #define RF_SQRT(x) std::sqrt((float)(x))
 #define RF_FMA(a, b, c) std::fma((float)(a), (float)(b), (float)(c))
 #define RF_FABS(x) std::fabs((float)(x))

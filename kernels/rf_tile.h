@@ -583,12 +583,13 @@ RF_INLINE void rf_tile_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBA
   }
 }
 
-/* The triangles of lane group j's hits, for the exact depth: their
- * vertices (lane 0's where a lane missed; its results are not used) and
- * each lane's rf_depth_key. One load for the whole vector when its lanes
- * agree, as on large triangles, else a gather. (The normals gather their
- * own: sharing this one slowed the float depth's frames, which do not need
- * the keys, by a tenth on Sponza.) */
+/* The triangles of lane group j's hits, for the exact depth and then its
+ * normals: their vertices (lane 0's where a lane missed; its results are
+ * not used) and each lane's rf_depth_key. One load for the whole vector
+ * when its lanes agree, as on large triangles, else a gather. (The float
+ * depth's normals keep their own gather of triangles and normal matrices in
+ * one pass: this one, with its keys, slowed those frames by a tenth on
+ * Sponza.) */
 typedef struct {
   rf_vf v[9]; /* v0, v1, v2 by coordinate */
   rf_vu key;
@@ -630,16 +631,60 @@ RF_INLINE void rf_tile_gather_tris(const rf_tile_hits* h, int j, rf_vi hit, cons
   lt->one_key = !rf_lanes_any(missed | (lt->key != (rf_vu)(lt->key0)));
 }
 
+/* rf_geometric_normal's last steps on lanes: the world-space normal w (the
+ * normal matrix times the cross product of the edges) scaled by its largest
+ * component and made unit length, 0 where a lane missed (hit: the lanes
+ * that did) or its triangle is degenerate. */
+RF_INLINE void rf_tile_unit_normals(const rf_vf* w, rf_vi hit, rf_vf* nx, rf_vf* ny, rf_vf* nz) {
+  rf_vf wx = w[0], wy = w[1], wz = w[2];
+  const rf_vf big = rf_lanes_max(rf_lanes_max(fabs(wx), fabs(wy)), fabs(wz));
+  const rf_vi degenerate = ~(big > (rf_vf)(0.0f));
+  wx = wx / big;
+  wy = wy / big;
+  wz = wz / big;
+  const rf_vf len = sqrt(wx * wx + wy * wy + wz * wz);
+  const rf_vi zero = degenerate | ~hit;
+  *nx = select(wx / len, (rf_vf)(0.0f), zero);
+  *ny = select(wy / len, (rf_vf)(0.0f), zero);
+  *nz = select(wz / len, (rf_vf)(0.0f), zero);
+}
+
+/* rf_geometric_normal on lanes from each lane's vertices v (v0, v1, v2 by
+ * coordinate) and normal matrix m, with the scalar code's operations per
+ * lane; 0 where a lane missed (hit) or its triangle is degenerate. */
+RF_INLINE void rf_tile_normals_of(const rf_vf* v, const rf_vf* m, rf_vi hit, rf_vf* nx, rf_vf* ny, rf_vf* nz) {
+  const rf_vf e1x = v[3] - v[0], e1y = v[4] - v[1], e1z = v[5] - v[2];
+  const rf_vf e2x = v[6] - v[0], e2y = v[7] - v[1], e2z = v[8] - v[2];
+  const rf_vf c[3] = {e1y * e2z - e1z * e2y, e1z * e2x - e1x * e2z, e1x * e2y - e1y * e2x};
+  const rf_vf w[3] = {m[0] * c[0] + m[1] * c[1] + m[2] * c[2], m[3] * c[0] + m[4] * c[1] + m[5] * c[2],
+                      m[6] * c[0] + m[7] * c[1] + m[8] * c[2]};
+  rf_tile_unit_normals(w, hit, nx, ny, nz);
+}
+
+/* Each lane's normal matrix for lane group j (lane 0's where a lane
+ * missed): one load for the whole vector when its lanes agree, as within
+ * one instance, else a gather. */
+RF_INLINE void rf_tile_gather_normal_xforms(const rf_tile_hits* h, int j, rf_vi hit,
+                                            const RF_GLOBAL rf_normal_xform* normal_xforms, rf_vf* m) {
+  float gm[9][RF_LANES];
+  const rf_u32* inst_idx = (const rf_u32*)&h->instance[j];
+  const int one_inst = !rf_lanes_any(~hit | (h->instance[j] != (rf_vu)(inst_idx[0])));
+  for (int l = 0; l < RF_LANES; ++l) {
+    if (one_inst && l > 0) break;
+    const RF_GLOBAL float* x = normal_xforms[inst_idx[l] != RF_INVALID ? inst_idx[l] : 0u].m;
+    for (int k = 0; k < 9; ++k) gm[k][l] = x[k];
+  }
+  for (int k = 0; k < 9; ++k) m[k] = one_inst ? (rf_vf)(gm[k][0]) : *(const rf_vf*)gm[k];
+}
+
 /* rf_geometric_normal for the lanes of lane group j that hit (hit: their
- * mask), with the scalar code's operations per lane; 0 where a lane
- * missed or its triangle is degenerate. */
+ * mask): each lane's triangle and normal matrix gathered in one pass (lane
+ * 0's where a lane missed; its result is replaced): one load for the whole
+ * vector when its lanes agree, as on large triangles and within one
+ * instance, else a gather. */
 RF_INLINE void rf_tile_lane_normals(const rf_tile_hits* h, int j, rf_vi hit, const RF_GLOBAL rf_tri* tris,
                                     const RF_GLOBAL rf_normal_xform* normal_xforms, rf_vf* nx, rf_vf* ny,
                                     rf_vf* nz) {
-  /* Each lane's triangle and normal matrix (lane 0's where a lane missed;
-   * its result is replaced below): one load for the whole vector when its
-   * lanes agree, as on large triangles and within one instance, else a
-   * gather. */
   float gv[9][RF_LANES], gm[9][RF_LANES];
   const rf_u32* tri_idx = (const rf_u32*)&h->tri[j];
   const rf_u32* inst_idx = (const rf_u32*)&h->instance[j];
@@ -661,39 +706,27 @@ RF_INLINE void rf_tile_lane_normals(const rf_tile_hits* h, int j, rf_vi hit, con
       for (int k = 0; k < 9; ++k) gm[k][l] = m[k];
     }
   }
+  /* Each value read where it is used: gathering the vectors into arrays
+   * first took a fifth more instructions here (callgrind, Sponza). */
 #define RF_G(a, k) (one_##a ? (rf_vf)(a[k][0]) : *(const rf_vf*)a[k])
 #define one_gv one_tri
 #define one_gm one_inst
   const rf_vf e1x = RF_G(gv, 3) - RF_G(gv, 0), e1y = RF_G(gv, 4) - RF_G(gv, 1), e1z = RF_G(gv, 5) - RF_G(gv, 2);
   const rf_vf e2x = RF_G(gv, 6) - RF_G(gv, 0), e2y = RF_G(gv, 7) - RF_G(gv, 1), e2z = RF_G(gv, 8) - RF_G(gv, 2);
-  const rf_vf cx = e1y * e2z - e1z * e2y;
-  const rf_vf cy = e1z * e2x - e1x * e2z;
-  const rf_vf cz = e1x * e2y - e1y * e2x;
-  rf_vf wx = RF_G(gm, 0) * cx + RF_G(gm, 1) * cy + RF_G(gm, 2) * cz;
-  rf_vf wy = RF_G(gm, 3) * cx + RF_G(gm, 4) * cy + RF_G(gm, 5) * cz;
-  rf_vf wz = RF_G(gm, 6) * cx + RF_G(gm, 7) * cy + RF_G(gm, 8) * cz;
+  const rf_vf c[3] = {e1y * e2z - e1z * e2y, e1z * e2x - e1x * e2z, e1x * e2y - e1y * e2x};
+  const rf_vf w[3] = {RF_G(gm, 0) * c[0] + RF_G(gm, 1) * c[1] + RF_G(gm, 2) * c[2],
+                      RF_G(gm, 3) * c[0] + RF_G(gm, 4) * c[1] + RF_G(gm, 5) * c[2],
+                      RF_G(gm, 6) * c[0] + RF_G(gm, 7) * c[1] + RF_G(gm, 8) * c[2]};
 #undef RF_G
 #undef one_gv
 #undef one_gm
-  const rf_vf big = rf_lanes_max(rf_lanes_max(fabs(wx), fabs(wy)), fabs(wz));
-  const rf_vi degenerate = ~(big > (rf_vf)(0.0f));
-  wx = wx / big;
-  wy = wy / big;
-  wz = wz / big;
-  const rf_vf len = sqrt(wx * wx + wy * wy + wz * wz);
-  const rf_vi zero = degenerate | ~hit;
-  *nx = select(wx / len, (rf_vf)(0.0f), zero);
-  *ny = select(wy / len, (rf_vf)(0.0f), zero);
-  *nz = select(wz / len, (rf_vf)(0.0f), zero);
+  rf_tile_unit_normals(w, hit, nx, ny, nz);
 }
 
 /* rf_depth.h's arithmetic on lanes: each lane's operations are the scalar
  * code's. */
 RF_DEPTH_DEFINE(rf_vf, v)
 
-/* rf_pixel_depth for the lanes of lane group j that hit, in vectors: for
- * group g's view and pixels, the depth of rf_depth.h where it is finite and
- * positive, else z. */
 /* The plane part of the last lane group whose lanes shared one triangle and
  * tree: large triangles cover many lane groups in a row. */
 typedef struct {
@@ -701,6 +734,9 @@ typedef struct {
   float pl[8];
 } rf_tile_plane_cache;
 
+/* rf_pixel_depth for the lanes of lane group j that hit, in vectors: for
+ * group g's view and pixels, the depth of rf_depth.h where it is finite and
+ * positive, else z. */
 RF_INLINE rf_vf rf_tile_lane_depths(const RF_GLOBAL rf_u32* rays, rf_u32 begin, rf_u32 count, int j,
                                     const rf_camera* cam, rf_u32 g,
                                     const rf_tile_hits* h, rf_vi hit, const rf_tile_lane_tris* lt,
@@ -763,6 +799,26 @@ RF_INLINE rf_vf rf_tile_lane_depths(const RF_GLOBAL rf_u32* rays, rf_u32 begin, 
   return select(z, d * depth_scale, hit & (d > (rf_vf)(0.0f)) & (d < (rf_vf)(RF_FAR)));
 }
 
+/* The exact depth of lane group j, and its normals unless normal_xforms is
+ * null, from one gather of the triangles. Not inlined where the compiler
+ * allows: inlined, its code slowed the float depth's write stage, which
+ * never runs it. */
+RF_NOINLINE void rf_tile_exact_lane_group(const RF_GLOBAL rf_u32* rays, rf_u32 begin, rf_u32 count, int j,
+                                          const rf_camera* cam, rf_u32 g, const rf_tile_hits* h, rf_vi hit,
+                                          const rf_depth_table* depths, float depth_scale,
+                                          rf_tile_plane_cache* plane_cache, const RF_GLOBAL rf_tri* tris,
+                                          const RF_GLOBAL rf_normal_xform* normal_xforms, rf_vf* z, rf_vf* nx,
+                                          rf_vf* ny, rf_vf* nz) {
+  rf_tile_lane_tris lt;
+  rf_tile_gather_tris(h, j, hit, tris, &lt);
+  *z = rf_tile_lane_depths(rays, begin, count, j, cam, g, h, hit, &lt, depths, depth_scale, plane_cache, *z);
+  if (normal_xforms) {
+    rf_vf m[9];
+    rf_tile_gather_normal_xforms(h, j, hit, normal_xforms, m);
+    rf_tile_normals_of(lt.v, m, hit, nx, ny, nz);
+  }
+}
+
 /* rf_write_pixel for every lane of the tile that answers group g, lane by
  * lane: the normal (rf_geometric_normal) and depth in vectors, with the
  * scalar code's operations per lane, then one pixel store per lane. The
@@ -784,17 +840,15 @@ RF_INLINE void rf_tile_write_group(const RF_GLOBAL rf_u32* rays, rf_u32 begin, r
                             : sqrt(tc->dx[j] * tc->dx[j] + tc->dy[j] * tc->dy[j] + dz * dz);
     /* Planar: t * depth_scale, as the scalar code (t * 1 is t). */
     z[j] = select((rf_vf)(RF_INF), (h->t[j] * len_d) * depth_scale, hit);
-    if (exact_depth && rf_lanes_any(hit)) {
-      rf_tile_lane_tris lt;
-      rf_tile_gather_tris(h, j, hit, tris, &lt);
-      z[j] = rf_tile_lane_depths(rays, begin, count, j, cam, g, h, hit, &lt, depths, depth_scale, &plane_cache,
-                                 z[j]);
+    const int normals = (cam->write_flags & RF_WRITE_NO_NORMALS) == 0u;
+    nx[j] = ny[j] = nz[j] = (rf_vf)(0.0f);
+    if (!rf_lanes_any(hit)) continue;
+    if (exact_depth) {
+      rf_tile_exact_lane_group(rays, begin, count, j, cam, g, h, hit, depths, depth_scale, &plane_cache, tris,
+                               normals ? normal_xforms : 0, &z[j], &nx[j], &ny[j], &nz[j]);
+    } else if (normals) {
+      rf_tile_lane_normals(h, j, hit, tris, normal_xforms, &nx[j], &ny[j], &nz[j]);
     }
-    if (!rf_lanes_any(hit) || (cam->write_flags & RF_WRITE_NO_NORMALS)) {
-      nx[j] = ny[j] = nz[j] = (rf_vf)(0.0f);
-      continue;
-    }
-    rf_tile_lane_normals(h, j, hit, tris, normal_xforms, &nx[j], &ny[j], &nz[j]);
   }
   const float* zs = (const float*)z;
   const float* xs = (const float*)nx;
