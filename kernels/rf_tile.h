@@ -735,8 +735,8 @@ typedef struct {
 } rf_tile_plane_cache;
 
 /* rf_pixel_depth for the lanes of lane group j that hit, in vectors: for
- * group g's view and pixels, the depth of rf_depth.h where it is finite and
- * positive, else z. */
+ * group g's view and pixels, the depth of rf_depth.h where it is
+ * plausible, else z. */
 RF_INLINE rf_vf rf_tile_lane_depths(const RF_GLOBAL rf_u32* rays, rf_u32 begin, rf_u32 count, int j,
                                     const rf_camera* cam, rf_u32 g,
                                     const rf_tile_hits* h, rf_vi hit, const rf_tile_lane_tris* lt,
@@ -796,7 +796,9 @@ RF_INLINE rf_vf rf_tile_lane_depths(const RF_GLOBAL rf_u32* rays, rf_u32 begin, 
   rf_vf cm[24];
   for (int k = 0; k < 24; ++k) cm[k] = (rf_vf)(cam_xf->m[k]);
   const rf_vf d = rf_depth_finish_v(pl, cm, ix, iy, cam->ortho, (cam->write_flags & RF_WRITE_PLANAR_DEPTH) != 0u);
-  return select(z, d * depth_scale, hit & (d > (rf_vf)(0.0f)) & (d < (rf_vf)(RF_FAR)));
+  /* rf_depth_plausible on lanes. */
+  const rf_vf e = d * depth_scale;
+  return select(z, e, hit & (e > (rf_vf)(0.0f)) & (e < (rf_vf)(RF_FAR)) & (fabs(e - z) <= z * 0x1p-8f));
 }
 
 /* The exact depth of lane group j, and its normals unless normal_xforms is

@@ -407,6 +407,9 @@ TEST(Cli, ExactDepthChangesOnlyZAndIsRecorded) {
   r = rayfold("render --size 48x30 --fast --exact-depth -o " + (d / "bad.exr").string());
   EXPECT_EQ(r.code, 2) << r.err;
   EXPECT_NE(r.err.find("--exact-depth runs on the exact kernels"), std::string::npos) << r.err;
+  r = rayfold("render --size 48x30 --exact-depth --channels N -o " + (d / "bad.exr").string());
+  EXPECT_EQ(r.code, 2) << r.err;
+  EXPECT_NE(r.err.find("--channels leaves Z out"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(d / "bad.exr"));
 }
 

@@ -63,7 +63,8 @@ TEST(ExactDepth, KernelsEqualTheCpuReferenceInEveryFold) {
           v % 4 == 3 ? orthographic(rng, scene.world_bounds()) : testing::random_camera(rng, scene.world_bounds());
       if (v % 4 == 1) testing::move_eye_inside_an_instance(rng, scene, spec);
       const double sx = v % 3 == 0 ? rng.uniform(-0.8, 0.8) : 0.0;
-      const Camera cam = make_camera(spec, 24 + rng.below(60), 16 + rng.below(50), sx, 0.0);
+      const double sy = v % 4 == 2 ? rng.uniform(-0.8, 0.8) : 0.0;
+      const Camera cam = make_camera(spec, 24 + rng.below(60), 16 + rng.below(50), sx, sy);
       FrameOptions o = exact();
       o.planar_depth = v % 2 == 1;
       EXPECT_EQ(r.differences(cam, -1, o), "") << "scene " << s << " view " << v;
@@ -113,6 +114,15 @@ TEST(ExactDepth, LanesOnOneTriangleOfTwoInstances) {
     EXPECT_LE(worst, 0x1p-23) << w << "x" << h;
     EXPECT_GT(n, static_cast<size_t>(w * h / 8));
   }
+}
+
+TEST(ExactDepth, AnimatedFramesKeepTheirBits) {
+  // Animation rewrites the moving instances' transforms, and so their
+  // table entries, every frame.
+  const Scene scene = load_gltf(std::string(RAYFOLD_SOURCE_DIR) + "/scenes/atrium.glb");
+  testing::ThreeWays r(scene);
+  const Camera cam = make_camera(*scene.camera, 96, 54);
+  for (int frame : {0, 7, 23}) EXPECT_EQ(r.differences(cam, frame, exact()), "") << "frame " << frame;
 }
 
 TEST(ExactDepth, EqualsBruteForceInObjectSpace) {

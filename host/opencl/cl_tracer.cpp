@@ -87,8 +87,8 @@ void ClTracer::upload_scene(const SceneData& data, size_t max_tlas_nodes, size_t
       {"rays", at_least_one(max_rays) * sizeof(uint32_t)},
       {"hits", at_least_one(pixel_count) * sizeof(rf_pixel_hit)},
       {"wide_nodes", at_least_one(data.wide_nodes.size()) * sizeof(rf_wide_node)},
-      // One view's; a pass of several grows it (upload_frame).
-      {"depth_xforms", (data.normal_xforms.size() + 1) * sizeof(rf_depth_xform)},
+      // Grown by the first frame that asks for the exact depth (upload_frame).
+      {"depth_xforms", sizeof(rf_depth_xform)},
   };
   const DeviceInfo& info = device_.info();
   for (const BufferInfo& b : buffer_info_) {
@@ -161,6 +161,7 @@ double ClTracer::upload_frame(const Frame& frame) {
                                device_.info().name + "' allows");
         depth_xforms_ = cl::Buffer(device_.context(), CL_MEM_READ_ONLY, bytes);
         depth_xforms_capacity_ = bytes;
+        buffer_info_[7].bytes = bytes;
       }
       q.enqueueWriteBuffer(depth_xforms_, CL_FALSE, 0, bytes, frame.depth_xforms.data());
     }

@@ -128,8 +128,8 @@ class ClTracer {
   KernelPrecision precision_;
   std::vector<Programs> programs_;
   cl::Buffer nodes_, wide_nodes_, tris_, instances_, normal_xforms_, hits_, depth_scales_;
-  // The frame's exact-depth table (Frame::depth_xforms), grown when a pass
-  // of more views needs it.
+  // The frame's exact-depth table (Frame::depth_xforms): one entry until a
+  // frame asks for the exact depth, then grown to what a pass needs.
   cl::Buffer depth_xforms_;
   size_t depth_xforms_capacity_ = 0;
   uint32_t depth_instances_ = 0;

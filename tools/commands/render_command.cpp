@@ -222,6 +222,8 @@ RenderArgs parse_render(cli::Args& args) {
     throw UsageError("--align: aligns the views of --cameras or --stereo");
   }
   if (r.fold_auto && r.compare) throw UsageError("--compare: compares a fold with none; name the fold");
+  if (r.frame.exact_depth && (r.channels & rayfold::kDepth) == 0)
+    throw UsageError("--exact-depth: it is Z's; --channels leaves Z out");
   if (r.frame.exact_depth && r.renderer.precision == KernelPrecision::fast)
     throw UsageError("--exact-depth runs on the exact kernels; --fast reorders the double-float steps away");
   check_outputs(
