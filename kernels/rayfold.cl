@@ -5,9 +5,9 @@
 
 /* The camera and pass (rf_camera) as kernel arguments, field by field, then
  * one depth scale per view of the pass. */
-#define RF_CAMERA_ARGS                                                                                           \
-  float scale_x, float scale_y, int kx0, int ky0, int width, int height, int xpair, int ypair, float frac_x,     \
-      float frac_y, int ortho, uint views, uint group_shift, uint slot_mirrors, uint view_rep, uint write_flags, \
+#define RF_CAMERA_ARGS                                                                                            \
+  float scale_x, float scale_y, int kx0, int ky0, int width, int height, int xpair, int ypair, float frac_x,      \
+      float frac_y, int ortho, uint views, uint group_shift, uint slot_mirrors, uint view_rep, uint write_flags,  \
       __global const float *depth_scales, __global const rf_depth_xform *depth_xforms, uint depth_instances
 
 RF_INLINE rf_camera rf_make_camera(float scale_x, float scale_y, int kx0, int ky0, int width, int height, int xpair,
@@ -33,7 +33,7 @@ RF_INLINE rf_camera rf_make_camera(float scale_x, float scale_y, int kx0, int ky
   return cam;
 }
 
-#define RF_MAKE_CAMERA()                                                                                             \
+#define RF_MAKE_CAMERA()                                                                                           \
   rf_make_camera(scale_x, scale_y, kx0, ky0, width, height, xpair, ypair, frac_x, frac_y, ortho, views, group_shift, \
                  slot_mirrors, view_rep, write_flags)
 
@@ -59,7 +59,8 @@ __kernel void rf_trace_primary(__global const rf_node* nodes, __global const rf_
 __kernel void rf_trace_queries(__global const rf_node* nodes, __global const rf_tri* tris,
                                __global const rf_instance* instances, __global const rf_normal_xform* normal_xforms,
                                uint tlas_root, __global const rf_query_ray* rays, uint ray_count, uint any_hit,
-                               uint write_flags, __global const uint* order, uint ordered, __global rf_pixel_hit* out) {
+                               uint write_flags, __global const uint* order, uint ordered,
+                               __global rf_pixel_hit* out) {
   const uint k = get_global_id(0);
   if (k >= ray_count) return;
   uint i = k;
@@ -95,9 +96,10 @@ __kernel void rf_trace_query_tiles(__global const rf_node* nodes, __global const
  * covers rays[tiles[t] .. tiles[t + 1]). PoCL runs it fastest with one
  * work-item per work-group: the SIMD is inside the work-item. */
 __kernel void rf_trace_tiles(__global const rf_node* nodes, __global const rf_wide_node* wide,
-                             __global const rf_tri* tris, __global const rf_instance* instances,
-                             __global const rf_normal_xform* normal_xforms, uint tlas_root, __global const uint* rays,
-                             __global const uint* tiles, uint tile_count, RF_CAMERA_ARGS, __global rf_pixel_hit* out
+                             __global const rf_tri* tris,
+                             __global const rf_instance* instances, __global const rf_normal_xform* normal_xforms,
+                             uint tlas_root, __global const uint* rays, __global const uint* tiles, uint tile_count,
+                             RF_CAMERA_ARGS, __global rf_pixel_hit* out
 #ifdef RF_TILE_STATS
                              ,
                              __global uint* tile_stats

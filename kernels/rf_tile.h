@@ -204,18 +204,20 @@ RF_INLINE int rf_tile_triangle(const RF_GLOBAL rf_tri* tri, rf_u32 ti, const rf_
     rf_vf t, ev, ew, det;
     rf_vi ok;
     if (r->uniform) {
-      ok = rf_lanes_triangle((rf_vf)(uax), (rf_vf)(uay), (rf_vf)(uaz), (rf_vf)(ubx), (rf_vf)(uby), (rf_vf)(ubz),
-                             (rf_vf)(ucx), (rf_vf)(ucy), (rf_vf)(ucz), r->sx[j], r->sy[j], r->sz[j], (rf_vf)(unx),
-                             (rf_vf)(uny), (rf_vf)(unz), (rf_vi)(woop_u ? -1 : 0), offset, &t, &ev, &ew, &det);
+      ok =
+          rf_lanes_triangle((rf_vf)(uax), (rf_vf)(uay), (rf_vf)(uaz), (rf_vf)(ubx), (rf_vf)(uby), (rf_vf)(ubz),
+                            (rf_vf)(ucx), (rf_vf)(ucy), (rf_vf)(ucz), r->sx[j], r->sy[j], r->sz[j], (rf_vf)(unx),
+                            (rf_vf)(uny), (rf_vf)(unz), (rf_vi)(woop_u ? -1 : 0), offset, &t, &ev, &ew, &det);
     } else {
       const rf_vi kx = r->pkx[j], ky = r->pky[j], kz = r->pkz[j];
       const rf_vf az = rf_lanes_pick(a0, a1, a2, kz), bz = rf_lanes_pick(b0, b1, b2, kz);
       const rf_vf cz = rf_lanes_pick(c0, c1, c2, kz);
-      ok = rf_lanes_triangle(
-          rf_lanes_pick(a0, a1, a2, kx), rf_lanes_pick(a0, a1, a2, ky), az, rf_lanes_pick(b0, b1, b2, kx),
-          rf_lanes_pick(b0, b1, b2, ky), bz, rf_lanes_pick(c0, c1, c2, kx), rf_lanes_pick(c0, c1, c2, ky), cz, r->sx[j],
-          r->sy[j], r->sz[j], rf_lanes_pick(n[0], n[1], n[2], kx), rf_lanes_pick(n[0], n[1], n[2], ky),
-          rf_lanes_pick(n[0], n[1], n[2], kz), rf_lanes_woop_suits(az, bz, cz), offset, &t, &ev, &ew, &det);
+      ok = rf_lanes_triangle(rf_lanes_pick(a0, a1, a2, kx), rf_lanes_pick(a0, a1, a2, ky), az,
+                             rf_lanes_pick(b0, b1, b2, kx), rf_lanes_pick(b0, b1, b2, ky), bz,
+                             rf_lanes_pick(c0, c1, c2, kx), rf_lanes_pick(c0, c1, c2, ky), cz, r->sx[j], r->sy[j],
+                             r->sz[j], rf_lanes_pick(n[0], n[1], n[2], kx), rf_lanes_pick(n[0], n[1], n[2], ky),
+                             rf_lanes_pick(n[0], n[1], n[2], kz), rf_lanes_woop_suits(az, bz, cz), offset, &t, &ev,
+                             &ew, &det);
     }
     if (!rf_lanes_any(ok)) continue;
     const rf_vi positive = t > (tmin ? tmin[j] : (rf_vf)(0.0f)); /* beyond tmin: 0 for camera rays */
@@ -513,9 +515,10 @@ RF_INLINE float rf_tile_group_bound(rf_u32 groups, const rf_tile_hits* hits) {
  * tile_groups: the groups some lane answers (the others' hits are not
  * set). */
 RF_INLINE void rf_tile_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_wide_node* wide,
-                                  const RF_GLOBAL rf_tri* tris, const RF_GLOBAL rf_instance* instances,
-                                  rf_u32 tlas_root, const rf_tile_camera* cam, const rf_tile_query* q,
-                                  rf_u32 tile_groups, rf_tile_ray* ro, rf_tile_hits* hits RF_TSTAT_PARAM) {
+                                  const RF_GLOBAL rf_tri* tris,
+                                  const RF_GLOBAL rf_instance* instances, rf_u32 tlas_root, const rf_tile_camera* cam,
+                                  const rf_tile_query* q, rf_u32 tile_groups, rf_tile_ray* ro,
+                                  rf_tile_hits* hits RF_TSTAT_PARAM) {
   /* Camera rays start at the trace-space origin; boxes less +0 keep their
    * bits, as the scalar code's box minus its origin does. */
   const float o0 = q ? q->o[0] : 0.0f, o1 = q ? q->o[1] : 0.0f, o2 = q ? q->o[2] : 0.0f;
@@ -957,8 +960,9 @@ RF_INLINE void rf_trace_tile(const RF_GLOBAL rf_u32* rays, rf_u32 begin, rf_u32 
 RF_INLINE void rf_trace_query_tile(const RF_GLOBAL rf_query_ray* rays, rf_u32 begin, rf_u32 count,
                                    const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_wide_node* wide,
                                    const RF_GLOBAL rf_tri* tris, const RF_GLOBAL rf_instance* instances,
-                                   const RF_GLOBAL rf_normal_xform* normal_xforms, rf_u32 tlas_root, rf_u32 write_flags,
-                                   const RF_GLOBAL rf_u32* order, RF_GLOBAL rf_pixel_hit* out RF_TSTAT_PARAM) {
+                                   const RF_GLOBAL rf_normal_xform* normal_xforms, rf_u32 tlas_root,
+                                   rf_u32 write_flags, const RF_GLOBAL rf_u32* order,
+                                   RF_GLOBAL rf_pixel_hit* out RF_TSTAT_PARAM) {
   rf_tile_camera tc;
   rf_tile_query q;
   rf_tile_hits hits[1];
@@ -1026,9 +1030,9 @@ RF_INLINE void rf_trace_query_tile(const RF_GLOBAL rf_query_ray* rays, rf_u32 be
     const int hit = is[l] != RF_INVALID;
     /* z: t * 1 * 1, as rf_write_pixel's query form; as integers, as the
      * camera tile's stores. */
-    const uint8 px_hit =
-        (uint8)(as_uint(hit ? ts[l] : RF_INF), as_uint(xs[l]), as_uint(ys[l]), as_uint(ws[l]),
-                as_uint(hit ? us[l] : 0.0f), as_uint(hit ? vs[l] : 0.0f), is[l], hit ? ps[l] : RF_INVALID);
+    const uint8 px_hit = (uint8)(as_uint(hit ? ts[l] : RF_INF), as_uint(xs[l]), as_uint(ys[l]), as_uint(ws[l]),
+                                 as_uint(hit ? us[l] : 0.0f), as_uint(hit ? vs[l] : 0.0f), is[l],
+                                 hit ? ps[l] : RF_INVALID);
     vstore8(px_hit, 0, (RF_GLOBAL rf_u32*)&out[order ? order[begin + l] : begin + l]);
   }
 }

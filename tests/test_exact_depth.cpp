@@ -25,17 +25,6 @@ FrameOptions exact(FoldMode fold = FoldMode::none) {
   return o;
 }
 
-CameraSpec orthographic(Rng& rng, const Aabb& bounds) {
-  CameraSpec spec = testing::random_camera(rng, bounds);
-  spec.orthographic = true;
-  spec.ymag = 0.5 * glm::length(glm::dvec3(bounds.hi - bounds.lo)) * rng.uniform(0.2, 1.0);
-  const glm::dvec3 centre = 0.5 * (glm::dvec3(bounds.lo) + glm::dvec3(bounds.hi));
-  const glm::dvec3 dir = glm::normalize(spec.look_at - spec.eye);
-  spec.eye = centre - dir * glm::length(glm::dvec3(bounds.hi - bounds.lo));
-  spec.look_at = centre;
-  return spec;
-}
-
 // The largest relative depth error against the double reference over the
 // pixels that hit its triangle, and how many there were.
 std::pair<double, size_t> worst_depth(const std::vector<ReferenceHit>& ref, const std::vector<rf_pixel_hit>& hits) {
@@ -59,8 +48,8 @@ TEST(ExactDepth, KernelsEqualTheCpuReferenceInEveryFold) {
     const Scene scene = testing::generated_atrium(700 + s, 20 + 40 * s, 12000);
     testing::ThreeWays r(scene);
     for (int v = 0; v < 8; ++v, ++views) {
-      CameraSpec spec =
-          v % 4 == 3 ? orthographic(rng, scene.world_bounds()) : testing::random_camera(rng, scene.world_bounds());
+      CameraSpec spec = v % 4 == 3 ? testing::random_ortho_camera(rng, scene.world_bounds())
+                                   : testing::random_camera(rng, scene.world_bounds());
       if (v % 4 == 1) testing::move_eye_inside_an_instance(rng, scene, spec);
       const double sx = v % 3 == 0 ? rng.uniform(-0.8, 0.8) : 0.0;
       const double sy = v % 4 == 2 ? rng.uniform(-0.8, 0.8) : 0.0;

@@ -15,24 +15,12 @@ namespace {
 
 using testing::compare_hits;
 
-CameraSpec ortho_view(testing::Rng& rng, const Aabb& bounds) {
-  CameraSpec spec = testing::random_camera(rng, bounds);
-  spec.orthographic = true;
-  spec.ymag = 0.5 * glm::length(glm::dvec3(bounds.hi - bounds.lo)) * rng.uniform(0.2, 1.0);
-  // From outside: the image plane starts behind everything.
-  const glm::dvec3 centre = 0.5 * (glm::dvec3(bounds.lo) + glm::dvec3(bounds.hi));
-  const glm::dvec3 dir = glm::normalize(spec.look_at - spec.eye);
-  spec.eye = centre - dir * glm::length(glm::dvec3(bounds.hi - bounds.lo));
-  spec.look_at = centre;
-  return spec;
-}
-
 TEST(Ortho, EveryTracerEqualsTheBruteForceInEveryFold) {
   testing::Rng rng(21);
   for (int trial = 0; trial < 6; ++trial) {
     const Scene scene = testing::random_scene(rng, 3, 6, 50);
     const SceneData data = prepare_scene(scene);
-    const Camera cam = make_camera(ortho_view(rng, scene.world_bounds()), 33 + trial, 25 + 2 * trial);
+    const Camera cam = make_camera(testing::random_ortho_camera(rng, scene.world_bounds()), 33 + trial, 25 + 2 * trial);
     ASSERT_TRUE(is_orthographic(cam));
     const std::vector<rf_pixel_hit> expected = testing::brute_force(scene, data, cam);
     size_t hits = 0;
@@ -59,7 +47,7 @@ TEST(Ortho, EveryTracerEqualsTheBruteForceInEveryFold) {
 TEST(Ortho, APowerOfTwoScaleMovesOnlyTheDepth) {
   testing::Rng rng(3);
   const Scene base = testing::random_scene(rng, 2, 5, 40);
-  const CameraSpec view = ortho_view(rng, base.world_bounds());
+  const CameraSpec view = testing::random_ortho_camera(rng, base.world_bounds());
   RendererOptions o;
   o.backend = Backend::opencl;
   Renderer r0(base, o);

@@ -103,9 +103,9 @@ std::vector<rf_pixel_hit> brute_force(const Scene& scene, const SceneData& data,
   const BruteScene b = brute_scene(scene, data, camera.world_from_camera);
   // The exact depth in camera space and object space, which differ from
   // trace and tree space by powers of two: the same bits (kernels/rf_depth.h).
-  std::vector<rf_depth_xform> depth_xforms(scene.instances.size() + 1);
-  depth_xforms[0] = make_depth_xform(Xform(1.0), camera, 0);
-  for (const rf_instance& inst : b.insts) {
+  std::vector<rf_depth_xform> depth_xforms(exact_depth ? scene.instances.size() + 1 : 0);
+  if (exact_depth) depth_xforms[0] = make_depth_xform(Xform(1.0), camera, 0);
+  for (const rf_instance& inst : exact_depth ? b.insts : std::vector<rf_instance>{}) {
     Xform object_from_world;
     affine_inverse(scene.instances[inst.instance_id].world_from_object, &object_from_world);
     depth_xforms[1 + inst.instance_id] = make_depth_xform(object_from_world * camera.world_from_camera, camera, 0);
@@ -122,17 +122,14 @@ std::vector<rf_pixel_hit> brute_force(const Scene& scene, const SceneData& data,
       rf_hit_reset(&best);
       const float len_d = cam.ortho ? 1.0f : RF_SQRT(dx * dx + dy * dy + dz * dz);
       rf_pixel_hit& px_out = out[static_cast<size_t>(y) * cam.width + x];
-      const rf_tri* tri = brute_closest(
-          b, scene, data, 0.0f, best, len_d,
-          [&](const rf_instance& inst) {
-            rf_ray r;
-            if (cam.ortho)
-              rf_ray_to_object_from(&r, inst.tree_from_trace, px, py, dx, dy, dz);
-            else
-              rf_ray_to_object(&r, inst.tree_from_trace, dx, dy, dz);
-            return r;
-          },
-          &px_out);
+      const rf_tri* tri = brute_closest(b, scene, data, 0.0f, best, len_d, [&](const rf_instance& inst) {
+        rf_ray r;
+        if (cam.ortho)
+          rf_ray_to_object_from(&r, inst.tree_from_trace, px, py, dx, dy, dz);
+        else
+          rf_ray_to_object(&r, inst.tree_from_trace, dx, dy, dz);
+        return r;
+      }, &px_out);
       if (tri && exact_depth) px_out.z = rf_pixel_depth(&depths, 0, px_out.instance, tri, &cam, x, y, 1.0f, px_out.z);
     }
   return out;
@@ -148,14 +145,11 @@ std::vector<rf_pixel_hit> brute_force_rays(const Scene& scene, const SceneData& 
     rf_hit best;
     rf_hit_reset(&best);
     best.t = tmax;
-    brute_closest(
-        b, scene, data, tmin, best, 1.0f,
-        [&](const rf_instance& inst) {
-          rf_ray r;
-          rf_ray_to_object_at(&r, inst.tree_from_trace, o[0], o[1], o[2], d[0], d[1], d[2]);
-          return r;
-        },
-        &out[q]);
+    brute_closest(b, scene, data, tmin, best, 1.0f, [&](const rf_instance& inst) {
+      rf_ray r;
+      rf_ray_to_object_at(&r, inst.tree_from_trace, o[0], o[1], o[2], d[0], d[1], d[2]);
+      return r;
+    }, &out[q]);
   }
   return out;
 }
@@ -204,6 +198,18 @@ CameraSpec random_camera(Rng& rng, const Aabb& b) {
   }
   c.vfov_degrees = rng.uniform(20.0, 110.0);
   return c;
+}
+
+CameraSpec random_ortho_camera(Rng& rng, const Aabb& bounds) {
+  CameraSpec spec = random_camera(rng, bounds);
+  spec.orthographic = true;
+  spec.ymag = 0.5 * glm::length(glm::dvec3(bounds.hi - bounds.lo)) * rng.uniform(0.2, 1.0);
+  // From outside: the image plane starts behind everything.
+  const glm::dvec3 centre = 0.5 * (glm::dvec3(bounds.lo) + glm::dvec3(bounds.hi));
+  const glm::dvec3 dir = glm::normalize(spec.look_at - spec.eye);
+  spec.eye = centre - dir * glm::length(glm::dvec3(bounds.hi - bounds.lo));
+  spec.look_at = centre;
+  return spec;
 }
 
 Scene random_scene(Rng& rng, int meshes, int instances, int triangles_per_mesh) {

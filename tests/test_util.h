@@ -47,6 +47,9 @@ std::string compare_hits(const std::vector<rf_pixel_hit>& expected, const std::v
 // A camera somewhere in or around the bounds, looking anywhere, with roll;
 // sometimes along an axis, sometimes from inside an object's box.
 CameraSpec random_camera(Rng& rng, const Aabb& bounds);
+// A random orthographic view from outside the bounds (the image plane
+// behind everything), its half-height a random share of their size.
+CameraSpec random_ortho_camera(Rng& rng, const Aabb& bounds);
 
 // The scene generator's atrium (tools/scene_gen.h) with this seed, object
 // count and triangle budget.

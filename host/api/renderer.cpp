@@ -242,7 +242,7 @@ void fill_gbuffer(GBuffer& g, const core::RenderResult& r, int width, int height
   g.height = height;
   g.channels = channels;
   g.depth_kind = depth_kind;
-  g.exact_depth = exact_depth && (channels & kDepth) != 0;
+  g.exact_depth = exact_depth;
   size_planes(channels, n, g.depth, g.normal, g.uv, g.instance_id, g.primitive_id);
   g.fold = from_core(r.fold);
   g.rays = r.rays;
@@ -305,11 +305,12 @@ static_assert(kDepth == RF_PLANE_DEPTH && kNormal == RF_PLANE_NORMAL && kUv == R
 void Renderer::render_into(GBuffer& g, const Camera& camera, Fold fold, unsigned channels) {
   check_channels(channels);
   const auto t0 = core::Clock::now();
-  const core::FrameOptions frame = frame_options(fold, impl_->moved(), channels, impl_->planar_depth, impl_->exact_depth);
+  const core::FrameOptions frame =
+      frame_options(fold, impl_->moved(), channels, impl_->planar_depth, impl_->exact_depth);
   core::RenderResult& r = impl_->result;
   impl_->core->render_into(r, camera.core(), 1, frame);
   fill_gbuffer(g, r, camera.width(), camera.height(), impl_->options.threads, channels, impl_->planar_depth ? Depth::planar : Depth::distance,
-               impl_->exact_depth);
+               frame.exact_depth);
   g.frame_ms = core::ms_since(t0);
 }
 
@@ -327,7 +328,8 @@ void Renderer::render_views(const std::vector<Camera>& cameras, const std::funct
     throw InputError("", "align must be 0 (as many as a pass holds) to " + std::to_string(kMaxAlignedViews) + ", not " +
                              std::to_string(align));
   if (cameras.empty()) return;
-  const core::FrameOptions frame = frame_options(fold, impl_->moved(), channels, impl_->planar_depth, impl_->exact_depth);
+  const core::FrameOptions frame =
+      frame_options(fold, impl_->moved(), channels, impl_->planar_depth, impl_->exact_depth);
   std::vector<core::Camera> views;
   views.reserve(cameras.size());
   for (const Camera& c : cameras) views.push_back(c.core());
@@ -357,7 +359,7 @@ void Renderer::render_views(const std::vector<Camera>& cameras, const std::funct
         GBuffer g;
         fill_gbuffer(g, core::view_result(r, k), cameras[pass[k]].width(), cameras[pass[k]].height(),
                      impl_->options.threads, channels, impl_->planar_depth ? Depth::planar : Depth::distance,
-               impl_->exact_depth);
+               frame.exact_depth);
         g.views_in_trace = static_cast<int>(pass.size());
         g.trace_ms = r.median.trace_ms / static_cast<double>(pass.size());
         g.frame_ms = ms;
