@@ -10,6 +10,9 @@
 #include "../tools/peak_memory.h"
 #include "../tools/peers.h"
 #include "../tools/ray_peers.h"
+#include "reference/cpu_tracer.h"
+#include "renderer.h"
+#include "test_util.h"
 
 namespace rayfold::core {
 namespace {
@@ -165,6 +168,49 @@ TEST(Peers, RayQueriesAgainstEmbreeOnTheSameRays) {
   bad.rows[1].mismatched_rays = 1;
   EXPECT_FALSE(bad.valid());
   EXPECT_NE(ray_peers_markdown(bad).find("1 rays differ"), std::string::npos);
+}
+
+// Embree's frames write the G-buffer rayfold's do (unit world normal in
+// rayfold's orientation, barycentrics), so that the two do the same work
+// per pixel: on every pixel where both find the same triangle, flat and
+// instanced scenes, single rays and packets, over mirrored and non-uniformly
+// scaled instances.
+TEST(Peers, EmbreeWritesRayfoldsGBuffer) {
+  if (!EmbreePeer::available()) GTEST_SKIP() << "rayfold was built without Embree";
+  testing::Rng rng(7);
+  const Scene scene = testing::random_scene(rng, 3, 12, 200);
+  RendererOptions opt;
+  opt.backend = Backend::cpu;
+  Renderer cpu(scene, opt);
+  EmbreePeer embree(scene, cpu.scene_data(), 2);
+  size_t compared = 0;
+  for (int v = 0; v < 3; ++v) {
+    const Camera cam = make_camera(testing::random_camera(rng, scene.world_bounds()), 80, 48);
+    const std::vector<rf_pixel_hit> want = cpu.render(cam).hits;
+    embree.set_camera(cam);
+    for (EmbreeScene which : {EmbreeScene::flat, EmbreeScene::instanced, EmbreeScene::flat_high})
+      for (int packets = 0; packets < 2; ++packets) {
+        std::vector<rf_pixel_hit> got;
+        packets ? embree.trace16(got, which) : embree.trace1(got, which);
+        ASSERT_EQ(got.size(), want.size());
+        for (size_t i = 0; i < got.size(); ++i) {
+          const rf_pixel_hit &g = got[i], &w = want[i];
+          if (g.instance == RF_INVALID) {
+            EXPECT_TRUE(g.nx == 0.0f && g.ny == 0.0f && g.nz == 0.0f && g.u == 0.0f && g.v == 0.0f) << "pixel " << i;
+            continue;
+          }
+          if (g.instance != w.instance || g.primitive != w.primitive) continue;
+          ++compared;
+          const float dot = g.nx * w.nx + g.ny * w.ny + g.nz * w.nz;
+          EXPECT_GT(dot, 0.9999f) << "view " << v << " scene " << int(which) << " packets " << packets << " pixel "
+                                  << i << ": normal (" << g.nx << ", " << g.ny << ", " << g.nz << ") against ("
+                                  << w.nx << ", " << w.ny << ", " << w.nz << ")";
+          EXPECT_NEAR(g.u, w.u, 1e-3) << "pixel " << i;
+          EXPECT_NEAR(g.v, w.v, 1e-3) << "pixel " << i;
+        }
+      }
+  }
+  EXPECT_GT(compared, 2000u);
 }
 
 }  // namespace

@@ -7,6 +7,7 @@
 
 #ifdef RAYFOLD_HAVE_EMBREE
 #include <embree3/rtcore.h>
+#include <glm/matrix.hpp>
 
 #include <algorithm>
 #include <chrono>
@@ -29,6 +30,9 @@ struct EmbreePeer::Impl {
   Camera camera;
   float eye[3] = {0, 0, 0};    // world space, for the flat scene
   float world_dir[3][3] = {};  // world_from_camera's linear part, row-major
+  // Per scene instance, what turns the flat scene's Ng into rayfold's
+  // orientation: 1, or -1 under a mirroring world_from_object.
+  std::vector<float> normal_sign;
 
   Impl(const Scene& s, const SceneData& d, unsigned t) : scene(s), data(d), threads(t) {
     const std::string config = "threads=" + std::to_string(threads);
@@ -51,6 +55,8 @@ struct EmbreePeer::Impl {
       rtcCommitScene(ms);
       meshes.push_back(ms);
     }
+    for (const Instance& inst : scene.instances)
+      normal_sign.push_back(glm::determinant(glm::dmat3(inst.world_from_object)) < 0.0 ? -1.0f : 1.0f);
     top = rtcNewScene(device);
     instances.assign(scene.instances.size(), nullptr);
     for (size_t i = 0; i < scene.instances.size(); ++i) {
@@ -148,14 +154,36 @@ struct EmbreePeer::Impl {
 
   // inst: the instance for the instanced scene, the geometry (= instance)
   // for the flat one.
-  void store(rf_pixel_hit& h, float t, unsigned inst, unsigned prim, const float d[3]) const {
-    h = rf_pixel_hit{};
+  // The G-buffer rayfold writes for the hit: depth along the normalised
+  // ray, the world-space unit geometric normal (Embree's Ng, unnormalised:
+  // world space in the flat scene, where a mirroring transform has turned
+  // the winding that rayfold's normal keeps; object space in the instanced
+  // one), the barycentrics and the ids, so that both tracers' frames do the
+  // same work.
+  void store(rf_pixel_hit& h, float t, unsigned inst, unsigned prim, const float d[3], bool flat_scene, float ngx,
+             float ngy, float ngz, float u, float v) const {
     if (inst == RTC_INVALID_GEOMETRY_ID) {
+      h = rf_pixel_hit{};
       h.z = INFINITY;
       h.instance = h.primitive = RF_INVALID;
       return;
     }
     h.z = t * std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    float n[3] = {ngx, ngy, ngz};
+    if (flat_scene) {
+      const float s = normal_sign[inst];
+      for (float& c : n) c *= s;
+    } else {
+      const float* m = data.normal_xforms[inst].m;
+      for (int r = 0; r < 3; ++r) n[r] = m[3 * r] * ngx + m[3 * r + 1] * ngy + m[3 * r + 2] * ngz;
+    }
+    const float len = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+    const float k = len > 0.0f ? 1.0f / len : 0.0f;
+    h.nx = n[0] * k;
+    h.ny = n[1] * k;
+    h.nz = n[2] * k;
+    h.u = u;
+    h.v = v;
     h.instance = inst;
     h.primitive = prim;
   }
@@ -242,7 +270,7 @@ double EmbreePeer::trace1(std::vector<rf_pixel_hit>& hits, EmbreeScene which) {
           RTCRayHit rh = ray1(o, d);
           rtcIntersect1(scene, &ctx, &rh);
           m.store(hits[static_cast<size_t>(y) * w + x], rh.ray.tfar, flat ? rh.hit.geomID : rh.hit.instID[0],
-                  rh.hit.primID, cam_d);
+                  rh.hit.primID, cam_d, flat, rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z, rh.hit.u, rh.hit.v);
         }
       },
       h);
@@ -275,7 +303,8 @@ double EmbreePeer::trace16(std::vector<rf_pixel_hit>& hits, EmbreeScene which) {
         for (int i = 0; i < 16; ++i)
           if (valid[i])
             m.store(hits[static_cast<size_t>(y0 + i / 4) * w + x0 + i % 4], rh.ray.tfar[i],
-                    flat ? rh.hit.geomID[i] : rh.hit.instID[0][i], rh.hit.primID[i], dirs[i]);
+                    flat ? rh.hit.geomID[i] : rh.hit.instID[0][i], rh.hit.primID[i], dirs[i], flat, rh.hit.Ng_x[i],
+                    rh.hit.Ng_y[i], rh.hit.Ng_z[i], rh.hit.u[i], rh.hit.v[i]);
       },
       tx * ty);
 }
