@@ -211,6 +211,32 @@ TEST(Peers, EmbreeWritesRayfoldsGBuffer) {
       }
   }
   EXPECT_GT(compared, 2000u);
+  // Ray queries (rayfold-peers --rays) the same, with z = t.
+  const Aabb b = scene.world_bounds();
+  const size_t n = 4000;
+  std::vector<float> o(3 * n), d(3 * n);
+  for (size_t i = 0; i < n; ++i)
+    for (int k = 0; k < 3; ++k) {
+      o[3 * i + k] = rng.uniformf(b.lo[k], b.hi[k]);
+      d[3 * i + k] = rng.uniformf(-1.0f, 1.0f);
+    }
+  std::vector<rf_pixel_hit> want(n);
+  cpu.intersect(o.data(), d.data(), n, 0.0f, INFINITY, false, FrameOptions{}, want.data());
+  compared = 0;
+  for (int packets = 0; packets < 2; ++packets) {
+    std::vector<rf_pixel_hit> got;
+    packets ? embree.intersect16(o.data(), d.data(), n, 0, got, EmbreeScene::flat)
+            : embree.intersect1(o.data(), d.data(), n, got, EmbreeScene::flat);
+    for (size_t i = 0; i < n; ++i) {
+      const rf_pixel_hit &g = got[i], &w = want[i];
+      if (g.instance == RF_INVALID || g.instance != w.instance || g.primitive != w.primitive) continue;
+      ++compared;
+      EXPECT_GT(g.nx * w.nx + g.ny * w.ny + g.nz * w.nz, 0.9999f) << "ray " << i << " packets " << packets;
+      EXPECT_NEAR(g.z, w.z, 1e-3 * w.z) << "ray " << i;  // t itself, not t |d| (near hits round by |o| / t)
+      EXPECT_NEAR(g.u, w.u, 1e-3) << "ray " << i;
+    }
+  }
+  EXPECT_GT(compared, 1000u);
 }
 
 }  // namespace

@@ -160,7 +160,9 @@ struct EmbreePeer::Impl {
   // the winding that rayfold's normal keeps; object space in the instanced
   // one), the barycentrics and the ids, so that both tracers' frames do the
   // same work.
-  void store(rf_pixel_hit& h, float t, unsigned inst, unsigned prim, const float d[3], bool flat_scene, float ngx,
+  // d: the ray's direction in camera space for a frame (z is the distance
+  // along it normalised), null for a ray query (z = t).
+  void store(rf_pixel_hit& h, float t, unsigned inst, unsigned prim, const float* d, bool flat_scene, float ngx,
              float ngy, float ngz, float u, float v) const {
     if (inst == RTC_INVALID_GEOMETRY_ID) {
       h = rf_pixel_hit{};
@@ -168,7 +170,7 @@ struct EmbreePeer::Impl {
       h.instance = h.primitive = RF_INVALID;
       return;
     }
-    h.z = t * std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    h.z = d ? t * std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) : t;
     float n[3] = {ngx, ngy, ngz};
     if (flat_scene) {
       const float s = normal_sign[inst];
@@ -309,17 +311,6 @@ double EmbreePeer::trace16(std::vector<rf_pixel_hit>& hits, EmbreeScene which) {
       tx * ty);
 }
 
-namespace {
-
-void store_query(rf_pixel_hit& h, float t, unsigned geom, unsigned prim) {
-  h = rf_pixel_hit{};
-  const bool hit = geom != RTC_INVALID_GEOMETRY_ID;
-  h.z = hit ? t : INFINITY;
-  h.instance = hit ? geom : RF_INVALID;
-  h.primitive = hit ? prim : RF_INVALID;
-}
-
-}  // namespace
 
 double EmbreePeer::intersect1(const float* o, const float* d, size_t n, std::vector<rf_pixel_hit>& hits,
                               EmbreeScene which) {
@@ -335,7 +326,8 @@ double EmbreePeer::intersect1(const float* o, const float* d, size_t n, std::vec
     for (size_t i = begin; i < end; ++i) {
       RTCRayHit rh = ray1(o + 3 * i, d + 3 * i);
       rtcIntersect1(scene, &ctx, &rh);
-      store_query(hits[i], rh.ray.tfar, rh.hit.geomID, rh.hit.primID);
+      m.store(hits[i], rh.ray.tfar, rh.hit.geomID, rh.hit.primID, nullptr, true, rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z,
+              rh.hit.u, rh.hit.v);
     }
   });
   return ms_since(t0);
@@ -378,7 +370,9 @@ double EmbreePeer::intersect16(const float* o, const float* d, size_t n, size_t 
       }
       rtcIntersect16(valid, scene, &ctx, &rh);
       for (int l = 0; l < 16; ++l)
-        if (valid[l]) store_query(hits[index[l]], rh.ray.tfar[l], rh.hit.geomID[l], rh.hit.primID[l]);
+        if (valid[l])
+          m.store(hits[index[l]], rh.ray.tfar[l], rh.hit.geomID[l], rh.hit.primID[l], nullptr, true, rh.hit.Ng_x[l],
+                  rh.hit.Ng_y[l], rh.hit.Ng_z[l], rh.hit.u[l], rh.hit.v[l]);
     }
   });
   return ms_since(t0);
