@@ -205,6 +205,7 @@ TEST(Peers, EmbreeWritesRayfoldsGBuffer) {
           EXPECT_GT(dot, 0.9999f) << "view " << v << " scene " << int(which) << " packets " << packets << " pixel "
                                   << i << ": normal (" << g.nx << ", " << g.ny << ", " << g.nz << ") against ("
                                   << w.nx << ", " << w.ny << ", " << w.nz << ")";
+          EXPECT_NEAR(g.nx * g.nx + g.ny * g.ny + g.nz * g.nz, 1.0f, 1e-5f) << "pixel " << i << ": not unit length";
           EXPECT_NEAR(g.u, w.u, 1e-3) << "pixel " << i;
           EXPECT_NEAR(g.v, w.v, 1e-3) << "pixel " << i;
         }
@@ -223,20 +224,31 @@ TEST(Peers, EmbreeWritesRayfoldsGBuffer) {
   std::vector<rf_pixel_hit> want(n);
   cpu.intersect(o.data(), d.data(), n, 0.0f, INFINITY, false, FrameOptions{}, want.data());
   compared = 0;
-  for (int packets = 0; packets < 2; ++packets) {
+  size_t misses = 0;
+  // Single rays, packets of consecutive rays, and packets of 4x4 blocks of
+  // rays taken as an image's rows of 50.
+  for (int packets = 0; packets < 3; ++packets) {
     std::vector<rf_pixel_hit> got;
-    packets ? embree.intersect16(o.data(), d.data(), n, 0, got, EmbreeScene::flat)
+    packets ? embree.intersect16(o.data(), d.data(), n, packets == 2 ? 50 : 0, got, EmbreeScene::flat)
             : embree.intersect1(o.data(), d.data(), n, got, EmbreeScene::flat);
     for (size_t i = 0; i < n; ++i) {
       const rf_pixel_hit &g = got[i], &w = want[i];
-      if (g.instance == RF_INVALID || g.instance != w.instance || g.primitive != w.primitive) continue;
+      if (g.instance == RF_INVALID) {
+        ++misses;
+        EXPECT_TRUE(g.z == INFINITY && g.nx == 0.0f && g.u == 0.0f && g.v == 0.0f && g.primitive == RF_INVALID)
+            << "ray " << i;
+        continue;
+      }
+      if (g.instance != w.instance || g.primitive != w.primitive) continue;
       ++compared;
       EXPECT_GT(g.nx * w.nx + g.ny * w.ny + g.nz * w.nz, 0.9999f) << "ray " << i << " packets " << packets;
       EXPECT_NEAR(g.z, w.z, 1e-3 * w.z) << "ray " << i;  // t itself, not t |d| (near hits round by |o| / t)
       EXPECT_NEAR(g.u, w.u, 1e-3) << "ray " << i;
+      EXPECT_NEAR(g.v, w.v, 1e-3) << "ray " << i;
     }
   }
-  EXPECT_GT(compared, 1000u);
+  EXPECT_GT(compared, 1500u);
+  EXPECT_GT(misses, 100u);
 }
 
 }  // namespace

@@ -7,7 +7,6 @@
 
 #ifdef RAYFOLD_HAVE_EMBREE
 #include <embree3/rtcore.h>
-#include <glm/matrix.hpp>
 
 #include <algorithm>
 #include <chrono>
@@ -56,7 +55,7 @@ struct EmbreePeer::Impl {
       meshes.push_back(ms);
     }
     for (const Instance& inst : scene.instances)
-      normal_sign.push_back(glm::determinant(glm::dmat3(inst.world_from_object)) < 0.0 ? -1.0f : 1.0f);
+      normal_sign.push_back(linear_determinant(inst.world_from_object) < 0.0 ? -1.0f : 1.0f);
     top = rtcNewScene(device);
     instances.assign(scene.instances.size(), nullptr);
     for (size_t i = 0; i < scene.instances.size(); ++i) {
@@ -152,15 +151,13 @@ struct EmbreePeer::Impl {
     d[2] = -1.0f;
   }
 
-  // inst: the instance for the instanced scene, the geometry (= instance)
-  // for the flat one.
-  // The G-buffer rayfold writes for the hit: depth along the normalised
-  // ray, the world-space unit geometric normal (Embree's Ng, unnormalised:
-  // world space in the flat scene, where a mirroring transform has turned
-  // the winding that rayfold's normal keeps; object space in the instanced
-  // one), the barycentrics and the ids, so that both tracers' frames do the
-  // same work.
-  // d: the ray's direction in camera space for a frame (z is the distance
+  // The G-buffer rayfold writes for a hit, so that both tracers' frames do
+  // the same work: depth, the world-space unit geometric normal, the
+  // barycentrics and the ids. Embree's Ng is unnormalised, in world space in
+  // the flat scene (where a mirroring transform has turned the winding that
+  // rayfold's normal keeps) and in object space in the instanced one. inst:
+  // the instance for the instanced scene, the geometry (= instance) for the
+  // flat one; d: the camera-space direction for a frame (z is the distance
   // along it normalised), null for a ray query (z = t).
   void store(rf_pixel_hit& h, float t, unsigned inst, unsigned prim, const float* d, bool flat_scene, float ngx,
              float ngy, float ngz, float u, float v) const {
@@ -310,7 +307,6 @@ double EmbreePeer::trace16(std::vector<rf_pixel_hit>& hits, EmbreeScene which) {
       },
       tx * ty);
 }
-
 
 double EmbreePeer::intersect1(const float* o, const float* d, size_t n, std::vector<rf_pixel_hit>& hits,
                               EmbreeScene which) {

@@ -37,13 +37,14 @@ class EmbreePeer {
   double build_ms(EmbreeScene scene) const;
   // The same builds' peak resident memory (tools/peak_memory.h), bytes.
   size_t build_peak_bytes(EmbreeScene scene) const;
-  // Every pixel's hit (distance, instance, primitive; normals and
-  // barycentrics are left 0). Returns ms.
+  // Every pixel's G-buffer as rayfold's (distance, world-space unit
+  // geometric normal in rayfold's orientation, barycentrics, instance,
+  // primitive), so that both frames do the same work. Returns ms.
   double trace1(std::vector<rf_pixel_hit>& hits, EmbreeScene scene);
   double trace16(std::vector<rf_pixel_hit>& hits, EmbreeScene scene);
   // Ray queries on a flat scene (world space), as Renderer::intersect takes
   // them (n x 3 origins and directions): each ray's t along its direction
-  // (z), instance and primitive, or a miss. rtcIntersect1 ray by ray; or
+  // (z), normal, barycentrics, instance and primitive, or a miss. rtcIntersect1 ray by ray; or
   // rtcIntersect16 packets: 4x4 blocks of an image's rays (rows of
   // row_length, marked coherent), else 16 consecutive rays. Returns ms.
   double intersect1(const float* origins, const float* directions, size_t n, std::vector<rf_pixel_hit>& hits,

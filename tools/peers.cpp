@@ -270,7 +270,8 @@ std::string peers_markdown(const PeerReport& r) {
         << fmt("%.0f", e.frame_ms) << "; its load not counted)";
     s << ".\n";
   }
-  s << "\nTimes: rayfold per frame is ray list + trace + readback; Embree's is the trace into host memory. "
+  s << "\nTimes: rayfold per frame is ray list + trace + readback; Embree's is the trace and the same G-buffer "
+       "(distance, unit world normal, barycentrics, ids) into host memory. "
        "Exact rows are checked bit for bit against the CPU reference's unfolded image first. "
        "Accuracy against the double-precision reference: share of pixels whose (instance, primitive) differs, "
        "hit/miss disagreements (included in the former), relative depth error where both hit the same triangle."

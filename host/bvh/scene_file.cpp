@@ -5,6 +5,7 @@
 #include <cstring>
 #include <type_traits>
 
+#include "util/checksum.h"
 #include "util/errors.h"
 
 namespace rayfold::core {
@@ -16,20 +17,6 @@ constexpr size_t kHeader = 16 + 4 + 4 + 8;
 uint32_t layout_signature() {
   return static_cast<uint32_t>(sizeof(rf_node)) | static_cast<uint32_t>(sizeof(rf_tri)) << 8 |
          static_cast<uint32_t>(sizeof(rf_wide_node)) << 16 | static_cast<uint32_t>(sizeof(rf_normal_xform)) << 24;
-}
-
-// FNV-1a over 8-byte words (then the last bytes one by one): a damaged
-// file's check at a few GB/s rather than byte-wise FNV's one.
-uint64_t fnv1a(const char* p, size_t n) {
-  uint64_t h = 0xcbf29ce484222325ull;
-  size_t i = 0;
-  for (; i + 8 <= n; i += 8) {
-    uint64_t word;
-    std::memcpy(&word, p + i, 8);
-    h = (h ^ word) * 0x100000001b3ull;
-  }
-  for (; i < n; ++i) h = (h ^ static_cast<unsigned char>(p[i])) * 0x100000001b3ull;
-  return h;
 }
 
 // Counts the bytes (out == nullptr), then writes them into a buffer of

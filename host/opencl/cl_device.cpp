@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <vector>
 
+#include "opencl/kernel_cache.h"
 #include "util/errors.h"
 
 namespace rayfold::core {
@@ -177,6 +178,33 @@ cl::Program ClDevice::build(const std::string& source, KernelPrecision precision
   } else {
     options += " -cl-fast-relaxed-math -cl-mad-enable -DRF_FAST_MATH";
   }
+  // A binary is native code for this device from this driver and this
+  // source: all of them name it (PoCL's device name holds its CPU target,
+  // its platform version the LLVM it compiles with).
+  std::string cache = kernel_cache_dir(), key;
+  if (!cache.empty()) {
+    try {
+      const cl::Platform platform(device_.getInfo<CL_DEVICE_PLATFORM>());
+      key = info_.platform + "\n" + platform.getInfo<CL_PLATFORM_VERSION>() + "\n" + info_.vendor + "\n" + info_.name + "\n" +
+            info_.version + "\n" + device_.getInfo<CL_DRIVER_VERSION>() + "\n" + options + "\n" + source;
+    } catch (const cl::Error&) {
+      cache.clear();  // a driver that cannot say its version is not cached
+    }
+  }
+  if (!cache.empty()) {
+    const std::vector<unsigned char> binary = load_cached_program(cache, key);
+    if (!binary.empty()) {
+      try {
+        cl::Program cached(context_, {device_}, cl::Program::Binaries{binary});
+        cached.build({device_}, options.c_str());
+        count_kernel_cache_hit();
+        return cached;
+      } catch (const cl::Error&) {
+        // A binary this driver no longer takes: built from source below and
+        // stored again.
+      }
+    }
+  }
   cl::Program program(context_, source);
   try {
     program.build({device_}, options.c_str());
@@ -189,6 +217,14 @@ cl::Program ClDevice::build(const std::string& source, KernelPrecision precision
     }
     throw RuntimeFailure("OpenCL kernel build failed on '" + info_.name + "' with options '" + options +
                          "': " + cl_error_text(e) + "\nbuild log:\n" + log);
+  }
+  if (!cache.empty()) {
+    try {
+      const std::vector<std::vector<unsigned char>> binaries = program.getInfo<CL_PROGRAM_BINARIES>();
+      if (binaries.size() == 1) store_cached_program(cache, key, binaries[0]);
+    } catch (const cl::Error&) {
+      // A driver that gives no binary is simply not cached.
+    }
   }
   return program;
 }

@@ -78,6 +78,10 @@ void AtomicFile::commit() {
     committed_ = true;
     return;
   }
+  commit_now();
+}
+
+void AtomicFile::commit_now() {
   if (std::rename(temp_.c_str(), path_.c_str()) != 0)
     throw RuntimeFailure(path_ + ": cannot move the finished file into place: " + errno_text());
   release_temporary(entry_);

@@ -25,6 +25,11 @@ class AtomicFile {
   // OutputTransaction to be renamed with the others. RuntimeFailure naming
   // the file when the rename fails.
   void commit();
+  // Instead of commit(): renamed into place now even while an
+  // OutputTransaction is open, for files that are not a run's output (a
+  // cache) and stand on their own. RuntimeFailure naming the file when the
+  // rename fails.
+  void commit_now();
 
  private:
   std::string path_, temp_;

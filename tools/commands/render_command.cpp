@@ -279,8 +279,9 @@ void announce_program_build(const Renderer& renderer, Progress& progress, bool q
   char text[400];
   std::snprintf(text, sizeof text,
                 "note: the OpenCL kernels took %.1f s to compile: the first use of this device and rayfold version; "
-                "PoCL caches them ($XDG_CACHE_HOME/pocl or ~/.cache/pocl), so later runs skip this. The first frame "
-                "also compiles for its work-group size: --frames N reports medians.\n",
+                "they are cached (rayfold's in ~/.cache/rayfold/kernels or $RAYFOLD_KERNEL_CACHE, PoCL's in "
+                "~/.cache/pocl), so later runs skip this. The first frame also compiles for its work-group size: "
+                "--frames N reports medians.\n",
                 ms / 1000.0);
   progress.print(stderr, text);
 }
