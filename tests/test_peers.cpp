@@ -3,8 +3,13 @@
 // fold modes of each rayfold variant report the same accuracy.
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
 #include <cstring>
+#include <filesystem>
 #include <vector>
+
+#include <nlohmann/json.hpp>
 
 #include "../tools/embree_peer.h"
 #include "../tools/peak_memory.h"
@@ -168,6 +173,25 @@ TEST(Peers, RayQueriesAgainstEmbreeOnTheSameRays) {
   bad.rows[1].mismatched_rays = 1;
   EXPECT_FALSE(bad.valid());
   EXPECT_NE(ray_peers_markdown(bad).find("1 rays differ"), std::string::npos);
+}
+
+// The first G-buffer says whether its kernels were compiled or taken from
+// rayfold's kernel cache: a fresh cache, then the same again.
+TEST(Peers, FirstGBufferSaysWhereItsKernelsCameFrom) {
+  const std::string dir = ::testing::TempDir() + "rayfold-peers-kcache-" + std::to_string(::getpid());
+  std::filesystem::remove_all(dir);
+  setenv("RAYFOLD_KERNEL_CACHE", dir.c_str(), 1);
+  PeerOptions opt = small_run(32, 18);
+  opt.views = 1;
+  opt.variants = {"tile"};
+  const PeerReport cold = run_peers(opt), warm = run_peers(opt);
+  unsetenv("RAYFOLD_KERNEL_CACHE");
+  std::filesystem::remove_all(dir);
+  EXPECT_FALSE(cold.rayfold_first_gbuffer.kernels_cached);
+  EXPECT_TRUE(warm.rayfold_first_gbuffer.kernels_cached);
+  EXPECT_NE(peers_markdown(cold).find("with its kernels built"), std::string::npos) << peers_markdown(cold);
+  EXPECT_NE(peers_markdown(warm).find("with its kernels from rayfold's kernel cache"), std::string::npos);
+  EXPECT_EQ(nlohmann::json::parse(peers_json(warm))["rayfold_first_gbuffer"]["kernels_cached"], true);
 }
 
 // Embree's frames write the G-buffer rayfold's do (unit world normal in

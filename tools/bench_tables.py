@@ -109,7 +109,8 @@ def peers_tables(paths, file_paths=()):
           "ratio is against the faster of every Embree mode. Build: rayfold's bottom-level trees against "
           "Embree's flat scene build (ms), and their peak resident memory (bytes per scene triangle, instances counted each time; the high-water "
           "mark during the build, less where it started). First G-buffer: rayfold's load, renderer (trees, device, "
-          "programs) and first frame against Embree's default flat build and first frame (ms). Depth: relative error "
+          "programs; \"built\" where its kernels were compiled rather than taken from rayfold's kernel cache) and "
+          "first frame against Embree's default flat build and first frame (ms). Depth: relative error "
           "against the double-precision reference on same-triangle pixels, worst view's p99 and maximum. Exact "
           "depth: the tile kernel with each depth from the pixel's exact ray in double-float (--exact-depth), its "
           "fastest fold, against Embree's fastest mode, and its depth error.\n")
@@ -143,7 +144,9 @@ def peers_tables(paths, file_paths=()):
         first_theirs = r.get("embree_first_gbuffer", {}).get("total_ms", 0)
         if first_theirs and first_ours > first_theirs:
             slower_first.append(r["name"])
-        first = f"{first_ours:.0f} / {first_theirs:.0f}" if first_ours else "-"
+        # "built": the process compiled its kernels (no warm kernel cache).
+        built = "" if r.get("rayfold_first_gbuffer", {}).get("kernels_cached", True) else " built"
+        first = f"{first_ours:.0f}{built} / {first_theirs:.0f}" if first_ours else "-"
         ex = fastest(r, False, exact_depth=True)
         exact_cells = "- | -"
         if ex:

@@ -10,6 +10,7 @@
 
 #include "bench.h"
 #include "embree_peer.h"
+#include "opencl/kernel_cache.h"
 #include "peak_memory.h"
 #include "reference/double_reference.h"
 #include "reference/hit_compare.h"
@@ -79,6 +80,7 @@ PeerReport run_peers(const PeerOptions& opt) {
   const FoldMode folds[] = {FoldMode::none, FoldMode::y, FoldMode::x, FoldMode::xy};
   std::vector<std::unique_ptr<Renderer>> renderers;
   double first_renderer_ms = 0.0;
+  bool first_kernels_cached = false;
   for (const Ours& o : ours) {
     RendererOptions ro;
     ro.backend = o.backend;
@@ -88,8 +90,12 @@ PeerReport run_peers(const PeerOptions& opt) {
     ro.device_hint = opt.device_hint;
     ro.merge.enabled = opt.merge;
     const auto start = Clock::now();
+    const size_t cache_hits = kernel_cache_hits();
     renderers.push_back(std::make_unique<Renderer>(scene, ro));
-    if (renderers.size() == 1) first_renderer_ms = ms_since(start);
+    if (renderers.size() == 1) {
+      first_renderer_ms = ms_since(start);
+      first_kernels_cached = kernel_cache_hits() > cache_hits;
+    }
   }
   const SceneData& data = renderers[0]->scene_data();
   const size_t timed_renderers = time_cpu ? renderers.size() : renderers.size() - 1;
@@ -137,7 +143,7 @@ PeerReport run_peers(const PeerOptions& opt) {
     const Camera cam = make_camera(path[0], opt.width, opt.height);
     const auto start = Clock::now();
     renderers[0]->render(cam, 1, FrameOptions{});
-    rep.rayfold_first_gbuffer = {load_ms, first_renderer_ms, ms_since(start)};
+    rep.rayfold_first_gbuffer = {load_ms, first_renderer_ms, ms_since(start), first_kernels_cached};
     if (embree) {
       embree->set_camera(cam);
       std::vector<rf_pixel_hit> hits;
@@ -263,7 +269,9 @@ std::string peers_markdown(const PeerReport& r) {
   const FirstGbuffer& a = r.rayfold_first_gbuffer;
   if (a.total() > 0.0) {
     s << "First G-buffer (view 0): rayfold " << fmt("%.0f", a.total()) << " ms (load " << fmt("%.0f", a.load_ms)
-      << ", renderer " << fmt("%.0f", a.build_ms) << ", first frame " << fmt("%.0f", a.frame_ms) << ")";
+      << ", renderer " << fmt("%.0f", a.build_ms) << " with its kernels "
+      << (a.kernels_cached ? "from rayfold's kernel cache" : "built") << ", first frame " << fmt("%.0f", a.frame_ms)
+      << ")";
     const FirstGbuffer& e = r.embree_first_gbuffer;
     if (e.total() > 0.0)
       s << "; Embree flat " << fmt("%.0f", e.total()) << " ms (build " << fmt("%.0f", e.build_ms) << ", first frame "
@@ -325,7 +333,9 @@ std::string peers_json(const PeerReport& r) {
   j["rayfold_build_ms"] = r.rayfold_build_ms;
   j["embree_build_ms"] = r.embree_build_ms;
   auto first = [](const FirstGbuffer& f) {
-    return nlohmann::json{{"load_ms", f.load_ms}, {"build_ms", f.build_ms}, {"frame_ms", f.frame_ms}, {"total_ms", f.total()}};
+    return nlohmann::json{{"load_ms", f.load_ms},   {"build_ms", f.build_ms},
+                          {"frame_ms", f.frame_ms}, {"total_ms", f.total()},
+                          {"kernels_cached", f.kernels_cached}};
   };
   j["rayfold_first_gbuffer"] = first(r.rayfold_first_gbuffer);
   j["embree_first_gbuffer"] = first(r.embree_first_gbuffer);

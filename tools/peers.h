@@ -42,6 +42,9 @@ struct PeerRow {
 // the whole renderer, device and programs included) and the first frame, ms.
 struct FirstGbuffer {
   double load_ms = 0.0, build_ms = 0.0, frame_ms = 0.0;
+  // rayfold: its programs came from the kernel cache (opencl/kernel_cache.h),
+  // which a process's first G-buffer finds warm after the first run.
+  bool kernels_cached = false;
   double total() const { return load_ms + build_ms + frame_ms; }
 };
 
