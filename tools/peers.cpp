@@ -333,8 +333,10 @@ std::string peers_json(const PeerReport& r) {
   j["rayfold_build_ms"] = r.rayfold_build_ms;
   j["embree_build_ms"] = r.embree_build_ms;
   auto first = [](const FirstGbuffer& f) {
-    return nlohmann::json{{"load_ms", f.load_ms},   {"build_ms", f.build_ms},
-                          {"frame_ms", f.frame_ms}, {"total_ms", f.total()},
+    return nlohmann::json{{"load_ms", f.load_ms},
+                          {"build_ms", f.build_ms},
+                          {"frame_ms", f.frame_ms},
+                          {"total_ms", f.total()},
                           {"kernels_cached", f.kernels_cached}};
   };
   j["rayfold_first_gbuffer"] = first(r.rayfold_first_gbuffer);

@@ -185,8 +185,8 @@ cl::Program ClDevice::build(const std::string& source, KernelPrecision precision
   if (!cache.empty()) {
     try {
       const cl::Platform platform(device_.getInfo<CL_DEVICE_PLATFORM>());
-      key = info_.platform + "\n" + platform.getInfo<CL_PLATFORM_VERSION>() + "\n" + info_.vendor + "\n" + info_.name + "\n" +
-            info_.version + "\n" + device_.getInfo<CL_DRIVER_VERSION>() + "\n" + options + "\n" + source;
+      key = info_.platform + "\n" + platform.getInfo<CL_PLATFORM_VERSION>() + "\n" + info_.vendor + "\n" + info_.name +
+            "\n" + info_.version + "\n" + device_.getInfo<CL_DRIVER_VERSION>() + "\n" + options + "\n" + source;
     } catch (const cl::Error&) {
       cache.clear();  // a driver that cannot say its version is not cached
     }

@@ -63,8 +63,10 @@ std::string kernel_cache_dir() {
     const fs::path p = fs::absolute(env, ec);
     return ec ? "" : p.string();
   }
-  if (const char* xdg = std::getenv("XDG_CACHE_HOME"); xdg && xdg[0] == '/') return std::string(xdg) + "/rayfold/kernels";
-  if (const char* home = std::getenv("HOME"); home && home[0] == '/') return std::string(home) + "/.cache/rayfold/kernels";
+  if (const char* xdg = std::getenv("XDG_CACHE_HOME"); xdg && xdg[0] == '/')
+    return std::string(xdg) + "/rayfold/kernels";
+  if (const char* home = std::getenv("HOME"); home && home[0] == '/')
+    return std::string(home) + "/.cache/rayfold/kernels";
   return "";
 }
 
