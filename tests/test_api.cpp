@@ -863,5 +863,48 @@ TEST(Api, PackedReadbackGivesTheHostLayoutsBitsInEveryChannelSet) {
             std::string::npos);
 }
 
+// The double reference against hand-computed distances: a square at z = 0
+// seen from z = 5 lies 5 / -d.z along each pixel's unit ray, to double
+// rounding (a float render is only within float rounding); moving the square
+// moves the reference (its trees follow set_transform); outside it, misses.
+TEST(Api, ReferenceDepthIsTheHandComputedDistanceInDouble) {
+  Scene scene;
+  const uint32_t square = scene.add_mesh({-1, -1, 0, 1, -1, 0, 1, 1, 0, -1, 1, 0}, {0, 1, 2, 0, 2, 3}, "square");
+  Matrix4 m = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+  scene.add_instance(square, m, "square");
+  const Camera camera = Camera::look_at({0, 0, 5}, {0, 0, 0}, {0, 1, 0}, 60.0, 24, 16);
+  for (double z : {0.0, -1.0}) {
+    m[11] = z;
+    scene.set_transform(0, m);
+    const ReferenceImage ref = render_reference(scene, camera, 2);
+    ASSERT_EQ(ref.depth.size(), 24u * 16u);
+    EXPECT_EQ(ref.width, 24);
+    EXPECT_EQ(ref.height, 16);
+    int hits = 0, misses = 0;
+    for (int y = 0; y < 16; ++y)
+      for (int x = 0; x < 24; ++x) {
+        const size_t i = static_cast<size_t>(y) * 24 + x;
+        const Vec3 d = camera.ray_direction(x, y);
+        const double want = (5.0 - z) / -d[2];
+        const Vec3 at = {want * d[0], want * d[1], 5.0 + want * d[2]};
+        const bool inside = std::fabs(at[0]) < 0.99 && std::fabs(at[1]) < 0.99;
+        const bool outside = std::fabs(at[0]) > 1.01 || std::fabs(at[1]) > 1.01;
+        if (inside) {
+          ++hits;
+          EXPECT_NEAR(ref.depth[i], want, 1e-13 * want) << "pixel " << x << "," << y << " z " << z;
+          EXPECT_EQ(ref.instance_id[i], 0u);
+          EXPECT_TRUE(ref.primitive_id[i] == 0u || ref.primitive_id[i] == 1u) << ref.primitive_id[i];
+        } else if (outside) {
+          ++misses;
+          EXPECT_TRUE(std::isinf(ref.depth[i])) << "pixel " << x << "," << y << ": " << ref.depth[i];
+          EXPECT_EQ(ref.instance_id[i], kMiss);
+          EXPECT_EQ(ref.primitive_id[i], kMiss);
+        }
+      }
+    EXPECT_GT(hits, 12);
+    EXPECT_GT(misses, 30);
+  }
+}
+
 }  // namespace
 }  // namespace rayfold

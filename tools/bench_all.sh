@@ -16,7 +16,10 @@
 #                      Ray workers, every scene, 640x480 and 1280x720; once, after the scenes)
 #   bench_readback.py -> out/bench/readback.md/.json (the frame against the trace, host-layout and
 #                      packed readback, every scene and channel set; once, after the scenes)
-#   chart_peers.py  -> out/bench/<scene>-peers.png/.svg
+#   chart_peers.py  -> out/bench/<scene>-peers.png/.svg (speed against depth error and against
+#                      other-triangle share, both against the double reference: rayfold's variants
+#                      and Embree from rayfold-peers; with $BENCH_PYTHON, Mitsuba 3 and Open3D from
+#                      bench_python.py beside rayfold from Python)
 #   rayfold-stats   -> out/bench/<scene>-stats.txt  (traversal counters per pixel, both kernels, none and xy)
 #   rayfold bench --align -> out/bench/<scene>-align.md/.json (views alone against aligned, the cost
 #                      model's predictions; paths of $ALIGN_COUNTS views, default 2,4,8,16)
@@ -68,7 +71,9 @@ run() {
     "$python_peers" tools/bench_rays.py "$file" --cameras "$out/$name-peers.json" "${py_args[@]}" \
       --json "$out/$name-rays.json" > "$out/$name-rays.md"
   fi
-  /usr/bin/python3 tools/chart_peers.py "$out/$name-peers.json" "$out/$name-peers"
+  local py_chart=()
+  if [ -n "$python_peers" ]; then py_chart=(--python "$out/$name-python.json"); fi
+  /usr/bin/python3 tools/chart_peers.py "$out/$name-peers.json" "$out/$name-peers" "${py_chart[@]}"
   : > "$out/$name-stats.txt"
   for fold in none xy; do "$stats" "$file" "$@" --size 1280x720 --fold "$fold" >> "$out/$name-stats.txt"; done
   "$bin" bench --align "$file" "$@" "${args[@]}" --counts "${ALIGN_COUNTS:-2,4,8,16}" \

@@ -8,7 +8,13 @@ instance's mesh through its transform), views from a camera list (the
 
 Every peer's depth is checked against rayfold's on every view before anything
 is timed (hit/miss and depth agreement); a peer that disagrees is reported and
-not timed. Times are wall clock from Python after a warm-up, median over
+not timed. Every tracer's hits, rayfold's included, are then measured against
+the double-precision reference (Scene.render_reference), as rayfold-peers
+measures its own variants and Embree: the share of pixels on another triangle
+and the relative depth error on the reference's triangle (median over views of
+the medians, the largest p99 and maximum of any view), so that
+tools/chart_peers.py can put Mitsuba and Open3D on the chart of speed against
+accuracy. Times are wall clock from Python after a warm-up, median over
 frames, per view, then the median over views: rayfold's `Renderer.render`
 (the whole G-buffer into numpy, every fold mode, the fastest reported; and
 with channels="depth", the distances alone as the peers return them), the
@@ -86,6 +92,13 @@ class Mitsuba:
         self.dr.eval(si.t)
         return np.asarray(si.t)
 
+    def hits(self, ray):
+        """t and the row of world_triangles hit (-1 on a miss)."""
+        si = self.scene.ray_intersect(ray)
+        self.dr.eval(si.t, si.prim_index)
+        t = np.asarray(si.t)
+        return t, np.where(np.isfinite(t), np.asarray(si.prim_index).astype(np.int64), -1)
+
 
 class Open3D:
     name = "Open3D RaycastingScene.cast_rays"
@@ -106,6 +119,12 @@ class Open3D:
     def cast(self, rays):
         return self.scene.cast_rays(rays)["t_hit"].numpy()
 
+    def hits(self, rays):
+        """t and the row of world_triangles hit (-1 on a miss)."""
+        out = self.scene.cast_rays(rays)
+        t = out["t_hit"].numpy()
+        return t, np.where(np.isfinite(t), out["primitive_ids"].numpy().astype(np.int64), -1)
+
 
 def agreement(ours, theirs):
     """Share of pixels where both hit or both miss, and the median relative
@@ -114,6 +133,48 @@ def agreement(ours, theirs):
     both = a & b
     rel = np.abs(theirs[both] - ours[both]) / ours[both] if both.any() else np.zeros(1)
     return float(np.mean(a == b)), float(np.median(rel))
+
+
+def accuracy(reference, depth, instance_id, primitive_id):
+    """One view's hits (flat arrays; MISS ids on a miss) against the double
+    reference (Scene.render_reference), as rayfold-peers measures (host/
+    reference/accuracy.cpp): the share of pixels whose (instance, primitive)
+    differs, the share where one hits and the other misses, and the median,
+    p99 and maximum relative depth error where both hit the same triangle."""
+    ref_inst = reference["instance_id"].reshape(-1)
+    ref_prim = reference["primitive_id"].reshape(-1)
+    ref_depth = reference["depth"].reshape(-1)
+    same = (ref_inst == instance_id) & (ref_prim == primitive_id)
+    ref_hit, hit = ref_inst != rayfold.MISS, instance_id != rayfold.MISS
+    out = {"disagreeing_share": 1.0 - float(np.mean(same)), "hit_miss_share": float(np.mean(ref_hit != hit)),
+           "depth_error_median": 0.0, "depth_error_p99": 0.0, "depth_error_max": 0.0}
+    both = same & ref_hit
+    if both.any():
+        err = np.sort(np.abs(depth[both].astype(np.float64) - ref_depth[both]) / ref_depth[both])
+        out["depth_error_median"] = float(err[len(err) // 2])
+        out["depth_error_p99"] = float(err[min(len(err) - 1, int(0.99 * len(err)))])
+        out["depth_error_max"] = float(err[-1])
+    return out
+
+
+def over_views(per_view):
+    """rayfold-peers' summary of views: shares averaged, the median of the
+    median errors, the largest p99 and maximum."""
+    return {"disagreeing_share": statistics.mean(a["disagreeing_share"] for a in per_view),
+            "hit_miss_share": statistics.mean(a["hit_miss_share"] for a in per_view),
+            "depth_error_median": statistics.median(a["depth_error_median"] for a in per_view),
+            "depth_error_p99": max(a["depth_error_p99"] for a in per_view),
+            "depth_error_max": max(a["depth_error_max"] for a in per_view)}
+
+
+def peer_ids(world, rows):
+    """(instance_id, primitive_id) of world_triangles rows; MISS for -1."""
+    hit = rows >= 0
+    inst = np.full(len(rows), rayfold.MISS, dtype=np.uint32)
+    prim = np.full(len(rows), rayfold.MISS, dtype=np.uint32)
+    inst[hit] = world.instance_id[rows[hit]]
+    prim[hit] = world.primitive_id[rows[hit]]
+    return inst, prim
 
 
 def main():
@@ -132,7 +193,8 @@ def main():
     scene = rayfold.Scene(args.scene)
     cams = cameras_from(args.cameras, width, height)
     renderer = rayfold.Renderer(scene, threads=args.threads)
-    tris = scene.world_triangles().triangles
+    world = scene.world_triangles()
+    tris = world.triangles
 
     peers, skipped = [], []
     for cls, pkg in ((Mitsuba, "mitsuba"), (Open3D, "open3d-cpu")):
@@ -145,7 +207,9 @@ def main():
     depth_ms = {f: [] for f in FOLDS}
     peer_ms = {p.name: [] for p in peers}
     checks = {p.name: [] for p in peers}
+    accuracies = {name: [] for name in ["rayfold"] + [p.name for p in peers]}
     for cam in cams:
+        reference = scene.render_reference(cam, threads=args.threads)
         depth = None
         for f in FOLDS:
             ms, g = timed(lambda: renderer.render(cam, fold=f), args.frames, args.warmup)
@@ -155,12 +219,15 @@ def main():
             depth_ms[f].append(ms)
             if not np.array_equal(d.depth.view(np.uint32), g.depth.view(np.uint32)):
                 sys.exit(f"bench_python.py: channels='depth' changed the depth (fold {f}): a rayfold bug")
+        accuracies["rayfold"].append(accuracy(reference, depth, g.instance_id.reshape(-1), g.primitive_id.reshape(-1)))
         origin = np.asarray(cam.eye, dtype=np.float32)
         dirs = np.asarray(cam.ray_directions(), dtype=np.float32)
         for p in peers:
             rays = p.prepare(origin, dirs)
             hit, err = agreement(depth, p.cast(rays))
             checks[p.name].append((hit, err))
+            t, rows = p.hits(rays)
+            accuracies[p.name].append(accuracy(reference, t, *peer_ids(world, rows)))
             if hit >= MIN_HIT_AGREEMENT and err <= MAX_MEDIAN_DEPTH_ERROR:
                 ms, _ = timed(lambda: p.cast(rays), args.frames, args.warmup)
                 peer_ms[p.name].append(ms)
@@ -169,10 +236,12 @@ def main():
     ours = statistics.median(ours_ms[best_fold])
     ours_depth = min(statistics.median(depth_ms[f]) for f in FOLDS)
     mpix = width * height / 1e3
+    # Every fold gives rayfold's bits: one accuracy for all of its rows.
+    ours_accuracy = over_views(accuracies["rayfold"])
     rows = [{"variant": f"rayfold Renderer.render, fold {f}", "ms": statistics.median(ours_ms[f]),
-             "mpixels_per_s": mpix / statistics.median(ours_ms[f])} for f in FOLDS]
+             "mpixels_per_s": mpix / statistics.median(ours_ms[f]), **ours_accuracy} for f in FOLDS]
     rows += [{"variant": f"rayfold Renderer.render, channels='depth', fold {f}", "ms": statistics.median(depth_ms[f]),
-              "mpixels_per_s": mpix / statistics.median(depth_ms[f])} for f in FOLDS]
+              "mpixels_per_s": mpix / statistics.median(depth_ms[f]), **ours_accuracy} for f in FOLDS]
     failed = []
     for p in peers:
         worst_hit = min(h for h, _ in checks[p.name])
@@ -184,7 +253,7 @@ def main():
         ms = statistics.median(peer_ms[p.name])
         rows.append({"variant": p.name, "ms": ms, "mpixels_per_s": mpix / ms, "ratio": ms / ours,
                      "ratio_depth_only": ms / ours_depth, "hit_agreement": worst_hit,
-                     "median_depth_difference": worst_err})
+                     "median_depth_difference": worst_err, **over_views(accuracies[p.name])})
 
     name = os.path.splitext(os.path.basename(args.scene))[0]
     lines = [f"Scene `{name}`: {len(tris)} triangles; {width}x{height}, {len(cams)} views from {args.cameras}, "
@@ -195,6 +264,14 @@ def main():
         ratio = f"**{r['ratio']:.2f}x**" if "ratio" in r else ""
         ratio_depth = f"**{r['ratio_depth_only']:.2f}x**" if "ratio_depth_only" in r else ""
         lines.append(f"| {r['variant']} | {r['ms']:.1f} | {r['mpixels_per_s']:.1f} | {ratio} | {ratio_depth} |")
+    lines += ["", "Against the double-precision reference (Scene.render_reference): share of pixels on another "
+              "triangle, share hit on one side only, relative depth error where both hit the same triangle "
+              "(median of the views' medians / largest p99 / largest maximum).", "",
+              "| tracer | other triangle | hit/miss | depth error |", "|---|---|---|---|"]
+    for r in [rows[0]] + [r for r in rows if "ratio" in r]:
+        who = "rayfold (every fold)" if r is rows[0] else r["variant"]
+        lines.append(f"| {who} | {100 * r['disagreeing_share']:.4f}% | {100 * r['hit_miss_share']:.4f}% | "
+                     f"{r['depth_error_median']:.1e} / {r['depth_error_p99']:.1e} / {r['depth_error_max']:.1e} |")
     for note in skipped + failed:
         lines.append(f"\n{note}")
     md = "\n".join(lines) + "\n"

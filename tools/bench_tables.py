@@ -227,6 +227,28 @@ def python_table(paths):
     if low is not None:
         print(f"\nAgainst Mitsuba 3, lowest **{low:.2f}x** (target {TARGET_PYTHON_VS_MITSUBA}x on every scene: "
               f"{'met' if low >= TARGET_PYTHON_VS_MITSUBA else 'NOT met'}).")
+    with_accuracy = [r for r in reports if all("depth_error_p99" in x for x in r["rows"])]
+    if not with_accuracy:
+        return
+    print("\nThe same hits against the double-precision reference (Scene.render_reference, the file's geometry "
+          "unrounded): relative depth error where the tracer hits the reference's triangle, largest p99 / largest "
+          "maximum of any view; other triangle: share of pixels.\n")
+    print("| scene | rayfold | Mitsuba 3 | Open3D | other triangle rayfold / Mitsuba 3 / Open3D |")
+    print("|---|---|---|---|---|")
+    for r in with_accuracy:
+        by = {"rayfold": r["rows"][0]}
+        by.update({x["variant"].split()[0]: x for x in r["rows"] if not x["variant"].startswith("rayfold")})
+
+        def err(name):
+            x = by.get(name)
+            return f"{x['depth_error_p99']:.1e} / {x['depth_error_max']:.1e}" if x else "-"
+
+        def share(name):
+            x = by.get(name)
+            return f"{100 * x['disagreeing_share']:.3f}%" if x else "-"
+
+        print(f"| {r['scene']} | {err('rayfold')} | {err('Mitsuba')} | {err('Open3D')} | "
+              f"{share('rayfold')} / {share('Mitsuba')} / {share('Open3D')} |")
 
 
 def stats_table(paths):

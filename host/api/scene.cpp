@@ -23,6 +23,15 @@ void check_affine(const Matrix4& m, const std::string& what) {
     throw InputError("", what + " is not affine: its last row must be 0 0 0 1");
 }
 
+std::shared_ptr<const core::SceneData> current_trees(SceneState& s) {
+  if (!s.trees || s.trees_version != s.structure_version || s.trees_clock != s.clock) {
+    s.trees = std::make_shared<const core::SceneData>(core::prepare_scene(s.scene, 0, {}, s.merge()));
+    s.trees_version = s.structure_version;
+    s.trees_clock = s.clock;
+  }
+  return s.trees;
+}
+
 }  // namespace detail
 namespace {
 
@@ -73,12 +82,7 @@ Scene Scene::load(const std::string& path, const LoadOptions& options) {
 
 std::string Scene::to_bytes() const {
   detail::SceneState& s = *state_;
-  if (!s.trees || s.trees_version != s.structure_version || s.trees_clock != s.clock) {
-    s.trees = std::make_shared<const core::SceneData>(core::prepare_scene(s.scene, 0, {}, s.merge()));
-    s.trees_version = s.structure_version;
-    s.trees_clock = s.clock;
-  }
-  core::SceneFile file{s.scene, *s.trees, s.path, s.warnings};
+  core::SceneFile file{s.scene, *detail::current_trees(s), s.path, s.warnings};
   return core::scene_file_bytes(file, RAYFOLD_VERSION_STRING);
 }
 

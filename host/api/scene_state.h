@@ -40,4 +40,8 @@ struct SceneState {
   }
 };
 
+// The trees for the scene as it is now (every instance where set_transform
+// and set_time put it): s.trees, built first if the scene changed since.
+std::shared_ptr<const core::SceneData> current_trees(SceneState& s);
+
 }  // namespace rayfold::detail

@@ -701,6 +701,24 @@ NB_MODULE(_core, m) {
       "origin or direction is not finite or whose direction is zero; what the answers may have lost (as "
       "GBuffer.warnings) comes as a RuntimeWarning. Releases the GIL.");
   scene_class.def(
+      "render_reference",
+      [](PyScene& s, const rayfold::Camera& camera, unsigned threads) {
+        rayfold::ReferenceImage r = locked(s, [&] { return rayfold::render_reference(s.scene, camera, threads); });
+        const size_t h = r.height, w = r.width;
+        nb::dict out;
+        out["depth"] = to_numpy(std::move(r.depth), {h, w});
+        out["instance_id"] = to_numpy(std::move(r.instance_id), {h, w});
+        out["primitive_id"] = to_numpy(std::move(r.primitive_id), {h, w});
+        return out;
+      },
+      "camera"_a, "threads"_a = 0,
+      "The double-precision ground truth of a view, what rayfold's benches measure every tracer against: each "
+      "pixel's exact ray (the camera model in double, not the float ray a render traces) through the scene's "
+      "trees with the watertight test in double, on the geometry as the scene states it (mesh vertices through "
+      "the instance transforms, unrounded: world_triangles' float rounding counts as error). A dict: depth (H, W) float64, the distance along the ray as "
+      "GBuffer.depth (inf on a miss), instance_id and primitive_id (H, W) uint32 (MISS on a miss). For "
+      "measuring accuracy, not for rendering: tens of times slower than a render. Releases the GIL.");
+  scene_class.def(
       "occluded",
       [scene_renderer](PyScene& s, nb::handle origins, nb::handle directions, float tmin, float tmax,
                        const std::string& backend, const std::string& device, unsigned threads) {

@@ -135,3 +135,88 @@ def test_readback_bench_checks_the_packed_planes_and_reports_both(atrium_path, m
     assert rb.same_planes(a, b) == "depth differs"
     c = scene.render(cam, channels="depth")
     assert rb.same_planes(a, c) == "normal present in one only"
+
+
+def test_render_reference_is_a_float64_brute_force(atrium_path):
+    """Scene.render_reference (what every tracer's accuracy is measured
+    against) on random pixels against a float64 brute force over every
+    triangle, as the file states it, along the camera's double rays: the
+    same hits and misses and t to double rounding, far below a float
+    render's error; its ids are the render's on nearly every pixel."""
+    scene = rayfold.Scene(atrium_path)
+    cam = scene.default_camera(64, 36)
+    ref = scene.render_reference(cam, threads=2)
+    assert ref["depth"].shape == (36, 64) and ref["depth"].dtype == np.float64
+    assert ref["instance_id"].shape == (36, 64) and ref["instance_id"].dtype == np.uint32
+    assert ref["primitive_id"].dtype == np.uint32
+    dirs = np.asarray(cam.ray_directions()).reshape(-1, 3)
+    pick = np.random.default_rng(5).choice(len(dirs), 40, replace=False)
+    # The geometry as the file states it: object vertices through the
+    # instance transforms in double (world_triangles' floats are rounded).
+    exact = []
+    for inst in range(scene.instance_count):
+        mesh = scene.instance_mesh(inst)
+        p = np.asarray(scene.mesh_positions(mesh), dtype=np.float64).reshape(-1, 3)
+        m = np.asarray(scene.transform(inst), dtype=np.float64)
+        exact.append((p @ m[:3, :3].T + m[:3, 3])[np.asarray(scene.mesh_triangles(mesh)).reshape(-1, 3)])
+    want = first_hits(np.asarray(cam.eye), dirs[pick], np.concatenate(exact))
+    got = ref["depth"].reshape(-1)[pick]
+    np.testing.assert_array_equal(np.isfinite(got), np.isfinite(want))
+    both = np.isfinite(want)
+    assert both.sum() > 20
+    assert np.max(np.abs(got[both] - want[both]) / want[both]) < 1e-9
+    miss = ~np.isfinite(ref["depth"])
+    assert np.all((ref["instance_id"] == rayfold.MISS) == miss)
+    g = scene.render(cam)
+    same = (g.instance_id == ref["instance_id"]) & (g.primitive_id == ref["primitive_id"])
+    assert same.mean() > 0.99
+    err = np.abs(g.depth[same & ~miss] - ref["depth"][same & ~miss]) / ref["depth"][same & ~miss]
+    assert 0 < np.max(err) < 1e-4  # a float render is off by float rounding, never exactly the reference
+
+
+def test_accuracy_is_measured_against_the_reference_as_rayfold_peers_does():
+    ref = {"depth": np.array([1.0, 2.0, np.inf, 4.0, 5.0]),
+           "instance_id": np.array([0, 0, rayfold.MISS, 1, 1], dtype=np.uint32),
+           "primitive_id": np.array([3, 4, rayfold.MISS, 0, 1], dtype=np.uint32)}
+    # Pixel 1 a tenth of a percent deep, pixel 3 on another triangle, pixel 4 a miss.
+    depth = np.array([1.0, 2.002, np.inf, 4.0, np.inf], dtype=np.float32)
+    inst = np.array([0, 0, rayfold.MISS, 1, rayfold.MISS], dtype=np.uint32)
+    prim = np.array([3, 4, rayfold.MISS, 2, rayfold.MISS], dtype=np.uint32)
+    a = bench.accuracy(ref, depth, inst, prim)
+    assert a["disagreeing_share"] == pytest.approx(0.4) and a["hit_miss_share"] == pytest.approx(0.2)
+    assert a["depth_error_max"] == pytest.approx(1e-3, rel=1e-4)
+    assert a["depth_error_p99"] == a["depth_error_median"] == a["depth_error_max"]  # 2 errors: 0 and 1e-3
+    # Rows of world_triangles map to ids; -1 is a miss.
+    world = rayfold.Scene().world_triangles()._replace(instance_id=np.array([0, 1, 1], dtype=np.uint32),
+                                                       primitive_id=np.array([7, 0, 1], dtype=np.uint32))
+    i, p = bench.peer_ids(world, np.array([2, -1, 0]))
+    assert list(i) == [1, rayfold.MISS, 0] and list(p) == [1, rayfold.MISS, 7]
+    views = [a, dict(a, depth_error_max=0.5, depth_error_p99=0.25, disagreeing_share=0.0)]
+    over = bench.over_views(views)
+    assert over["depth_error_max"] == 0.5 and over["depth_error_p99"] == 0.25
+    assert over["disagreeing_share"] == pytest.approx(0.2)
+
+
+def test_chart_draws_mitsuba_and_open3d_beside_rayfold_and_embree():
+    """tools/chart_peers.py's points: each C++ variant once, at its fastest
+    fold, and from the Python report rayfold's fastest fold and every peer
+    with an accuracy."""
+    spec = importlib.util.spec_from_file_location("chart_peers", ROOT / "tools" / "chart_peers.py")
+    chart = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(chart)
+    acc = {"depth_error_p99": 1e-6, "depth_error_max": 1e-5, "disagreeing_share": 1e-3}
+    peers = {"rows": [dict(acc, variant="OpenCL tile", fold="none", mpixels_per_s=10.0),
+                      dict(acc, variant="OpenCL tile", fold="xy", mpixels_per_s=12.0),
+                      dict(acc, variant="Embree flat rtcIntersect16", fold="-", mpixels_per_s=8.0)]}
+    python = {"rows": [dict(acc, variant="rayfold Renderer.render, fold none", mpixels_per_s=5.0),
+                       dict(acc, variant="rayfold Renderer.render, fold y", mpixels_per_s=6.0),
+                       dict(acc, variant="rayfold Renderer.render, channels='depth', fold y", mpixels_per_s=9.0),
+                       dict(acc, variant="Mitsuba 3 ray_intersect (llvm_ad_rgb)", mpixels_per_s=4.0),
+                       dict(acc, variant="Open3D RaycastingScene.cast_rays", mpixels_per_s=3.0)]}
+    drawn = [(label, row["mpixels_per_s"], filled) for label, row, filled in chart.points(peers, python)]
+    assert drawn == [("OpenCL tile, fold xy", 12.0, True), ("Embree flat rtcIntersect16", 8.0, True),
+                     ("from Python: rayfold Renderer.render, fold y", 6.0, False),
+                     ("from Python: Mitsuba 3 ray_intersect (llvm_ad_rgb)", 4.0, False),
+                     ("from Python: Open3D RaycastingScene.cast_rays", 3.0, False)]
+    assert [label for label, _, _ in chart.points(peers, None)] == ["OpenCL tile, fold xy",
+                                                                     "Embree flat rtcIntersect16"]

@@ -10,6 +10,7 @@
 #include "rayfold/errors.h"
 #include "rayfold/exr.h"
 #include "rayfold/gbuffer.h"
+#include "rayfold/reference.h"
 #include "rayfold/renderer.h"
 #include "rayfold/scene.h"
 #include "rayfold/types.h"
