@@ -16,8 +16,9 @@ the medians, the largest p99 and maximum of any view), so that
 tools/chart_peers.py can put Mitsuba and Open3D on the chart of speed against
 accuracy. Times are wall clock from Python after a warm-up, median over
 frames, per view, then the median over views: rayfold's `Renderer.render`
-(the whole G-buffer into numpy, every fold mode, the fastest reported; and
-with channels="depth", the distances alone as the peers return them), the
+(the whole G-buffer into numpy, every fold mode, the fastest reported; with
+channels="depth", the distances alone as the peers return them; and with
+exact_depth=True, its depth within 2^-24 of the exact distance), the
 peers' intersection call on prebuilt rays (ray building is not counted).
 
 usage: bench_python.py SCENE --cameras PEERS.json [--size WxH] [--threads N]
@@ -193,6 +194,7 @@ def main():
     scene = rayfold.Scene(args.scene)
     cams = cameras_from(args.cameras, width, height)
     renderer = rayfold.Renderer(scene, threads=args.threads)
+    exact = rayfold.Renderer(scene, threads=args.threads, exact_depth=True)
     world = scene.world_triangles()
     tris = world.triangles
 
@@ -205,9 +207,10 @@ def main():
 
     ours_ms = {f: [] for f in FOLDS}
     depth_ms = {f: [] for f in FOLDS}
+    exact_ms = {f: [] for f in FOLDS}
     peer_ms = {p.name: [] for p in peers}
     checks = {p.name: [] for p in peers}
-    accuracies = {name: [] for name in ["rayfold"] + [p.name for p in peers]}
+    accuracies = {name: [] for name in ["rayfold", "rayfold exact_depth"] + [p.name for p in peers]}
     for cam in cams:
         reference = scene.render_reference(cam, threads=args.threads)
         depth = None
@@ -219,7 +222,13 @@ def main():
             depth_ms[f].append(ms)
             if not np.array_equal(d.depth.view(np.uint32), g.depth.view(np.uint32)):
                 sys.exit(f"bench_python.py: channels='depth' changed the depth (fold {f}): a rayfold bug")
-        accuracies["rayfold"].append(accuracy(reference, depth, g.instance_id.reshape(-1), g.primitive_id.reshape(-1)))
+            ms, e = timed(lambda: exact.render(cam, fold=f), args.frames, args.warmup)
+            exact_ms[f].append(ms)
+            if not (np.array_equal(e.instance_id, g.instance_id) and np.array_equal(e.primitive_id, g.primitive_id)):
+                sys.exit(f"bench_python.py: exact_depth changed the triangles hit (fold {f}): a rayfold bug")
+        ids = (g.instance_id.reshape(-1), g.primitive_id.reshape(-1))
+        accuracies["rayfold"].append(accuracy(reference, depth, *ids))
+        accuracies["rayfold exact_depth"].append(accuracy(reference, e.depth.reshape(-1), *ids))
         origin = np.asarray(cam.eye, dtype=np.float32)
         dirs = np.asarray(cam.ray_directions(), dtype=np.float32)
         for p in peers:
@@ -242,6 +251,9 @@ def main():
              "mpixels_per_s": mpix / statistics.median(ours_ms[f]), **ours_accuracy} for f in FOLDS]
     rows += [{"variant": f"rayfold Renderer.render, channels='depth', fold {f}", "ms": statistics.median(depth_ms[f]),
               "mpixels_per_s": mpix / statistics.median(depth_ms[f]), **ours_accuracy} for f in FOLDS]
+    exact_accuracy = over_views(accuracies["rayfold exact_depth"])
+    rows += [{"variant": f"rayfold Renderer.render, exact_depth, fold {f}", "ms": statistics.median(exact_ms[f]),
+              "mpixels_per_s": mpix / statistics.median(exact_ms[f]), **exact_accuracy} for f in FOLDS]
     failed = []
     for p in peers:
         worst_hit = min(h for h, _ in checks[p.name])
@@ -268,8 +280,10 @@ def main():
               "triangle, share hit on one side only, relative depth error where both hit the same triangle "
               "(median of the views' medians / largest p99 / largest maximum).", "",
               "| tracer | other triangle | hit/miss | depth error |", "|---|---|---|---|"]
-    for r in [rows[0]] + [r for r in rows if "ratio" in r]:
-        who = "rayfold (every fold)" if r is rows[0] else r["variant"]
+    exact_row = next(r for r in rows if "exact_depth" in r["variant"])
+    for r in [rows[0], exact_row] + [r for r in rows if "ratio" in r]:
+        who = {id(rows[0]): "rayfold (every fold)", id(exact_row): "rayfold exact_depth (every fold)"}.get(
+            id(r), r["variant"])
         lines.append(f"| {who} | {100 * r['disagreeing_share']:.4f}% | {100 * r['hit_miss_share']:.4f}% | "
                      f"{r['depth_error_median']:.1e} / {r['depth_error_p99']:.1e} / {r['depth_error_max']:.1e} |")
     for note in skipped + failed:

@@ -199,8 +199,8 @@ def test_accuracy_is_measured_against_the_reference_as_rayfold_peers_does():
 
 def test_chart_draws_mitsuba_and_open3d_beside_rayfold_and_embree():
     """tools/chart_peers.py's points: each C++ variant once, at its fastest
-    fold, and from the Python report rayfold's fastest fold and every peer
-    with an accuracy."""
+    fold, and from the Python report rayfold's fastest fold of each G-buffer
+    kind (not the depth-only renders) and every peer with an accuracy."""
     spec = importlib.util.spec_from_file_location("chart_peers", ROOT / "tools" / "chart_peers.py")
     chart = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(chart)
@@ -211,11 +211,14 @@ def test_chart_draws_mitsuba_and_open3d_beside_rayfold_and_embree():
     python = {"rows": [dict(acc, variant="rayfold Renderer.render, fold none", mpixels_per_s=5.0),
                        dict(acc, variant="rayfold Renderer.render, fold y", mpixels_per_s=6.0),
                        dict(acc, variant="rayfold Renderer.render, channels='depth', fold y", mpixels_per_s=9.0),
+                       dict(acc, variant="rayfold Renderer.render, exact_depth, fold x", mpixels_per_s=4.5),
+                       dict(acc, variant="rayfold Renderer.render, exact_depth, fold xy", mpixels_per_s=4.0),
                        dict(acc, variant="Mitsuba 3 ray_intersect (llvm_ad_rgb)", mpixels_per_s=4.0),
                        dict(acc, variant="Open3D RaycastingScene.cast_rays", mpixels_per_s=3.0)]}
     drawn = [(label, row["mpixels_per_s"], filled) for label, row, filled in chart.points(peers, python)]
     assert drawn == [("OpenCL tile, fold xy", 12.0, True), ("Embree flat rtcIntersect16", 8.0, True),
                      ("from Python: rayfold Renderer.render, fold y", 6.0, False),
+                     ("from Python: rayfold Renderer.render, exact_depth, fold x", 4.5, False),
                      ("from Python: Mitsuba 3 ray_intersect (llvm_ad_rgb)", 4.0, False),
                      ("from Python: Open3D RaycastingScene.cast_rays", 3.0, False)]
     assert [label for label, _, _ in chart.points(peers, None)] == ["OpenCL tile, fold xy",
