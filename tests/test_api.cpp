@@ -863,6 +863,42 @@ TEST(Api, PackedReadbackGivesTheHostLayoutsBitsInEveryChannelSet) {
             std::string::npos);
 }
 
+// render_views' prepare hands each view its planes: sized ones full of NaN
+// are written over whole (the bits of render(view)), the wrong size is
+// resized, and prepare sees every view once with its index.
+TEST(Api, RenderViewsWritesOverThePlanesPrepareGives) {
+  const Scene scene = Scene::load(RAYFOLD_SOURCE_DIR "/scenes/atrium.glb");
+  Renderer renderer(scene);
+  std::vector<Camera> views;
+  for (int k = 0; k < 3; ++k)
+    views.push_back(Camera::look_at({0.3 * k, 2.0, 6.0 - k}, {0.0, 2.0, 0.0}, {0.0, 1.0, 0.0}, 50.0, 40 + 8 * k, 24));
+  std::vector<int> prepared(views.size(), 0);
+  std::vector<GBuffer> got(views.size());
+  renderer.render_views(
+      views, [&](size_t i, GBuffer&& g) { got[i] = std::move(g); }, Fold::xy, 0, kAllChannels,
+      [&](size_t i, GBuffer& g) {
+        prepared[i]++;
+        const size_t n = static_cast<size_t>(views[i].width()) * views[i].height();
+        g.depth.assign(i == 1 ? n + 5 : n, NAN);  // view 1's is the wrong size
+        g.normal.assign(3 * n, NAN);
+        g.uv.assign(2 * n, NAN);
+        g.instance_id.assign(n, 7u);
+        g.primitive_id.assign(n, 7u);
+      });
+  for (size_t i = 0; i < views.size(); ++i) {
+    EXPECT_EQ(prepared[i], 1) << "view " << i;
+    const GBuffer want = renderer.render(views[i], Fold::xy);
+    auto same_bits = [](const std::vector<float>& a, const std::vector<float>& b) {
+      return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(float)) == 0;
+    };
+    EXPECT_TRUE(same_bits(got[i].depth, want.depth)) << "view " << i;
+    EXPECT_TRUE(same_bits(got[i].normal, want.normal)) << "view " << i;
+    EXPECT_TRUE(same_bits(got[i].uv, want.uv)) << "view " << i;
+    EXPECT_EQ(got[i].instance_id, want.instance_id) << "view " << i;
+    EXPECT_EQ(got[i].primitive_id, want.primitive_id) << "view " << i;
+  }
+}
+
 // The double reference against hand-computed distances: a square at z = 0
 // seen from z = 5 lies 5 / -d.z along each pixel's unit ray, to double
 // rounding (a float render is only within float rounding); moving the square

@@ -190,12 +190,19 @@ std::vector<std::string> query_chunks(core::Renderer& r, std::vector<rf_pixel_hi
 
 RayHits Renderer::intersect(const float* origins, const float* directions, size_t n, float tmin, float tmax,
                             size_t row_length, unsigned channels) {
+  RayHits out;
+  intersect_into(out, origins, directions, n, tmin, tmax, row_length, channels);
+  return out;
+}
+
+void Renderer::intersect_into(RayHits& out, const float* origins, const float* directions, size_t n, float tmin,
+                              float tmax, size_t row_length, unsigned channels) {
   check_channels(channels);
   core::FrameOptions options;
   options.moved = impl_->moved();
   options.normals = (channels & kNormal) != 0;
-  RayHits out;
   out.channels = channels;
+  out.warnings.clear();
   size_planes(channels, n, out.t, out.normal, out.uv, out.instance_id, out.primitive_id);
   const PlaneWriter writer(out.t, out.normal, out.uv, out.instance_id, out.primitive_id);
   out.warnings = query_chunks(
@@ -205,7 +212,6 @@ RayHits Renderer::intersect(const float* origins, const float* directions, size_
           for (size_t k = lo; k < hi; ++k) writer.put(begin + k, hits[k]);
         });
       });
-  return out;
 }
 
 std::vector<uint8_t> Renderer::occluded(const float* origins, const float* directions, size_t n, float tmin,
@@ -323,6 +329,12 @@ std::vector<GBuffer> Renderer::render_views(const std::vector<Camera>& cameras, 
 
 void Renderer::render_views(const std::vector<Camera>& cameras, const std::function<void(size_t, GBuffer&&)>& on_view,
                             Fold fold, int align, unsigned channels) {
+  render_views(cameras, on_view, fold, align, channels, nullptr);
+}
+
+void Renderer::render_views(const std::vector<Camera>& cameras, const std::function<void(size_t, GBuffer&&)>& on_view,
+                            Fold fold, int align, unsigned channels,
+                            const std::function<void(size_t, GBuffer&)>& prepare) {
   check_channels(channels);
   if (align < 0 || align > kMaxAlignedViews)
     throw InputError("", "align must be 0 (as many as a pass holds) to " + std::to_string(kMaxAlignedViews) + ", not " +
@@ -357,6 +369,7 @@ void Renderer::render_views(const std::vector<Camera>& cameras, const std::funct
       const double ms = core::ms_since(started[p]) / static_cast<double>(pass.size());
       for (size_t k = 0; k < pass.size(); ++k) {
         GBuffer g;
+        if (prepare) prepare(pass[k], g);
         fill_gbuffer(g, core::view_result(r, k), cameras[pass[k]].width(), cameras[pass[k]].height(),
                      impl_->options.threads, channels, impl_->planar_depth ? Depth::planar : Depth::distance,
                frame.exact_depth);

@@ -18,6 +18,7 @@
 #include <mutex>
 #include <sstream>
 
+#include "plane_pool.h"
 #include "rayfold/rayfold.h"
 #include "util/channels.h"
 
@@ -75,6 +76,25 @@ nb::object to_numpy(std::vector<T>&& v, std::initializer_list<size_t> shape) {
   auto* heap = new std::vector<T>(std::move(v));
   nb::capsule owner(heap, [](void* p) noexcept { delete static_cast<std::vector<T>*>(p); });
   return nb::cast(nb::ndarray<nb::numpy, T>(heap->data(), shape, owner));
+}
+
+// Never destroyed: numpy arrays may outlive the module's statics at exit.
+rayfold::python::PlanePool& plane_pool() {
+  static auto* pool = new rayfold::python::PlanePool;
+  return *pool;
+}
+
+// A G-buffer plane as a numpy array that owns it and, when numpy lets it
+// go, hands its memory to plane_pool() for the next render.
+template <class T>
+nb::object plane_to_numpy(std::vector<T>&& v, const std::vector<size_t>& shape) {
+  auto* heap = new std::vector<T>(std::move(v));
+  nb::capsule owner(heap, [](void* p) noexcept {
+    auto* v = static_cast<std::vector<T>*>(p);
+    plane_pool().give(std::move(*v));
+    delete v;
+  });
+  return nb::cast(nb::ndarray<nb::numpy, T>(heap->data(), shape.size(), shape.data(), owner));
 }
 
 // A camera's per-pixel vector (ray_direction, ray_origin) as (H, W, 3).
@@ -183,7 +203,7 @@ PyGBuffer to_python(rayfold::GBuffer&& g, const rayfold::Camera& camera) {
   // A plane not asked for (channels=) is None.
   auto plane = [&](auto&& v, unsigned bit, std::initializer_list<size_t> shape) -> nb::object {
     if (!(g.channels & bit)) return nb::none();
-    return to_numpy(std::move(v), shape);
+    return plane_to_numpy(std::move(v), shape);
   };
   PyGBuffer p{plane(std::move(g.depth), rayfold::kDepth, {h, w}),
               plane(std::move(g.normal), rayfold::kNormal, {h, w, 3}),
@@ -258,11 +278,30 @@ auto locked(PyScene& s, F&& f) {
   return f();
 }
 
+// Planes for n pixels or rays from plane_pool(), where it has them: the
+// channels' planes of a GBuffer (depth) or RayHits (t).
+void take_planes(size_t n, unsigned channels, std::vector<float>& depth, std::vector<float>& normal,
+                 std::vector<float>& uv, std::vector<uint32_t>& instance_id, std::vector<uint32_t>& primitive_id) {
+  rayfold::python::PlanePool& pool = plane_pool();
+  if (channels & rayfold::kDepth) depth = pool.take<float>(n);
+  if (channels & rayfold::kNormal) normal = pool.take<float>(3 * n);
+  if (channels & rayfold::kUv) uv = pool.take<float>(2 * n);
+  if (channels & rayfold::kInstanceId) instance_id = pool.take<uint32_t>(n);
+  if (channels & rayfold::kPrimitiveId) primitive_id = pool.take<uint32_t>(n);
+}
+
+void take_planes(rayfold::GBuffer& g, const rayfold::Camera& camera, unsigned channels) {
+  take_planes(static_cast<size_t>(camera.width()) * camera.height(), channels, g.depth, g.normal, g.uv, g.instance_id,
+              g.primitive_id);
+}
+
 // Renders with the renderer `pick` returns (called under the scene's lock).
 template <class Pick>
 PyGBuffer render_locked(PyScene& s, Pick&& pick, const rayfold::Camera& camera, rayfold::Fold fold,
                         unsigned channels) {
-  rayfold::GBuffer g = locked(s, [&] { return pick().render(camera, fold, channels); });
+  rayfold::GBuffer g;
+  take_planes(g, camera, channels);
+  locked(s, [&] { pick().render_into(g, camera, fold, channels); });
   return to_python(std::move(g), camera);
 }
 
@@ -306,9 +345,7 @@ template <class T>
 nb::object shaped(std::vector<T>&& v, const std::vector<size_t>& lead, size_t per_ray) {
   std::vector<size_t> shape = lead;
   if (per_ray > 1) shape.push_back(per_ray);
-  auto* heap = new std::vector<T>(std::move(v));
-  nb::capsule owner(heap, [](void* p) noexcept { delete static_cast<std::vector<T>*>(p); });
-  return nb::cast(nb::ndarray<nb::numpy, T>(heap->data(), shape.size(), shape.data(), owner));
+  return plane_to_numpy(std::move(v), shape);
 }
 
 }  // namespace
@@ -643,10 +680,13 @@ NB_MODULE(_core, m) {
             const unsigned mask = parse_channels(channels);
             const std::string key = backend + "|" + device + "|" + kernel + "|" + std::to_string(threads) + "|" +
                                     depth + (exact_depth ? "|exact" : "");
-            std::vector<rayfold::GBuffer> gs = locked(s, [&] {
+            std::vector<rayfold::GBuffer> gs(cameras.size());
+            locked(s, [&] {
               std::unique_ptr<rayfold::Renderer>& r = s.renderers[key];
               if (!r) r = std::make_unique<rayfold::Renderer>(s.scene, o);
-              return r->render_views(cameras, parse_fold(fold), align, mask);
+              r->render_views(
+                  cameras, [&](size_t i, rayfold::GBuffer&& g) { gs[i] = std::move(g); }, parse_fold(fold), align, mask,
+                  [&](size_t i, rayfold::GBuffer& g) { take_planes(g, cameras[i], mask); });
             });
             std::vector<PyGBuffer> out;
             for (size_t i = 0; i < gs.size(); ++i) out.push_back(to_python(std::move(gs[i]), cameras[i]));
@@ -672,9 +712,11 @@ NB_MODULE(_core, m) {
                        const std::string& backend, const std::string& device, unsigned threads, nb::handle channels) {
         const unsigned mask = parse_channels(channels);
         const QueryArrays q = query_arrays(origins, directions);
-        rayfold::RayHits h = locked(s, [&] {
-          return scene_renderer(s, backend, device, threads)
-              .intersect(q.origins.data(), q.directions.data(), q.count, tmin, tmax, q.row_length(), mask);
+        rayfold::RayHits h;
+        take_planes(q.count, mask, h.t, h.normal, h.uv, h.instance_id, h.primitive_id);
+        locked(s, [&] {
+          scene_renderer(s, backend, device, threads)
+              .intersect_into(h, q.origins.data(), q.directions.data(), q.count, tmin, tmax, q.row_length(), mask);
         });
         warn_all(h.warnings);
         nb::dict out;

@@ -192,6 +192,67 @@ def test_channels_fill_only_the_planes_asked_for(atrium):
         atrium.render(camera, channels=[])
 
 
+def test_planes_numpy_let_go_are_rendered_into_again_with_fresh_bits(atrium):
+    """A render reuses the memory of planes whose arrays were freed (no page
+    faults, no zeroing), overwriting them whole: a view that misses where the
+    previous one hit, a smaller view, fewer channels and render_views all
+    give the bits of a render into fresh memory."""
+    inside = atrium.default_camera(96, 54)
+    sky = rayfold.Camera.look_at((0, 200, 0), (0, 400, 0), (0, 0, 1), 60, 96, 54)  # looks away: misses
+    r = rayfold.Renderer(atrium)
+    want = {"inside": r.render(inside), "sky": r.render(sky), "small": r.render(atrium.default_camera(48, 27))}
+    assert want["inside"].hits > 1000 and want["sky"].hits < want["inside"].hits // 2
+    g = r.render(inside)
+    addresses = {name: getattr(g, name).ctypes.data for name in PLANES}
+    del g
+    g = r.render(sky)  # into the inside view's memory, which hit where it misses
+    assert_same_bits(g, want["sky"])
+    reused = [name for name in PLANES if getattr(g, name).ctypes.data in addresses.values()]
+    assert set(reused) == set(PLANES), f"only {reused} reused the freed planes"
+    del g
+    assert_same_bits(r.render(atrium.default_camera(48, 27)), want["small"])
+    d = r.render(inside, channels="depth,instance_id")
+    np.testing.assert_array_equal(bits(d.depth), bits(want["inside"].depth))
+    np.testing.assert_array_equal(d.instance_id, want["inside"].instance_id)
+    del d
+    g = r.render(sky)
+    addresses = {getattr(g, name).ctypes.data for name in PLANES}
+    del g
+    views = atrium.render_views([inside, sky])  # render_views takes freed planes too
+    assert any(getattr(v, name).ctypes.data in addresses for v in views for name in PLANES)
+    assert_same_bits(views[0], want["inside"])
+    del views[0]
+    assert_same_bits(r.render(sky), want["sky"])
+    assert_same_bits(views[0], want["sky"])
+    # A view of the planes keeps them alive: they are not reused under it.
+    g = r.render(inside)
+    part = g.depth[10:20]
+    before = part.copy()
+    del g
+    r.render(sky)
+    np.testing.assert_array_equal(bits(part), bits(before))
+
+
+def test_intersect_writes_over_the_arrays_numpy_let_go(atrium):
+    """scene.intersect takes freed arrays' memory as render does, with the
+    answers of fresh memory: rays that miss after rays that hit."""
+    cam = atrium.default_camera(40, 30)
+    d = np.ascontiguousarray(cam.ray_directions(), dtype=np.float32)
+    o = np.ascontiguousarray(np.broadcast_to(cam.ray_origins(), d.shape), dtype=np.float32)
+    away = np.ascontiguousarray(np.broadcast_to(np.float32([0, 200, 0]), d.shape))
+    up = np.ascontiguousarray(np.broadcast_to(np.float32([0, 1, 0]), d.shape))
+    want = {k: v.copy() for k, v in atrium.intersect(away, up).items()}
+    assert np.all(np.isinf(want["t"]))
+    h = atrium.intersect(o, d)
+    assert np.isfinite(h["t"]).sum() > 600
+    addresses = {v.ctypes.data for v in h.values()}
+    del h
+    h = atrium.intersect(away, up)
+    assert {v.ctypes.data for v in h.values()} & addresses, "no freed array was reused"
+    for k in want:
+        np.testing.assert_array_equal(bits(h[k]), bits(want[k]), err_msg=k)
+
+
 def test_exact_depth_changes_only_the_depth_and_is_the_same_everywhere(atrium):
     """exact_depth=True: each depth from the pixel's exact ray in double-float;
     the other planes are the float render's bits, the depth within float
