@@ -874,6 +874,7 @@ TEST(Api, RenderViewsWritesOverThePlanesPrepareGives) {
     views.push_back(Camera::look_at({0.3 * k, 2.0, 6.0 - k}, {0.0, 2.0, 0.0}, {0.0, 1.0, 0.0}, 50.0, 40 + 8 * k, 24));
   std::vector<int> prepared(views.size(), 0);
   std::vector<GBuffer> got(views.size());
+  std::vector<const void*> normal_memory(views.size());
   renderer.render_views(
       views, [&](size_t i, GBuffer&& g) { got[i] = std::move(g); }, Fold::xy, 0, kAllChannels,
       [&](size_t i, GBuffer& g) {
@@ -884,9 +885,11 @@ TEST(Api, RenderViewsWritesOverThePlanesPrepareGives) {
         g.uv.assign(2 * n, NAN);
         g.instance_id.assign(n, 7u);
         g.primitive_id.assign(n, 7u);
+        normal_memory[i] = g.normal.data();
       });
   for (size_t i = 0; i < views.size(); ++i) {
     EXPECT_EQ(prepared[i], 1) << "view " << i;
+    EXPECT_EQ(static_cast<const void*>(got[i].normal.data()), normal_memory[i]) << "view " << i << ": not written in place";
     const GBuffer want = renderer.render(views[i], Fold::xy);
     auto same_bits = [](const std::vector<float>& a, const std::vector<float>& b) {
       return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(float)) == 0;

@@ -160,10 +160,11 @@ def accuracy(reference, depth, instance_id, primitive_id):
 
 def over_views(per_view):
     """rayfold-peers' summary of views: shares averaged, the median of the
-    median errors, the largest p99 and maximum."""
+    median errors (the upper middle one of an even count, as core::median),
+    the largest p99 and maximum."""
     return {"disagreeing_share": statistics.mean(a["disagreeing_share"] for a in per_view),
             "hit_miss_share": statistics.mean(a["hit_miss_share"] for a in per_view),
-            "depth_error_median": statistics.median(a["depth_error_median"] for a in per_view),
+            "depth_error_median": statistics.median_high(a["depth_error_median"] for a in per_view),
             "depth_error_p99": max(a["depth_error_p99"] for a in per_view),
             "depth_error_max": max(a["depth_error_max"] for a in per_view)}
 
@@ -231,12 +232,15 @@ def main():
         accuracies["rayfold exact_depth"].append(accuracy(reference, e.depth.reshape(-1), *ids))
         origin = np.asarray(cam.eye, dtype=np.float32)
         dirs = np.asarray(cam.ray_directions(), dtype=np.float32)
+        lengths = np.linalg.norm(dirs.reshape(-1, 3).astype(np.float64), axis=1)
         for p in peers:
             rays = p.prepare(origin, dirs)
             hit, err = agreement(depth, p.cast(rays))
             checks[p.name].append((hit, err))
             t, rows = p.hits(rays)
-            accuracies[p.name].append(accuracy(reference, t, *peer_ids(world, rows)))
+            # t is along the float32 direction, whose length is 1 only to
+            # float rounding: as a distance, as rayfold-peers takes Embree's.
+            accuracies[p.name].append(accuracy(reference, t * lengths, *peer_ids(world, rows)))
             if hit >= MIN_HIT_AGREEMENT and err <= MAX_MEDIAN_DEPTH_ERROR:
                 ms, _ = timed(lambda: p.cast(rays), args.frames, args.warmup)
                 peer_ms[p.name].append(ms)

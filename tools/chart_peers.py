@@ -41,7 +41,7 @@ def points(peers, python):
         # rayfold's G-buffer renders (not its depth-only ones), each kind at its fastest fold.
         ours = {}
         for r in python["rows"]:
-            if r["variant"].startswith("rayfold") and "channels=" not in r["variant"]:
+            if r["variant"].startswith("rayfold") and "channels=" not in r["variant"] and "depth_error_p99" in r:
                 kind = r["variant"].rsplit(", fold", 1)[0]
                 if kind not in ours or r["mpixels_per_s"] > ours[kind]["mpixels_per_s"]:
                     ours[kind] = r
@@ -81,6 +81,8 @@ def main():
         with open(python_path) as f:
             python = json.load(f)
     drawn = points(peers, python)
+    if not drawn:
+        sys.exit(f"chart_peers.py: {args[0]}: no rows to draw")
     import matplotlib  # here, so that points() is testable without it
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt

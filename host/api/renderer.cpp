@@ -202,7 +202,6 @@ void Renderer::intersect_into(RayHits& out, const float* origins, const float* d
   options.moved = impl_->moved();
   options.normals = (channels & kNormal) != 0;
   out.channels = channels;
-  out.warnings.clear();
   size_planes(channels, n, out.t, out.normal, out.uv, out.instance_id, out.primitive_id);
   const PlaneWriter writer(out.t, out.normal, out.uv, out.instance_id, out.primitive_id);
   out.warnings = query_chunks(

@@ -12,6 +12,8 @@
 #include <nanobind/stl/tuple.h>
 #include <nanobind/stl/vector.h>
 
+#include <pthread.h>
+
 #include <cmath>
 #include <map>
 #include <memory>
@@ -80,7 +82,11 @@ nb::object to_numpy(std::vector<T>&& v, std::initializer_list<size_t> shape) {
 
 // Never destroyed: numpy arrays may outlive the module's statics at exit.
 rayfold::python::PlanePool& plane_pool() {
-  static auto* pool = new rayfold::python::PlanePool;
+  static auto* pool = [] {
+    auto* p = new rayfold::python::PlanePool;
+    pthread_atfork(nullptr, nullptr, [] { plane_pool().reset_lock_after_fork(); });
+    return p;
+  }();
   return *pool;
 }
 

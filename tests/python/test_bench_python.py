@@ -191,10 +191,11 @@ def test_accuracy_is_measured_against_the_reference_as_rayfold_peers_does():
                                                        primitive_id=np.array([7, 0, 1], dtype=np.uint32))
     i, p = bench.peer_ids(world, np.array([2, -1, 0]))
     assert list(i) == [1, rayfold.MISS, 0] and list(p) == [1, rayfold.MISS, 7]
-    views = [a, dict(a, depth_error_max=0.5, depth_error_p99=0.25, disagreeing_share=0.0)]
+    views = [a, dict(a, depth_error_max=0.5, depth_error_p99=0.25, disagreeing_share=0.0, depth_error_median=0.1)]
     over = bench.over_views(views)
     assert over["depth_error_max"] == 0.5 and over["depth_error_p99"] == 0.25
     assert over["disagreeing_share"] == pytest.approx(0.2)
+    assert over["depth_error_median"] == 0.1  # of two, the upper, as rayfold-peers' core::median
 
 
 def test_chart_draws_mitsuba_and_open3d_beside_rayfold_and_embree():

@@ -13,10 +13,11 @@ namespace rayfold {
 
 struct ReferenceImage {
   int width = 0, height = 0;
-  // Distance from the eye along each pixel's exact ray (the camera model in
-  // double, not the float ray a render traces) to the closest hit of the
-  // watertight triangle test evaluated in double; +inf on a miss. The
-  // measure of a GBuffer's distance depth. height * width, rows from the top.
+  // Distance from the ray's origin (the eye, or an orthographic camera's
+  // plane) along each pixel's exact ray (the camera model in double, not the
+  // float ray a render traces) to the closest hit of the watertight triangle
+  // test evaluated in double; +inf on a miss. The measure of a GBuffer's
+  // distance depth. height * width, rows from the top.
   std::vector<double> depth;
   std::vector<uint32_t> instance_id;   // as GBuffer's: Scene instance index, kMiss on a miss
   std::vector<uint32_t> primitive_id;  // triangle index within the mesh, kMiss on a miss
@@ -29,8 +30,8 @@ struct ReferenceImage {
 // exactly), so that a tracer fed rounded world-space triangles (Embree's
 // flat scene, Scene.world_triangles) has that rounding counted. For
 // measuring accuracy, not for rendering (no vectors, tens of times slower
-// than a render). Ties go to the lower (instance, primitive), as in every
-// tracer. threads 0: all cores.
+// than a render). Ties go to the lower (instance, primitive), as in
+// rayfold's tracers. threads 0: all cores.
 ReferenceImage render_reference(const Scene& scene, const Camera& camera, unsigned threads = 0);
 
 }  // namespace rayfold
