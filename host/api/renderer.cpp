@@ -236,12 +236,13 @@ GBuffer Renderer::render(const Camera& camera, Fold fold, unsigned channels) {
 
 namespace {
 
-// A core result (one view's) as the public planes asked for, on `threads`
-// threads: a 720p frame's 30 MB of planes cost a fifth of the trace on one.
-// A packed readback's planes (core::RenderResult::planes) are already laid
-// out as these: one copy each.
-void fill_gbuffer(GBuffer& g, const core::RenderResult& r, int width, int height, unsigned threads,
-                  unsigned channels, Depth depth_kind, bool exact_depth) {
+// View `view` of a core result (a pass of one view or more) as the public
+// planes asked for, read in place (a copy of the view's hits first cost a
+// 720p view 29 MB of fresh memory), on `threads` threads: a 720p frame's 30
+// MB of planes cost a fifth of the trace on one. A packed readback's planes
+// (core::RenderResult::planes) are already laid out as these: one copy each.
+void fill_gbuffer(GBuffer& g, const core::RenderResult& r, size_t view, const std::vector<std::string>& warnings,
+                  int width, int height, unsigned threads, unsigned channels, Depth depth_kind, bool exact_depth) {
   const size_t n = static_cast<size_t>(width) * height;
   g.width = width;
   g.height = height;
@@ -252,10 +253,11 @@ void fill_gbuffer(GBuffer& g, const core::RenderResult& r, int width, int height
   g.fold = from_core(r.fold);
   g.rays = r.rays;
   g.trace_ms = r.median.trace_ms;
-  g.warnings = r.warnings;
+  g.warnings = warnings;
   if (r.plane_channels != 0) {
     RF_CHECK(r.plane_channels == channels && r.planes, "packed planes other than those asked for");
-    const uint32_t* w = r.planes;
+    RF_CHECK(r.packed_slot < 0, "planes of a pass still in flight");
+    const uint32_t* w = r.planes + view * r.plane_words_per_view;
     auto copy = [&](auto& v) {
       if (v.empty()) return;
       std::memcpy(v.data(), w, v.size() * sizeof(uint32_t));
@@ -267,24 +269,26 @@ void fill_gbuffer(GBuffer& g, const core::RenderResult& r, int width, int height
     copy(g.uv);
     copy(g.instance_id);
     copy(g.primitive_id);
-    g.hits = r.view_hits.at(0);
+    g.hits = r.view_hits.at(view);
     return;
   }
-  RF_CHECK(r.hits.size() == n, "a view's hits of another size");
+  RF_CHECK(r.hits.size() >= (view + 1) * n, "a view's hits of another size: " + std::to_string(r.hits.size()) +
+                                                " hits for view " + std::to_string(view) + " of " + std::to_string(n));
+  const rf_pixel_hit* hits = r.hits.data() + view * n;
   const PlaneWriter writer(g.depth, g.normal, g.uv, g.instance_id, g.primitive_id);
   constexpr size_t kChunk = size_t{1} << 15;
   std::vector<size_t> chunk_hits((n + kChunk - 1) / kChunk, 0);
   core::parallel_for(n, threads, kChunk, [&](size_t begin, size_t end) {
-    size_t hits = 0;
+    size_t count = 0;
     for (size_t i = begin; i < end; ++i) {
-      writer.put(i, r.hits[i]);
-      hits += r.hits[i].instance != RF_INVALID;
+      writer.put(i, hits[i]);
+      count += hits[i].instance != RF_INVALID;
     }
-    chunk_hits[begin / kChunk] = hits;
+    chunk_hits[begin / kChunk] = count;
   });
-  size_t hits = 0;
-  for (size_t c : chunk_hits) hits += c;
-  g.hits = hits;
+  size_t total = 0;
+  for (size_t c : chunk_hits) total += c;
+  g.hits = total;
 }
 
 // The frame options of a render that asks for these planes.
@@ -314,7 +318,8 @@ void Renderer::render_into(GBuffer& g, const Camera& camera, Fold fold, unsigned
       frame_options(fold, impl_->moved(), channels, impl_->planar_depth, impl_->exact_depth);
   core::RenderResult& r = impl_->result;
   impl_->core->render_into(r, camera.core(), 1, frame);
-  fill_gbuffer(g, r, camera.width(), camera.height(), impl_->options.threads, channels, impl_->planar_depth ? Depth::planar : Depth::distance,
+  fill_gbuffer(g, r, 0, r.warnings, camera.width(), camera.height(), impl_->options.threads, channels,
+               impl_->planar_depth ? Depth::planar : Depth::distance,
                frame.exact_depth);
   g.frame_ms = core::ms_since(t0);
 }
@@ -369,9 +374,10 @@ void Renderer::render_views(const std::vector<Camera>& cameras, const std::funct
       for (size_t k = 0; k < pass.size(); ++k) {
         GBuffer g;
         if (prepare) prepare(pass[k], g);
-        fill_gbuffer(g, core::view_result(r, k), cameras[pass[k]].width(), cameras[pass[k]].height(),
+        RF_CHECK(k < r.views.size() && r.hits.size() % r.views.size() == 0, "no such view in the pass");
+        fill_gbuffer(g, r, k, r.view_warnings.at(k), cameras[pass[k]].width(), cameras[pass[k]].height(),
                      impl_->options.threads, channels, impl_->planar_depth ? Depth::planar : Depth::distance,
-               frame.exact_depth);
+                     frame.exact_depth);
         g.views_in_trace = static_cast<int>(pass.size());
         g.trace_ms = r.median.trace_ms / static_cast<double>(pass.size());
         g.frame_ms = ms;
