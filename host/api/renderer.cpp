@@ -319,8 +319,7 @@ void Renderer::render_into(GBuffer& g, const Camera& camera, Fold fold, unsigned
   core::RenderResult& r = impl_->result;
   impl_->core->render_into(r, camera.core(), 1, frame);
   fill_gbuffer(g, r, 0, r.warnings, camera.width(), camera.height(), impl_->options.threads, channels,
-               impl_->planar_depth ? Depth::planar : Depth::distance,
-               frame.exact_depth);
+               impl_->planar_depth ? Depth::planar : Depth::distance, frame.exact_depth);
   g.frame_ms = core::ms_since(t0);
 }
 
