@@ -235,9 +235,9 @@ def main():
         lengths = np.linalg.norm(dirs.reshape(-1, 3).astype(np.float64), axis=1)
         for p in peers:
             rays = p.prepare(origin, dirs)
-            hit, err = agreement(depth, p.cast(rays))
-            checks[p.name].append((hit, err))
             t, rows = p.hits(rays)
+            hit, err = agreement(depth, t)
+            checks[p.name].append((hit, err))
             # t is along the float32 direction, whose length is 1 only to
             # float rounding: as a distance, as rayfold-peers takes Embree's.
             accuracies[p.name].append(accuracy(reference, t * lengths, *peer_ids(world, rows)))
@@ -285,9 +285,9 @@ def main():
               "(median of the views' medians / largest p99 / largest maximum).", "",
               "| tracer | other triangle | hit/miss | depth error |", "|---|---|---|---|"]
     exact_row = next(r for r in rows if "exact_depth" in r["variant"])
-    for r in [rows[0], exact_row] + [r for r in rows if "ratio" in r]:
-        who = {id(rows[0]): "rayfold (every fold)", id(exact_row): "rayfold exact_depth (every fold)"}.get(
-            id(r), r["variant"])
+    tracers = [("rayfold (every fold)", rows[0]), ("rayfold exact_depth (every fold)", exact_row)]
+    tracers += [(r["variant"], r) for r in rows if "ratio" in r]
+    for who, r in tracers:
         lines.append(f"| {who} | {100 * r['disagreeing_share']:.4f}% | {100 * r['hit_miss_share']:.4f}% | "
                      f"{r['depth_error_median']:.1e} / {r['depth_error_p99']:.1e} / {r['depth_error_max']:.1e} |")
     for note in skipped + failed:

@@ -373,7 +373,6 @@ void Renderer::render_views(const std::vector<Camera>& cameras, const std::funct
       for (size_t k = 0; k < pass.size(); ++k) {
         GBuffer g;
         if (prepare) prepare(pass[k], g);
-        RF_CHECK(k < r.views.size() && r.hits.size() % r.views.size() == 0, "no such view in the pass");
         fill_gbuffer(g, r, k, r.view_warnings.at(k), cameras[pass[k]].width(), cameras[pass[k]].height(),
                      impl_->options.threads, channels, impl_->planar_depth ? Depth::planar : Depth::distance,
                      frame.exact_depth);
