@@ -50,6 +50,30 @@ RF_INLINE int rf_hit_is_closer(float t, rf_u32 instance, rf_u32 prim, const rf_h
  * or beyond the widened entry and unchanged [Stress.*, Scale.*]. */
 RF_INLINE float rf_hit_distance(float t, float leaf_entry) { return t < leaf_entry ? leaf_entry : t; }
 
+/* The triangles tris[first .. first + count) of a leaf whose box the ray
+ * enters at node_t, beyond tmin, into best; 1 when any_hit and a hit was
+ * taken (the traversal stops). */
+RF_INLINE int rf_trace_leaf(const RF_GLOBAL rf_tri* tris, rf_u32 first, rf_u32 count, const rf_ray* r,
+                            rf_u32 instance_id, float tmin, float node_t, int any_hit, rf_hit* best) {
+  for (rf_u32 ti = first; ti < first + count; ++ti) {
+    RF_STAT(triangles);
+    float t, u, v;
+    if (!rf_intersect_triangle(&tris[ti], r, &t, &u, &v) || !(t > tmin)) continue;
+    t = rf_hit_distance(t, node_t);
+    const rf_u32 instance = instance_id + tris[ti].inst;
+    if (rf_hit_is_closer(t, instance, tris[ti].prim, best)) {
+      best->t = t;
+      best->u = u;
+      best->v = v;
+      best->instance = instance;
+      best->prim = tris[ti].prim;
+      best->tri = ti;
+      if (any_hit) return 1;
+    }
+  }
+  return 0;
+}
+
 /* Closest hit of one object-space ray in one bottom-level tree, beyond
  * tmin (0 for camera rays); any_hit: stop at the first hit (occlusion). */
 RF_INLINE void rf_trace_blas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_tri* tris, rf_u32 root, const rf_ray* r,
@@ -65,23 +89,7 @@ RF_INLINE void rf_trace_blas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_
     const rf_u32 count = n->meta & RF_NODE_COUNT_MASK;
     RF_STAT(blas_nodes);
     if (count != 0) {
-      for (rf_u32 k = 0; k < count; ++k) {
-        const rf_u32 ti = n->first + k;
-        RF_STAT(triangles);
-        float t, u, v;
-        if (!rf_intersect_triangle(&tris[ti], r, &t, &u, &v) || !(t > tmin)) continue;
-        t = rf_hit_distance(t, node_t);
-        const rf_u32 instance = instance_id + tris[ti].inst;
-        if (rf_hit_is_closer(t, instance, tris[ti].prim, best)) {
-          best->t = t;
-          best->u = u;
-          best->v = v;
-          best->instance = instance;
-          best->prim = tris[ti].prim;
-          best->tri = ti;
-          if (any_hit) return;
-        }
-      }
+      if (rf_trace_leaf(tris, n->first, count, r, instance_id, tmin, node_t, any_hit, best)) return;
     } else {
       const rf_u32 c = n->first;
       const float t0 = rf_intersect_box(&nodes[c], r, best->t);
@@ -112,6 +120,113 @@ RF_INLINE void rf_trace_blas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_
   }
 }
 
+#ifdef __OPENCL_C_VERSION__
+/* rf_intersect_box for the four child boxes of a wide node at once,
+ * element k child k. The vector's elements are boxes, not parts of one
+ * ray's arithmetic: each is the scalar test's operations, so its bits. One
+ * of them is left out: of a slab's two ends rf_minf takes the one at the
+ * box's low side when the reciprocal is positive, and the high side's when
+ * it is negative (it is never 0 nor infinite, rf_safe_reciprocal), since
+ * lo <= hi and rounding is monotone; on a tie both ends are the same float
+ * (the same difference times the same reciprocal), so choosing the end by
+ * the reciprocal's sign gives rf_minf's and rf_maxf's bits without them. */
+RF_INLINE float4 rf_intersect_box4(const RF_GLOBAL rf_wide_node* n, const rf_ray* r, float tmax) {
+#define RF_MIN4(a, b) select((b), (a), (a) < (b))
+#define RF_MAX4(a, b) select((b), (a), (a) > (b))
+  const float4 lx = vload4(0, n->lo_x), ly = vload4(0, n->lo_y), lz = vload4(0, n->lo_z);
+  const float4 hx = vload4(0, n->hi_x), hy = vload4(0, n->hi_y), hz = vload4(0, n->hi_z);
+  const int px = r->invd[0] >= 0.0f, py = r->invd[1] >= 0.0f, pz = r->invd[2] >= 0.0f;
+  const float4 nx = ((px ? lx : hx) - r->o[0]) * r->invd[0], fx = ((px ? hx : lx) - r->o[0]) * r->invd[0];
+  const float4 ny = ((py ? ly : hy) - r->o[1]) * r->invd[1], fy = ((py ? hy : ly) - r->o[1]) * r->invd[1];
+  const float4 nz = ((pz ? lz : hz) - r->o[2]) * r->invd[2], fz = ((pz ? hz : lz) - r->o[2]) * r->invd[2];
+  const float4 tnear = RF_MAX4(RF_MAX4(nx, ny), RF_MAX4(nz, (float4)(0.0f))) * RF_BOX_NEAR_SCALE;
+  const float4 tfar = RF_MIN4(RF_MIN4(fx, fy), fz) * RF_BOX_FAR_SCALE;
+  return select((float4)(RF_FAR), tnear, tnear <= RF_MIN4(tfar, (float4)(tmax)));
+#undef RF_MIN4
+#undef RF_MAX4
+}
+
+/* Stack entries of the wide traversal: each wide node pushes at most four
+ * and pops one, and descends at least one binary level. */
+#define RF_WIDE_RAY_STACK (3 * RF_STACK_SIZE + 1)
+
+/* rf_trace_blas through the 4-wide tree of the same leaves (binary root
+ * `root`, its children in wide node `wide_root`; rf_types.h,
+ * rf_wide_node): the same hits, bit for bit. A leaf is entered where its
+ * own box test passes, which the binary traversal's ancestors pass too
+ * (their boxes hold it, and rounding is monotone), and each hit's t is
+ * raised to that leaf's entry as there; the tie rule makes the order of
+ * the leaves irrelevant. Half the box tests' steps for a scattered ray,
+ * four boxes in one vector test. */
+RF_INLINE void rf_trace_blas_wide(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_wide_node* wide,
+                                  const RF_GLOBAL rf_tri* tris, rf_u32 root, rf_u32 wide_root, const rf_ray* r,
+                                  rf_u32 instance_id, float tmin, int any_hit, rf_hit* best) {
+  const RF_GLOBAL rf_node* rn = &nodes[root];
+  const float root_t = rf_intersect_box(rn, r, best->t);
+  if (root_t == RF_FAR) return;
+  if (wide_root == RF_INVALID) {
+    rf_trace_leaf(tris, rn->first, rn->meta & RF_NODE_COUNT_MASK, r, instance_id, tmin, root_t, any_hit, best);
+    return;
+  }
+  rf_u32 stack_child[RF_WIDE_RAY_STACK], stack_count[RF_WIDE_RAY_STACK];
+  float stack_t[RF_WIDE_RAY_STACK];
+  int sp = 0;
+  rf_u32 w = wide_root;
+  for (;;) {
+    RF_STAT(blas_nodes);
+    const RF_GLOBAL rf_wide_node* n = &wide[w];
+    const float4 tv = rf_intersect_box4(n, r, best->t);
+    /* The entered children as bits: a branch per child on whether the ray
+     * enters it held a quarter of this function's samples (perf), most of
+     * them mispredictions. */
+    const int4 in = (tv != (float4)(RF_FAR)) & (vload4(0, n->count) != (uint4)(RF_INVALID));
+    rf_u32 mask = (rf_u32)((in.s0 & 1) | (in.s1 & 2) | (in.s2 & 4) | (in.s3 & 8));
+    float t4[4];
+    vstore4(tv, 0, t4);
+    if (mask != 0u && (mask & (mask - 1u)) == 0u) {
+      /* One child, the common case: into it without the stack. */
+      const rf_u32 k = RF_CTZ(mask);
+      const rf_u32 count = n->count[k];
+      if (count == 0u) {
+        w = n->child[k];
+        continue;
+      }
+      if (rf_trace_leaf(tris, n->child[k], count, r, instance_id, tmin, t4[k], any_hit, best)) return;
+    } else {
+      /* The children entered, farthest first onto the stack, so that the
+       * nearest is taken next. */
+      const int base = sp;
+      for (; mask != 0u; mask &= mask - 1u) {
+        const rf_u32 k = RF_CTZ(mask);
+        const float t = t4[k];
+        int i = sp++;
+        for (; i > base && stack_t[i - 1] < t; --i) {
+          stack_t[i] = stack_t[i - 1];
+          stack_child[i] = stack_child[i - 1];
+          stack_count[i] = stack_count[i - 1];
+        }
+        stack_t[i] = t;
+        stack_child[i] = n->child[k];
+        stack_count[i] = n->count[k];
+      }
+    }
+    /* Pop: leaves are tested where they come, entries the hit has since
+     * passed are dropped, the first interior one is visited. */
+    for (;;) {
+      if (sp == 0) return;
+      --sp;
+      const float t = stack_t[sp];
+      if (t > best->t) continue;
+      if (stack_count[sp] == 0u) {
+        w = stack_child[sp];
+        break;
+      }
+      if (rf_trace_leaf(tris, stack_child[sp], stack_count[sp], r, instance_id, tmin, t, any_hit, best)) return;
+    }
+  }
+}
+#endif
+
 /* Pruning bound of a top-level node: the farthest current hit among the
  * groups that both lie below the node (its meta) and are traced by this ray.
  * A node is skipped only when it cannot improve any of them; -1 when none
@@ -129,11 +244,13 @@ RF_INLINE float rf_group_bound(rf_u32 meta, rf_u32 ray_groups, const rf_hit* hit
 
 /* Closest hit per group of one trace-space ray through the top-level tree,
  * from the origin `origin` names along (dx, dy, dz), beyond tmin; any_hit:
- * stop at the first hit. ray_groups: bit g set when the ray answers group g. */
-RF_INLINE void rf_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_tri* tris,
-                             const RF_GLOBAL rf_instance* instances, rf_u32 tlas_root, rf_i32 origin, float ox,
-                             float oy, float oz, float dx, float dy, float dz, float tmin, int any_hit,
-                             rf_u32 ray_groups, rf_hit* hits) {
+ * stop at the first hit. ray_groups: bit g set when the ray answers group g.
+ * wide (device only; null: the binary trees): the bottom levels through the
+ * 4-wide trees (rf_trace_blas_wide). */
+RF_INLINE void rf_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_wide_node* wide,
+                             const RF_GLOBAL rf_tri* tris, const RF_GLOBAL rf_instance* instances, rf_u32 tlas_root,
+                             rf_i32 origin, float ox, float oy, float oz, float dx, float dy, float dz, float tmin,
+                             int any_hit, rf_u32 ray_groups, rf_hit* hits) {
   rf_u32 stack_node[RF_STACK_SIZE];
   float stack_t[RF_STACK_SIZE];
   int sp = 0;
@@ -174,7 +291,15 @@ RF_INLINE void rf_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_
             rf_ray_to_object(&ro_cache[slot], inst->tree_from_trace, dx, dy, dz);
           ro_key[slot] = key;
         }
-        rf_trace_blas(nodes, tris, inst->blas_root, &ro_cache[slot], inst->instance_id, tmin, any_hit, &hits[g]);
+#ifdef __OPENCL_C_VERSION__
+        if (wide)
+          rf_trace_blas_wide(nodes, wide, tris, inst->blas_root, inst->wide_root, &ro_cache[slot], inst->instance_id,
+                             tmin, any_hit, &hits[g]);
+        else
+#else
+        (void)wide;
+#endif
+          rf_trace_blas(nodes, tris, inst->blas_root, &ro_cache[slot], inst->instance_id, tmin, any_hit, &hits[g]);
         if (any_hit && hits[g].instance != RF_INVALID) return;
       }
     } else {
@@ -330,7 +455,7 @@ RF_INLINE void rf_trace_entry(rf_u32 entry, const rf_camera* cam, const RF_GLOBA
   rf_hit hits[RF_MAX_GROUPS];
   RF_FOR_EACH_GROUP(g, ray.groups) { rf_hit_reset(&hits[g]); }
   if (tlas_root != RF_INVALID)
-    rf_trace_tlas(nodes, tris, instances, tlas_root, cam->ortho ? RF_ORIGIN_PLANE : RF_ORIGIN_EYE,
+    rf_trace_tlas(nodes, 0, tris, instances, tlas_root, cam->ortho ? RF_ORIGIN_PLANE : RF_ORIGIN_EYE,
                   cam->ortho ? ray.dx : 0.0f, cam->ortho ? ray.dy : 0.0f, 0.0f, cam->ortho ? 0.0f : ray.dx,
                   cam->ortho ? 0.0f : ray.dy, -1.0f, 0.0f, 0, ray.groups, hits);
   rf_write_answers(&ray, hits, cam, depth_scales, depths, tris, normal_xforms, out);
@@ -338,16 +463,20 @@ RF_INLINE void rf_trace_entry(rf_u32 entry, const rf_camera* cam, const RF_GLOBA
 
 /* Answers one ray query (scene.intersect, scene.occluded): its closest hit
  * with tmin < t <= tmax, or with any_hit the first one found, written as a
- * pixel's hit info with z = t along the given (unnormalised) direction. */
+ * pixel's hit info with z = t along the given (unnormalised) direction.
+ * `wide` (device only; null: the binary trees): through the 4-wide trees,
+ * the same closest hits. With any_hit the hit found first depends on the
+ * order, whether there is one does not (each traversal enters every leaf
+ * whose box test passes at tmax until it finds one). */
 RF_INLINE void rf_trace_query(const RF_GLOBAL rf_query_ray* q, const RF_GLOBAL rf_node* nodes,
-                              const RF_GLOBAL rf_tri* tris, const RF_GLOBAL rf_instance* instances,
-                              const RF_GLOBAL rf_normal_xform* normal_xforms, rf_u32 tlas_root, int any_hit,
-                              rf_u32 write_flags, RF_GLOBAL rf_pixel_hit* out) {
+                              const RF_GLOBAL rf_wide_node* wide, const RF_GLOBAL rf_tri* tris,
+                              const RF_GLOBAL rf_instance* instances, const RF_GLOBAL rf_normal_xform* normal_xforms,
+                              rf_u32 tlas_root, int any_hit, rf_u32 write_flags, RF_GLOBAL rf_pixel_hit* out) {
   rf_hit hit;
   rf_hit_reset(&hit);
   hit.t = q->tmax;
   if (tlas_root != RF_INVALID)
-    rf_trace_tlas(nodes, tris, instances, tlas_root, RF_ORIGIN_ANY, q->o[0], q->o[1], q->o[2], q->d[0], q->d[1],
+    rf_trace_tlas(nodes, wide, tris, instances, tlas_root, RF_ORIGIN_ANY, q->o[0], q->o[1], q->o[2], q->d[0], q->d[1],
                   q->d[2], q->tmin, any_hit, 1u, &hit);
   rf_write_pixel(out, &hit, 1.0f, 1.0f, tris, normal_xforms, write_flags);
 }

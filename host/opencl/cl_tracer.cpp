@@ -467,6 +467,7 @@ double ClTracer::trace_queries(const std::vector<rf_query_ray>& rays, bool any_h
       cl::Kernel& kernel = programs.queries;
       int a = 0;
       kernel.setArg(a++, nodes_);
+      kernel.setArg(a++, wide_nodes_);
       kernel.setArg(a++, tris_);
       kernel.setArg(a++, instances_);
       kernel.setArg(a++, normal_xforms_);

@@ -255,8 +255,8 @@ void trace_queries_cpu(const TraceInputs& in, const std::vector<rf_query_ray>& r
   parallel_for(rays.size(), threads, 256, [&](size_t begin, size_t end) {
     for (size_t k = begin; k < end; ++k) {
       const size_t i = order.empty() ? k : order[k];
-      rf_trace_query(&rays[i], in.nodes, in.tris, in.instances, in.normal_xforms, in.tlas_root, any_hit ? 1 : 0,
-                     write_flags, &out[i]);
+      rf_trace_query(&rays[i], in.nodes, nullptr, in.tris, in.instances, in.normal_xforms, in.tlas_root,
+                     any_hit ? 1 : 0, write_flags, &out[i]);
     }
   });
 }
