@@ -49,8 +49,9 @@ __kernel void rf_trace_primary(__global const rf_node* nodes, __global const rf_
   rf_trace_entry(rays[i], &cam, depth_scales, &depths, nodes, tris, instances, normal_xforms, tlas_root, out);
 }
 
-/* Ray queries: one work-item per ray, closest hits through the 4-wide
- * trees (rf_trace_blas_wide); any_hit for occlusion. With
+/* Ray queries: one work-item per ray, through the 4-wide trees, the top
+ * level's (tlas_wide, rf_trace_query_tlas_wide) and the bottom levels';
+ * any_hit for occlusion. With
  * `ordered`, work-item k traces ray order[k] (host/rays/ray_order.h) and
  * writes its answer to out[k], in the traced order, for the host to put
  * back (a store to a line not in the cache holds up every later store of
@@ -58,10 +59,10 @@ __kernel void rf_trace_primary(__global const rf_node* nodes, __global const rf_
  * more than the order saved). It fetches the next ray early: consecutive
  * work-items run one after the other on a CPU. */
 __kernel void rf_trace_queries(__global const rf_node* nodes, __global const rf_wide_node* wide,
-                               __global const rf_tri* tris, __global const rf_instance* instances,
-                               __global const rf_normal_xform* normal_xforms, uint tlas_root,
-                               __global const rf_query_ray* rays, uint ray_count, uint any_hit, uint write_flags,
-                               __global const uint* order, uint ordered, __global rf_pixel_hit* out) {
+                               __global const rf_wide_node* tlas_wide, uint tlas_wide_root, __global const rf_tri* tris,
+                               __global const rf_instance* instances, __global const rf_normal_xform* normal_xforms,
+                               uint tlas_root, __global const rf_query_ray* rays, uint ray_count, uint any_hit,
+                               uint write_flags, __global const uint* order, uint ordered, __global rf_pixel_hit* out) {
   const uint k = get_global_id(0);
   if (k >= ray_count) return;
   uint i = k;
@@ -69,8 +70,8 @@ __kernel void rf_trace_queries(__global const rf_node* nodes, __global const rf_
     i = order[k];
     if (k + 1u < ray_count) RF_PREFETCH_LINE(&rays[order[k + 1u]]);
   }
-  rf_trace_query(&rays[i], nodes, wide, tris, instances, normal_xforms, tlas_root, any_hit != 0u, write_flags,
-                 &out[k]);
+  rf_trace_query(&rays[i], nodes, wide, tlas_wide, tlas_wide_root, tris, instances, normal_xforms, tlas_root,
+                 any_hit != 0u, write_flags, &out[k]);
 }
 
 /* Ray queries that share their origin, a tile of up to RF_TILE_RAYS per

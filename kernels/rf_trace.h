@@ -146,9 +146,67 @@ RF_INLINE float4 rf_intersect_box4(const RF_GLOBAL rf_wide_node* n, const rf_ray
 #undef RF_MAX4
 }
 
-/* Stack entries of the wide traversal: each wide node pushes at most four
- * and pops one, and descends at least one binary level. */
+/* The wide traversal's stack: children (rf_wide_node's child and count) to
+ * visit and the distance the ray enters them at. Each wide node pushes at
+ * most four and pops one, and descends at least one binary level. */
 #define RF_WIDE_RAY_STACK (3 * RF_STACK_SIZE + 1)
+typedef struct {
+  rf_u32 child[RF_WIDE_RAY_STACK], count[RF_WIDE_RAY_STACK];
+  float t[RF_WIDE_RAY_STACK];
+  int size;
+} rf_wide_stack;
+
+/* One step into wide node n: the children the ray enters at or before tmax,
+ * farthest first onto the stack, so that the nearest is taken next; or,
+ * when it enters one alone (the common case), that one into *child, *count
+ * and *t without the stack (returns 1). */
+RF_INLINE int rf_wide_step(const RF_GLOBAL rf_wide_node* n, const rf_ray* r, float tmax, rf_wide_stack* s,
+                           rf_u32* child, rf_u32* count, float* t) {
+  const float4 tv = rf_intersect_box4(n, r, tmax);
+  /* The entered children as bits: a branch per child on whether the ray
+   * enters it held a quarter of the walk's samples (perf), most of them
+   * mispredictions. */
+  const int4 in = (tv != (float4)(RF_FAR)) & (vload4(0, n->count) != (uint4)(RF_INVALID));
+  rf_u32 mask = (rf_u32)((in.s0 & 1) | (in.s1 & 2) | (in.s2 & 4) | (in.s3 & 8));
+  float t4[4];
+  vstore4(tv, 0, t4);
+  if (mask != 0u && (mask & (mask - 1u)) == 0u) {
+    const rf_u32 k = RF_CTZ(mask);
+    *child = n->child[k];
+    *count = n->count[k];
+    *t = t4[k];
+    return 1;
+  }
+  const int base = s->size;
+  for (; mask != 0u; mask &= mask - 1u) {
+    const rf_u32 k = RF_CTZ(mask);
+    const float tk = t4[k];
+    int i = s->size++;
+    for (; i > base && s->t[i - 1] < tk; --i) {
+      s->t[i] = s->t[i - 1];
+      s->child[i] = s->child[i - 1];
+      s->count[i] = s->count[i - 1];
+    }
+    s->t[i] = tk;
+    s->child[i] = n->child[k];
+    s->count[i] = n->count[k];
+  }
+  return 0;
+}
+
+/* The next entry the ray may still improve on (entered at or before bound)
+ * into *child, *count and *t; 0 when none is left. */
+RF_INLINE int rf_wide_pop(rf_wide_stack* s, float bound, rf_u32* child, rf_u32* count, float* t) {
+  while (s->size > 0) {
+    --s->size;
+    if (s->t[s->size] > bound) continue;
+    *child = s->child[s->size];
+    *count = s->count[s->size];
+    *t = s->t[s->size];
+    return 1;
+  }
+  return 0;
+}
 
 /* rf_trace_blas through the 4-wide tree of the same leaves (binary root
  * `root`, its children in wide node `wide_root`; rf_types.h,
@@ -162,67 +220,23 @@ RF_INLINE void rf_trace_blas_wide(const RF_GLOBAL rf_node* nodes, const RF_GLOBA
                                   const RF_GLOBAL rf_tri* tris, rf_u32 root, rf_u32 wide_root, const rf_ray* r,
                                   rf_u32 instance_id, float tmin, int any_hit, rf_hit* best) {
   const RF_GLOBAL rf_node* rn = &nodes[root];
-  const float root_t = rf_intersect_box(rn, r, best->t);
-  if (root_t == RF_FAR) return;
-  if (wide_root == RF_INVALID) {
-    rf_trace_leaf(tris, rn->first, rn->meta & RF_NODE_COUNT_MASK, r, instance_id, tmin, root_t, any_hit, best);
-    return;
+  float t = rf_intersect_box(rn, r, best->t);
+  if (t == RF_FAR) return;
+  rf_u32 child = wide_root, count = 0;
+  if (wide_root == RF_INVALID) { /* the root is a leaf */
+    child = rn->first;
+    count = rn->meta & RF_NODE_COUNT_MASK;
   }
-  rf_u32 stack_child[RF_WIDE_RAY_STACK], stack_count[RF_WIDE_RAY_STACK];
-  float stack_t[RF_WIDE_RAY_STACK];
-  int sp = 0;
-  rf_u32 w = wide_root;
+  rf_wide_stack s;
+  s.size = 0;
   for (;;) {
-    RF_STAT(blas_nodes);
-    const RF_GLOBAL rf_wide_node* n = &wide[w];
-    const float4 tv = rf_intersect_box4(n, r, best->t);
-    /* The entered children as bits: a branch per child on whether the ray
-     * enters it held a quarter of this function's samples (perf), most of
-     * them mispredictions. */
-    const int4 in = (tv != (float4)(RF_FAR)) & (vload4(0, n->count) != (uint4)(RF_INVALID));
-    rf_u32 mask = (rf_u32)((in.s0 & 1) | (in.s1 & 2) | (in.s2 & 4) | (in.s3 & 8));
-    float t4[4];
-    vstore4(tv, 0, t4);
-    if (mask != 0u && (mask & (mask - 1u)) == 0u) {
-      /* One child, the common case: into it without the stack. */
-      const rf_u32 k = RF_CTZ(mask);
-      const rf_u32 count = n->count[k];
-      if (count == 0u) {
-        w = n->child[k];
-        continue;
-      }
-      if (rf_trace_leaf(tris, n->child[k], count, r, instance_id, tmin, t4[k], any_hit, best)) return;
-    } else {
-      /* The children entered, farthest first onto the stack, so that the
-       * nearest is taken next. */
-      const int base = sp;
-      for (; mask != 0u; mask &= mask - 1u) {
-        const rf_u32 k = RF_CTZ(mask);
-        const float t = t4[k];
-        int i = sp++;
-        for (; i > base && stack_t[i - 1] < t; --i) {
-          stack_t[i] = stack_t[i - 1];
-          stack_child[i] = stack_child[i - 1];
-          stack_count[i] = stack_count[i - 1];
-        }
-        stack_t[i] = t;
-        stack_child[i] = n->child[k];
-        stack_count[i] = n->count[k];
-      }
+    if (count == 0u) {
+      RF_STAT(blas_nodes);
+      if (rf_wide_step(&wide[child], r, best->t, &s, &child, &count, &t)) continue;
+    } else if (rf_trace_leaf(tris, child, count, r, instance_id, tmin, t, any_hit, best)) {
+      return;
     }
-    /* Pop: leaves are tested where they come, entries the hit has since
-     * passed are dropped, the first interior one is visited. */
-    for (;;) {
-      if (sp == 0) return;
-      --sp;
-      const float t = stack_t[sp];
-      if (t > best->t) continue;
-      if (stack_count[sp] == 0u) {
-        w = stack_child[sp];
-        break;
-      }
-      if (rf_trace_leaf(tris, stack_child[sp], stack_count[sp], r, instance_id, tmin, t, any_hit, best)) return;
-    }
+    if (!rf_wide_pop(&s, best->t, &child, &count, &t)) return;
   }
 }
 #endif
@@ -242,6 +256,62 @@ RF_INLINE float rf_group_bound(rf_u32 meta, rf_u32 ray_groups, const rf_hit* hit
 #define RF_ORIGIN_PLANE 1 /* at (ox, oy, 0) on the image plane (orthographic) */
 #define RF_ORIGIN_ANY 2   /* at (ox, oy, oz) (ray queries) */
 
+/* With re-braiding, one instance enters the top level as several subtrees
+ * that a ray meets at different times; a small direct-mapped cache keeps
+ * the object-space rays of recent (instance, group) pairs. Reuse gives the
+ * same bits as setting the ray up again. */
+typedef struct {
+  rf_ray ray[RF_RAY_CACHE];
+  rf_u32 key[RF_RAY_CACHE];
+} rf_ray_cache;
+
+RF_INLINE void rf_ray_cache_reset(rf_ray_cache* c) {
+  for (int k = 0; k < RF_RAY_CACHE; ++k) c->key[k] = RF_INVALID;
+}
+
+/* The instances [first, first + count) of a top-level leaf: each that the
+ * ray answers (its group in ray_groups) set up in tree space through the
+ * cache and traced into hits[its group] (through the 4-wide trees when
+ * wide, device only). 1 when any_hit and a hit was found. */
+RF_INLINE int rf_trace_instances(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_wide_node* wide,
+                                 const RF_GLOBAL rf_tri* tris, const RF_GLOBAL rf_instance* instances, rf_u32 first,
+                                 rf_u32 count, rf_i32 origin, float ox, float oy, float oz, float dx, float dy,
+                                 float dz, float tmin, int any_hit, rf_u32 ray_groups, rf_ray_cache* cache,
+                                 rf_hit* hits) {
+  for (rf_u32 k = 0; k < count; ++k) {
+    const RF_GLOBAL rf_instance* inst = &instances[first + k];
+    const rf_u32 g = inst->group;
+    if (((ray_groups >> g) & 1u) == 0u) continue;
+    RF_STAT(instances);
+    /* Unique while instance ids stay below 2^32 / RF_GROUP_LIMIT
+     * (prepare_scene checks). */
+    const rf_u32 key = inst->instance_id * (rf_u32)RF_MAX_GROUPS + g;
+    const rf_u32 slot = key & (rf_u32)(RF_RAY_CACHE - 1);
+    rf_ray* ro = &cache->ray[slot];
+    if (cache->key[slot] != key) {
+      RF_STAT(setups);
+      if (origin == RF_ORIGIN_ANY)
+        rf_ray_to_object_at(ro, inst->tree_from_trace, ox, oy, oz, dx, dy, dz);
+      else if (origin == RF_ORIGIN_PLANE)
+        rf_ray_to_object_from(ro, inst->tree_from_trace, ox, oy, dx, dy, dz);
+      else
+        rf_ray_to_object(ro, inst->tree_from_trace, dx, dy, dz);
+      cache->key[slot] = key;
+    }
+#ifdef __OPENCL_C_VERSION__
+    if (wide)
+      rf_trace_blas_wide(nodes, wide, tris, inst->blas_root, inst->wide_root, ro, inst->instance_id, tmin, any_hit,
+                         &hits[g]);
+    else
+#else
+    (void)wide;
+#endif
+      rf_trace_blas(nodes, tris, inst->blas_root, ro, inst->instance_id, tmin, any_hit, &hits[g]);
+    if (any_hit && hits[g].instance != RF_INVALID) return 1;
+  }
+  return 0;
+}
+
 /* Closest hit per group of one trace-space ray through the top-level tree,
  * from the origin `origin` names along (dx, dy, dz), beyond tmin; any_hit:
  * stop at the first hit. ray_groups: bit g set when the ray answers group g.
@@ -256,13 +326,8 @@ RF_INLINE void rf_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_
   int sp = 0;
   rf_ray r;
   rf_ray_init(&r, ox, oy, oz, dx, dy, dz);
-  /* With re-braiding, one instance enters the top level as several subtrees
-   * that a ray meets at different times; a small direct-mapped cache keeps
-   * the object-space rays of recent (instance, group) pairs. Reuse gives the
-   * same bits as setting the ray up again. */
-  rf_ray ro_cache[RF_RAY_CACHE];
-  rf_u32 ro_key[RF_RAY_CACHE];
-  for (int c = 0; c < RF_RAY_CACHE; ++c) ro_key[c] = RF_INVALID;
+  rf_ray_cache cache;
+  rf_ray_cache_reset(&cache);
   if (rf_intersect_box(&nodes[tlas_root], &r, rf_group_bound(nodes[tlas_root].meta, ray_groups, hits)) == RF_FAR)
     return;
   rf_u32 ni = tlas_root;
@@ -272,36 +337,9 @@ RF_INLINE void rf_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_
     const rf_u32 first = n->first & RF_TLAS_INDEX_MASK;
     RF_STAT(tlas_nodes);
     if (count != 0) {
-      for (rf_u32 k = 0; k < count; ++k) {
-        const RF_GLOBAL rf_instance* inst = &instances[first + k];
-        const rf_u32 g = inst->group;
-        if (((ray_groups >> g) & 1u) == 0u) continue;
-        RF_STAT(instances);
-        /* Unique while instance ids stay below 2^32 / RF_GROUP_LIMIT
-         * (prepare_scene checks). */
-        const rf_u32 key = inst->instance_id * (rf_u32)RF_MAX_GROUPS + g;
-        const rf_u32 slot = key & (rf_u32)(RF_RAY_CACHE - 1);
-        if (ro_key[slot] != key) {
-          RF_STAT(setups);
-          if (origin == RF_ORIGIN_ANY)
-            rf_ray_to_object_at(&ro_cache[slot], inst->tree_from_trace, ox, oy, oz, dx, dy, dz);
-          else if (origin == RF_ORIGIN_PLANE)
-            rf_ray_to_object_from(&ro_cache[slot], inst->tree_from_trace, ox, oy, dx, dy, dz);
-          else
-            rf_ray_to_object(&ro_cache[slot], inst->tree_from_trace, dx, dy, dz);
-          ro_key[slot] = key;
-        }
-#ifdef __OPENCL_C_VERSION__
-        if (wide)
-          rf_trace_blas_wide(nodes, wide, tris, inst->blas_root, inst->wide_root, &ro_cache[slot], inst->instance_id,
-                             tmin, any_hit, &hits[g]);
-        else
-#else
-        (void)wide;
-#endif
-          rf_trace_blas(nodes, tris, inst->blas_root, &ro_cache[slot], inst->instance_id, tmin, any_hit, &hits[g]);
-        if (any_hit && hits[g].instance != RF_INVALID) return;
-      }
+      if (rf_trace_instances(nodes, wide, tris, instances, first, count, origin, ox, oy, oz, dx, dy, dz, tmin, any_hit,
+                             ray_groups, &cache, hits))
+        return;
     } else {
       const rf_u32 c = first;
       const float t0 = rf_intersect_box(&nodes[c], &r, rf_group_bound(nodes[c].meta, ray_groups, hits));
@@ -327,6 +365,46 @@ RF_INLINE void rf_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_
     }
   }
 }
+
+#ifdef __OPENCL_C_VERSION__
+/* rf_trace_tlas for a ray query (one group, every instance in it: a query
+ * frame has one view and no mirrors), the top level through its 4-wide
+ * nodes too: `tlas_wide` holds the binary root's children in wide node
+ * tlas_wide_root (RF_INVALID: the root is a leaf), a leaf child's `child`
+ * its first instance and `count` their number (host/bvh/wide_bvh.h,
+ * build_wide_tlas). The same hits as the binary walk, for the reasons of
+ * rf_trace_blas_wide. */
+RF_INLINE void rf_trace_query_tlas_wide(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_wide_node* wide,
+                                        const RF_GLOBAL rf_wide_node* tlas_wide, rf_u32 tlas_wide_root,
+                                        const RF_GLOBAL rf_tri* tris, const RF_GLOBAL rf_instance* instances,
+                                        rf_u32 tlas_root, float ox, float oy, float oz, float dx, float dy, float dz,
+                                        float tmin, int any_hit, rf_hit* hit) {
+  rf_ray r;
+  rf_ray_init(&r, ox, oy, oz, dx, dy, dz);
+  const RF_GLOBAL rf_node* root = &nodes[tlas_root];
+  float t = rf_intersect_box(root, &r, hit->t);
+  if (t == RF_FAR) return;
+  rf_ray_cache cache;
+  rf_ray_cache_reset(&cache);
+  rf_u32 child = tlas_wide_root, count = 0;
+  if (tlas_wide_root == RF_INVALID) {
+    child = root->first & RF_TLAS_INDEX_MASK;
+    count = root->first >> RF_TLAS_COUNT_SHIFT;
+  }
+  rf_wide_stack s;
+  s.size = 0;
+  for (;;) {
+    if (count == 0u) {
+      RF_STAT(tlas_nodes);
+      if (rf_wide_step(&tlas_wide[child], &r, hit->t, &s, &child, &count, &t)) continue;
+    } else if (rf_trace_instances(nodes, wide, tris, instances, child, count, RF_ORIGIN_ANY, ox, oy, oz, dx, dy, dz,
+                                  tmin, any_hit, 1u, &cache, hit)) {
+      return;
+    }
+    if (!rf_wide_pop(&s, hit->t, &child, &count, &t)) return;
+  }
+}
+#endif
 
 /* Writes one pixel's hit info. len_d is the length of the trace-space ray
  * direction, which turns t into distance along the normalised ray, and
@@ -465,16 +543,30 @@ RF_INLINE void rf_trace_entry(rf_u32 entry, const rf_camera* cam, const RF_GLOBA
  * with tmin < t <= tmax, or with any_hit the first one found, written as a
  * pixel's hit info with z = t along the given (unnormalised) direction.
  * `wide` (device only; null: the binary trees): through the 4-wide trees,
- * the same closest hits. With any_hit the hit found first depends on the
- * order, whether there is one does not (each traversal enters every leaf
- * whose box test passes at tmax until it finds one). */
+ * the same closest hits, and with `tlas_wide` (device only, may be null)
+ * the top level too (rf_trace_query_tlas_wide). With any_hit the hit found
+ * first depends on the order, whether there is one does not (each
+ * traversal enters every leaf whose box test passes at tmax until it finds
+ * one). */
 RF_INLINE void rf_trace_query(const RF_GLOBAL rf_query_ray* q, const RF_GLOBAL rf_node* nodes,
-                              const RF_GLOBAL rf_wide_node* wide, const RF_GLOBAL rf_tri* tris,
+                              const RF_GLOBAL rf_wide_node* wide, const RF_GLOBAL rf_wide_node* tlas_wide,
+                              rf_u32 tlas_wide_root, const RF_GLOBAL rf_tri* tris,
                               const RF_GLOBAL rf_instance* instances, const RF_GLOBAL rf_normal_xform* normal_xforms,
                               rf_u32 tlas_root, int any_hit, rf_u32 write_flags, RF_GLOBAL rf_pixel_hit* out) {
   rf_hit hit;
   rf_hit_reset(&hit);
   hit.t = q->tmax;
+#ifdef __OPENCL_C_VERSION__
+  if (tlas_root != RF_INVALID && wide && tlas_wide) {
+    rf_trace_query_tlas_wide(nodes, wide, tlas_wide, tlas_wide_root, tris, instances, tlas_root, q->o[0], q->o[1],
+                             q->o[2], q->d[0], q->d[1], q->d[2], q->tmin, any_hit, &hit);
+    rf_write_pixel(out, &hit, 1.0f, 1.0f, tris, normal_xforms, write_flags);
+    return;
+  }
+#else
+  (void)tlas_wide;
+  (void)tlas_wide_root;
+#endif
   if (tlas_root != RF_INVALID)
     rf_trace_tlas(nodes, wide, tris, instances, tlas_root, RF_ORIGIN_ANY, q->o[0], q->o[1], q->o[2], q->d[0], q->d[1],
                   q->d[2], q->tmin, any_hit, 1u, &hit);

@@ -110,6 +110,26 @@ TEST(RayQuery, EqualsBruteForceBitForBitOnRandomScenes) {
   EXPECT_GT(hits, rays_total / 10) << "too few rays hit for the test to mean anything";
 }
 
+// The CPU reference against the OpenCL kernel on the same rays: every
+// field the same bits; for occlusion, which answers whether a hit exists,
+// the same answers (the kernel walks the 4-wide trees and stops at its
+// first hit, another than the reference's first), at two tmax, and some
+// rays occluded and some not.
+void expect_kernel_equals_reference(Renderer& cpu, Renderer& cl, const Rays& rays, const std::string& what) {
+  EXPECT_EQ(differences(query(cpu, rays), query(cl, rays)), "") << what;
+  for (const float tmax : {INFINITY, 0.5f}) {
+    const std::vector<rf_pixel_hit> want = query(cpu, rays, 0.0f, tmax, true), got = query(cl, rays, 0.0f, tmax, true);
+    size_t differ = 0, occluded = 0;
+    for (size_t i = 0; i < rays.size(); ++i) {
+      differ += (want[i].instance != RF_INVALID) != (got[i].instance != RF_INVALID);
+      occluded += want[i].instance != RF_INVALID;
+    }
+    EXPECT_EQ(differ, 0u) << what << ", occlusion to " << tmax;
+    EXPECT_GT(occluded, rays.size() / 20) << what << ", occlusion to " << tmax;
+    EXPECT_LT(occluded, rays.size()) << what << ", occlusion to " << tmax;
+  }
+}
+
 TEST(RayQuery, OpenClKernelEqualsTheCpuReference) {
   Rng rng(99);
   for (int s = 0; s < 4; ++s) {
@@ -119,23 +139,27 @@ TEST(RayQuery, OpenClKernelEqualsTheCpuReference) {
     Renderer cpu(scene, opt);
     opt.backend = Backend::opencl;
     Renderer cl(scene, opt);
-    const Rays rays = random_rays(rng, scene, 5000);
-    EXPECT_EQ(differences(query(cpu, rays), query(cl, rays)), "") << "scene " << s;
-    // Occlusion answers whether a hit exists. The kernel walks the 4-wide
-    // trees and stops at its first hit, another than the reference's first.
-    for (const float tmax : {INFINITY, 0.5f}) {
-      const std::vector<rf_pixel_hit> want = query(cpu, rays, 0.0f, tmax, true),
-                                      got = query(cl, rays, 0.0f, tmax, true);
-      size_t differ = 0, occluded = 0;
-      for (size_t i = 0; i < rays.size(); ++i) {
-        differ += (want[i].instance != RF_INVALID) != (got[i].instance != RF_INVALID);
-        occluded += want[i].instance != RF_INVALID;
-      }
-      EXPECT_EQ(differ, 0u) << "scene " << s << ", occlusion to " << tmax;
-      EXPECT_GT(occluded, rays.size() / 20) << "scene " << s << ", occlusion to " << tmax;
-      EXPECT_LT(occluded, rays.size()) << "scene " << s << ", occlusion to " << tmax;
-    }
+    expect_kernel_equals_reference(cpu, cl, random_rays(rng, scene, 5000), "scene " + std::to_string(s));
   }
+}
+
+// Scattered rays among hundreds of instances, a third of them mirrored:
+// the single-ray kernel walks the query frame's top level in 4-wide nodes
+// (rf_trace_query_tlas_wide), the CPU reference in binary ones.
+TEST(RayQuery, ManyInstancesThroughTheWideTopLevelEqualTheCpuReference) {
+  Rng rng(7);
+  const Scene scene = testing::random_scene(rng, 3, 300, 40);
+  RendererOptions opt;
+  opt.backend = Backend::cpu;
+  Renderer cpu(scene, opt);
+  opt.backend = Backend::opencl;
+  Renderer cl(scene, opt);
+  const Rays rays = random_rays(rng, scene, 6000);
+  const Frame frame =
+      build_query_frame(scene, cl.scene_data(),
+                        check_query_rays(rays.o.data(), rays.d.data(), rays.size(), 0.0f, INFINITY), FrameOptions{});
+  ASSERT_GT(frame.tlas_wide.size(), 50u) << "the top level the kernel walks";
+  expect_kernel_equals_reference(cpu, cl, rays, "300 instances");
 }
 
 // Rays that graze a tilted triangle and hit it just inside the edge that

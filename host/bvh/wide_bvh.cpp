@@ -95,4 +95,17 @@ WideTrees build_wide_trees(const std::vector<rf_node>& nodes, const std::vector<
   return trees;
 }
 
+WideTrees build_wide_tlas(const std::vector<rf_node>& tlas, uint32_t node_base, uint32_t root) {
+  RF_CHECK(root >= node_base && root - node_base < tlas.size(), "top-level root outside its nodes");
+  // In the bottom level's layout: a leaf's first item and count, an
+  // interior node's children counted from the top level's first node.
+  std::vector<rf_node> nodes(tlas);
+  for (rf_node& n : nodes) {
+    const uint32_t count = n.first >> RF_TLAS_COUNT_SHIFT, first = n.first & RF_TLAS_INDEX_MASK;
+    n.meta = count;
+    n.first = count != 0 || first < node_base ? first : first - node_base;  // below node_base: padding, never read
+  }
+  return build_wide_trees(nodes, {root - node_base});
+}
+
 }  // namespace rayfold::core

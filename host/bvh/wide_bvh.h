@@ -33,4 +33,13 @@ struct WideTrees {
 // A subtree shared by several entries is collapsed once.
 WideTrees build_wide_trees(const std::vector<rf_node>& nodes, const std::vector<uint32_t>& entries);
 
+// A frame's top level as 4-wide nodes, for the single-ray query kernel
+// (kernels/rf_trace.h, rf_trace_query_tlas_wide): the top-level nodes
+// `tlas` (rf_node's top-level layout) placed at node_base, rooted at
+// `root`, collapsed as build_wide_trees collapses a bottom-level tree; a
+// leaf child's `child` is its first instance and `count` their number.
+// roots[0]: the wide node of the root's children, RF_INVALID when the root
+// is a leaf.
+WideTrees build_wide_tlas(const std::vector<rf_node>& tlas, uint32_t node_base, uint32_t root);
+
 }  // namespace rayfold::core

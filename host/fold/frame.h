@@ -72,9 +72,14 @@ struct FrameView {
 struct Frame {
   std::vector<FrameView> views;  // the views traced together, in pass order
   FoldMode fold = FoldMode::none;
-  uint32_t node_base = 0;              // first TLAS node index in the full node array
-  uint32_t tlas_root = RF_INVALID;     // RF_INVALID: nothing to trace
-  std::vector<rf_node> tlas_nodes;     // to be placed at node_base
+  uint32_t node_base = 0;           // first TLAS node index in the full node array
+  uint32_t tlas_root = RF_INVALID;  // RF_INVALID: nothing to trace
+  std::vector<rf_node> tlas_nodes;  // to be placed at node_base
+  // A query frame's top level as 4-wide nodes (build_wide_tlas; the
+  // single-ray query kernel's): empty and RF_INVALID elsewhere, and where
+  // the root is a leaf.
+  std::vector<rf_wide_node> tlas_wide;
+  uint32_t tlas_wide_root = RF_INVALID;
   std::vector<rf_instance> instances;  // in TLAS leaf order
   bool normals = true;                 // FrameOptions::normals
   bool planar_depth = false;           // FrameOptions::planar_depth

@@ -89,6 +89,8 @@ void ClTracer::upload_scene(const SceneData& data, size_t max_tlas_nodes, size_t
       {"wide_nodes", at_least_one(data.wide_nodes.size()) * sizeof(rf_wide_node)},
       // Grown by the first frame that asks for the exact depth (upload_frame).
       {"depth_xforms", sizeof(rf_depth_xform)},
+      // Grown by the query frames (upload_frame).
+      {"query_top_level", sizeof(rf_wide_node)},
   };
   const DeviceInfo& info = device_.info();
   for (const BufferInfo& b : buffer_info_) {
@@ -120,6 +122,8 @@ void ClTracer::upload_scene(const SceneData& data, size_t max_tlas_nodes, size_t
     wide_nodes_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, buffer_info_[6].bytes);
     depth_xforms_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, buffer_info_[7].bytes);
     depth_xforms_capacity_ = buffer_info_[7].bytes;
+    tlas_wide_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, buffer_info_[8].bytes);
+    tlas_wide_capacity_ = buffer_info_[8].bytes;
     if (!blas.nodes.empty())
       q.enqueueWriteBuffer(nodes_, CL_FALSE, 0, blas.nodes.size() * sizeof(rf_node), blas.nodes.data());
     if (!data.wide_nodes.empty())
@@ -165,6 +169,19 @@ double ClTracer::upload_frame(const Frame& frame) {
       }
       q.enqueueWriteBuffer(depth_xforms_, CL_FALSE, 0, bytes, frame.depth_xforms.data());
     }
+    if (!frame.tlas_wide.empty()) {
+      const size_t bytes = frame.tlas_wide.size() * sizeof(rf_wide_node);
+      if (bytes > tlas_wide_capacity_) {
+        if (bytes > device_.info().max_alloc_bytes)
+          throw RuntimeFailure("a query's top level needs " + std::to_string(bytes >> 20) +
+                               " MiB, more than the largest allocation '" + device_.info().name + "' allows");
+        tlas_wide_ = cl::Buffer(device_.context(), CL_MEM_READ_ONLY, bytes);
+        tlas_wide_capacity_ = bytes;
+        buffer_info_[8].bytes = bytes;
+      }
+      q.enqueueWriteBuffer(tlas_wide_, CL_FALSE, 0, bytes, frame.tlas_wide.data());
+    }
+    tlas_wide_root_ = frame.tlas_wide_root;
     depth_instances_ = frame.depth_instances;
     const std::vector<float> scales = frame.depth_scales();
     RF_CHECK(scales.size() <= RF_GROUP_LIMIT, "more views than one pass holds");
@@ -468,6 +485,8 @@ double ClTracer::trace_queries(const std::vector<rf_query_ray>& rays, bool any_h
       int a = 0;
       kernel.setArg(a++, nodes_);
       kernel.setArg(a++, wide_nodes_);
+      kernel.setArg(a++, tlas_wide_);
+      kernel.setArg(a++, tlas_wide_root_);
       kernel.setArg(a++, tris_);
       kernel.setArg(a++, instances_);
       kernel.setArg(a++, normal_xforms_);

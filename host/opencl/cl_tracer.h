@@ -132,6 +132,11 @@ class ClTracer {
   // frame asks for the exact depth, then grown to what a pass needs.
   cl::Buffer depth_xforms_;
   size_t depth_xforms_capacity_ = 0;
+  // A query frame's 4-wide top level (Frame::tlas_wide): one node until a
+  // query frame needs more.
+  cl::Buffer tlas_wide_;
+  size_t tlas_wide_capacity_ = 0;
+  uint32_t tlas_wide_root_ = RF_INVALID;
   uint32_t depth_instances_ = 0;
   // One uploaded ray list and its tile table. Slot 0's rays buffer is made
   // with the scene (its size is checked against the device's memory); the

@@ -6,6 +6,7 @@
 #include <cstring>
 #include <string>
 
+#include "bvh/wide_bvh.h"
 #include "fold/ray_list.h"
 #include "rf_trace.h"
 #include "util/errors.h"
@@ -96,7 +97,16 @@ Frame build_query_frame(const Scene& scene, const SceneData& data, float origin_
   options.cull = false;
   options.planar_depth = false;
   options.query_origin_bound = std::ldexp(bound, -e);
-  return build_frame(scene, data, camera, make_ray_list(camera.params, FoldMode::none), options);
+  Frame frame = build_frame(scene, data, camera, make_ray_list(camera.params, FoldMode::none), options);
+  if (frame.tlas_root != RF_INVALID) {
+    // rf_trace_query_tlas_wide answers group 0 alone, which a frame of one
+    // view and no mirrors is.
+    for (const rf_instance& inst : frame.instances) RF_CHECK(inst.group == 0, "a query frame with mirrored copies");
+    WideTrees wide = build_wide_tlas(frame.tlas_nodes, frame.node_base, frame.tlas_root);
+    frame.tlas_wide = std::move(wide.nodes);
+    frame.tlas_wide_root = wide.roots[0];
+  }
+  return frame;
 }
 
 void to_trace_space(const float* origins, const float* directions, size_t begin, size_t end, float tmin, float tmax,
@@ -255,8 +265,8 @@ void trace_queries_cpu(const TraceInputs& in, const std::vector<rf_query_ray>& r
   parallel_for(rays.size(), threads, 256, [&](size_t begin, size_t end) {
     for (size_t k = begin; k < end; ++k) {
       const size_t i = order.empty() ? k : order[k];
-      rf_trace_query(&rays[i], in.nodes, nullptr, in.tris, in.instances, in.normal_xforms, in.tlas_root,
-                     any_hit ? 1 : 0, write_flags, &out[i]);
+      rf_trace_query(&rays[i], in.nodes, nullptr, nullptr, RF_INVALID, in.tris, in.instances, in.normal_xforms,
+                     in.tlas_root, any_hit ? 1 : 0, write_flags, &out[i]);
     }
   });
 }
