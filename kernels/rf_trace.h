@@ -542,9 +542,9 @@ RF_INLINE void rf_trace_entry(rf_u32 entry, const rf_camera* cam, const RF_GLOBA
 /* Answers one ray query (scene.intersect, scene.occluded): its closest hit
  * with tmin < t <= tmax, or with any_hit the first one found, written as a
  * pixel's hit info with z = t along the given (unnormalised) direction.
- * `wide` (device only; null: the binary trees): through the 4-wide trees,
- * the same closest hits, and with `tlas_wide` (device only, may be null)
- * the top level too (rf_trace_query_tlas_wide). With any_hit the hit found
+ * `wide` and `tlas_wide` (device only, where the host always gives both;
+ * null, as on the host: the binary trees): through the 4-wide trees at
+ * both levels (rf_trace_query_tlas_wide), the same closest hits. With any_hit the hit found
  * first depends on the order, whether there is one does not (each
  * traversal enters every leaf whose box test passes at tmax until it finds
  * one). */

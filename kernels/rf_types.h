@@ -46,18 +46,20 @@ typedef struct {
   rf_u32 meta;
 } rf_node;
 
-/* One node of the tile kernel's 4-wide bottom-level trees, 128 bytes: up to
- * four children of a binary node, collapsed from the binary tree below it
- * (host/bvh/wide_bvh.h) with the binary tree's own leaves, boxes and
- * triangle ranges, so the tile kernel, which takes a lane's hits only from
- * leaves its own slab test enters, finds the same hits as the binary
- * traversal of the CPU reference. Children's boxes side by side, so one
- * node brings all four in two 64-byte lines.
+/* One node of the 4-wide trees, 128 bytes: up to four children of a binary
+ * node, collapsed from the binary tree below it (host/bvh/wide_bvh.h) with
+ * the binary tree's own leaves, boxes and ranges, so a walk that takes a
+ * ray's hits only from leaves its own slab test enters (the tile kernel's
+ * lanes, the single-ray query kernel) finds the same hits as the binary
+ * traversal of the CPU reference. The bottom-level trees' (tree space), and
+ * a query frame's top level's (trace space; its leaves hold instances).
+ * Children's boxes side by side, so one node brings all four in two 64-byte
+ * lines.
  *   bytes   0..95   lo_x, lo_y, lo_z, hi_x, hi_y, hi_z  child k's box in
- *                   element k of each (tree space)
+ *                   element k of each
  *   bytes  96..111  child  interior child: its wide node; leaf: its first
- *                   triangle
- *   bytes 112..127  count  leaf: its triangle count; 0: an interior child;
+ *                   triangle (top level: its first rf_instance)
+ *   bytes 112..127  count  leaf: its triangle (instance) count; 0: an interior child;
  *                   RF_INVALID: no child in this slot (the slots in use
  *                   come first) */
 typedef struct {
@@ -146,7 +148,7 @@ typedef struct {
  *   bytes 56..59  group        transform group (see above; 0 = view 0
  *                              not mirrored)
  *   bytes 60..63  wide_root    the rf_wide_node holding blas_root's
- *                              children (the tile kernel's tree);
+ *                              children (the 4-wide tree's);
  *                              RF_INVALID when blas_root is a leaf */
 typedef struct {
   float tree_from_trace[12];

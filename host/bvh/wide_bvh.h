@@ -1,5 +1,6 @@
-// The tile kernel's 4-wide bottom-level trees, collapsed from the binary
-// ones (kernels/rf_types.h, rf_wide_node).
+// 4-wide trees collapsed from the binary ones (kernels/rf_types.h,
+// rf_wide_node): the bottom levels of the tile kernel and of the single-ray
+// query kernel, and a query frame's top level (build_wide_tlas).
 //
 // Why wide: the tile kernel pays a fixed cost per node it pops (its stack,
 // the children's loads, the narrowing of the tile's lane groups), and on a

@@ -77,7 +77,9 @@ struct Frame {
   std::vector<rf_node> tlas_nodes;  // to be placed at node_base
   // A query frame's top level as 4-wide nodes (build_wide_tlas; the
   // single-ray query kernel's): empty and RF_INVALID elsewhere, and where
-  // the root is a leaf.
+  // the root is a leaf. query: made by build_query_frame (the query kernel
+  // reads tlas_wide_root only from such a frame).
+  bool query = false;
   std::vector<rf_wide_node> tlas_wide;
   uint32_t tlas_wide_root = RF_INVALID;
   std::vector<rf_instance> instances;  // in TLAS leaf order

@@ -182,6 +182,7 @@ double ClTracer::upload_frame(const Frame& frame) {
       q.enqueueWriteBuffer(tlas_wide_, CL_FALSE, 0, bytes, frame.tlas_wide.data());
     }
     tlas_wide_root_ = frame.tlas_wide_root;
+    query_frame_ = frame.query;
     depth_instances_ = frame.depth_instances;
     const std::vector<float> scales = frame.depth_scales();
     RF_CHECK(scales.size() <= RF_GROUP_LIMIT, "more views than one pass holds");
@@ -414,6 +415,9 @@ ClTracer::PackedPlanes ClTracer::wait_packed(int slot) {
 double ClTracer::trace_queries(const std::vector<rf_query_ray>& rays, bool any_hit, unsigned write_flags,
                                rf_pixel_hit* out, const QueryTiles* plan) {
   if (rays.empty()) return 0.0;
+  // The query kernel reads RF_INVALID as a top level whose root is a leaf,
+  // which only a query frame's tlas_wide_root means.
+  RF_CHECK(query_frame_, "ray queries traced in a frame that is not a query frame");
   const std::vector<uint32_t>* tiles = plan && !plan->tiles.empty() ? &plan->tiles : nullptr;
   RF_CHECK(!tiles || (tiles->size() >= 2 && tiles->front() == 0 && tiles->back() == rays.size()),
            "query tiles do not cover the rays");

@@ -137,6 +137,7 @@ class ClTracer {
   cl::Buffer tlas_wide_;
   size_t tlas_wide_capacity_ = 0;
   uint32_t tlas_wide_root_ = RF_INVALID;
+  bool query_frame_ = false;  // the uploaded frame is a query frame (trace_queries)
   uint32_t depth_instances_ = 0;
   // One uploaded ray list and its tile table. Slot 0's rays buffer is made
   // with the scene (its size is checked against the device's memory); the

@@ -98,6 +98,7 @@ Frame build_query_frame(const Scene& scene, const SceneData& data, float origin_
   options.planar_depth = false;
   options.query_origin_bound = std::ldexp(bound, -e);
   Frame frame = build_frame(scene, data, camera, make_ray_list(camera.params, FoldMode::none), options);
+  frame.query = true;
   if (frame.tlas_root != RF_INVALID) {
     // rf_trace_query_tlas_wide answers group 0 alone, which a frame of one
     // view and no mirrors is.
