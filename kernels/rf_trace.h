@@ -315,12 +315,11 @@ RF_INLINE int rf_trace_instances(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL
 /* Closest hit per group of one trace-space ray through the top-level tree,
  * from the origin `origin` names along (dx, dy, dz), beyond tmin; any_hit:
  * stop at the first hit. ray_groups: bit g set when the ray answers group g.
- * wide (device only; null: the binary trees): the bottom levels through the
- * 4-wide trees (rf_trace_blas_wide). */
-RF_INLINE void rf_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_wide_node* wide,
-                             const RF_GLOBAL rf_tri* tris, const RF_GLOBAL rf_instance* instances, rf_u32 tlas_root,
-                             rf_i32 origin, float ox, float oy, float oz, float dx, float dy, float dz, float tmin,
-                             int any_hit, rf_u32 ray_groups, rf_hit* hits) {
+ * Binary trees at both levels (the CPU reference's walk). */
+RF_INLINE void rf_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_tri* tris,
+                             const RF_GLOBAL rf_instance* instances, rf_u32 tlas_root, rf_i32 origin, float ox,
+                             float oy, float oz, float dx, float dy, float dz, float tmin, int any_hit,
+                             rf_u32 ray_groups, rf_hit* hits) {
   rf_u32 stack_node[RF_STACK_SIZE];
   float stack_t[RF_STACK_SIZE];
   int sp = 0;
@@ -337,7 +336,7 @@ RF_INLINE void rf_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_
     const rf_u32 first = n->first & RF_TLAS_INDEX_MASK;
     RF_STAT(tlas_nodes);
     if (count != 0) {
-      if (rf_trace_instances(nodes, wide, tris, instances, first, count, origin, ox, oy, oz, dx, dy, dz, tmin, any_hit,
+      if (rf_trace_instances(nodes, 0, tris, instances, first, count, origin, ox, oy, oz, dx, dy, dz, tmin, any_hit,
                              ray_groups, &cache, hits))
         return;
     } else {
@@ -533,7 +532,7 @@ RF_INLINE void rf_trace_entry(rf_u32 entry, const rf_camera* cam, const RF_GLOBA
   rf_hit hits[RF_MAX_GROUPS];
   RF_FOR_EACH_GROUP(g, ray.groups) { rf_hit_reset(&hits[g]); }
   if (tlas_root != RF_INVALID)
-    rf_trace_tlas(nodes, 0, tris, instances, tlas_root, cam->ortho ? RF_ORIGIN_PLANE : RF_ORIGIN_EYE,
+    rf_trace_tlas(nodes, tris, instances, tlas_root, cam->ortho ? RF_ORIGIN_PLANE : RF_ORIGIN_EYE,
                   cam->ortho ? ray.dx : 0.0f, cam->ortho ? ray.dy : 0.0f, 0.0f, cam->ortho ? 0.0f : ray.dx,
                   cam->ortho ? 0.0f : ray.dy, -1.0f, 0.0f, 0, ray.groups, hits);
   rf_write_answers(&ray, hits, cam, depth_scales, depths, tris, normal_xforms, out);
@@ -543,8 +542,9 @@ RF_INLINE void rf_trace_entry(rf_u32 entry, const rf_camera* cam, const RF_GLOBA
  * with tmin < t <= tmax, or with any_hit the first one found, written as a
  * pixel's hit info with z = t along the given (unnormalised) direction.
  * `wide` and `tlas_wide` (device only, where the host always gives both;
- * null, as on the host: the binary trees): through the 4-wide trees at
- * both levels (rf_trace_query_tlas_wide), the same closest hits. With any_hit the hit found
+ * null on the host, which walks the binary trees, rf_trace_tlas): through
+ * the 4-wide trees at both levels (rf_trace_query_tlas_wide), the same
+ * closest hits. With any_hit the hit found
  * first depends on the order, whether there is one does not (each
  * traversal enters every leaf whose box test passes at tmax until it finds
  * one). */
@@ -556,20 +556,20 @@ RF_INLINE void rf_trace_query(const RF_GLOBAL rf_query_ray* q, const RF_GLOBAL r
   rf_hit hit;
   rf_hit_reset(&hit);
   hit.t = q->tmax;
+  if (tlas_root != RF_INVALID) {
 #ifdef __OPENCL_C_VERSION__
-  if (tlas_root != RF_INVALID && wide && tlas_wide) {
-    rf_trace_query_tlas_wide(nodes, wide, tlas_wide, tlas_wide_root, tris, instances, tlas_root, q->o[0], q->o[1],
-                             q->o[2], q->d[0], q->d[1], q->d[2], q->tmin, any_hit, &hit);
-    rf_write_pixel(out, &hit, 1.0f, 1.0f, tris, normal_xforms, write_flags);
-    return;
-  }
+    if (wide && tlas_wide)
+      rf_trace_query_tlas_wide(nodes, wide, tlas_wide, tlas_wide_root, tris, instances, tlas_root, q->o[0], q->o[1],
+                               q->o[2], q->d[0], q->d[1], q->d[2], q->tmin, any_hit, &hit);
+    else
 #else
-  (void)tlas_wide;
-  (void)tlas_wide_root;
+    (void)wide;
+    (void)tlas_wide;
+    (void)tlas_wide_root;
 #endif
-  if (tlas_root != RF_INVALID)
-    rf_trace_tlas(nodes, wide, tris, instances, tlas_root, RF_ORIGIN_ANY, q->o[0], q->o[1], q->o[2], q->d[0], q->d[1],
-                  q->d[2], q->tmin, any_hit, 1u, &hit);
+      rf_trace_tlas(nodes, tris, instances, tlas_root, RF_ORIGIN_ANY, q->o[0], q->o[1], q->o[2], q->d[0], q->d[1],
+                    q->d[2], q->tmin, any_hit, 1u, &hit);
+  }
   rf_write_pixel(out, &hit, 1.0f, 1.0f, tris, normal_xforms, write_flags);
 }
 

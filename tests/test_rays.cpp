@@ -66,6 +66,13 @@ Rays random_rays(Rng& rng, const Scene& scene, size_t n, const std::vector<size_
   return r;
 }
 
+// Default options on `backend`.
+RendererOptions on(Backend backend) {
+  RendererOptions opt;
+  opt.backend = backend;
+  return opt;
+}
+
 std::vector<rf_pixel_hit> query(Renderer& r, const Rays& rays, float tmin = 0.0f, float tmax = INFINITY,
                                 bool any_hit = false) {
   std::vector<rf_pixel_hit> out(rays.size());
@@ -134,11 +141,7 @@ TEST(RayQuery, OpenClKernelEqualsTheCpuReference) {
   Rng rng(99);
   for (int s = 0; s < 4; ++s) {
     const Scene scene = testing::random_scene(rng, 1 + rng.below(4), 1 + rng.below(12), 20 + rng.below(300));
-    RendererOptions opt;
-    opt.backend = Backend::cpu;
-    Renderer cpu(scene, opt);
-    opt.backend = Backend::opencl;
-    Renderer cl(scene, opt);
+    Renderer cpu(scene, on(Backend::cpu)), cl(scene, on(Backend::opencl));
     expect_kernel_equals_reference(cpu, cl, random_rays(rng, scene, 5000), "scene " + std::to_string(s));
   }
 }
@@ -149,11 +152,7 @@ TEST(RayQuery, OpenClKernelEqualsTheCpuReference) {
 TEST(RayQuery, ManyInstancesThroughTheWideTopLevelEqualTheCpuReference) {
   Rng rng(7);
   const Scene scene = testing::random_scene(rng, 3, 300, 40);
-  RendererOptions opt;
-  opt.backend = Backend::cpu;
-  Renderer cpu(scene, opt);
-  opt.backend = Backend::opencl;
-  Renderer cl(scene, opt);
+  Renderer cpu(scene, on(Backend::cpu)), cl(scene, on(Backend::opencl));
   const Rays rays = random_rays(rng, scene, 6000);
   const Frame frame =
       build_query_frame(scene, cl.scene_data(),
@@ -212,11 +211,7 @@ TEST(RayQuery, GrazingHitsTakeTheirOwnLeafsEntryThroughTheWideTrees) {
     rays.o.insert(rays.o.end(), {o.x, o.y, o.z});
     rays.d.insert(rays.d.end(), {d.x, d.y, d.z});
   }
-  RendererOptions opt;
-  opt.backend = Backend::cpu;
-  Renderer cpu(scene, opt);
-  opt.backend = Backend::opencl;
-  Renderer cl(scene, opt);
+  Renderer cpu(scene, on(Backend::cpu)), cl(scene, on(Backend::opencl));
   const std::vector<rf_pixel_hit> expected = query(cpu, rays), got = query(cl, rays);
   EXPECT_EQ(differences(expected, got), "");
   size_t hits = 0;
@@ -551,11 +546,7 @@ TEST(RayQuery, AnswersDoNotDependOnOrderOrBatching) {
 TEST(RayQuery, ScatteredRaysPastOneChunkKeepTheirAnswers) {
   Rng rng(8);
   const Scene scene = testing::random_scene(rng, 3, 10, 200);
-  RendererOptions opt;
-  opt.backend = Backend::cpu;
-  Renderer cpu(scene, opt);
-  opt.backend = Backend::opencl;
-  Renderer cl(scene, opt);
+  Renderer cpu(scene, on(Backend::cpu)), cl(scene, on(Backend::opencl));
   const Rays base = random_rays(rng, scene, 3000);
   const std::vector<rf_pixel_hit> want = query(cpu, base);
   const size_t n = (size_t{1} << 20) + 2500;
