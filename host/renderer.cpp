@@ -186,7 +186,11 @@ void Renderer::begin_views(RenderResult& result, const std::vector<Camera>& came
   result.plane_channels = 0;
   result.view_hits.clear();
   result.pipelined = false;
-  if (tracer_ && frame_options.planes && packs_planes_) {
+  result.planes_in_place = tracer_ && frame_options.planes && frame_options.planes_in_place && cameras.size() == 1 &&
+                           !packs_planes_ && tracer_->writes_host_memory();
+  if (result.planes_in_place) {
+    result.hits.clear();
+  } else if (tracer_ && frame_options.planes && packs_planes_) {
     result.hits.clear();
     result.plane_channels = frame_options.channels;
   } else if (result.hits.size() != pixels) {
@@ -236,7 +240,10 @@ FrameTimes Renderer::trace_frame(RenderResult& result, const std::vector<Camera>
   times.upload_ms = tracer_->upload_frame(frame);
   // A packed pass traces into the device's own buffer (unbinding any
   // host memory an earlier pass bound).
-  tracer_->bind_output(packed ? nullptr : result.hits.data(), packed ? 0 : pixels);
+  if (result.planes_in_place)
+    tracer_->bind_planes(frame_options.planes_in_place, pixels);
+  else
+    tracer_->bind_output(packed ? nullptr : result.hits.data(), packed ? 0 : pixels);
   const rf_camera cam = frame_camera(camera, frame);
   if (is_orthographic(camera)) {
     // The tile kernel's box tests share one origin (the eye) across a
@@ -265,6 +272,10 @@ FrameTimes Renderer::trace_frame(RenderResult& result, const std::vector<Camera>
     tracer_->enqueue_trace(cam, kernel_);
   } else {
     times.trace_ms = tracer_->trace(cam, kernel_);
+  }
+  if (result.planes_in_place) {
+    times.readback_ms = tracer_->read_planes();
+    return times;
   }
   if (!packed) {
     times.readback_ms = tracer_->read_hits(result.hits.data(), pixels);

@@ -99,6 +99,9 @@ struct RenderResult {
   size_t plane_words_per_view = 0;
   unsigned plane_channels = 0;
   std::vector<size_t> view_hits;
+  // The kernel wrote the planes into FrameOptions::planes_in_place; `hits`
+  // is empty.
+  bool planes_in_place = false;
   int packed_slot = -1;  // the tracer's readback slot while the pass is in flight
   bool pipelined = false;  // submitted by submit_views_into: trace_ms is the kernel's device time
 };

@@ -33,6 +33,14 @@ RF_INLINE rf_camera rf_make_camera(float scale_x, float scale_y, int kx0, int ky
   return cam;
 }
 
+/* Where the answers go (rf_answers): `out`, or where it is null the planes
+ * that are not. */
+#define RF_ANSWER_ARGS                                                                                         \
+  __global rf_pixel_hit *out, __global float *plane_z, __global float *plane_normal, __global float *plane_uv, \
+      __global uint *plane_instance, __global uint *plane_primitive
+#define RF_MAKE_ANSWERS() \
+  { out, plane_z, plane_normal, plane_uv, plane_instance, plane_primitive }
+
 #define RF_MAKE_CAMERA()                                                                                           \
   rf_make_camera(scale_x, scale_y, kx0, ky0, width, height, xpair, ypair, frac_x, frac_y, ortho, views, group_shift, \
                  slot_mirrors, view_rep, write_flags)
@@ -41,12 +49,13 @@ RF_INLINE rf_camera rf_make_camera(float scale_x, float scale_y, int kx0, int ky
 __kernel void rf_trace_primary(__global const rf_node* nodes, __global const rf_tri* tris,
                                __global const rf_instance* instances, __global const rf_normal_xform* normal_xforms,
                                uint tlas_root, __global const uint* rays, uint ray_count, RF_CAMERA_ARGS,
-                               __global rf_pixel_hit* out) {
+                               RF_ANSWER_ARGS) {
   const uint i = get_global_id(0);
   if (i >= ray_count) return;
   const rf_camera cam = RF_MAKE_CAMERA();
   const rf_depth_table depths = {depth_xforms, depth_instances};
-  rf_trace_entry(rays[i], &cam, depth_scales, &depths, nodes, tris, instances, normal_xforms, tlas_root, out);
+  const rf_answers answers = RF_MAKE_ANSWERS();
+  rf_trace_entry(rays[i], &cam, depth_scales, &depths, nodes, tris, instances, normal_xforms, tlas_root, &answers);
 }
 
 /* Ray queries: one work-item per ray, through the 4-wide trees, the top
@@ -62,7 +71,7 @@ __kernel void rf_trace_queries(__global const rf_node* nodes, __global const rf_
                                __global const rf_wide_node* tlas_wide, uint tlas_wide_root, __global const rf_tri* tris,
                                __global const rf_instance* instances, __global const rf_normal_xform* normal_xforms,
                                uint tlas_root, __global const rf_query_ray* rays, uint ray_count, uint any_hit,
-                               uint write_flags, __global const uint* order, uint ordered, __global rf_pixel_hit* out) {
+                               uint write_flags, __global const uint* order, uint ordered, RF_ANSWER_ARGS) {
   const uint k = get_global_id(0);
   if (k >= ray_count) return;
   uint i = k;
@@ -70,8 +79,9 @@ __kernel void rf_trace_queries(__global const rf_node* nodes, __global const rf_
     i = order[k];
     if (k + 1u < ray_count) RF_PREFETCH_LINE(&rays[order[k + 1u]]);
   }
+  const rf_answers answers = RF_MAKE_ANSWERS();
   rf_trace_query(&rays[i], nodes, wide, tlas_wide, tlas_wide_root, tris, instances, normal_xforms, tlas_root,
-                 any_hit != 0u, write_flags, &out[k]);
+                 any_hit != 0u, write_flags, &answers, k);
 }
 
 /* Ray queries that share their origin, a tile of up to RF_TILE_RAYS per
@@ -82,8 +92,7 @@ __kernel void rf_trace_query_tiles(__global const rf_node* nodes, __global const
                                    __global const rf_tri* tris, __global const rf_instance* instances,
                                    __global const rf_normal_xform* normal_xforms, uint tlas_root,
                                    __global const rf_query_ray* rays, __global const uint* tiles, uint tile_count,
-                                   uint write_flags, __global const uint* order, uint ordered,
-                                   __global rf_pixel_hit* out) {
+                                   uint write_flags, __global const uint* order, uint ordered, RF_ANSWER_ARGS) {
   const uint t = get_global_id(0);
   if (t >= tile_count) return;
 #ifdef RF_TILE_STATS
@@ -91,18 +100,18 @@ __kernel void rf_trace_query_tiles(__global const rf_node* nodes, __global const
   for (int k = 0; k < RF_TILE_STAT_COUNT; ++k) stats[k] = 0u;
 #endif
   const uint begin = tiles[t];
+  const rf_answers answers = RF_MAKE_ANSWERS();
   rf_trace_query_tile(rays, begin, tiles[t + 1] - begin, nodes, wide, tris, instances, normal_xforms, tlas_root,
-                      write_flags, ordered ? order : 0, out RF_TSTAT_ARG);
+                      write_flags, ordered ? order : 0, &answers RF_TSTAT_ARG);
 }
 
 /* The tile kernel (rf_tile.h): one work-item per tile of the ray list; tile t
  * covers rays[tiles[t] .. tiles[t + 1]). PoCL runs it fastest with one
  * work-item per work-group: the SIMD is inside the work-item. */
 __kernel void rf_trace_tiles(__global const rf_node* nodes, __global const rf_wide_node* wide,
-                             __global const rf_tri* tris,
-                             __global const rf_instance* instances, __global const rf_normal_xform* normal_xforms,
-                             uint tlas_root, __global const uint* rays, __global const uint* tiles, uint tile_count,
-                             RF_CAMERA_ARGS, __global rf_pixel_hit* out
+                             __global const rf_tri* tris, __global const rf_instance* instances,
+                             __global const rf_normal_xform* normal_xforms, uint tlas_root, __global const uint* rays,
+                             __global const uint* tiles, uint tile_count, RF_CAMERA_ARGS, RF_ANSWER_ARGS
 #ifdef RF_TILE_STATS
                              ,
                              __global uint* tile_stats
@@ -117,8 +126,9 @@ __kernel void rf_trace_tiles(__global const rf_node* nodes, __global const rf_wi
   for (int k = 0; k < RF_TILE_STAT_COUNT; ++k) stats[k] = 0u;
 #endif
   const rf_depth_table depths = {depth_xforms, depth_instances};
+  const rf_answers answers = RF_MAKE_ANSWERS();
   rf_trace_tile(rays, begin, tiles[t + 1] - begin, &cam, depth_scales, &depths, nodes, wide, tris, instances,
-                normal_xforms, tlas_root, out RF_TSTAT_ARG);
+                normal_xforms, tlas_root, &answers RF_TSTAT_ARG);
 #ifdef RF_TILE_STATS
   for (int k = 0; k < RF_TILE_STAT_COUNT; ++k) tile_stats[t * RF_TILE_STAT_COUNT + k] = stats[k];
 #endif

@@ -824,6 +824,22 @@ RF_NOINLINE void rf_tile_exact_lane_group(const RF_GLOBAL rf_u32* rays, rf_u32 b
   }
 }
 
+/* Puts one lane's answer, w (rf_pixel_hit's eight words), at index i of
+ * `out`: into its hits as one 32-byte store, or into its planes. As
+ * integers, so that the ids, NaN patterns as floats, never pass a float
+ * register. */
+RF_INLINE void rf_tile_put(const rf_answers* out, size_t i, uint8 w) {
+  if (out->hits) {
+    vstore8(w, 0, (RF_GLOBAL rf_u32*)&out->hits[i]);
+    return;
+  }
+  if (out->z) ((RF_GLOBAL rf_u32*)out->z)[i] = w.s0;
+  if (out->normal) vstore3(w.s123, i, (RF_GLOBAL rf_u32*)out->normal);
+  if (out->uv) vstore2(w.s45, i, (RF_GLOBAL rf_u32*)out->uv);
+  if (out->instance) out->instance[i] = w.s6;
+  if (out->primitive) out->primitive[i] = w.s7;
+}
+
 /* rf_write_pixel for every lane of the tile that answers group g, lane by
  * lane: the normal (rf_geometric_normal) and depth in vectors, with the
  * scalar code's operations per lane, then one pixel store per lane. The
@@ -832,7 +848,7 @@ RF_NOINLINE void rf_tile_exact_lane_group(const RF_GLOBAL rf_u32* rays, rf_u32 b
 RF_INLINE void rf_tile_write_group(const RF_GLOBAL rf_u32* rays, rf_u32 begin, rf_u32 count, const rf_camera* cam,
                                    const rf_u32* lane_groups, const rf_tile_camera* tc, const rf_tile_hits* h, rf_u32 g,
                                    float depth_scale, const rf_depth_table* depths, const RF_GLOBAL rf_tri* tris,
-                                   const RF_GLOBAL rf_normal_xform* normal_xforms, RF_GLOBAL rf_pixel_hit* out) {
+                                   const RF_GLOBAL rf_normal_xform* normal_xforms, const rf_answers* out) {
   rf_vf z[RF_LANE_GROUPS], nx[RF_LANE_GROUPS], ny[RF_LANE_GROUPS], nz[RF_LANE_GROUPS];
   const int exact_depth = (cam->write_flags & RF_WRITE_EXACT_DEPTH) != 0u;
   rf_tile_plane_cache plane_cache;
@@ -864,7 +880,7 @@ RF_INLINE void rf_tile_write_group(const RF_GLOBAL rf_u32* rays, rf_u32 begin, r
   const rf_u32* is = (const rf_u32*)h->instance;
   const rf_u32* ps = (const rf_u32*)h->prim;
   const rf_u32 mirror = rf_group_mirror(g, cam);
-  RF_GLOBAL rf_pixel_hit* view_out = out + rf_group_view_base(g, cam);
+  const size_t view_base = rf_group_view_base(g, cam);
   for (rf_u32 l = 0; l < count; ++l) {
     if (((lane_groups[l] >> g) & 1u) == 0u) continue;
     const rf_u32 entry = rays[begin + l];
@@ -873,12 +889,10 @@ RF_INLINE void rf_tile_write_group(const RF_GLOBAL rf_u32* rays, rf_u32 begin, r
     const rf_i32 px = (mirror & 1u) ? cam->xpair - x : x;
     const rf_i32 py = (mirror & 2u) ? cam->ypair - y : y;
     const int hit = is[l] != RF_INVALID;
-    /* One 32-byte store per pixel (rf_pixel_hit's layout), as integers so
-     * that the ids, NaN patterns as floats, never pass a float register. */
     const uint8 px_hit =
         (uint8)(as_uint(zs[l]), as_uint(xs[l]), as_uint(ys[l]), as_uint(ws[l]), as_uint(hit ? us[l] : 0.0f),
                 as_uint(hit ? vs[l] : 0.0f), is[l], hit ? ps[l] : RF_INVALID);
-    vstore8(px_hit, 0, (RF_GLOBAL rf_u32*)&view_out[py * cam->width + px]);
+    rf_tile_put(out, view_base + (size_t)(py * cam->width + px), px_hit);
   }
 }
 
@@ -889,7 +903,7 @@ RF_INLINE void rf_trace_tile(const RF_GLOBAL rf_u32* rays, rf_u32 begin, rf_u32 
                              const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_wide_node* wide,
                              const RF_GLOBAL rf_tri* tris, const RF_GLOBAL rf_instance* instances,
                              const RF_GLOBAL rf_normal_xform* normal_xforms, rf_u32 tlas_root,
-                             RF_GLOBAL rf_pixel_hit* out RF_TSTAT_PARAM) {
+                             const rf_answers* out RF_TSTAT_PARAM) {
   rf_tile_camera tc;
   rf_tile_hits hits[RF_MAX_GROUPS];
   rf_tile_ray ro[RF_TILE_SETUPS];
@@ -960,9 +974,8 @@ RF_INLINE void rf_trace_tile(const RF_GLOBAL rf_u32* rays, rf_u32 begin, rf_u32 
 RF_INLINE void rf_trace_query_tile(const RF_GLOBAL rf_query_ray* rays, rf_u32 begin, rf_u32 count,
                                    const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_wide_node* wide,
                                    const RF_GLOBAL rf_tri* tris, const RF_GLOBAL rf_instance* instances,
-                                   const RF_GLOBAL rf_normal_xform* normal_xforms, rf_u32 tlas_root,
-                                   rf_u32 write_flags, const RF_GLOBAL rf_u32* order,
-                                   RF_GLOBAL rf_pixel_hit* out RF_TSTAT_PARAM) {
+                                   const RF_GLOBAL rf_normal_xform* normal_xforms, rf_u32 tlas_root, rf_u32 write_flags,
+                                   const RF_GLOBAL rf_u32* order, const rf_answers* out RF_TSTAT_PARAM) {
   rf_tile_camera tc;
   rf_tile_query q;
   rf_tile_hits hits[1];
@@ -1028,12 +1041,11 @@ RF_INLINE void rf_trace_query_tile(const RF_GLOBAL rf_query_ray* rays, rf_u32 be
   const rf_u32* ps = (const rf_u32*)hits[0].prim;
   for (rf_u32 l = 0; l < count; ++l) {
     const int hit = is[l] != RF_INVALID;
-    /* z: t * 1 * 1, as rf_write_pixel's query form; as integers, as the
-     * camera tile's stores. */
+    /* z: t * 1 * 1, as rf_write_pixel's query form. */
     const uint8 px_hit = (uint8)(as_uint(hit ? ts[l] : RF_INF), as_uint(xs[l]), as_uint(ys[l]), as_uint(ws[l]),
                                  as_uint(hit ? us[l] : 0.0f), as_uint(hit ? vs[l] : 0.0f), is[l],
                                  hit ? ps[l] : RF_INVALID);
-    vstore8(px_hit, 0, (RF_GLOBAL rf_u32*)&out[order ? order[begin + l] : begin + l]);
+    rf_tile_put(out, order ? order[begin + l] : begin + l, px_hit);
   }
 }
 

@@ -408,7 +408,7 @@ RF_INLINE void rf_trace_query_tlas_wide(const RF_GLOBAL rf_node* nodes, const RF
 /* Writes one pixel's hit info. len_d is the length of the trace-space ray
  * direction, which turns t into distance along the normalised ray, and
  * depth_scale the power of two that takes trace units to world units. */
-RF_INLINE void rf_write_pixel(RF_GLOBAL rf_pixel_hit* px, const rf_hit* h, float len_d, float depth_scale,
+RF_INLINE void rf_write_pixel(rf_pixel_hit* px, const rf_hit* h, float len_d, float depth_scale,
                               const RF_GLOBAL rf_tri* tris, const RF_GLOBAL rf_normal_xform* normal_xforms,
                               rf_u32 write_flags) {
   if (h->instance == RF_INVALID) {
@@ -503,21 +503,23 @@ RF_INLINE size_t rf_group_pixel_index(rf_i32 x, rf_i32 y, rf_u32 g, const rf_cam
 RF_INLINE void rf_write_answers(const rf_camera_ray* ray, const rf_hit* hits, const rf_camera* cam,
                                 const RF_GLOBAL float* depth_scales, const rf_depth_table* depths,
                                 const RF_GLOBAL rf_tri* tris, const RF_GLOBAL rf_normal_xform* normal_xforms,
-                                RF_GLOBAL rf_pixel_hit* out) {
+                                const rf_answers* out) {
   const float dz = -1.0f;
   const float len_d = cam->ortho ? 1.0f : RF_SQRT(ray->dx * ray->dx + ray->dy * ray->dy + dz * dz);
   const int exact_depth = (cam->write_flags & RF_WRITE_EXACT_DEPTH) != 0u;
   RF_FOR_EACH_GROUP(g, ray->groups) {
     const rf_u32 view = g >> cam->group_shift;
     const size_t at = rf_group_pixel_index(ray->x, ray->y, g, cam);
-    rf_write_pixel(&out[at], &hits[g], len_d, depth_scales[view], tris, normal_xforms, cam->write_flags);
+    rf_pixel_hit answer;
+    rf_write_pixel(&answer, &hits[g], len_d, depth_scales[view], tris, normal_xforms, cam->write_flags);
     if (exact_depth && hits[g].instance != RF_INVALID) {
       const rf_u32 m = rf_group_mirror(g, cam);
       const rf_i32 px = (m & 1u) ? cam->xpair - ray->x : ray->x;
       const rf_i32 py = (m & 2u) ? cam->ypair - ray->y : ray->y;
-      out[at].z = rf_pixel_depth(depths, view, hits[g].instance, &tris[hits[g].tri], cam, px, py, depth_scales[view],
-                                 out[at].z);
+      answer.z =
+          rf_pixel_depth(depths, view, hits[g].instance, &tris[hits[g].tri], cam, px, py, depth_scales[view], answer.z);
     }
+    rf_put_answer(out, at, &answer);
   }
 }
 
@@ -526,8 +528,7 @@ RF_INLINE void rf_write_answers(const rf_camera_ray* ray, const rf_hit* hits, co
 RF_INLINE void rf_trace_entry(rf_u32 entry, const rf_camera* cam, const RF_GLOBAL float* depth_scales,
                               const rf_depth_table* depths, const RF_GLOBAL rf_node* nodes,
                               const RF_GLOBAL rf_tri* tris, const RF_GLOBAL rf_instance* instances,
-                              const RF_GLOBAL rf_normal_xform* normal_xforms, rf_u32 tlas_root,
-                              RF_GLOBAL rf_pixel_hit* out) {
+                              const RF_GLOBAL rf_normal_xform* normal_xforms, rf_u32 tlas_root, const rf_answers* out) {
   const rf_camera_ray ray = rf_decode_entry(entry, cam);
   rf_hit hits[RF_MAX_GROUPS];
   RF_FOR_EACH_GROUP(g, ray.groups) { rf_hit_reset(&hits[g]); }
@@ -540,7 +541,8 @@ RF_INLINE void rf_trace_entry(rf_u32 entry, const rf_camera* cam, const RF_GLOBA
 
 /* Answers one ray query (scene.intersect, scene.occluded): its closest hit
  * with tmin < t <= tmax, or with any_hit the first one found, written as a
- * pixel's hit info with z = t along the given (unnormalised) direction.
+ * pixel's hit info with z = t along the given (unnormalised) direction,
+ * at index `at` of `out`.
  * `wide` and `tlas_wide` (device only, where the host always gives both;
  * null on the host, which walks the binary trees, rf_trace_tlas): through
  * the 4-wide trees at both levels (rf_trace_query_tlas_wide), the same
@@ -552,7 +554,7 @@ RF_INLINE void rf_trace_query(const RF_GLOBAL rf_query_ray* q, const RF_GLOBAL r
                               const RF_GLOBAL rf_wide_node* wide, const RF_GLOBAL rf_wide_node* tlas_wide,
                               rf_u32 tlas_wide_root, const RF_GLOBAL rf_tri* tris,
                               const RF_GLOBAL rf_instance* instances, const RF_GLOBAL rf_normal_xform* normal_xforms,
-                              rf_u32 tlas_root, int any_hit, rf_u32 write_flags, RF_GLOBAL rf_pixel_hit* out) {
+                              rf_u32 tlas_root, int any_hit, rf_u32 write_flags, const rf_answers* out, size_t at) {
   rf_hit hit;
   rf_hit_reset(&hit);
   hit.t = q->tmax;
@@ -570,7 +572,9 @@ RF_INLINE void rf_trace_query(const RF_GLOBAL rf_query_ray* q, const RF_GLOBAL r
       rf_trace_tlas(nodes, tris, instances, tlas_root, RF_ORIGIN_ANY, q->o[0], q->o[1], q->o[2], q->d[0], q->d[1],
                     q->d[2], q->tmin, any_hit, 1u, &hit);
   }
-  rf_write_pixel(out, &hit, 1.0f, 1.0f, tris, normal_xforms, write_flags);
+  rf_pixel_hit answer;
+  rf_write_pixel(&answer, &hit, 1.0f, 1.0f, tris, normal_xforms, write_flags);
+  rf_put_answer(out, at, &answer);
 }
 
 #endif /* RF_TRACE_H */

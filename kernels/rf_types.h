@@ -198,6 +198,51 @@ typedef struct {
   rf_u32 primitive;
 } rf_pixel_hit;
 
+/* Where a kernel puts its answers (rf_put_answer): each pixel's or ray's
+ * rf_pixel_hit at hits[i], or, where hits is null, its fields into the
+ * planes of a G-buffer (RF_PLANE_*), each null where not asked for:
+ *   z[i], normal[3i .. 3i + 2], uv[2i .. 2i + 1], instance[i], primitive[i].
+ * On a CPU device the planes are the caller's memory, written in place:
+ * the host's pass from 32-byte hits to planes was a tenth of a 720p frame
+ * on the armadillo. */
+typedef struct {
+  RF_GLOBAL rf_pixel_hit* hits;
+  RF_GLOBAL float* z;
+  RF_GLOBAL float* normal;
+  RF_GLOBAL float* uv;
+  RF_GLOBAL rf_u32* instance;
+  RF_GLOBAL rf_u32* primitive;
+} rf_answers;
+
+/* Answers into `hits` alone. */
+RF_INLINE rf_answers rf_answers_in(RF_GLOBAL rf_pixel_hit* hits) {
+  rf_answers a;
+  a.hits = hits;
+  a.z = a.normal = a.uv = 0;
+  a.instance = a.primitive = 0;
+  return a;
+}
+
+/* Puts answer px at index i (pixel of the pass, or ray). */
+RF_INLINE void rf_put_answer(const rf_answers* a, size_t i, const rf_pixel_hit* px) {
+  if (a->hits) {
+    a->hits[i] = *px;
+    return;
+  }
+  if (a->z) a->z[i] = px->z;
+  if (a->normal) {
+    a->normal[3 * i] = px->nx;
+    a->normal[3 * i + 1] = px->ny;
+    a->normal[3 * i + 2] = px->nz;
+  }
+  if (a->uv) {
+    a->uv[2 * i] = px->u;
+    a->uv[2 * i + 1] = px->v;
+  }
+  if (a->instance) a->instance[i] = px->instance;
+  if (a->primitive) a->primitive[i] = px->primitive;
+}
+
 /* The planes of a packed readback (rf_pack_planes), as bits; the same
  * values as the public API's Channels (host/include/rayfold/gbuffer.h). A
  * view's packed words hold the planes asked for in this order, each for

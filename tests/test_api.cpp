@@ -654,9 +654,10 @@ TEST(Api, DeviceTypesPickTheFirstDeviceOfThatType) {
     EXPECT_NE(Renderer(scene, o).device_name().find(first_cpu), std::string::npos);
   }
   o.device = "gpu";
-  if (only_cpus)
+  if (only_cpus) {
     EXPECT_NE(message_of<RuntimeFailure>([&] { Renderer r(scene, o); }).find("no OpenCL device is a gpu; the devices"),
               std::string::npos);
+  }
 }
 
 // A scene saved with its trees and loaded back renders the original's bits
@@ -861,6 +862,73 @@ TEST(Api, PackedReadbackGivesTheHostLayoutsBitsInEveryChannelSet) {
   ReadbackEnv env("sideways");
   EXPECT_NE(message_of<InputError>([&] { Renderer r(scene); }).find("RAYFOLD_READBACK is 'sideways'"),
             std::string::npos);
+}
+
+// On a CPU device a render of one view has the kernel write the G-buffer's
+// planes in place (FrameOptions::planes_in_place) instead of 32-byte hits
+// the host turns into planes. Its planes and hit count are the bits of the
+// hits path (render_views, which takes it) and of the CPU reference, for
+// each kernel, fold, depth kind and channel set, on a size that is no
+// multiple of a tile, rendered into a G-buffer of another size before; and
+// the core takes that path for such a render.
+TEST(Api, PlanesWrittenInPlaceHaveTheHitPathsBits) {
+  const Scene scene = Scene::load(RAYFOLD_SOURCE_DIR "/scenes/atrium.glb");
+  const Camera persp = scene.default_camera(37, 23);
+  const Camera ortho = Camera::orthographic(persp.eye(), {0.0, 2.0, 0.0}, {0.0, 1.0, 0.0}, 6.0, 29, 19);
+  {
+    const Renderer builds_the_trees(scene);
+    core::RendererOptions co;
+    core::Renderer probe(scene.state()->scene, co, scene.state()->trees);
+    ASSERT_FALSE(probe.packs_planes()) << "not a CPU device: the in-place path is not what this test checks";
+    std::vector<float> z(37 * 23, NAN);
+    std::vector<uint32_t> inst(37 * 23, 7u);
+    core::AnswerPlanes targets;
+    targets.z = z.data();
+    targets.instance = inst.data();
+    core::FrameOptions fo;
+    fo.planes = true;
+    fo.channels = kDepth | kInstanceId;
+    fo.planes_in_place = &targets;
+    core::RenderResult r;
+    probe.render_into(r, persp.core(), 1, fo);
+    EXPECT_TRUE(r.planes_in_place);
+    EXPECT_TRUE(r.hits.empty());
+    size_t hits = 0;
+    for (size_t i = 0; i < z.size(); ++i) {
+      hits += inst[i] != RF_INVALID;
+      EXPECT_EQ(inst[i] != RF_INVALID, std::isfinite(z[i])) << "pixel " << i << ": " << z[i] << ", " << inst[i];
+    }
+    EXPECT_GT(hits, z.size() / 4);
+  }
+  const unsigned channel_sets[] = {kAllChannels, kDepth, kInstanceId, kDepth | kUv | kPrimitiveId,
+                                   kNormal | kUv};  // the last counts hits through the hits path
+  RendererOptions ref_options;
+  ref_options.backend = Backend::cpu;
+  for (Kernel kernel : {Kernel::tile, Kernel::single})
+    for (Depth depth : {Depth::distance, Depth::planar})
+      for (bool exact : {false, true}) {
+        RendererOptions o;
+        o.kernel = kernel;
+        o.depth = depth;
+        o.exact_depth = exact;
+        ref_options.depth = depth;
+        ref_options.exact_depth = exact;
+        Renderer cl(scene, o), cpu(scene, ref_options);
+        GBuffer g = cl.render(scene.default_camera(20, 16), Fold::none);  // planes of another size to write over
+        for (const Camera* cam : {&persp, &ortho})
+          for (Fold f : kFolds)
+            for (unsigned channels : channel_sets) {
+              const std::string what = "kernel " + std::to_string(int(kernel)) + " depth " +
+                                       std::to_string(int(depth)) + " exact " + std::to_string(exact) +
+                                       (cam == &ortho ? " ortho" : " perspective") + " fold " + std::to_string(int(f)) +
+                                       " channels " + std::to_string(channels);
+              cl.render_into(g, *cam, f, channels);
+              const GBuffer hits_path = cl.render_views({*cam}, f, 0, channels).at(0);
+              EXPECT_EQ(plane_difference(hits_path, g), "") << what;
+              EXPECT_EQ(plane_difference(cpu.render(*cam, f, channels), g), "") << what;
+              EXPECT_GT(g.hits, 0u) << what;
+            }
+      }
 }
 
 // render_views' prepare hands each view its planes: sized ones full of NaN

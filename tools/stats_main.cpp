@@ -145,9 +145,10 @@ int main(int argc, char** argv) {
     std::vector<rf_pixel_hit> out(static_cast<size_t>(w) * h);
     const std::vector<float> depth_scales = frame.depth_scales();
     const rf_depth_table depths{frame.depth_xforms.data(), frame.depth_instances};
+    const rf_answers answers = rf_answers_in(out.data());
     for (uint32_t e : rays.entries)
       rf_trace_entry(e, &traced, depth_scales.data(), &depths, nodes.data(), data.blas.tris.data(),
-                     frame.instances.data(), data.normal_xforms.data(), frame.tlas_root, out.data());
+                     frame.instances.data(), data.normal_xforms.data(), frame.tlas_root, &answers);
     const double n = static_cast<double>(rays.entries.size());
     const double px = static_cast<double>(rays.pixels);
     std::printf("%s (fold %s, %zu rays for %zu pixels; BLAS SAH %.1f, TLAS SAH %.1f, %zu instances kept)\n", argv[1],

@@ -130,6 +130,12 @@ void size_planes(unsigned channels, size_t n, std::vector<float>& depth, std::ve
   plane(primitive_id, kPrimitiveId, 1);
 }
 
+// A plane's memory, null when it is not asked for (empty).
+template <class T>
+T* data_or_null(std::vector<T>& v) {
+  return v.empty() ? nullptr : v.data();
+}
+
 // Writes core hits into such planes, those left empty skipped.
 class PlaneWriter {
  public:
@@ -157,10 +163,6 @@ class PlaneWriter {
   }
 
  private:
-  template <class T>
-  static T* data_or_null(std::vector<T>& v) {
-    return v.empty() ? nullptr : v.data();
-  }
   float *depth_, *normal_, *uv_;
   uint32_t *instance_, *primitive_;
 };
@@ -254,6 +256,24 @@ void fill_gbuffer(GBuffer& g, const core::RenderResult& r, size_t view, const st
   g.rays = r.rays;
   g.trace_ms = r.median.trace_ms;
   g.warnings = warnings;
+  if (r.planes_in_place) {  // written by the kernel (render_into)
+    RF_CHECK(view == 0, "planes in place for more than one view");
+    const bool by_instance = !g.instance_id.empty();
+    RF_CHECK(by_instance || !g.depth.empty(), "planes in place without instance ids or depths to count hits by");
+    constexpr size_t kChunk = size_t{1} << 16;
+    std::vector<size_t> chunk_hits((n + kChunk - 1) / kChunk, 0);
+    core::parallel_for(n, threads, kChunk, [&](size_t begin, size_t end) {
+      size_t count = 0;
+      if (by_instance)
+        for (size_t i = begin; i < end; ++i) count += g.instance_id[i] != RF_INVALID;
+      else
+        for (size_t i = begin; i < end; ++i) count += g.depth[i] != RF_INF;  // a miss's depth is +inf
+      chunk_hits[begin / kChunk] = count;
+    });
+    g.hits = 0;
+    for (size_t c : chunk_hits) g.hits += c;
+    return;
+  }
   if (r.plane_channels != 0) {
     RF_CHECK(r.plane_channels == channels && r.planes, "packed planes other than those asked for");
     RF_CHECK(r.packed_slot < 0, "planes of a pass still in flight");
@@ -314,9 +334,16 @@ static_assert(kDepth == RF_PLANE_DEPTH && kNormal == RF_PLANE_NORMAL && kUv == R
 void Renderer::render_into(GBuffer& g, const Camera& camera, Fold fold, unsigned channels) {
   check_channels(channels);
   const auto t0 = core::Clock::now();
-  const core::FrameOptions frame =
-      frame_options(fold, impl_->moved(), channels, impl_->planar_depth, impl_->exact_depth);
+  core::FrameOptions frame = frame_options(fold, impl_->moved(), channels, impl_->planar_depth, impl_->exact_depth);
   core::RenderResult& r = impl_->result;
+  // The kernel writes the planes in place where the device can (a CPU
+  // device): sized first, as fill_gbuffer leaves them. Hits are counted
+  // from the instance ids or the depths.
+  size_planes(channels, static_cast<size_t>(camera.width()) * camera.height(), g.depth, g.normal, g.uv, g.instance_id,
+              g.primitive_id);
+  const core::AnswerPlanes targets{data_or_null(g.depth), data_or_null(g.normal), data_or_null(g.uv),
+                                   data_or_null(g.instance_id), data_or_null(g.primitive_id)};
+  if (channels & (kInstanceId | kDepth)) frame.planes_in_place = &targets;
   impl_->core->render_into(r, camera.core(), 1, frame);
   fill_gbuffer(g, r, 0, r.warnings, camera.width(), camera.height(), impl_->options.threads, channels,
                impl_->planar_depth ? Depth::planar : Depth::distance, frame.exact_depth);

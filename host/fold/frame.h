@@ -17,6 +17,16 @@
 
 namespace rayfold::core {
 
+// One view's G-buffer planes in host memory, for the kernels to write in
+// place (rf_answers): each null where not asked for.
+struct AnswerPlanes {
+  float* z = nullptr;       // 1 a pixel
+  float* normal = nullptr;  // 3 a pixel
+  float* uv = nullptr;      // 2 a pixel
+  uint32_t* instance = nullptr;
+  uint32_t* primitive = nullptr;
+};
+
 struct FrameOptions {
   FoldMode fold = FoldMode::none;
   bool cull = true;        // frustum culling before the top-level build
@@ -36,6 +46,11 @@ struct FrameOptions {
   // (Renderer::packs_planes); otherwise every pixel's hit info (hits).
   bool planes = false;
   unsigned channels = RF_PLANE_ALL;
+  // With `planes`, a pass of one view on a device that writes host memory
+  // (a CPU device) has the kernel write its planes here, in place
+  // (RenderResult::planes_in_place): the host's pass from 32-byte hits to
+  // planes goes. Elsewhere `planes` alone decides.
+  const AnswerPlanes* planes_in_place = nullptr;
   // Ray queries (rays/ray_queries.h): the largest coordinate of a ray
   // origin, in trace units (0: camera rays, from the eye or, orthographic,
   // the image plane); the top level's boxes leave room for its rounding.

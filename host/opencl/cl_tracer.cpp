@@ -16,6 +16,14 @@ namespace {
 // OpenCL refuses zero-sized buffers; every buffer gets at least one element.
 size_t at_least_one(size_t n) { return n ? n : 1; }
 
+// Hands a buffer over host memory back to the host, synchronised: on a CPU
+// device mapping gives that memory itself, without a copy.
+void sync_host_buffer(cl::CommandQueue& q, const cl::Buffer& buf, void* host, size_t bytes) {
+  void* m = q.enqueueMapBuffer(buf, CL_TRUE, CL_MAP_READ, 0, bytes);
+  if (m != host) std::memcpy(host, m, bytes);
+  q.enqueueUnmapMemObject(buf, m);
+}
+
 }  // namespace
 
 unsigned tile_lanes(const DeviceInfo& info) {
@@ -297,7 +305,8 @@ void ClTracer::enqueue_trace(const rf_camera& cam, KernelKind kind) {
     kernel.setArg(a++, depth_scales_);
     kernel.setArg(a++, depth_xforms_);
     kernel.setArg(a++, depth_instances_);
-    kernel.setArg(a++, host_out_ ? host_hits_ : hits_);
+    a = planes_bound_ ? set_answer_args(kernel, a, nullptr, plane_bufs_)
+                      : set_answer_args(kernel, a, host_out_ ? &host_hits_ : &hits_, nullptr);
     if (kind == KernelKind::tile && tile_stats_) {
       stats_ = cl::Buffer(device_.context(), CL_MEM_WRITE_ONLY,
                           std::max<size_t>(r.tile_count, 1) * RF_TILE_STAT_COUNT * sizeof(uint32_t));
@@ -481,7 +490,7 @@ double ClTracer::trace_queries(const std::vector<rf_query_ray>& rays, bool any_h
       kernel.setArg(a++, static_cast<uint32_t>(write_flags));
       kernel.setArg(a++, ordered ? query_order_ : query_tiles_);  // read only when ordered
       kernel.setArg(a++, static_cast<uint32_t>(ordered ? 1u : 0u));
-      kernel.setArg(a++, hits_buf);
+      a = set_answer_args(kernel, a, &hits_buf, nullptr);
       // One tile per work-group, as the camera tile kernel.
       q.enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(tiles->size() - 1), cl::NDRange(1));
     } else {
@@ -501,16 +510,13 @@ double ClTracer::trace_queries(const std::vector<rf_query_ray>& rays, bool any_h
       kernel.setArg(a++, static_cast<uint32_t>(write_flags));
       kernel.setArg(a++, ordered ? query_order_ : rays_buf);  // read only when ordered
       kernel.setArg(a++, static_cast<uint32_t>(ordered ? 1u : 0u));
-      kernel.setArg(a++, hits_buf);
+      a = set_answer_args(kernel, a, &hits_buf, nullptr);
       constexpr size_t kGroup = 64;
       const size_t global = (rays.size() + kGroup - 1) / kGroup * kGroup;
       q.enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(global), cl::NDRange(kGroup));
     }
     if (in_place) {
-      // Mapping hands the caller's memory back, synchronised (read_hits).
-      void* p = q.enqueueMapBuffer(hits_buf, CL_TRUE, CL_MAP_READ, 0, hit_bytes);
-      if (p != answers) std::memcpy(answers, p, hit_bytes);
-      q.enqueueUnmapMemObject(hits_buf, p);
+      sync_host_buffer(q, hits_buf, answers, hit_bytes);
       q.finish();
     } else {
       q.enqueueReadBuffer(hits_buf, CL_TRUE, 0, hit_bytes, answers);
@@ -531,8 +537,70 @@ double ClTracer::trace_queries(const std::vector<rf_query_ray>& rays, bool any_h
   return ms_since(t0);
 }
 
+int ClTracer::set_answer_args(cl::Kernel& kernel, int a, const cl::Buffer* hits, const cl::Buffer* planes) {
+  RF_CHECK(!hits != !planes, "answers go to hits or to planes");
+  // A null buffer is a null pointer in the kernel (clSetKernelArg).
+  if (hits)
+    kernel.setArg(a++, *hits);
+  else
+    kernel.setArg(a++, sizeof(cl_mem), nullptr);
+  for (int p = 0; p < kAnswerPlanes; ++p) {
+    if (!planes || !planes[p]())
+      kernel.setArg(a++, sizeof(cl_mem), nullptr);
+    else
+      kernel.setArg(a++, planes[p]);
+  }
+  return a;
+}
+
+bool ClTracer::writes_host_memory() const { return device_.info().is_cpu; }
+
+void ClTracer::bind_planes(const AnswerPlanes* planes, size_t pixel_count) {
+  RF_CHECK(writes_host_memory(), "planes bound on a device that does not write host memory");
+  RF_CHECK(planes && pixel_count > 0, "no planes to bind");
+  host_out_ = nullptr;  // the hits are bound again by bind_output
+  host_count_ = 0;
+  void* const ptrs[kAnswerPlanes] = {planes->z, planes->normal, planes->uv, planes->instance, planes->primitive};
+  const size_t words[kAnswerPlanes] = {1, 3, 2, 1, 1};
+  try {
+    for (int p = 0; p < kAnswerPlanes; ++p) {
+      void* const ptr = ptrs[p];
+      const size_t bytes = ptr ? words[p] * pixel_count * sizeof(uint32_t) : 0;
+      if (ptr == plane_ptrs_[p] && bytes == plane_bytes_[p]) continue;  // the same memory as last frame
+      plane_bufs_[p] =
+          ptr ? cl::Buffer(device_.context(), CL_MEM_WRITE_ONLY | CL_MEM_USE_HOST_PTR, bytes, ptr) : cl::Buffer();
+      plane_ptrs_[p] = ptr;
+      plane_bytes_[p] = bytes;
+    }
+  } catch (const cl::Error& e) {
+    for (int p = 0; p < kAnswerPlanes; ++p) {
+      plane_bufs_[p] = cl::Buffer();
+      plane_ptrs_[p] = nullptr;
+      plane_bytes_[p] = 0;
+    }
+    planes_bound_ = false;
+    throw RuntimeFailure("cannot bind the G-buffer's planes for '" + device_.info().name + "': " + cl_error_text(e));
+  }
+  planes_bound_ = true;
+}
+
+double ClTracer::read_planes() {
+  RF_CHECK(planes_bound_, "no planes bound to read");
+  const auto t0 = Clock::now();
+  try {
+    cl::CommandQueue& q = device_.queue();
+    for (int p = 0; p < kAnswerPlanes; ++p)
+      if (plane_bufs_[p]()) sync_host_buffer(q, plane_bufs_[p], plane_ptrs_[p], plane_bytes_[p]);
+    q.finish();
+  } catch (const cl::Error& e) {
+    throw RuntimeFailure("cannot read the planes back: " + cl_error_text(e));
+  }
+  return ms_since(t0);
+}
+
 void ClTracer::bind_output(rf_pixel_hit* out, size_t pixel_count) {
   RF_CHECK(pixel_count <= pixel_count_, "binding more hits than the buffer holds");
+  planes_bound_ = false;
   if (host_out_ == out && host_count_ == pixel_count) return;  // the same memory as last frame
   host_out_ = nullptr;
   host_count_ = 0;

@@ -105,6 +105,14 @@ class ClTracer {
   // synchronises; elsewhere read_hits copies the device buffer into `out`.
   void bind_output(rf_pixel_hit* out, size_t pixel_count);
   double read_hits(rf_pixel_hit* out, size_t pixel_count);
+  // Whether the device writes host memory in place (a CPU device), which
+  // bind_planes needs.
+  bool writes_host_memory() const;
+  // Where the next camera traces write their answers instead: one view's
+  // planes of pixel_count pixels in host memory (writes_host_memory only),
+  // until bind_output binds hits again; read_planes synchronises them.
+  void bind_planes(const AnswerPlanes* planes, size_t pixel_count);
+  double read_planes();
 
   // The tile kernel's counters of the last trace, RF_TILE_STAT_COUNT per
   // tile (a tracer built with tile_stats only).
@@ -173,6 +181,18 @@ class ClTracer {
   cl::Buffer host_hits_;  // over bound host memory (CPU devices)
   rf_pixel_hit* host_out_ = nullptr;
   size_t host_count_ = 0;
+  // The planes bind_planes bound, in rf_answers' order (z, normal, uv,
+  // instance, primitive), null buffers where not asked for; the hits are
+  // not written while planes_bound_.
+  static constexpr int kAnswerPlanes = 5;
+  cl::Buffer plane_bufs_[kAnswerPlanes];
+  void* plane_ptrs_[kAnswerPlanes] = {};
+  size_t plane_bytes_[kAnswerPlanes] = {};
+  bool planes_bound_ = false;
+  // Sets a kernel's rf_answers arguments from index a: `hits`, or the
+  // kAnswerPlanes `planes` (null buffers where not asked for); returns the
+  // next index.
+  int set_answer_args(cl::Kernel& kernel, int a, const cl::Buffer* hits, const cl::Buffer* planes);
   std::vector<BufferInfo> buffer_info_;
   uint32_t blas_node_count_ = 0;
   uint32_t tlas_root_ = RF_INVALID;
