@@ -217,6 +217,21 @@ TEST(RayQuery, GrazingHitsTakeTheirOwnLeafsEntryThroughTheWideTrees) {
   size_t hits = 0;
   for (const rf_pixel_hit& h : expected) hits += h.instance != RF_INVALID;
   EXPECT_GT(hits, rays.size() / 2) << hits << " rays hit: too few for the test to mean anything";
+  // The premise: some hits are raised to their leaf's entry, above the
+  // triangle test's own t (the brute force's, which knows no leaves), and
+  // none lies below it.
+  const std::vector<rf_pixel_hit> raw = testing::brute_force_rays(scene, cpu.scene_data(), rays.o.data(),
+                                                                  rays.d.data(), rays.size(), 0.0f, INFINITY);
+  size_t raised = 0, lowered = 0;
+  for (size_t i = 0; i < rays.size(); ++i) {
+    if (expected[i].instance == RF_INVALID || expected[i].instance != raw[i].instance ||
+        expected[i].primitive != raw[i].primitive)
+      continue;
+    raised += expected[i].z > raw[i].z;
+    lowered += expected[i].z < raw[i].z;
+  }
+  EXPECT_GT(raised, rays.size() / 100) << raised << " hits raised to their leaf's entry: the rays do not graze enough";
+  EXPECT_EQ(lowered, 0u);
 }
 
 // Rays in runs that share an origin (a camera's, a sensor's, a light's) go
