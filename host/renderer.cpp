@@ -376,9 +376,20 @@ std::vector<std::string> Renderer::intersect(const float* origins, const float* 
     if (tiles.tiles.empty())
       scattered_ray_order(origins + 3 * begin, directions + 3 * begin, end - begin, tiles.scattered,
                           options_.threads);
-    to_trace_space(origins, directions, begin, end, tmin, tmax, frame, chunk, tiles.traced_order());
+    ClTracer::QueryRays rays;
+    rays.count = end - begin;
+    if (!tiles.tiles.empty()) {  // the tile kernel reads the arrays themselves
+      rays.origins = origins + 3 * begin;
+      rays.directions = directions + 3 * begin;
+      rays.tmin = tmin;
+      rays.tmax = tmax;
+      rays.exponent = -frame.views.at(0).trace_exponent;
+    } else {
+      to_trace_space(origins, directions, begin, end, tmin, tmax, frame, chunk);
+      rays.records = &chunk;
+    }
     if (tracer_)
-      tracer_->trace_queries(chunk, any_hit, flags, out + begin, &tiles);
+      tracer_->trace_queries(rays, any_hit, flags, out + begin, &tiles);
     else
       trace_queries_cpu(in, chunk, any_hit, flags, out + begin, options_.threads, tiles.scattered);
   }

@@ -85,13 +85,15 @@ __kernel void rf_trace_queries(__global const rf_node* nodes, __global const rf_
 }
 
 /* Ray queries that share their origin, a tile of up to RF_TILE_RAYS per
- * work-item (rf_tile.h, rf_trace_query_tile): tile t covers
- * rays[tiles[t] .. tiles[t + 1]), every ray of it from the same origin;
- * with `ordered`, traced ray k answers out[order[k]]. */
+ * work-item (rf_tile.h, rf_trace_query_tile), read from the caller's world-
+ * space arrays (rf_query_arrays): tile t covers traced rays tiles[t] ..
+ * tiles[t + 1], every ray of it from the same origin; with `ordered`,
+ * traced ray k is ray order[k] and answers out[order[k]]. */
 __kernel void rf_trace_query_tiles(__global const rf_node* nodes, __global const rf_wide_node* wide,
                                    __global const rf_tri* tris, __global const rf_instance* instances,
                                    __global const rf_normal_xform* normal_xforms, uint tlas_root,
-                                   __global const rf_query_ray* rays, __global const uint* tiles, uint tile_count,
+                                   __global const float* origins, __global const float* directions, float tmin,
+                                   float tmax, int exponent, __global const uint* tiles, uint tile_count,
                                    uint write_flags, __global const uint* order, uint ordered, RF_ANSWER_ARGS) {
   const uint t = get_global_id(0);
   if (t >= tile_count) return;
@@ -101,7 +103,8 @@ __kernel void rf_trace_query_tiles(__global const rf_node* nodes, __global const
 #endif
   const uint begin = tiles[t];
   const rf_answers answers = RF_MAKE_ANSWERS();
-  rf_trace_query_tile(rays, begin, tiles[t + 1] - begin, nodes, wide, tris, instances, normal_xforms, tlas_root,
+  const rf_query_arrays rays = {origins, directions, tmin, tmax, exponent};
+  rf_trace_query_tile(&rays, begin, tiles[t + 1] - begin, nodes, wide, tris, instances, normal_xforms, tlas_root,
                       write_flags, ordered ? order : 0, &answers RF_TSTAT_ARG);
 }
 

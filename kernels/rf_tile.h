@@ -62,6 +62,24 @@ typedef struct {
   rf_vf tmin[RF_LANE_GROUPS];
 } rf_tile_query;
 
+/* Ray queries as the caller gave them, in world space: ray i's origin
+ * origins[3i .. 3i + 2] and direction directions[3i .. 3i + 2], one interval
+ * (tmin, tmax] for all. The tile takes them to trace space by 2^exponent as
+ * the host's to_trace_space does for the single-ray kernel and the CPU
+ * reference (util/pow2.h), so the same bits: without a pass that gathers
+ * them into 32-byte rf_query_rays first (a tenth of a camera-array query). */
+typedef struct {
+  const RF_GLOBAL float* origins;
+  const RF_GLOBAL float* directions;
+  float tmin, tmax;
+  rf_i32 exponent;
+} rf_query_arrays;
+
+/* x * 2^e as Pow2Scale (host/util/pow2.h): a product where 2^e is a normal
+ * float (exact while the result is one, rounded as ldexp otherwise), else
+ * ldexp; both correctly rounded. */
+RF_INLINE float rf_pow2_scale(float x, rf_i32 e) { return e > -126 && e < 126 ? x * ldexp(1.0f, e) : ldexp(x, e); }
+
 /* The tile's rays in one instance's object space, 9 KiB: the shared origin
  * (the instance's translation column), per lane the reciprocal direction and
  * the shear and axis permutation of the watertight test, as rf_ray_init
@@ -971,7 +989,7 @@ RF_INLINE void rf_trace_tile(const RF_GLOBAL rf_u32* rays, rf_u32 begin, rf_u32 
  * the shared origin, per-lane z directions and tmin of rf_tile_query; one
  * transform group, as a query frame has. Every lane gives the bits of the
  * scalar rf_trace_query of its ray (the reasons at the top of this file). */
-RF_INLINE void rf_trace_query_tile(const RF_GLOBAL rf_query_ray* rays, rf_u32 begin, rf_u32 count,
+RF_INLINE void rf_trace_query_tile(const rf_query_arrays* rays, rf_u32 begin, rf_u32 count,
                                    const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_wide_node* wide,
                                    const RF_GLOBAL rf_tri* tris, const RF_GLOBAL rf_instance* instances,
                                    const RF_GLOBAL rf_normal_xform* normal_xforms, rf_u32 tlas_root, rf_u32 write_flags,
@@ -986,14 +1004,17 @@ RF_INLINE void rf_trace_query_tile(const RF_GLOBAL rf_query_ray* rays, rf_u32 be
   float* dz = (float*)q.dz;
   float* tmin = (float*)q.tmin;
   float* tmax = (float*)hits[0].t;
-  for (int a = 0; a < 3; ++a) q.o[a] = rays[begin].o[a];
+  const rf_i32 e = rays->exponent;
+  const size_t first = order ? order[begin] : begin;
+  for (int a = 0; a < 3; ++a) q.o[a] = rf_pow2_scale(rays->origins[3 * first + a], e);
   for (int l = 0; l < RF_TILE_RAYS; ++l) {
-    const RF_GLOBAL rf_query_ray* r = &rays[begin + ((rf_u32)l < count ? (rf_u32)l : count - 1u)];
-    dx[l] = r->d[0];
-    dy[l] = r->d[1];
-    dz[l] = r->d[2];
-    tmin[l] = r->tmin;
-    tmax[l] = r->tmax; /* the hit to beat starts at tmax, as rf_trace_query's */
+    const rf_u32 k = begin + ((rf_u32)l < count ? (rf_u32)l : count - 1u);
+    const RF_GLOBAL float* d = rays->directions + 3 * (size_t)(order ? order[k] : k);
+    dx[l] = rf_pow2_scale(d[0], e);
+    dy[l] = rf_pow2_scale(d[1], e);
+    dz[l] = rf_pow2_scale(d[2], e);
+    tmin[l] = rays->tmin;
+    tmax[l] = rays->tmax; /* the hit to beat starts at tmax, as rf_trace_query's */
   }
   rf_vf lo0 = (rf_vf)(RF_FAR), lo1 = lo0, lo2 = lo0, hi0 = (rf_vf)(-RF_FAR), hi1 = hi0, hi2 = hi0;
   for (int j = 0; j < RF_LANE_GROUPS; ++j) {

@@ -278,6 +278,46 @@ TEST(RayQuery, SharedOriginTilesEqualTheCpuReference) {
   EXPECT_TRUE(plan_query_tiles(scattered.data(), 1000, 0, 128).tiles.empty());
 }
 
+// The query tile kernel reads the caller's world-space arrays and takes
+// them to trace space itself (rf_pow2_scale), as to_trace_space does for
+// the CPU reference: the same bits at every scale, where 2^e is a normal
+// float (a product) and where it is not (ldexp), with tmin and tmax, in
+// runs of one origin and as an image in blocks.
+TEST(RayQuery, TilesTakeTheCallersArraysToTraceSpaceAsTheReferenceDoes) {
+  Rng rng(4242);
+  const Scene base = testing::random_scene(rng, 3, 8, 150);
+  const Rays base_rays = random_rays(rng, base, 3000, {1000, 700, 1300});
+  bool by_product = false, by_ldexp = false;
+  for (int k : {-132, -60, 0, 50, 100}) {
+    Scene scene = base;
+    for (Instance& inst : scene.instances) inst.world_from_object = uniform_scale(k) * inst.world_from_object;
+    Rays rays = base_rays;
+    for (float& c : rays.o) c = std::ldexp(c, k);
+    for (float& c : rays.d) c = std::ldexp(c, k);
+    RendererOptions opt = on(Backend::cpu);
+    Renderer cpu(scene, opt);
+    opt.backend = Backend::opencl;
+    opt.kernel = KernelChoice::tile;
+    Renderer tiles(scene, opt);
+    ASSERT_FALSE(plan_query_tiles(rays.o.data(), rays.size(), 0, 128).tiles.empty()) << "2^" << k << ": not tiled";
+    const int e = -build_query_frame(scene, cpu.scene_data(),
+                                     check_query_rays(rays.o.data(), rays.d.data(), rays.size(), 0.0f, INFINITY),
+                                     FrameOptions{})
+                       .views.at(0)
+                       .trace_exponent;
+    (e > -126 && e < 126 ? by_product : by_ldexp) = true;
+    // t is along the given direction: scaling both keeps it.
+    for (auto [lo, hi] : {std::pair{0.0f, INFINITY}, std::pair{0.5f, INFINITY}, std::pair{0.0f, 2.0f}}) {
+      const std::vector<rf_pixel_hit> want = query(cpu, rays, lo, hi);
+      size_t hits = 0;
+      for (const rf_pixel_hit& h : want) hits += h.instance != RF_INVALID;
+      EXPECT_GT(hits, rays.size() / 20) << "2^" << k;
+      EXPECT_EQ(differences(want, query(tiles, rays, lo, hi)), "") << "2^" << k << ", trace from world 2^" << e;
+    }
+  }
+  EXPECT_TRUE(by_product && by_ldexp) << "both ways of scaling";
+}
+
 // Rays from many origins are traced one by one in the order of their
 // origins' cells (a 16^3 grid over their box, in Morton order) and their
 // directions' octants: every ray once, keys never decreasing, ties in input

@@ -421,47 +421,70 @@ ClTracer::PackedPlanes ClTracer::wait_packed(int slot) {
   return out;
 }
 
-double ClTracer::trace_queries(const std::vector<rf_query_ray>& rays, bool any_hit, unsigned write_flags,
-                               rf_pixel_hit* out, const QueryTiles* plan) {
-  if (rays.empty()) return 0.0;
+double ClTracer::trace_queries(const QueryRays& rays, bool any_hit, unsigned write_flags, rf_pixel_hit* out,
+                               const QueryTiles* plan) {
+  const size_t n = rays.count;
+  if (n == 0) return 0.0;
   // The query kernel reads RF_INVALID as a top level whose root is a leaf,
   // which only a query frame's tlas_wide_root means.
   RF_CHECK(query_frame_, "ray queries traced in a frame that is not a query frame");
   const std::vector<uint32_t>* tiles = plan && !plan->tiles.empty() ? &plan->tiles : nullptr;
-  RF_CHECK(!tiles || (tiles->size() >= 2 && tiles->front() == 0 && tiles->back() == rays.size()),
+  RF_CHECK(!tiles || (tiles->size() >= 2 && tiles->front() == 0 && tiles->back() == n),
            "query tiles do not cover the rays");
-  // The tile kernel's answer order, or the order the single-ray kernel
-  // takes the rays in.
+  RF_CHECK(tiles ? rays.origins && rays.directions : rays.records && rays.records->size() == n,
+           "query rays not in the form their kernel reads");
+  // The tile kernel's order, or the order the single-ray kernel takes the
+  // rays in.
   static const std::vector<uint32_t> input_order;
   const std::vector<uint32_t>& order = !plan ? input_order : tiles ? plan->order : plan->scattered;
-  RF_CHECK(order.empty() || order.size() == rays.size(), "query order of another length");
+  RF_CHECK(order.empty() || order.size() == n, "query order of another length");
   Programs& programs = programs_for(RF_MIRRORS);
   const auto t0 = Clock::now();
-  const size_t ray_bytes = rays.size() * sizeof(rf_query_ray), hit_bytes = rays.size() * sizeof(rf_pixel_hit);
+  const size_t ray_bytes = n * sizeof(rf_query_ray), hit_bytes = n * sizeof(rf_pixel_hit);
+  const size_t array_bytes = 3 * n * sizeof(float);
   try {
     cl::Context& ctx = device_.context();
     cl::CommandQueue& q = device_.queue();
     // On a CPU device the kernel reads the rays and writes the answers in
     // place (buffers over the caller's memory): a million rays' two 32 MB
     // copies were a fifth of a query. Elsewhere, device buffers and copies.
-    cl::Buffer rays_buf, hits_buf;
+    cl::Buffer rays_buf, origins_buf, directions_buf, hits_buf;
     // The single-ray kernel in an order answers in that order (into
     // `answers`), put back into `out` below.
     const bool staged = !order.empty() && !tiles;
-    if (staged) query_staged_.resize(rays.size());
+    if (staged) query_staged_.resize(n);
     rf_pixel_hit* answers = staged ? query_staged_.data() : out;
     const bool in_place = device_.info().is_cpu;
     if (in_place) {
-      rays_buf = cl::Buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_USE_HOST_PTR, ray_bytes, const_cast<rf_query_ray*>(rays.data()));
+      constexpr cl_mem_flags kIn = CL_MEM_READ_ONLY | CL_MEM_USE_HOST_PTR;
+      if (tiles) {
+        origins_buf = cl::Buffer(ctx, kIn, array_bytes, const_cast<float*>(rays.origins));
+        directions_buf = cl::Buffer(ctx, kIn, array_bytes, const_cast<float*>(rays.directions));
+      } else {
+        rays_buf = cl::Buffer(ctx, kIn, ray_bytes, const_cast<rf_query_ray*>(rays.records->data()));
+      }
       hits_buf = cl::Buffer(ctx, CL_MEM_WRITE_ONLY | CL_MEM_USE_HOST_PTR, hit_bytes, answers);
     } else {
-      if (rays.size() > query_capacity_) {
-        query_rays_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, ray_bytes);
+      if (n > query_capacity_) {
         query_hits_ = cl::Buffer(ctx, CL_MEM_WRITE_ONLY, hit_bytes);
-        query_capacity_ = rays.size();
+        query_capacity_ = n;
+        // The rays' buffers of the new size when a query of their kind needs them.
+        query_rays_ = query_origins_ = query_directions_ = cl::Buffer();
       }
-      q.enqueueWriteBuffer(query_rays_, CL_FALSE, 0, ray_bytes, rays.data());
-      rays_buf = query_rays_;
+      if (tiles) {
+        if (!query_origins_()) {
+          query_origins_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, 3 * query_capacity_ * sizeof(float));
+          query_directions_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, 3 * query_capacity_ * sizeof(float));
+        }
+        q.enqueueWriteBuffer(query_origins_, CL_FALSE, 0, array_bytes, rays.origins);
+        q.enqueueWriteBuffer(query_directions_, CL_FALSE, 0, array_bytes, rays.directions);
+        origins_buf = query_origins_;
+        directions_buf = query_directions_;
+      } else {
+        if (!query_rays_()) query_rays_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, query_capacity_ * sizeof(rf_query_ray));
+        q.enqueueWriteBuffer(query_rays_, CL_FALSE, 0, ray_bytes, rays.records->data());
+        rays_buf = query_rays_;
+      }
       hits_buf = query_hits_;
     }
     const bool ordered = !order.empty();
@@ -484,7 +507,11 @@ double ClTracer::trace_queries(const std::vector<rf_query_ray>& rays, bool any_h
       kernel.setArg(a++, instances_);
       kernel.setArg(a++, normal_xforms_);
       kernel.setArg(a++, tlas_root_);
-      kernel.setArg(a++, rays_buf);
+      kernel.setArg(a++, origins_buf);
+      kernel.setArg(a++, directions_buf);
+      kernel.setArg(a++, rays.tmin);
+      kernel.setArg(a++, rays.tmax);
+      kernel.setArg(a++, static_cast<cl_int>(rays.exponent));
       kernel.setArg(a++, query_tiles_);
       kernel.setArg(a++, static_cast<uint32_t>(tiles->size() - 1));
       kernel.setArg(a++, static_cast<uint32_t>(write_flags));
@@ -505,14 +532,14 @@ double ClTracer::trace_queries(const std::vector<rf_query_ray>& rays, bool any_h
       kernel.setArg(a++, normal_xforms_);
       kernel.setArg(a++, tlas_root_);
       kernel.setArg(a++, rays_buf);
-      kernel.setArg(a++, static_cast<uint32_t>(rays.size()));
+      kernel.setArg(a++, static_cast<uint32_t>(n));
       kernel.setArg(a++, static_cast<uint32_t>(any_hit ? 1u : 0u));
       kernel.setArg(a++, static_cast<uint32_t>(write_flags));
       kernel.setArg(a++, ordered ? query_order_ : rays_buf);  // read only when ordered
       kernel.setArg(a++, static_cast<uint32_t>(ordered ? 1u : 0u));
       a = set_answer_args(kernel, a, &hits_buf, nullptr);
       constexpr size_t kGroup = 64;
-      const size_t global = (rays.size() + kGroup - 1) / kGroup * kGroup;
+      const size_t global = (n + kGroup - 1) / kGroup * kGroup;
       q.enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(global), cl::NDRange(kGroup));
     }
     if (in_place) {
@@ -522,7 +549,7 @@ double ClTracer::trace_queries(const std::vector<rf_query_ray>& rays, bool any_h
       q.enqueueReadBuffer(hits_buf, CL_TRUE, 0, hit_bytes, answers);
     }
     if (staged)
-      parallel_for(rays.size(), 0, size_t{1} << 15, [&](size_t lo, size_t hi) {
+      parallel_for(n, 0, size_t{1} << 15, [&](size_t lo, size_t hi) {
         for (size_t k = lo; k < hi; ++k) out[order[k]] = answers[k];
       });
   } catch (const cl::Error& e) {

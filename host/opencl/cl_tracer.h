@@ -86,15 +86,28 @@ class ClTracer {
   };
   // Waits for slot's read. The words stay valid until that slot is read into again.
   PackedPlanes wait_packed(int slot);
+  // A chunk of ray queries as the kernels read it: for the single-ray
+  // kernel `records`, in trace space (to_trace_space); for tiles the
+  // caller's world-space arrays, which the tile kernel takes to trace space
+  // itself by 2^exponent (rf_query_arrays), with tmin and tmax for all.
+  struct QueryRays {
+    const std::vector<rf_query_ray>* records = nullptr;
+    const float* origins = nullptr;     // count x 3
+    const float* directions = nullptr;  // count x 3
+    size_t count = 0;
+    float tmin = 0.0f, tmax = 0.0f;
+    int exponent = 0;
+  };
   // Answers ray queries (rays/ray_queries.h) through the frame uploaded
   // last, one rf_pixel_hit per ray into out (z = t); ms of kernel time.
-  // With tiles (plan_query_tiles: rays of one origin, their answers
-  // going to out[order[k]] when it is not empty), the query tile kernel
-  // answers them, closest hits only: an any-hit query's answer, hit or
-  // not, is the same. Without, the single-ray kernel takes the rays in
-  // plan->scattered's order (rays/ray_order.h), answering into a staging
-  // buffer in that order, put back into `out` here.
-  double trace_queries(const std::vector<rf_query_ray>& rays, bool any_hit, unsigned write_flags, rf_pixel_hit* out,
+  // With tiles (plan_query_tiles: rays of one origin, traced ray k being
+  // ray order[k] and answering out[order[k]] when the order is not empty),
+  // the query tile kernel answers them from the arrays, closest hits only:
+  // an any-hit query's answer, hit or not, is the same. Without, the
+  // single-ray kernel takes the records in plan->scattered's order
+  // (rays/ray_order.h), answering into a staging buffer in that order, put
+  // back into `out` here.
+  double trace_queries(const QueryRays& rays, bool any_hit, unsigned write_flags, rf_pixel_hit* out,
                        const QueryTiles* tiles = nullptr);
   // Milliseconds spent building programs so far: about 2 s on a machine's
   // first use of this rayfold version with PoCL, about 0.1 s once PoCL's
@@ -160,6 +173,7 @@ class ClTracer {
   bool tile_stats_ = false;
   cl::Buffer stats_;
   cl::Buffer query_rays_, query_hits_, query_tiles_, query_order_;  // grown as queries need
+  cl::Buffer query_origins_, query_directions_;                      // a tiled query's arrays
   size_t query_capacity_ = 0, query_tiles_capacity_ = 0, query_order_capacity_ = 0;
   std::vector<rf_pixel_hit> query_staged_;  // answers in a scattered order (trace_queries)
   // Packed readback, per slot: the device's packed planes and per-view hit

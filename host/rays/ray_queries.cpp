@@ -111,28 +111,19 @@ Frame build_query_frame(const Scene& scene, const SceneData& data, float origin_
 }
 
 void to_trace_space(const float* origins, const float* directions, size_t begin, size_t end, float tmin, float tmax,
-                    const Frame& frame, std::vector<rf_query_ray>& out, const std::vector<uint32_t>& order) {
-  RF_CHECK(order.empty() || order.size() == end - begin, "ray order of another length");
+                    const Frame& frame, std::vector<rf_query_ray>& out) {
   // Origin and direction scaled alike keep t; a power of two is exact
-  // while the result stays a normal float.
+  // while the result stays a normal float. The query tile kernel scales
+  // its rays the same way (rf_tile.h, rf_pow2_scale).
   const Pow2Scale trace_from_world(-frame.views.at(0).trace_exponent);
   out.resize(end - begin);
-  // An image's order reads the input 4 rays at a time from rows apart;
-  // asking for the rays some way ahead hides the wait on them (the copy's
-  // share of a 720p query's CPU time fell from 16% to 5%).
-  constexpr size_t kAhead = 32;
   parallel_for(end - begin, 0, size_t{1} << 16, [&](size_t lo, size_t hi) {
     for (size_t k = lo; k < hi; ++k) {
       rf_query_ray& q = out[k];
-      if (!order.empty() && k + kAhead < hi) {
-        const size_t ahead = begin + order[k + kAhead];
-        __builtin_prefetch(origins + 3 * ahead);
-        __builtin_prefetch(directions + 3 * ahead);
-      }
-      const size_t i = begin + (order.empty() ? k : order[k]);
-      for (int k = 0; k < 3; ++k) {
-        q.o[k] = trace_from_world(origins[3 * i + k]);
-        q.d[k] = trace_from_world(directions[3 * i + k]);
+      const size_t i = begin + k;
+      for (int c = 0; c < 3; ++c) {
+        q.o[c] = trace_from_world(origins[3 * i + c]);
+        q.d[c] = trace_from_world(directions[3 * i + c]);
       }
       q.tmin = tmin;
       q.tmax = tmax;

@@ -31,9 +31,10 @@ Camera query_camera();
 // the caller's.
 Frame build_query_frame(const Scene& scene, const SceneData& data, float origin_bound, FrameOptions options);
 
-// Rays [begin, end) in trace space, in `order` (indices from begin) if given.
+// Rays [begin, end) in trace space, as the single-ray kernel and the CPU
+// reference read them.
 void to_trace_space(const float* origins, const float* directions, size_t begin, size_t end, float tmin, float tmax,
-                    const Frame& frame, std::vector<rf_query_ray>& out, const std::vector<uint32_t>& order = {});
+                    const Frame& frame, std::vector<rf_query_ray>& out);
 
 // How the query tile kernel traces a batch of rays: tiles of rays with the
 // same origin (bit for bit), at most RF_TILE_RAYS each, as a table of first
@@ -44,9 +45,8 @@ void to_trace_space(const float* origins, const float* directions, size_t begin,
 struct QueryTiles {
   std::vector<uint32_t> tiles;  // empty: too few rays a tile on average (min_rays), trace them one by one
   std::vector<uint32_t> order;
-  // The order the trace-space rays are written in: `order` with tiles, the
-  // input order without (the single-ray kernel then takes them in
-  // `scattered`'s order).
+  // The order the rays are traced in: `order` with tiles, the input order
+  // without (the single-ray kernel then takes them in `scattered`'s order).
   const std::vector<uint32_t>& traced_order() const;
   // Without tiles, the order the single-ray kernel takes the rays in, the
   // rays and answers staying in the input order (rays/ray_order.h; empty:
