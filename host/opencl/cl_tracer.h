@@ -173,7 +173,7 @@ class ClTracer {
   bool tile_stats_ = false;
   cl::Buffer stats_;
   cl::Buffer query_rays_, query_hits_, query_tiles_, query_order_;  // grown as queries need
-  cl::Buffer query_origins_, query_directions_;                      // a tiled query's arrays
+  cl::Buffer query_origins_, query_directions_;                     // a tiled query's arrays
   size_t query_capacity_ = 0, query_tiles_capacity_ = 0, query_order_capacity_ = 0;
   std::vector<rf_pixel_hit> query_staged_;  // answers in a scattered order (trace_queries)
   // Packed readback, per slot: the device's packed planes and per-view hit
