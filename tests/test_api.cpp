@@ -878,6 +878,7 @@ TEST(Api, PlanesWrittenInPlaceHaveTheHitPathsBits) {
   {
     const Renderer builds_the_trees(scene);
     core::RendererOptions co;
+    co.device_hint = "cpu";  // the path is a CPU device's; a GPU, found first by default, packs its planes
     core::Renderer probe(scene.state()->scene, co, scene.state()->trees);
     ASSERT_FALSE(probe.packs_planes()) << "not a CPU device: the in-place path is not what this test checks";
     std::vector<float> z(37 * 23, NAN);
@@ -908,6 +909,7 @@ TEST(Api, PlanesWrittenInPlaceHaveTheHitPathsBits) {
     for (Depth depth : {Depth::distance, Depth::planar})
       for (bool exact : {false, true}) {
         RendererOptions o;
+        o.device = "cpu";
         o.kernel = kernel;
         o.depth = depth;
         o.exact_depth = exact;

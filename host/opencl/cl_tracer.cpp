@@ -472,7 +472,7 @@ double ClTracer::trace_queries(const QueryRays& rays, bool any_hit, unsigned wri
         query_rays_ = query_origins_ = query_directions_ = cl::Buffer();
       }
       if (tiles) {
-        if (!query_origins_()) {
+        if (!query_origins_() || !query_directions_()) {
           query_origins_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, 3 * query_capacity_ * sizeof(float));
           query_directions_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, 3 * query_capacity_ * sizeof(float));
         }
@@ -620,8 +620,12 @@ double ClTracer::read_planes() {
       if (plane_bufs_[p]()) sync_host_buffer(q, plane_bufs_[p], plane_ptrs_[p], plane_bytes_[p]);
     q.finish();
   } catch (const cl::Error& e) {
+    planes_bound_ = false;
     throw RuntimeFailure("cannot read the planes back: " + cl_error_text(e));
   }
+  // The planes are the caller's memory (numpy's from Python): no trace
+  // writes them again until they are bound again.
+  planes_bound_ = false;
   return ms_since(t0);
 }
 

@@ -121,9 +121,9 @@ class ClTracer {
   // Whether the device writes host memory in place (a CPU device), which
   // bind_planes needs.
   bool writes_host_memory() const;
-  // Where the next camera traces write their answers instead: one view's
-  // planes of pixel_count pixels in host memory (writes_host_memory only),
-  // until bind_output binds hits again; read_planes synchronises them.
+  // Where the next camera trace writes its answers instead: one view's
+  // planes of pixel_count pixels in host memory (writes_host_memory only);
+  // read_planes synchronises them and unbinds them.
   void bind_planes(const AnswerPlanes* planes, size_t pixel_count);
   double read_planes();
 
