@@ -71,7 +71,7 @@ __kernel void rf_trace_queries(__global const rf_node* nodes, __global const rf_
                                __global const rf_wide_node* tlas_wide, uint tlas_wide_root, __global const rf_tri* tris,
                                __global const rf_instance* instances, __global const rf_normal_xform* normal_xforms,
                                uint tlas_root, __global const rf_query_ray* rays, uint ray_count, uint any_hit,
-                               uint write_flags, __global const uint* order, uint ordered, RF_ANSWER_ARGS) {
+                               uint write_flags, __global const uint* order, uint ordered, __global rf_pixel_hit* out) {
   const uint k = get_global_id(0);
   if (k >= ray_count) return;
   uint i = k;
@@ -79,9 +79,8 @@ __kernel void rf_trace_queries(__global const rf_node* nodes, __global const rf_
     i = order[k];
     if (k + 1u < ray_count) RF_PREFETCH_LINE(&rays[order[k + 1u]]);
   }
-  const rf_answers answers = RF_MAKE_ANSWERS();
   rf_trace_query(&rays[i], nodes, wide, tlas_wide, tlas_wide_root, tris, instances, normal_xforms, tlas_root,
-                 any_hit != 0u, write_flags, &answers, k);
+                 any_hit != 0u, write_flags, &out[k]);
 }
 
 /* Ray queries that share their origin, a tile of up to RF_TILE_RAYS per
@@ -94,7 +93,8 @@ __kernel void rf_trace_query_tiles(__global const rf_node* nodes, __global const
                                    __global const rf_normal_xform* normal_xforms, uint tlas_root,
                                    __global const float* origins, __global const float* directions, float tmin,
                                    float tmax, int exponent, __global const uint* tiles, uint tile_count,
-                                   uint write_flags, __global const uint* order, uint ordered, RF_ANSWER_ARGS) {
+                                   uint write_flags, __global const uint* order, uint ordered,
+                                   __global rf_pixel_hit* out) {
   const uint t = get_global_id(0);
   if (t >= tile_count) return;
 #ifdef RF_TILE_STATS
@@ -102,10 +102,9 @@ __kernel void rf_trace_query_tiles(__global const rf_node* nodes, __global const
   for (int k = 0; k < RF_TILE_STAT_COUNT; ++k) stats[k] = 0u;
 #endif
   const uint begin = tiles[t];
-  const rf_answers answers = RF_MAKE_ANSWERS();
   const rf_query_arrays rays = {origins, directions, tmin, tmax, exponent};
   rf_trace_query_tile(&rays, begin, tiles[t + 1] - begin, nodes, wide, tris, instances, normal_xforms, tlas_root,
-                      write_flags, ordered ? order : 0, &answers RF_TSTAT_ARG);
+                      write_flags, ordered ? order : 0, out RF_TSTAT_ARG);
 }
 
 /* The tile kernel (rf_tile.h): one work-item per tile of the ray list; tile t

@@ -993,7 +993,7 @@ RF_INLINE void rf_trace_query_tile(const rf_query_arrays* rays, rf_u32 begin, rf
                                    const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_wide_node* wide,
                                    const RF_GLOBAL rf_tri* tris, const RF_GLOBAL rf_instance* instances,
                                    const RF_GLOBAL rf_normal_xform* normal_xforms, rf_u32 tlas_root, rf_u32 write_flags,
-                                   const RF_GLOBAL rf_u32* order, const rf_answers* out RF_TSTAT_PARAM) {
+                                   const RF_GLOBAL rf_u32* order, RF_GLOBAL rf_pixel_hit* out RF_TSTAT_PARAM) {
   rf_tile_camera tc;
   rf_tile_query q;
   rf_tile_hits hits[1];
@@ -1062,11 +1062,12 @@ RF_INLINE void rf_trace_query_tile(const rf_query_arrays* rays, rf_u32 begin, rf
   const rf_u32* ps = (const rf_u32*)hits[0].prim;
   for (rf_u32 l = 0; l < count; ++l) {
     const int hit = is[l] != RF_INVALID;
-    /* z: t * 1 * 1, as rf_write_pixel's query form. */
+    /* z: t * 1 * 1, as rf_write_pixel's query form; as integers, as the
+     * camera tile's stores. */
     const uint8 px_hit = (uint8)(as_uint(hit ? ts[l] : RF_INF), as_uint(xs[l]), as_uint(ys[l]), as_uint(ws[l]),
                                  as_uint(hit ? us[l] : 0.0f), as_uint(hit ? vs[l] : 0.0f), is[l],
                                  hit ? ps[l] : RF_INVALID);
-    rf_tile_put(out, order ? order[begin + l] : begin + l, px_hit);
+    vstore8(px_hit, 0, (RF_GLOBAL rf_u32*)&out[order ? order[begin + l] : begin + l]);
   }
 }
 

@@ -541,8 +541,7 @@ RF_INLINE void rf_trace_entry(rf_u32 entry, const rf_camera* cam, const RF_GLOBA
 
 /* Answers one ray query (scene.intersect, scene.occluded): its closest hit
  * with tmin < t <= tmax, or with any_hit the first one found, written as a
- * pixel's hit info with z = t along the given (unnormalised) direction,
- * at index `at` of `out`.
+ * pixel's hit info with z = t along the given (unnormalised) direction.
  * `wide` and `tlas_wide` (device only, where the host always gives both;
  * null on the host, which walks the binary trees, rf_trace_tlas): through
  * the 4-wide trees at both levels (rf_trace_query_tlas_wide), the same
@@ -554,7 +553,7 @@ RF_INLINE void rf_trace_query(const RF_GLOBAL rf_query_ray* q, const RF_GLOBAL r
                               const RF_GLOBAL rf_wide_node* wide, const RF_GLOBAL rf_wide_node* tlas_wide,
                               rf_u32 tlas_wide_root, const RF_GLOBAL rf_tri* tris,
                               const RF_GLOBAL rf_instance* instances, const RF_GLOBAL rf_normal_xform* normal_xforms,
-                              rf_u32 tlas_root, int any_hit, rf_u32 write_flags, const rf_answers* out, size_t at) {
+                              rf_u32 tlas_root, int any_hit, rf_u32 write_flags, RF_GLOBAL rf_pixel_hit* out) {
   rf_hit hit;
   rf_hit_reset(&hit);
   hit.t = q->tmax;
@@ -574,7 +573,7 @@ RF_INLINE void rf_trace_query(const RF_GLOBAL rf_query_ray* q, const RF_GLOBAL r
   }
   rf_pixel_hit answer;
   rf_write_pixel(&answer, &hit, 1.0f, 1.0f, tris, normal_xforms, write_flags);
-  rf_put_answer(out, at, &answer);
+  *out = answer;
 }
 
 #endif /* RF_TRACE_H */

@@ -198,7 +198,7 @@ typedef struct {
   rf_u32 primitive;
 } rf_pixel_hit;
 
-/* Where a kernel puts its answers (rf_put_answer): each pixel's or ray's
+/* Where a camera kernel puts its answers (rf_put_answer): each pixel's
  * rf_pixel_hit at hits[i], or, where hits is null, its fields into the
  * planes of a G-buffer (RF_PLANE_*), each null where not asked for:
  *   z[i], normal[3i .. 3i + 2], uv[2i .. 2i + 1], instance[i], primitive[i].

@@ -220,8 +220,8 @@ TEST(RayQuery, GrazingHitsTakeTheirOwnLeafsEntryThroughTheWideTrees) {
   // The premise: some hits are raised to their leaf's entry, above the
   // triangle test's own t (the brute force's, which knows no leaves), and
   // none lies below it.
-  const std::vector<rf_pixel_hit> raw = testing::brute_force_rays(scene, cpu.scene_data(), rays.o.data(),
-                                                                  rays.d.data(), rays.size(), 0.0f, INFINITY);
+  const std::vector<rf_pixel_hit> raw =
+      testing::brute_force_rays(scene, cpu.scene_data(), rays.o.data(), rays.d.data(), rays.size(), 0.0f, INFINITY);
   size_t raised = 0, lowered = 0;
   for (size_t i = 0; i < rays.size(); ++i) {
     if (expected[i].instance == RF_INVALID || expected[i].instance != raw[i].instance ||
@@ -307,34 +307,39 @@ TEST(RayQuery, TilesTakeTheCallersArraysToTraceSpaceAsTheReferenceDoes) {
   bool by_product = false, by_ldexp = false;
   for (int k : {-132, -60, 0, 50, 100})
     for (const auto& [unscaled, row_length] : {std::pair<const Rays*, size_t>{&runs, 0}, {&image, width}}) {
-    Scene scene = base;
-    for (Instance& inst : scene.instances) inst.world_from_object = uniform_scale(k) * inst.world_from_object;
-    Rays rays = *unscaled;
-    for (float& c : rays.o) c = std::ldexp(c, k);
-    for (float& c : rays.d) c = std::ldexp(c, k);
-    RendererOptions opt = on(Backend::cpu);
-    Renderer cpu(scene, opt);
-    opt.backend = Backend::opencl;
-    opt.kernel = KernelChoice::tile;
-    Renderer tiles(scene, opt);
-    ASSERT_FALSE(plan_query_tiles(rays.o.data(), rays.size(), row_length, 128).tiles.empty()) << "2^" << k << ": not tiled";
-    const int e = -build_query_frame(scene, cpu.scene_data(),
-                                     check_query_rays(rays.o.data(), rays.d.data(), rays.size(), 0.0f, INFINITY),
-                                     FrameOptions{})
-                       .views.at(0)
-                       .trace_exponent;
-    (e > -126 && e < 126 ? by_product : by_ldexp) = true;
-    // t is along the given direction: scaling both keeps it.
-    for (auto [lo, hi] : {std::pair{0.0f, INFINITY}, std::pair{0.5f, INFINITY}, std::pair{0.0f, 2.0f}}) {
-      const std::vector<rf_pixel_hit> want = query(cpu, rays, lo, hi);
-      size_t hits = 0;
-      for (const rf_pixel_hit& h : want) hits += h.instance != RF_INVALID;
-      if (hi == INFINITY || row_length == 0) EXPECT_GT(hits, rays.size() / 20) << "2^" << k;  // the image lies beyond 2
-      std::vector<rf_pixel_hit> got(rays.size());
-      tiles.intersect(rays.o.data(), rays.d.data(), rays.size(), lo, hi, false, FrameOptions{}, got.data(), row_length);
-      EXPECT_EQ(differences(want, got), "") << "2^" << k << ", trace from world 2^" << e << ", rows of " << row_length;
+      Scene scene = base;
+      for (Instance& inst : scene.instances) inst.world_from_object = uniform_scale(k) * inst.world_from_object;
+      Rays rays = *unscaled;
+      for (float& c : rays.o) c = std::ldexp(c, k);
+      for (float& c : rays.d) c = std::ldexp(c, k);
+      RendererOptions opt = on(Backend::cpu);
+      Renderer cpu(scene, opt);
+      opt.backend = Backend::opencl;
+      opt.kernel = KernelChoice::tile;
+      Renderer tiles(scene, opt);
+      ASSERT_FALSE(plan_query_tiles(rays.o.data(), rays.size(), row_length, 128).tiles.empty())
+          << "2^" << k << ": not tiled";
+      const int e = -build_query_frame(scene, cpu.scene_data(),
+                                       check_query_rays(rays.o.data(), rays.d.data(), rays.size(), 0.0f, INFINITY),
+                                       FrameOptions{})
+                         .views.at(0)
+                         .trace_exponent;
+      (e > -126 && e < 126 ? by_product : by_ldexp) = true;
+      // t is along the given direction: scaling both keeps it.
+      for (auto [lo, hi] : {std::pair{0.0f, INFINITY}, std::pair{0.5f, INFINITY}, std::pair{0.0f, 2.0f}}) {
+        const std::vector<rf_pixel_hit> want = query(cpu, rays, lo, hi);
+        size_t hits = 0;
+        for (const rf_pixel_hit& h : want) hits += h.instance != RF_INVALID;
+        if (hi == INFINITY || row_length == 0) {  // the image lies beyond t = 2
+          EXPECT_GT(hits, rays.size() / 20) << "2^" << k;
+        }
+        std::vector<rf_pixel_hit> got(rays.size());
+        tiles.intersect(rays.o.data(), rays.d.data(), rays.size(), lo, hi, false, FrameOptions{}, got.data(),
+                        row_length);
+        EXPECT_EQ(differences(want, got), "")
+            << "2^" << k << ", trace from world 2^" << e << ", rows of " << row_length;
+      }
     }
-  }
   EXPECT_TRUE(by_product && by_ldexp) << "both ways of scaling";
 }
 

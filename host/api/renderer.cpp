@@ -238,6 +238,22 @@ GBuffer Renderer::render(const Camera& camera, Fold fold, unsigned channels) {
 
 namespace {
 
+// The pixels i < n for which hit(i) holds (hit may also do a pixel's work),
+// on `threads` threads in chunks.
+template <class Hit>
+size_t count_pixels(size_t n, unsigned threads, Hit&& hit) {
+  constexpr size_t kChunk = size_t{1} << 15;
+  std::vector<size_t> chunk_hits((n + kChunk - 1) / kChunk, 0);
+  core::parallel_for(n, threads, kChunk, [&](size_t begin, size_t end) {
+    size_t count = 0;
+    for (size_t i = begin; i < end; ++i) count += hit(i) ? 1 : 0;
+    chunk_hits[begin / kChunk] = count;
+  });
+  size_t total = 0;
+  for (size_t c : chunk_hits) total += c;
+  return total;
+}
+
 // View `view` of a core result (a pass of one view or more) as the public
 // planes asked for, read in place (a copy of the view's hits first cost a
 // 720p view 29 MB of fresh memory), on `threads` threads: a 720p frame's 30
@@ -260,18 +276,9 @@ void fill_gbuffer(GBuffer& g, const core::RenderResult& r, size_t view, const st
     RF_CHECK(view == 0, "planes in place for more than one view");
     const bool by_instance = !g.instance_id.empty();
     RF_CHECK(by_instance || !g.depth.empty(), "planes in place without instance ids or depths to count hits by");
-    constexpr size_t kChunk = size_t{1} << 16;
-    std::vector<size_t> chunk_hits((n + kChunk - 1) / kChunk, 0);
-    core::parallel_for(n, threads, kChunk, [&](size_t begin, size_t end) {
-      size_t count = 0;
-      if (by_instance)
-        for (size_t i = begin; i < end; ++i) count += g.instance_id[i] != RF_INVALID;
-      else
-        for (size_t i = begin; i < end; ++i) count += g.depth[i] != RF_INF;  // a miss's depth is +inf
-      chunk_hits[begin / kChunk] = count;
+    g.hits = count_pixels(n, threads, [&](size_t i) {
+      return by_instance ? g.instance_id[i] != RF_INVALID : g.depth[i] != RF_INF;  // a miss's depth is +inf
     });
-    g.hits = 0;
-    for (size_t c : chunk_hits) g.hits += c;
     return;
   }
   if (r.plane_channels != 0) {
@@ -296,19 +303,10 @@ void fill_gbuffer(GBuffer& g, const core::RenderResult& r, size_t view, const st
                                                 " hits for view " + std::to_string(view) + " of " + std::to_string(n));
   const rf_pixel_hit* hits = r.hits.data() + view * n;
   const PlaneWriter writer(g.depth, g.normal, g.uv, g.instance_id, g.primitive_id);
-  constexpr size_t kChunk = size_t{1} << 15;
-  std::vector<size_t> chunk_hits((n + kChunk - 1) / kChunk, 0);
-  core::parallel_for(n, threads, kChunk, [&](size_t begin, size_t end) {
-    size_t count = 0;
-    for (size_t i = begin; i < end; ++i) {
-      writer.put(i, hits[i]);
-      count += hits[i].instance != RF_INVALID;
-    }
-    chunk_hits[begin / kChunk] = count;
+  g.hits = count_pixels(n, threads, [&](size_t i) {
+    writer.put(i, hits[i]);
+    return hits[i].instance != RF_INVALID;
   });
-  size_t total = 0;
-  for (size_t c : chunk_hits) total += c;
-  g.hits = total;
 }
 
 // The frame options of a render that asks for these planes.

@@ -517,7 +517,7 @@ double ClTracer::trace_queries(const QueryRays& rays, bool any_hit, unsigned wri
       kernel.setArg(a++, static_cast<uint32_t>(write_flags));
       kernel.setArg(a++, ordered ? query_order_ : query_tiles_);  // read only when ordered
       kernel.setArg(a++, static_cast<uint32_t>(ordered ? 1u : 0u));
-      a = set_answer_args(kernel, a, &hits_buf, nullptr);
+      kernel.setArg(a++, hits_buf);
       // One tile per work-group, as the camera tile kernel.
       q.enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(tiles->size() - 1), cl::NDRange(1));
     } else {
@@ -537,7 +537,7 @@ double ClTracer::trace_queries(const QueryRays& rays, bool any_hit, unsigned wri
       kernel.setArg(a++, static_cast<uint32_t>(write_flags));
       kernel.setArg(a++, ordered ? query_order_ : rays_buf);  // read only when ordered
       kernel.setArg(a++, static_cast<uint32_t>(ordered ? 1u : 0u));
-      a = set_answer_args(kernel, a, &hits_buf, nullptr);
+      kernel.setArg(a++, hits_buf);
       constexpr size_t kGroup = 64;
       const size_t global = (n + kGroup - 1) / kGroup * kGroup;
       q.enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(global), cl::NDRange(kGroup));

@@ -254,12 +254,11 @@ const std::vector<uint32_t>& QueryTiles::traced_order() const {
 void trace_queries_cpu(const TraceInputs& in, const std::vector<rf_query_ray>& rays, bool any_hit, unsigned write_flags,
                        rf_pixel_hit* out, unsigned threads, const std::vector<uint32_t>& order) {
   RF_CHECK(order.empty() || order.size() == rays.size(), "query order of another length");
-  const rf_answers answers = rf_answers_in(out);
   parallel_for(rays.size(), threads, 256, [&](size_t begin, size_t end) {
     for (size_t k = begin; k < end; ++k) {
       const size_t i = order.empty() ? k : order[k];
       rf_trace_query(&rays[i], in.nodes, nullptr, nullptr, RF_INVALID, in.tris, in.instances, in.normal_xforms,
-                     in.tlas_root, any_hit ? 1 : 0, write_flags, &answers, i);
+                     in.tlas_root, any_hit ? 1 : 0, write_flags, &out[i]);
     }
   });
 }
