@@ -226,6 +226,24 @@ def test_a_rerun_renders_only_what_is_missing_changed_or_damaged(atrium_path, tm
     assert (s.rendered, s.kept) == (0, 40)
 
 
+def test_the_newest_record_of_a_view_counts_whatever_its_part_file_is_named(atrium_path, tmp_path):
+    # Part files are named by host and pid, which say nothing of when they
+    # were written: an earlier run's file that sorts after a later one's must
+    # not bring back the earlier run's records. (Found as a rare failure of
+    # the rerun test above, when a worker's pid happened to sort first.)
+    cameras = camera_list(tmp_path / "c.json", 6)
+    pattern = str(tmp_path / "v_%03d.exr")
+    assert rayfold.batch.render(atrium_path, cameras, pattern, progress=False).rendered == 6
+    manifest = tmp_path / rayfold.batch.MANIFEST_DIR
+    for k, earlier in enumerate(sorted(os.listdir(manifest))):
+        os.rename(manifest / earlier, manifest / f"zzzz-{k}.jsonl")  # sorts after any host's
+    s = rayfold.batch.render(atrium_path, cameras, pattern, exr_compression="none", progress=False)
+    assert (s.rendered, s.kept) == (6, 0)
+    s = rayfold.batch.render(atrium_path, cameras, pattern, exr_compression="none", progress=False)
+    assert (s.rendered, s.kept) == (0, 6)
+    assert_views_equal(rayfold.Scene(atrium_path), cameras, pattern, "none")
+
+
 def test_a_view_that_cannot_be_written_is_named_and_the_rest_complete(atrium_path, tmp_path):
     camera_list(tmp_path / "c.json", 12)
     os.makedirs(tmp_path / "out" / "v_04.exr")  # a folder where view 4's file goes

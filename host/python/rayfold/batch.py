@@ -82,8 +82,10 @@ def _peak_rss_mb():
 
 
 def _read_manifest(directory):
-    """path (relative to the output folder) -> the last record for it. A
-    line cut short by a killed worker is no record."""
+    """path (relative to the output folder) -> the last record written for
+    it, by its write time (the part files' names, host and pid, say nothing of
+    their order; a record without a time, from an older rayfold, is the
+    oldest). A line cut short by a killed worker is no record."""
     records = {}
     if not os.path.isdir(directory):
         return records
@@ -97,7 +99,9 @@ def _read_manifest(directory):
                 except json.JSONDecodeError:
                     continue
                 if isinstance(r, dict) and {"path", "bytes", "sha256", "key"} <= r.keys():
-                    records[r["path"]] = r
+                    last = records.get(r["path"])
+                    if last is None or r.get("written_ns", 0) >= last.get("written_ns", 0):
+                        records[r["path"]] = r
     return records
 
 
@@ -128,7 +132,8 @@ class _Worker:
 
     def _write(self, index, g, key):
         size, sha = self.output.write(index, g, self.scene)
-        record = {"view": index, "path": self.output.record_name(index), "bytes": size, "sha256": sha, "key": key}
+        record = {"view": index, "path": self.output.record_name(index), "bytes": size, "sha256": sha, "key": key,
+                  "written_ns": time.time_ns()}
         self.part.write(json.dumps(record) + "\n")
         self.part.flush()  # a worker killed later keeps this view; fsync once per batch
         return list(g.warnings)
