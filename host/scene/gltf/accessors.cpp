@@ -87,6 +87,18 @@ const unsigned char* Loader::view_data(int vi, size_t offset, size_t count, size
   return data.data() + v.byteOffset + offset;
 }
 
+const unsigned char* Loader::plain_elements(int ai, const std::string& what, int components, bool is_index,
+                                           size_t* stride) const {
+  if (ai < 0 || static_cast<size_t>(ai) >= model_.accessors.size() || decoded_.count(ai) != 0) return nullptr;
+  const tinygltf::Accessor& a = model_.accessors[ai];
+  const size_t cb = component_bytes(a.componentType);
+  if (cb == 0 || a.sparse.isSparse || a.bufferView < 0 || a.count == 0) return nullptr;
+  const std::string acc = what + " accessor " + std::to_string(ai);
+  if (a.count > (size_t(1) << 31)) fail(acc + " has " + std::to_string(a.count) + " elements, too many");
+  return view_data(a.bufferView, a.byteOffset, a.count, cb * static_cast<size_t>(components), cb, is_index, acc,
+                   stride);
+}
+
 std::vector<double> Loader::read_elements(int ai, const std::string& what, int components, bool is_index) const {
   const std::string acc = what + " accessor " + std::to_string(ai);
   if (ai < 0 || static_cast<size_t>(ai) >= model_.accessors.size()) fail(acc + " does not exist");
@@ -154,14 +166,23 @@ std::vector<glm::vec3> Loader::read_vec3(int ai, const std::string& what) const 
       fail(what + " accessor " + std::to_string(ai) +
            " holds integers, which glTF 2.0 allows only with KHR_mesh_quantization in extensionsUsed");
   }
-  const std::vector<double> e = read_elements(ai, what, 3, false);
-  std::vector<glm::vec3> out(e.size() / 3);
-  for (size_t i = 0; i < out.size(); ++i) {
-    out[i] =
-        glm::vec3(static_cast<float>(e[3 * i]), static_cast<float>(e[3 * i + 1]), static_cast<float>(e[3 * i + 2]));
+  std::vector<glm::vec3> out;
+  size_t stride = 0;
+  const unsigned char* p = plain_elements(ai, what, 3, false, &stride);
+  if (p != nullptr && model_.accessors[ai].componentType == TINYGLTF_COMPONENT_TYPE_FLOAT) {
+    // FLOAT as stored, which is what component() gives through a double.
+    out.resize(model_.accessors[ai].count);
+    for (size_t i = 0; i < out.size(); ++i) std::memcpy(&out[i], p + i * stride, sizeof(glm::vec3));
+  } else {
+    const std::vector<double> e = read_elements(ai, what, 3, false);
+    out.resize(e.size() / 3);
+    for (size_t i = 0; i < out.size(); ++i)
+      out[i] =
+          glm::vec3(static_cast<float>(e[3 * i]), static_cast<float>(e[3 * i + 1]), static_cast<float>(e[3 * i + 2]));
+  }
+  for (size_t i = 0; i < out.size(); ++i)
     if (!std::isfinite(out[i].x) || !std::isfinite(out[i].y) || !std::isfinite(out[i].z))
       fail(what + " " + std::to_string(i) + " is not finite");
-  }
   return out;
 }
 
@@ -174,14 +195,34 @@ void Loader::read_indices(int ai, const std::string& where, uint32_t vertex_coun
       a.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT &&
       a.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT)
     fail(where + ": indices must be unsigned byte, short or int");
+  auto check = [&](size_t i, uint64_t v) {
+    if (v >= vertex_count)
+      fail(where + ": index " + std::to_string(i) + " is " + std::to_string(v) + ", past the " +
+           std::to_string(vertex_count) + " vertices");
+    out[i] = static_cast<uint32_t>(v);
+  };
+  size_t stride = 0;
+  const unsigned char* p = plain_elements(ai, where + ": index", 1, true, &stride);
+  if (p != nullptr) {
+    out.resize(a.count);
+    auto read = [&](auto type) {
+      for (size_t i = 0; i < out.size(); ++i) {
+        decltype(type) v;
+        std::memcpy(&v, p + i * stride, sizeof v);
+        check(i, v);
+      }
+    };
+    if (a.componentType == TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT)
+      read(uint32_t{});
+    else if (a.componentType == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT)
+      read(uint16_t{});
+    else
+      read(uint8_t{});
+    return;
+  }
   const std::vector<double> e = read_elements(ai, where + ": index", 1, true);
   out.resize(e.size());
-  for (size_t i = 0; i < e.size(); ++i) {
-    if (e[i] >= vertex_count)
-      fail(where + ": index " + std::to_string(i) + " is " + std::to_string(static_cast<uint64_t>(e[i])) +
-           ", past the " + std::to_string(vertex_count) + " vertices");
-    out[i] = static_cast<uint32_t>(e[i]);
-  }
+  for (size_t i = 0; i < e.size(); ++i) check(i, static_cast<uint64_t>(e[i]));
 }
 
 }  // namespace rayfold::core::gltf
