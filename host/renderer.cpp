@@ -25,16 +25,42 @@ double median(std::vector<double> values) {
 }
 
 Renderer::Renderer(const Scene& scene, const RendererOptions& options)
+    : Renderer(scene, options, open_device(options)) {}
+
+// The device opens while prepare_scene runs. Should the build throw, the
+// future's destructor waits for the device first, and the build's error is
+// the one reported.
+Renderer::Renderer(const Scene& scene, const RendererOptions& options, std::future<OpenedDevice> device)
     : Renderer(scene, options,
-               std::make_shared<const SceneData>(prepare_scene(scene, options.threads, options.braid, options.merge))) {}
+               std::make_shared<const SceneData>(prepare_scene(scene, options.threads, options.braid, options.merge)),
+               std::move(device)) {}
 
 Renderer::Renderer(const Scene& scene, const RendererOptions& options, std::shared_ptr<const SceneData> prebuilt)
+    : Renderer(scene, options, std::move(prebuilt), open_device(options)) {}
+
+std::future<Renderer::OpenedDevice> Renderer::open_device(const RendererOptions& options) {
+  if (options.backend != Backend::opencl) {
+    std::promise<OpenedDevice> none;
+    none.set_value({});
+    return none.get_future();
+  }
+  return std::async(std::launch::async, [hint = options.device_hint, precision = options.precision] {
+    OpenedDevice d;
+    d.device = std::make_unique<ClDevice>(hint);
+    d.tracer = std::make_unique<ClTracer>(*d.device, precision);
+    return d;
+  });
+}
+
+Renderer::Renderer(const Scene& scene, const RendererOptions& options, std::shared_ptr<const SceneData> prebuilt,
+                   std::future<OpenedDevice> device)
     : scene_(scene), options_(options), data_(std::move(prebuilt)) {
   nodes_ = data_->blas.nodes;
   kernel_reason_ = "the CPU backend";
   if (options_.backend == Backend::opencl) {
-    device_ = std::make_unique<ClDevice>(options_.device_hint);
-    tracer_ = std::make_unique<ClTracer>(*device_, options_.precision);
+    OpenedDevice opened = device.get();
+    device_ = std::move(opened.device);
+    tracer_ = std::move(opened.tracer);
     // PoCL runs one work-item per thread, so only the tile kernel uses the
     // CPU's vector units; on other devices the faster one is measured.
     const bool cpu = device_->info().is_cpu;

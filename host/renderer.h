@@ -4,6 +4,7 @@
 #pragma once
 
 #include <array>
+#include <future>
 #include <memory>
 #include <string>
 #include <vector>
@@ -185,6 +186,18 @@ class Renderer {
   double program_build_ms() const;
 
  private:
+  // The OpenCL device and its kernels. They do not depend on the scene, so
+  // they are opened on a thread of their own while the trees are built: on
+  // PoCL that is about 70 ms of driver start-up and program loading, which
+  // a large scene's build hides.
+  struct OpenedDevice {
+    std::unique_ptr<ClDevice> device;
+    std::unique_ptr<ClTracer> tracer;
+  };
+  static std::future<OpenedDevice> open_device(const RendererOptions& options);
+  Renderer(const Scene& scene, const RendererOptions& options, std::future<OpenedDevice> device);
+  Renderer(const Scene& scene, const RendererOptions& options, std::shared_ptr<const SceneData> prebuilt,
+           std::future<OpenedDevice> device);
   // The warnings of instances lost to the float range (`where` says how)
   // and of triangles below what the test resolves.
   void add_range_warnings(size_t out_of_range, const char* where, std::vector<std::string>& w) const;
