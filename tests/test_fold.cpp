@@ -84,6 +84,71 @@ TEST(FoldRayList, AnswersEveryPixelExactlyOnce) {
   }
 }
 
+// make_ray_list counts per column and row; this builds the same list pixel
+// by pixel, as documented in fold/ray_list.h: tiles row by row, in each its
+// 8x8 blocks, in each its 4x4 quads, each quad row by row; a pixel traced
+// unless its fold partner's ray answers it (columns: the left half traced,
+// rows: the top half), and each mirror group's region grown ray by ray.
+RayList ray_list_pixel_by_pixel(const rf_camera& cam, FoldMode f) {
+  auto role = [](int k, int partner, int n, bool fold, int traced_sign) {
+    if (!fold || k == 0 || partner < 0 || partner >= n) return 0;  // traced, answers itself
+    return (k > 0) == (traced_sign > 0) ? 1 : -1;                  // 1: also its partner; -1: skipped
+  };
+  RayList list;
+  list.pixels = static_cast<size_t>(cam.width) * cam.height;
+  list.tiles.push_back(0);
+  for (int ty = 0; ty < cam.height; ty += RF_TILE_SIDE)
+    for (int tx = 0; tx < cam.width; tx += RF_TILE_SIDE) {
+      for (int by = ty; by < std::min(ty + RF_TILE_SIDE, cam.height); by += 8)
+        for (int bx = tx; bx < std::min(tx + RF_TILE_SIDE, cam.width); bx += 8)
+          for (int qy = by; qy < std::min(by + 8, cam.height); qy += 4)
+            for (int qx = bx; qx < std::min(bx + 8, cam.width); qx += 4)
+              for (int y = qy; y < std::min(qy + 4, cam.height); ++y)
+                for (int x = qx; x < std::min(qx + 4, cam.width); ++x) {
+                  const int kx = 2 * x + cam.kx0, ky = cam.ky0 - 2 * y;
+                  const int cx = role(kx, cam.xpair - x, cam.width, folds_columns(f), -1);
+                  const int cy = role(ky, cam.ypair - y, cam.height, folds_rows(f), +1);
+                  if (cx < 0 || cy < 0) continue;
+                  list.entries.push_back(encode_ray(x, y, cx == 1, cy == 1));
+                  for (int g = 0; g < RF_MIRRORS; ++g) {
+                    if ((g & 1 && cx != 1) || (g & 2 && cy != 1)) continue;
+                    TracedRegion& r = list.regions[g];
+                    if (!list.group_used[g]) r = {kx, kx, ky, ky};
+                    list.group_used[g] = true;
+                    r = {std::min(r.kx_min, kx), std::max(r.kx_max, kx), std::min(r.ky_min, ky),
+                         std::max(r.ky_max, ky)};
+                  }
+                }
+      if (list.entries.size() != list.tiles.back()) list.tiles.push_back(static_cast<uint32_t>(list.entries.size()));
+    }
+  return list;
+}
+
+TEST(FoldRayList, IsTheDocumentedOrderTilesAndRegionsBuiltPixelByPixel) {
+  testing::Rng rng(21);
+  for (int trial = 0; trial < 200; ++trial) {
+    const int w = 1 + rng.below(trial < 50 ? 20 : 300), h = 1 + rng.below(trial < 50 ? 20 : 200);
+    const double sx = trial % 3 == 0 ? rng.uniform(-1.5, 1.5) : 0.0, sy = trial % 4 == 0 ? rng.uniform(-1.5, 1.5) : 0.0;
+    const Camera cam = make_camera(CameraSpec{}, w, h, sx, sy);
+    for (FoldMode f : {FoldMode::none, FoldMode::y, FoldMode::x, FoldMode::xy}) {
+      const RayList got = make_ray_list(cam.params, f), want = ray_list_pixel_by_pixel(cam.params, f);
+      const std::string what = std::to_string(w) + "x" + std::to_string(h) + " shift " + std::to_string(sx) + "," +
+                               std::to_string(sy) + " fold " + fold_name(f);
+      ASSERT_EQ(got.pixels, want.pixels) << what;
+      ASSERT_EQ(got.entries, want.entries) << what;
+      ASSERT_EQ(got.tiles, want.tiles) << what;
+      for (int g = 0; g < RF_MIRRORS; ++g) {
+        ASSERT_EQ(got.group_used[g], want.group_used[g]) << what << " group " << g;
+        if (!want.group_used[g]) continue;
+        const TracedRegion &a = got.regions[g], &b = want.regions[g];
+        EXPECT_EQ(std::vector<int>({a.kx_min, a.kx_max, a.ky_min, a.ky_max}),
+                  std::vector<int>({b.kx_min, b.kx_max, b.ky_min, b.ky_max}))
+            << what << " group " << g;
+      }
+    }
+  }
+}
+
 TEST(Fold, HandBuiltSymmetricCase) {
   // A triangle left of the centre only: folded in y, the right half's
   // pixels must see its mirrored copy as nothing (the right half is empty),

@@ -28,54 +28,83 @@ std::vector<Role> roles(int n, int k0, int step, int pair, bool fold, int traced
   return r;
 }
 
-void grow(TracedRegion& r, bool& used, int kx, int ky) {
-  if (!used) {
-    r = {kx, kx, ky, ky};
-    used = true;
-    return;
-  }
-  r.kx_min = std::min(r.kx_min, kx);
-  r.kx_max = std::max(r.kx_max, kx);
-  r.ky_min = std::min(r.ky_min, ky);
-  r.ky_max = std::max(r.ky_max, ky);
+// The traced columns (or rows) of one role set: [first, last], or none.
+struct Span {
+  int first = INT_MAX, last = INT_MIN;
+  bool empty() const { return first > last; }
+};
+
+Span span_of(const std::vector<Role>& roles, bool folding_only) {
+  Span s;
+  for (int i = 0; i < static_cast<int>(roles.size()); ++i)
+    if (folding_only ? roles[i] == Role::fold : roles[i] != Role::skip) {
+      s.first = std::min(s.first, i);
+      s.last = i;
+    }
+  return s;
 }
 
 }  // namespace
 
+// Columns and rows take their roles independently, so a ray is traced at
+// (x, y) when neither skips, and everything below is counted per column and
+// per row instead of per pixel: the regions are products of spans, a tile's
+// rays the product of its traced rows and columns. Per pixel this was 10 to
+// 20 ms of a 1280x720 render's first frame; now a fraction of one.
 RayList make_ray_list(const rf_camera& cam, FoldMode fold) {
-  const std::vector<Role> cols = roles(cam.width, cam.kx0, 1, cam.xpair, folds_columns(fold), -1);
-  const std::vector<Role> rows = roles(cam.height, cam.ky0, -1, cam.ypair, folds_rows(fold), +1);
+  const int w = cam.width, h = cam.height;
+  const std::vector<Role> cols = roles(w, cam.kx0, 1, cam.xpair, folds_columns(fold), -1);
+  const std::vector<Role> rows = roles(h, cam.ky0, -1, cam.ypair, folds_rows(fold), +1);
+  RayList list;
+  list.pixels = static_cast<size_t>(w) * h;
+
+  // Group g's instances are mirrored, so a ray answering g meets them
+  // exactly where the partner pixel's ray meets the originals. Group 0 is
+  // every ray, 1 those with a column partner, 2 a row partner, 3 both.
+  for (int g = 0; g < RF_MIRRORS; ++g) {
+    const Span xs = span_of(cols, g & 1), ys = span_of(rows, g & 2);
+    list.group_used[g] = !xs.empty() && !ys.empty();
+    if (list.group_used[g])
+      list.regions[g] = {2 * xs.first + cam.kx0, 2 * xs.last + cam.kx0, cam.ky0 - 2 * ys.last, cam.ky0 - 2 * ys.first};
+  }
+
+  // An entry is its column's bits or its row's (encode_ray).
+  std::vector<uint32_t> col_bits(w), row_bits(h);
+  std::vector<int> traced_cols(w + 1, 0), traced_rows(h + 1, 0);  // prefix counts
+  for (int x = 0; x < w; ++x) {
+    col_bits[x] = encode_ray(x, 0, cols[x] == Role::fold, false);
+    traced_cols[x + 1] = traced_cols[x] + (cols[x] != Role::skip);
+  }
+  for (int y = 0; y < h; ++y) {
+    row_bits[y] = encode_ray(0, y, false, rows[y] == Role::fold);
+    traced_rows[y + 1] = traced_rows[y] + (rows[y] != Role::skip);
+  }
+  list.entries.resize(static_cast<size_t>(traced_cols[w]) * traced_rows[h]);
+  list.tiles.push_back(0);
+
   // 16x16 tiles of 8x8 blocks of 4x4 quads, each quad row by row: 8
   // consecutive rays form a 4x2 block and 16 a 4x4 block (the tile kernel's
   // vectors: compact blocks meet fewer triangle edges than rows), 64 an 8x8
   // block (the single-ray kernel's work-groups).
   constexpr int kBlock = 8, kQuad = 4;
   static_assert(RF_TILE_SIDE % kBlock == 0, "tiles are made of whole blocks");
-  RayList list;
-  list.pixels = static_cast<size_t>(cam.width) * cam.height;
-  list.entries.reserve(list.pixels / (fold == FoldMode::none ? 1 : 2) + cam.width + cam.height);
-  list.tiles.push_back(0);
-  auto add = [&](int x, int y) {
-    if (rows[y] == Role::skip || cols[x] == Role::skip) return;
-    const bool mx = cols[x] == Role::fold, my = rows[y] == Role::fold;
-    list.entries.push_back(encode_ray(x, y, mx, my));
-    const int kx = 2 * x + cam.kx0, ky = cam.ky0 - 2 * y;
-    // Group g's instances are mirrored, so a ray answering g meets them
-    // exactly where the partner pixel's ray meets the originals.
-    grow(list.regions[0], list.group_used[0], kx, ky);
-    if (mx) grow(list.regions[1], list.group_used[1], kx, ky);
-    if (my) grow(list.regions[2], list.group_used[2], kx, ky);
-    if (mx && my) grow(list.regions[3], list.group_used[3], kx, ky);
-  };
-  for (int ty = 0; ty < cam.height; ty += RF_TILE_SIDE)
-    for (int tx = 0; tx < cam.width; tx += RF_TILE_SIDE) {
-      for (int by = ty; by < std::min(ty + RF_TILE_SIDE, cam.height); by += kBlock)
-        for (int bx = tx; bx < std::min(tx + RF_TILE_SIDE, cam.width); bx += kBlock)
-          for (int qy = by; qy < std::min(by + kBlock, cam.height); qy += kQuad)
-            for (int qx = bx; qx < std::min(bx + kBlock, cam.width); qx += kQuad)
-              for (int y = qy; y < std::min(qy + kQuad, cam.height); ++y)
-                for (int x = qx; x < std::min(qx + kQuad, cam.width); ++x) add(x, y);
-      if (list.entries.size() != list.tiles.back()) list.tiles.push_back(static_cast<uint32_t>(list.entries.size()));
+  uint32_t* out = list.entries.data();
+  for (int ty = 0; ty < h; ty += RF_TILE_SIDE)
+    for (int tx = 0; tx < w; tx += RF_TILE_SIDE) {
+      const int ty_end = std::min(ty + RF_TILE_SIDE, h), tx_end = std::min(tx + RF_TILE_SIDE, w);
+      const size_t in_tile =
+          static_cast<size_t>(traced_rows[ty_end] - traced_rows[ty]) * (traced_cols[tx_end] - traced_cols[tx]);
+      if (in_tile == 0) continue;
+      for (int by = ty; by < ty_end; by += kBlock)
+        for (int bx = tx; bx < tx_end; bx += kBlock)
+          for (int qy = by; qy < std::min(by + kBlock, h); qy += kQuad)
+            for (int qx = bx; qx < std::min(bx + kBlock, w); qx += kQuad)
+              for (int y = qy; y < std::min(qy + kQuad, h); ++y) {
+                if (rows[y] == Role::skip) continue;
+                for (int x = qx; x < std::min(qx + kQuad, w); ++x)
+                  if (cols[x] != Role::skip) *out++ = col_bits[x] | row_bits[y];
+              }
+      list.tiles.push_back(static_cast<uint32_t>(out - list.entries.data()));
     }
   return list;
 }
