@@ -21,8 +21,15 @@ channels="depth", the distances alone as the peers return them; and with
 exact_depth=True, its depth within 2^-24 of the exact distance), the
 peers' intersection call on prebuilt rays (ray building is not counted).
 
+The first G-buffer of the first view is also timed in fresh processes (the
+median of --first-runs, alternated): rayfold's Scene load, Renderer and first
+render, against each peer's scene build and first intersection call (its rays
+made from the same triangles and directions; the import not counted on either
+side, the peers' glTF loading not counted, rayfold's is).
+
 usage: bench_python.py SCENE --cameras PEERS.json [--size WxH] [--threads N]
-                       [--frames N] [--warmup N] [--json OUT] [--md OUT]
+                       [--frames N] [--warmup N] [--first-runs N] [--json OUT]
+                       [--md OUT]
 Peers that are not installed are named and skipped (pip install mitsuba
 open3d-cpu); exit 3 when a peer disagrees with rayfold.
 """
@@ -30,6 +37,7 @@ import argparse
 import json
 import os
 import statistics
+import subprocess
 import sys
 import time
 
@@ -179,6 +187,51 @@ def peer_ids(world, rows):
     return inst, prim
 
 
+PEER_CLASSES = {"mitsuba": Mitsuba, "open3d": Open3D}
+
+
+def first_gbuffer_child(args, who, width, height):
+    """One fresh process's first G-buffer of the first view, printed as JSON
+    (ms): rayfold's load, renderer and first frame, or a peer's scene build
+    and first intersection call."""
+    cam = cameras_from(args.cameras, width, height)[0]
+    if who == "rayfold":
+        t0 = time.perf_counter()
+        scene = rayfold.Scene(args.scene)
+        t1 = time.perf_counter()
+        renderer = rayfold.Renderer(scene, threads=args.threads)
+        t2 = time.perf_counter()
+        renderer.render(cam)
+        t3 = time.perf_counter()
+        out = {"load": 1e3 * (t1 - t0), "renderer": 1e3 * (t2 - t1), "frame": 1e3 * (t3 - t2)}
+    else:
+        tris = rayfold.Scene(args.scene).world_triangles().triangles
+        origin = np.asarray(cam.eye, dtype=np.float32)
+        dirs = np.asarray(cam.ray_directions(), dtype=np.float32)
+        t0 = time.perf_counter()
+        peer = PEER_CLASSES[who](tris, args.threads)
+        peer.cast(peer.prepare(origin, dirs))
+        out = {"build_and_first_call": 1e3 * (time.perf_counter() - t0)}
+    out["total"] = sum(out.values())
+    print(json.dumps(out))
+
+
+def first_gbuffers(args, peers_present):
+    """Each tracer's first G-buffer, fresh processes alternated: the median of
+    every field over --first-runs runs, by tracer."""
+    who = ["rayfold"] + [k for k, cls in PEER_CLASSES.items() if cls.name in peers_present]
+    runs = {w: [] for w in who}
+    for _ in range(args.first_runs):
+        for w in who:
+            cmd = [sys.executable, os.path.abspath(__file__), args.scene, "--cameras", args.cameras, "--size", args.size,
+                   "--threads", str(args.threads), "--first-gbuffer-child", w]
+            done = subprocess.run(cmd, capture_output=True, text=True)
+            if done.returncode != 0:
+                sys.exit(f"bench_python.py: the first G-buffer of {w} failed in a fresh process:\n{done.stderr}")
+            runs[w].append(json.loads(done.stdout.strip().splitlines()[-1]))
+    return {w: {k: statistics.median(r[k] for r in rs) for k in rs[0]} for w, rs in runs.items()}
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("scene")
@@ -187,10 +240,14 @@ def main():
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--frames", type=int, default=5)
     ap.add_argument("--warmup", type=int, default=1)
+    ap.add_argument("--first-runs", type=int, default=3)
+    ap.add_argument("--first-gbuffer-child", choices=["rayfold"] + list(PEER_CLASSES), help=argparse.SUPPRESS)
     ap.add_argument("--json")
     ap.add_argument("--md")
     args = ap.parse_args()
     width, height = (int(v) for v in args.size.split("x"))
+    if args.first_gbuffer_child:
+        return first_gbuffer_child(args, args.first_gbuffer_child, width, height)
 
     scene = rayfold.Scene(args.scene)
     cams = cameras_from(args.cameras, width, height)
@@ -245,6 +302,8 @@ def main():
                 ms, _ = timed(lambda: p.cast(rays), args.frames, args.warmup)
                 peer_ms[p.name].append(ms)
 
+    first = first_gbuffers(args, [p.name for p in peers]) if args.first_runs > 0 else {}
+
     best_fold = min(FOLDS, key=lambda f: statistics.median(ours_ms[f]))
     ours = statistics.median(ours_ms[best_fold])
     ours_depth = min(statistics.median(depth_ms[f]) for f in FOLDS)
@@ -290,6 +349,13 @@ def main():
     for who, r in tracers:
         lines.append(f"| {who} | {100 * r['disagreeing_share']:.4f}% | {100 * r['hit_miss_share']:.4f}% | "
                      f"{r['depth_error_median']:.1e} / {r['depth_error_p99']:.1e} / {r['depth_error_max']:.1e} |")
+    if first:
+        r = first["rayfold"]
+        lines += ["", f"First G-buffer of view 0 in a fresh process (median of {args.first_runs}, imports not counted): "
+                  f"rayfold {r['total']:.0f} ms (load {r['load']:.0f}, Renderer {r['renderer']:.0f}, first render "
+                  f"{r['frame']:.0f})" + "".join(f"; {PEER_CLASSES[w].name.split(' ')[0]} "
+                                                  f"{first[w]['total']:.0f} ms (scene build and first call, the "
+                                                  "triangles given)" for w in first if w != "rayfold") + "."]
     for note in skipped + failed:
         lines.append(f"\n{note}")
     md = "\n".join(lines) + "\n"
@@ -300,8 +366,8 @@ def main():
     if args.json:
         with open(args.json, "w") as f:
             json.dump({"scene": name, "width": width, "height": height, "views": len(cams), "frames": args.frames,
-                       "threads": args.threads, "fastest_fold": best_fold, "rows": rows, "skipped": skipped,
-                       "failed": failed}, f, indent=1)
+                       "threads": args.threads, "fastest_fold": best_fold, "rows": rows, "first_gbuffer_ms": first,
+                       "skipped": skipped, "failed": failed}, f, indent=1)
     return 3 if failed else 0
 
 
