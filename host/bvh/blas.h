@@ -10,6 +10,7 @@
 #include "device_layout.h"
 #include "scene/aabb.h"
 #include "scene/scene.h"
+#include "util/page_aligned.h"
 
 namespace rayfold::core {
 
@@ -20,7 +21,7 @@ namespace rayfold::core {
 // the instance transforms.
 struct BlasSet {
   std::vector<rf_node> nodes;       // all trees (tree space); the TLAS follows them
-  std::vector<rf_tri> tris;         // all trees' triangles in leaf order (tree space)
+  PageAlignedVector<rf_tri> tris;   // all trees' triangles in leaf order (tree space)
   // Per mesh; RF_INVALID for a mesh with no triangle, or whose every
   // instance is traced in a merged tree (below).
   std::vector<uint32_t> roots;

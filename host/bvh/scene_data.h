@@ -11,6 +11,7 @@
 #include "bvh/blas.h"
 #include "device_layout.h"
 #include "scene/scene.h"
+#include "util/page_aligned.h"
 
 namespace rayfold::core {
 
@@ -52,7 +53,7 @@ struct SceneData {
   std::vector<uint32_t> braid_nodes;
   // The tile kernel's wide trees below the braid nodes (bvh/wide_bvh.h);
   // braid_wide[c] is braid_nodes[c]'s wide node (RF_INVALID for a leaf).
-  std::vector<rf_wide_node> wide_nodes;
+  PageAlignedVector<rf_wide_node> wide_nodes;
   std::vector<uint32_t> braid_wide;
   std::vector<Xform> tree_from_world;          // per scene instance, into its mesh's tree space
   std::vector<bool> renderable;                // false: singular transform or empty mesh

@@ -31,8 +31,8 @@ class Writer {
   }
   // Items without padding: device structs (their bytes documented in
   // kernels/rf_types.h), GLM vectors and matrices, integers.
-  template <class T>
-  void put_all(const std::vector<T>& v) {
+  template <class T, class A>
+  void put_all(const std::vector<T, A>& v) {
     put<uint64_t>(v.size());
     append(v.data(), v.size() * sizeof(T));
   }
@@ -69,11 +69,11 @@ class Reader {
     take(&v, sizeof(T));
     return v;
   }
-  template <class T>
-  std::vector<T> get_all() {
+  template <class T, class A = std::allocator<T>>
+  std::vector<T, A> get_all() {
     const uint64_t n = get<uint64_t>();
     if (n > static_cast<uint64_t>(end_ - p_) / sizeof(T)) fail("a list runs past the end");
-    std::vector<T> v(n);
+    std::vector<T, A> v(n);
     take(v.data(), n * sizeof(T));
     return v;
   }
@@ -263,7 +263,7 @@ SceneFile read_scene_file(const char* bytes, size_t size, const std::string& wha
 
   SceneData& d = f.data;
   d.blas.nodes = r.get_all<rf_node>();
-  d.blas.tris = r.get_all<rf_tri>();
+  d.blas.tris = r.get_all<rf_tri, PageAlignedAllocator<rf_tri>>();
   d.blas.roots = r.get_all<uint32_t>();
   d.blas.bounds = r.get_all<Aabb>();
   d.blas.tree_exponents = r.get_all<int>();
@@ -276,7 +276,7 @@ SceneFile read_scene_file(const char* bytes, size_t size, const std::string& wha
   d.blas.max_depth = r.get<int>();
   d.braid_offsets = r.get_all<uint32_t>();
   d.braid_nodes = r.get_all<uint32_t>();
-  d.wide_nodes = r.get_all<rf_wide_node>();
+  d.wide_nodes = r.get_all<rf_wide_node, PageAlignedAllocator<rf_wide_node>>();
   d.braid_wide = r.get_all<uint32_t>();
   d.tree_from_world = r.get_all<Xform>();
   const std::vector<uint8_t> renderable = r.get_all<uint8_t>();

@@ -72,13 +72,13 @@ class Collapser {
     return w;
   }
 
-  std::vector<rf_wide_node> take() { return std::move(out_); }
+  PageAlignedVector<rf_wide_node> take() { return std::move(out_); }
 
  private:
   const std::vector<rf_node>& nodes_;
   std::vector<bool> is_entry_;
   std::unordered_map<uint32_t, uint32_t> entry_wide_;
-  std::vector<rf_wide_node> out_;
+  PageAlignedVector<rf_wide_node> out_;
 };
 
 }  // namespace

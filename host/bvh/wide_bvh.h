@@ -16,11 +16,12 @@
 #include <vector>
 
 #include "device_layout.h"
+#include "util/page_aligned.h"
 
 namespace rayfold::core {
 
 struct WideTrees {
-  std::vector<rf_wide_node> nodes;
+  PageAlignedVector<rf_wide_node> nodes;
   // Per entry node given to build_wide_trees: the wide node holding its
   // children, RF_INVALID for a leaf entry.
   std::vector<uint32_t> roots;

@@ -12,6 +12,7 @@
 #include "fold/culling.h"
 #include "fold/fold.h"
 #include "fold/ray_list.h"
+#include "util/page_aligned.h"
 #include "scene/camera.h"
 #include "scene/scene.h"
 
@@ -95,7 +96,7 @@ struct Frame {
   // the root is a leaf. query: made by build_query_frame (the query kernel
   // reads tlas_wide_root only from such a frame).
   bool query = false;
-  std::vector<rf_wide_node> tlas_wide;
+  PageAlignedVector<rf_wide_node> tlas_wide;
   uint32_t tlas_wide_root = RF_INVALID;
   std::vector<rf_instance> instances;  // in TLAS leaf order
   bool normals = true;                 // FrameOptions::normals

@@ -119,7 +119,20 @@ void ClTracer::upload_scene(const SceneData& data, size_t max_tlas_nodes, size_t
     cl::Context& ctx = device_.context();
     cl::CommandQueue& q = device_.queue();
     nodes_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, buffer_info_[0].bytes);
-    tris_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, buffer_info_[1].bytes);
+    // A CPU device reads the scene's triangles and wide nodes where the
+    // host holds them (read-only, page-aligned: util/page_aligned.h, and
+    // kept by the renderer for as long as these buffers); any other device
+    // gets its own copy.
+    const bool in_place = info.is_cpu;
+    auto scene_array = [&](const auto& v, size_t bytes) {
+      using T = typename std::decay_t<decltype(v)>::value_type;
+      if (in_place && !v.empty())
+        return cl::Buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_USE_HOST_PTR, v.size() * sizeof(T), const_cast<T*>(v.data()));
+      cl::Buffer b(ctx, CL_MEM_READ_ONLY, bytes);
+      if (!v.empty()) q.enqueueWriteBuffer(b, CL_FALSE, 0, v.size() * sizeof(T), v.data());
+      return b;
+    };
+    tris_ = scene_array(blas.tris, buffer_info_[1].bytes);
     instances_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, buffer_info_[2].bytes);
     normal_xforms_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, buffer_info_[3].bytes);
     depth_scales_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, RF_GROUP_LIMIT * sizeof(float));
@@ -127,18 +140,13 @@ void ClTracer::upload_scene(const SceneData& data, size_t max_tlas_nodes, size_t
     slots_[0].rays = cl::Buffer(ctx, CL_MEM_READ_ONLY, buffer_info_[4].bytes);
     slots_[0].rays_capacity = at_least_one(max_rays);
     hits_ = cl::Buffer(ctx, CL_MEM_WRITE_ONLY, buffer_info_[5].bytes);
-    wide_nodes_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, buffer_info_[6].bytes);
+    wide_nodes_ = scene_array(data.wide_nodes, buffer_info_[6].bytes);
     depth_xforms_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, buffer_info_[7].bytes);
     depth_xforms_capacity_ = buffer_info_[7].bytes;
     tlas_wide_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, buffer_info_[8].bytes);
     tlas_wide_capacity_ = buffer_info_[8].bytes;
     if (!blas.nodes.empty())
       q.enqueueWriteBuffer(nodes_, CL_FALSE, 0, blas.nodes.size() * sizeof(rf_node), blas.nodes.data());
-    if (!data.wide_nodes.empty())
-      q.enqueueWriteBuffer(wide_nodes_, CL_FALSE, 0, data.wide_nodes.size() * sizeof(rf_wide_node),
-                           data.wide_nodes.data());
-    if (!blas.tris.empty())
-      q.enqueueWriteBuffer(tris_, CL_FALSE, 0, blas.tris.size() * sizeof(rf_tri), blas.tris.data());
     if (!data.normal_xforms.empty())
       q.enqueueWriteBuffer(normal_xforms_, CL_FALSE, 0, data.normal_xforms.size() * sizeof(rf_normal_xform),
                            data.normal_xforms.data());

@@ -46,7 +46,9 @@ class ClTracer {
 
   // Allocates every buffer for this scene and image size, checking the
   // device's memory first (RuntimeFailure when it would not fit).
-  // pixel_count: the hits of every view of the largest pass.
+  // pixel_count: the hits of every view of the largest pass. A CPU device
+  // reads data's triangles and wide nodes in place: `data` must stay as it
+  // is until the next upload_scene or the tracer's end.
   void upload_scene(const SceneData& data, size_t max_tlas_nodes, size_t max_instances, size_t max_rays,
                     size_t pixel_count);
   // The frame's top level, normal matrices and per-view depth scales; returns

@@ -100,7 +100,7 @@ void walk_tree(const std::vector<rf_node>& nodes, uint32_t root, bool tlas, cons
   }
 }
 
-void trace_blas(const std::vector<rf_node>& nodes, const std::vector<rf_tri>& tris, uint32_t root, const Ray& r,
+void trace_blas(const std::vector<rf_node>& nodes, const PageAlignedVector<rf_tri>& tris, uint32_t root, const Ray& r,
                 uint32_t instance, Best& best, bool all_nodes) {
   walk_tree(nodes, root, false, r, best, all_nodes, [&](uint32_t i) {
     const rf_tri& tri = tris[i];

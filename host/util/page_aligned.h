@@ -1,0 +1,41 @@
+// Arrays that start on a page: the scene's large read-only arrays (the
+// triangles, the wide nodes), which a CPU OpenCL device then reads where
+// they are (CL_MEM_USE_HOST_PTR, opencl/cl_tracer.cpp) instead of from a
+// copy. The copy cost the dragon's first frame 61 ms of fresh pages and
+// memcpy, and held its 870k triangles twice. A page is more than any
+// device's base address alignment (PoCL asks 128 bytes), so a kernel's
+// vector loads see the alignment they would in a buffer of their own.
+#pragma once
+
+#include <cstddef>
+#include <new>
+#include <vector>
+
+namespace rayfold::core {
+
+template <class T>
+struct PageAlignedAllocator {
+  using value_type = T;
+  static constexpr std::align_val_t kPage{4096};
+
+  PageAlignedAllocator() = default;
+  template <class U>
+  PageAlignedAllocator(const PageAlignedAllocator<U>&) noexcept {}
+
+  T* allocate(size_t n) { return static_cast<T*>(::operator new(n * sizeof(T), kPage)); }
+  void deallocate(T* p, size_t) noexcept { ::operator delete(p, kPage); }
+
+  template <class U>
+  bool operator==(const PageAlignedAllocator<U>&) const noexcept {
+    return true;
+  }
+  template <class U>
+  bool operator!=(const PageAlignedAllocator<U>&) const noexcept {
+    return false;
+  }
+};
+
+template <class T>
+using PageAlignedVector = std::vector<T, PageAlignedAllocator<T>>;
+
+}  // namespace rayfold::core
