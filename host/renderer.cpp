@@ -55,7 +55,6 @@ std::future<Renderer::OpenedDevice> Renderer::open_device(const RendererOptions&
 Renderer::Renderer(const Scene& scene, const RendererOptions& options, std::shared_ptr<const SceneData> prebuilt,
                    std::future<OpenedDevice> device)
     : scene_(scene), options_(options), data_(std::move(prebuilt)) {
-  nodes_ = data_->blas.nodes;
   kernel_reason_ = "the CPU backend";
   if (options_.backend == Backend::opencl) {
     OpenedDevice opened = device.get();
@@ -423,6 +422,9 @@ std::vector<std::string> Renderer::intersect(const float* origins, const float* 
 }
 
 TraceInputs Renderer::host_inputs(const Frame& frame) {
+  // The bottom level's nodes are copied on the first host trace: an OpenCL
+  // renderer that never traces on the host never holds them twice.
+  if (nodes_.size() < data_->blas.nodes.size()) nodes_ = data_->blas.nodes;
   nodes_.resize(frame.node_base);
   nodes_.insert(nodes_.end(), frame.tlas_nodes.begin(), frame.tlas_nodes.end());
   TraceInputs in;

@@ -223,7 +223,7 @@ class Renderer {
   const Scene& scene_;
   RendererOptions options_;
   std::shared_ptr<const SceneData> data_;  // read-only once built
-  std::vector<rf_node> nodes_;  // BLAS nodes, then the current frame's TLAS
+  std::vector<rf_node> nodes_;  // BLAS nodes, then the current frame's TLAS (host traces only)
   std::unique_ptr<ClDevice> device_;
   std::unique_ptr<ClTracer> tracer_;
   KernelKind kernel_ = KernelKind::single;
