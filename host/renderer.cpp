@@ -25,7 +25,7 @@ double median(std::vector<double> values) {
 }
 
 Renderer::Renderer(const Scene& scene, const RendererOptions& options)
-    : Renderer(scene, options, open_device(options)) {}
+    : Renderer(scene, options, open_device(options, std::launch::async)) {}
 
 // The device opens while prepare_scene runs. Should the build throw, the
 // future's destructor waits for the device first, and the build's error is
@@ -36,15 +36,15 @@ Renderer::Renderer(const Scene& scene, const RendererOptions& options, std::futu
                std::move(device)) {}
 
 Renderer::Renderer(const Scene& scene, const RendererOptions& options, std::shared_ptr<const SceneData> prebuilt)
-    : Renderer(scene, options, std::move(prebuilt), open_device(options)) {}
+    : Renderer(scene, options, std::move(prebuilt), open_device(options, std::launch::deferred)) {}
 
-std::future<Renderer::OpenedDevice> Renderer::open_device(const RendererOptions& options) {
+std::future<Renderer::OpenedDevice> Renderer::open_device(const RendererOptions& options, std::launch when) {
   if (options.backend != Backend::opencl) {
     std::promise<OpenedDevice> none;
     none.set_value({});
     return none.get_future();
   }
-  return std::async(std::launch::async, [hint = options.device_hint, precision = options.precision] {
+  return std::async(when, [hint = options.device_hint, precision = options.precision] {
     OpenedDevice d;
     d.device = std::make_unique<ClDevice>(hint);
     d.tracer = std::make_unique<ClTracer>(*d.device, precision);

@@ -42,12 +42,24 @@ std::string fold_differences(Renderer& r, const Camera& cam) {
   return out;
 }
 
+// Trial `trial`'s image for the ray-list tests: the first `small` trials up
+// to small_side pixels a side, the rest up to max_w x max_h; every third
+// shifted in x and every fourth in y (off-centre windows fold only in part).
+struct RayListImage {
+  int w, h;
+  double sx, sy;  // the window's shift
+  Camera cam;
+};
+RayListImage ray_list_image(testing::Rng& rng, int trial, int small, int small_side, int max_w, int max_h) {
+  const int w = 1 + rng.below(trial < small ? small_side : max_w), h = 1 + rng.below(trial < small ? small_side : max_h);
+  const double sx = trial % 3 == 0 ? rng.uniform(-1.5, 1.5) : 0.0, sy = trial % 4 == 0 ? rng.uniform(-1.5, 1.5) : 0.0;
+  return {w, h, sx, sy, make_camera(CameraSpec{}, w, h, sx, sy)};
+}
+
 TEST(FoldRayList, AnswersEveryPixelExactlyOnce) {
   testing::Rng rng(8);
   for (int trial = 0; trial < 300; ++trial) {
-    const int w = 1 + rng.below(trial < 100 ? 6 : 70), h = 1 + rng.below(trial < 100 ? 6 : 50);
-    const double sx = trial % 3 == 0 ? rng.uniform(-1.5, 1.5) : 0.0, sy = trial % 4 == 0 ? rng.uniform(-1.5, 1.5) : 0.0;
-    const Camera cam = make_camera(CameraSpec{}, w, h, sx, sy);
+    const auto [w, h, sx, sy, cam] = ray_list_image(rng, trial, 100, 6, 70, 50);
     for (FoldMode f : {FoldMode::none, FoldMode::y, FoldMode::x, FoldMode::xy}) {
       const RayList list = make_ray_list(cam.params, f);
       std::vector<int> answered(static_cast<size_t>(w) * h, 0);
@@ -127,9 +139,7 @@ RayList ray_list_pixel_by_pixel(const rf_camera& cam, FoldMode f) {
 TEST(FoldRayList, IsTheDocumentedOrderTilesAndRegionsBuiltPixelByPixel) {
   testing::Rng rng(21);
   for (int trial = 0; trial < 200; ++trial) {
-    const int w = 1 + rng.below(trial < 50 ? 20 : 300), h = 1 + rng.below(trial < 50 ? 20 : 200);
-    const double sx = trial % 3 == 0 ? rng.uniform(-1.5, 1.5) : 0.0, sy = trial % 4 == 0 ? rng.uniform(-1.5, 1.5) : 0.0;
-    const Camera cam = make_camera(CameraSpec{}, w, h, sx, sy);
+    const auto [w, h, sx, sy, cam] = ray_list_image(rng, trial, 50, 20, 300, 200);
     for (FoldMode f : {FoldMode::none, FoldMode::y, FoldMode::x, FoldMode::xy}) {
       const RayList got = make_ray_list(cam.params, f), want = ray_list_pixel_by_pixel(cam.params, f);
       const std::string what = std::to_string(w) + "x" + std::to_string(h) + " shift " + std::to_string(sx) + "," +
