@@ -4,7 +4,12 @@
 #include <array>
 #include <cmath>
 #include <cstring>
+#include <condition_variable>
+#include <deque>
+#include <exception>
 #include <memory>
+#include <mutex>
+#include <thread>
 
 #include "util/errors.h"
 #include "util/parallel.h"
@@ -467,6 +472,183 @@ class Builder {
   const BuildOptions& opt_;
 };
 
+// The large nodes (more than subtree_size primitives) are split one by one,
+// and the subtrees below them built whole, by a pool of threads that takes
+// whatever is ready, largest first: a level-by-level split waited at every
+// level for its slowest node, and the subtrees for the last level (on the
+// conference room the levels scaled 1.5x on two threads, the subtrees
+// 1.85x). Which primitives each node holds depends on its set alone, so the
+// pool's order changes nothing but when; number() then gives the nodes the
+// numbers a level-by-level build on one thread gives them, which flatten_bvh
+// keeps, so the tree is the same on any thread count.
+class SplitSchedule {
+ public:
+  SplitSchedule(const Builder& builder, uint32_t subtree_size, const BuildNode& root, const Box4& root_centres)
+      : builder_(builder), subtree_size_(subtree_size) {
+    add(root, root_centres, 1);
+  }
+
+  // Splits every large node and builds every subtree on `threads` threads.
+  // While fewer large nodes are ready than there are threads, each is split
+  // with all of them binning it, before the pool starts.
+  void run(unsigned threads) {
+    while (!ready_large_.empty() && ready_large_.size() < threads) {
+      std::vector<uint32_t> now;
+      now.swap(ready_large_);
+      for (uint32_t id : now) split(pieces_[id], threads);
+    }
+    std::vector<std::thread> pool;
+    for (unsigned t = 1; t < threads; ++t) pool.emplace_back([this] { work(); });
+    work();
+    for (std::thread& t : pool) t.join();
+    if (failure_) std::rethrow_exception(failure_);
+  }
+
+  // Writes the nodes into `tree` in the numbering of a level-by-level build:
+  // each level's large nodes' children appended in level order, then every
+  // subtree's nodes after its root, largest subtree first.
+  void number(BuildTree& tree, unsigned threads) {
+    std::vector<uint32_t> node_of(pieces_.size(), 0), subtrees, level{0};
+    tree.nodes.push_back(pieces_[0].node);
+    while (!level.empty()) {
+      std::vector<uint32_t> next;
+      for (uint32_t id : level) {
+        tree.depth = std::max(tree.depth, pieces_[id].depth);
+        if (!pieces_[id].large) subtrees.push_back(id);
+      }
+      for (uint32_t id : level) {
+        const Piece& p = pieces_[id];
+        if (!p.large) continue;
+        BuildNode& node = tree.nodes[node_of[id]];
+        node = p.node;
+        if (!p.split) continue;
+        const uint32_t li = static_cast<uint32_t>(tree.nodes.size());
+        node.left = li;
+        node.right = li + 1;
+        for (int c = 0; c < 2; ++c) {
+          node_of[p.child[c]] = li + c;
+          tree.nodes.push_back(pieces_[p.child[c]].node);
+          next.push_back(p.child[c]);
+        }
+      }
+      level.swap(next);
+    }
+    std::stable_sort(subtrees.begin(), subtrees.end(),
+                     [&](uint32_t a, uint32_t b) { return pieces_[a].node.count > pieces_[b].node.count; });
+    // Each subtree's root takes its placeholder's place; the rest follow, so
+    // that children still come after their parents. The copies go side by
+    // side: each subtree's place is known from the sizes before it.
+    std::vector<size_t> offsets(subtrees.size() + 1, tree.nodes.size());
+    for (size_t s = 0; s < subtrees.size(); ++s) offsets[s + 1] = offsets[s] + pieces_[subtrees[s]].nodes.size() - 1;
+    tree.nodes.resize(offsets.back());
+    parallel_for(subtrees.size(), threads, 1, [&](size_t s, size_t) {
+      Piece& p = pieces_[subtrees[s]];
+      const uint32_t offset = static_cast<uint32_t>(offsets[s]) - 1;
+      for (size_t k = 0; k < p.nodes.size(); ++k) {
+        BuildNode n = p.nodes[k];
+        if (!n.is_leaf()) {
+          n.left += offset;
+          n.right += offset;
+        }
+        tree.nodes[k == 0 ? node_of[subtrees[s]] : offset + k] = n;
+      }
+      std::vector<BuildNode>().swap(p.nodes);
+    });
+    for (uint32_t id : subtrees) tree.depth = std::max(tree.depth, pieces_[id].subtree_depth);
+  }
+
+ private:
+  struct Piece {
+    BuildNode node;  // large: as split (its children's numbers are set by number()); subtree: its root
+    Box4 centres;
+    int depth;
+    bool large;
+    bool split = false;
+    uint32_t child[2] = {0, 0};     // pieces of a split large node's children
+    std::vector<BuildNode> nodes;   // a subtree's nodes, its root first, as build_subtree numbers them
+    int subtree_depth = 0;
+  };
+
+  // Adds a piece (under mutex_ once the pool runs) and makes it ready.
+  uint32_t add(const BuildNode& node, const Box4& centres, int depth) {
+    const uint32_t id = static_cast<uint32_t>(pieces_.size());
+    Piece& p = pieces_.emplace_back();
+    p.node = node;
+    p.centres = centres;
+    p.depth = depth;
+    p.large = node.count > subtree_size_;
+    (p.large ? ready_large_ : ready_subtrees_).push_back(id);
+    return id;
+  }
+
+  // Splits a large piece (outside mutex_), its children added under it.
+  void split(Piece& p, unsigned threads, std::unique_lock<std::mutex>* lock = nullptr) {
+    std::vector<BuildNode> out{p.node};
+    Box4 centres[2];
+    p.split = builder_.subdivide(out, Task{0, p.depth, p.centres}, threads, centres);
+    p.node = out[0];
+    if (!p.split) return;
+    if (lock) lock->lock();
+    for (int c = 0; c < 2; ++c) p.child[c] = add(out[1 + c], centres[c], p.depth + 1);
+  }
+
+  // The ready piece of most primitives, taken off `ready`.
+  uint32_t take_largest(std::vector<uint32_t>& ready) {
+    size_t best = 0;
+    for (size_t k = 1; k < ready.size(); ++k)
+      if (pieces_[ready[k]].node.count > pieces_[ready[best]].node.count) best = k;
+    const uint32_t id = ready[best];
+    ready.erase(ready.begin() + static_cast<std::ptrdiff_t>(best));
+    return id;
+  }
+
+  // One thread of the pool: splits ready large nodes first (their children
+  // are the work still to come), else builds the largest ready subtree,
+  // else waits for a split in progress; returns when nothing is left.
+  void work() {
+    std::unique_lock<std::mutex> lock(mutex_);
+    while (!failure_) {
+      if (!ready_large_.empty() || !ready_subtrees_.empty()) {
+        const bool large = !ready_large_.empty();
+        Piece& p = pieces_[take_largest(large ? ready_large_ : ready_subtrees_)];  // deque: p stays put
+        splitting_ += large;
+        lock.unlock();
+        try {
+          if (large) {
+            split(p, 1, &lock);  // returns locked when it split
+            if (!lock.owns_lock()) lock.lock();
+            --splitting_;
+            cv_.notify_all();
+          } else {
+            p.nodes.reserve(2 * size_t{p.node.count} - 1);  // a binary tree's node count at most
+            p.nodes.push_back(p.node);
+            p.subtree_depth = builder_.build_subtree(p.nodes, p.centres, p.depth);
+            lock.lock();
+          }
+        } catch (...) {
+          if (!lock.owns_lock()) lock.lock();
+          if (!failure_) failure_ = std::current_exception();
+          cv_.notify_all();
+        }
+      } else if (splitting_ == 0) {
+        cv_.notify_all();
+        return;
+      } else {
+        cv_.wait(lock);
+      }
+    }
+  }
+
+  const Builder& builder_;
+  const uint32_t subtree_size_;
+  std::deque<Piece> pieces_;  // a deque: adding one moves none, so a thread keeps its piece while others add
+  std::vector<uint32_t> ready_large_, ready_subtrees_;
+  unsigned splitting_ = 0;
+  std::exception_ptr failure_;
+  std::mutex mutex_;
+  std::condition_variable cv_;
+};
+
 // Summed depth first from the root, so that the rounding does not depend on
 // how the nodes are numbered (which differs with the thread count).
 double sah_cost(const BuildTree& tree, const BuildOptions& opt) {
@@ -534,80 +716,16 @@ BuildTree build_sah(const std::vector<Aabb>& prim_bounds, const BuildOptions& op
   BuildNode root;
   root.bounds = root_box.aabb();
   root.count = static_cast<uint32_t>(refs.size());
-  tree.nodes.push_back(root);
-
-  // The large nodes near the root level by level: all threads binning each
-  // while a level has fewer nodes than threads, then one thread per node.
-  // The subtrees below them are then built by the threads side by side.
-  // One thread takes the same steps, so the nodes are numbered the same on
-  // any thread count (flatten_bvh keeps that numbering).
   const uint32_t subtree_size = std::max<uint32_t>(kSubtreeMin, static_cast<uint32_t>(refs.size() / kSubtrees));
-  std::vector<Task> subtrees, level{{0, 1, root_centres}};
-  while (!level.empty()) {
-    std::vector<Task> large;
-    for (const Task& t : level) {
-      tree.depth = std::max(tree.depth, t.depth);
-      (tree.nodes[t.node].count <= subtree_size ? subtrees : large).push_back(t);
-    }
-    level.clear();
-    const bool all_on_each = large.size() < threads;
-    std::vector<std::vector<BuildNode>> out(large.size());
-    std::vector<std::array<Box4, 2>> centres(large.size());
-    std::vector<char> split(large.size());
-    parallel_for(large.size(), all_on_each ? 1 : threads, 1, [&](size_t k, size_t) {
-      out[k] = {tree.nodes[large[k].node]};
-      Task local = large[k];
-      local.node = 0;
-      split[k] = builder.subdivide(out[k], local, all_on_each ? threads : 1, centres[k].data());
-    });
-    for (size_t k = 0; k < large.size(); ++k) {
-      BuildNode& node = tree.nodes[large[k].node];
-      node = out[k][0];
-      if (!split[k]) continue;
-      const uint32_t li = static_cast<uint32_t>(tree.nodes.size());
-      node.left = li;
-      node.right = li + 1;
-      tree.nodes.push_back(out[k][1]);
-      tree.nodes.push_back(out[k][2]);
-      level.push_back({li, large[k].depth + 1, centres[k][0]});
-      level.push_back({li + 1, large[k].depth + 1, centres[k][1]});
-    }
-  }
-  // Largest first, so the last subtree handed out is a small one.
-  std::stable_sort(subtrees.begin(), subtrees.end(),
-                   [&](const Task& a, const Task& b) { return tree.nodes[a.node].count > tree.nodes[b.node].count; });
-  if (subtrees.size() == 1 && subtrees[0].node == 0) {
+  if (root.count <= subtree_size) {
     // A tree too small to share: built in place.
     tree.nodes.reserve(2 * refs.size() - 1);  // a binary tree's node count at most
-    tree.depth = builder.build_subtree(tree.nodes, subtrees[0].centres, subtrees[0].depth);
+    tree.nodes.push_back(root);
+    tree.depth = builder.build_subtree(tree.nodes, root_centres, 1);
   } else {
-    std::vector<std::vector<BuildNode>> local(subtrees.size());
-    std::vector<int> depths(subtrees.size());
-    parallel_for(subtrees.size(), threads, 1, [&](size_t s, size_t) {
-      const BuildNode& root = tree.nodes[subtrees[s].node];
-      local[s].reserve(2 * size_t{root.count} - 1);
-      local[s].push_back(root);
-      depths[s] = builder.build_subtree(local[s], subtrees[s].centres, subtrees[s].depth);
-    });
-    // Each subtree's root takes its placeholder's place; the rest follow, so
-    // that children still come after their parents. The copies go side by
-    // side: each subtree's place is known from the sizes before it.
-    std::vector<size_t> offsets(subtrees.size() + 1, tree.nodes.size());
-    for (size_t s = 0; s < subtrees.size(); ++s) offsets[s + 1] = offsets[s] + local[s].size() - 1;
-    tree.nodes.resize(offsets.back());
-    parallel_for(subtrees.size(), threads, 1, [&](size_t s, size_t) {
-      const uint32_t offset = static_cast<uint32_t>(offsets[s]) - 1;
-      for (size_t k = 0; k < local[s].size(); ++k) {
-        BuildNode n = local[s][k];
-        if (!n.is_leaf()) {
-          n.left += offset;
-          n.right += offset;
-        }
-        tree.nodes[k == 0 ? subtrees[s].node : offset + k] = n;
-      }
-      std::vector<BuildNode>().swap(local[s]);
-    });
-    for (int d : depths) tree.depth = std::max(tree.depth, d);
+    SplitSchedule schedule(builder, subtree_size, root, root_centres);
+    schedule.run(threads);
+    schedule.number(tree, threads);
   }
   tree.order.resize(refs.size());
   for (size_t i = 0; i < refs.size(); ++i) tree.order[i] = refs[i].index();
