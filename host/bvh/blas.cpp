@@ -208,25 +208,44 @@ BlasSet build_blas_set(const Scene& scene, const BuildOptions& options, unsigned
   std::vector<size_t> tri_base(tree_count + 1, 0);
   for (size_t s = 0; s < tree_count; ++s) tri_base[s + 1] = tri_base[s] + trees[s].order.size();
   set.tris.resize(tri_base[tree_count]);
+  // In leaf order the source triangles are read at random: each one's
+  // indices and then its vertices were cache misses in turn (the fill took
+  // 10 to 27 ms of the armadillo's and the dragon's builds). The indices of
+  // the triangle kAhead places on, and the vertices of the one half as far
+  // on, are asked for early.
+  constexpr size_t kAhead = 16;
+  struct Source {
+    const uint32_t* indices;  // its three
+    const glm::vec3* positions;  // its mesh's, in tree space
+    uint32_t prim, inst;
+  };
+  auto source_of = [&](size_t s, size_t i) {
+    const TreeSource& src = sources[s];
+    const size_t t = trees[s].order[i - tri_base[s]];
+    const size_t at = src.part_of(t);
+    const TreeSource::Part& part = src.parts[at];
+    const size_t local = t - src.first[at];
+    return Source{scene.meshes[part.mesh].indices.data() + 3 * local, positions[part.mesh].data(),
+                  static_cast<uint32_t>(local), part.inst};
+  };
   parallel_for(set.tris.size(), threads, size_t{1} << 14, [&](size_t begin, size_t end) {
     size_t s = static_cast<size_t>(std::upper_bound(tri_base.begin(), tri_base.end(), begin) - tri_base.begin()) - 1;
     for (size_t i = begin; i < end; ++i) {
       while (i >= tri_base[s + 1]) ++s;
-      const TreeSource& src = sources[s];
-      const size_t t = trees[s].order[i - tri_base[s]];
-      const size_t at = src.part_of(t);
-      const TreeSource::Part& part = src.parts[at];
-      const Mesh& mesh = scene.meshes[part.mesh];
-      const std::vector<glm::vec3>& p = positions[part.mesh];
-      const size_t local = t - src.first[at];
+      if (i + kAhead < tri_base[s + 1]) __builtin_prefetch(source_of(s, i + kAhead).indices);
+      if (i + kAhead / 2 < tri_base[s + 1]) {
+        const Source ahead = source_of(s, i + kAhead / 2);
+        for (int k = 0; k < 3; ++k) __builtin_prefetch(ahead.positions + ahead.indices[k]);
+      }
+      const Source src = source_of(s, i);
       rf_tri& tri = set.tris[i];
       for (int k = 0; k < 3; ++k) {
-        tri.v0[k] = p[mesh.indices[3 * local]][k];
-        tri.v1[k] = p[mesh.indices[3 * local + 1]][k];
-        tri.v2[k] = p[mesh.indices[3 * local + 2]][k];
+        tri.v0[k] = src.positions[src.indices[0]][k];
+        tri.v1[k] = src.positions[src.indices[1]][k];
+        tri.v2[k] = src.positions[src.indices[2]][k];
       }
-      tri.prim = static_cast<uint32_t>(local);
-      tri.inst = part.inst;
+      tri.prim = src.prim;
+      tri.inst = src.inst;
       rf_tri_set_normal(&tri);
     }
   });
