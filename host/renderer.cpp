@@ -424,7 +424,7 @@ std::vector<std::string> Renderer::intersect(const float* origins, const float* 
 TraceInputs Renderer::host_inputs(const Frame& frame) {
   // The bottom level's nodes are copied on the first host trace: an OpenCL
   // renderer that never traces on the host never holds them twice.
-  if (nodes_.size() < data_->blas.nodes.size()) nodes_ = data_->blas.nodes;
+  if (nodes_.size() < data_->blas.nodes.size()) nodes_.assign(data_->blas.nodes.begin(), data_->blas.nodes.end());
   nodes_.resize(frame.node_base);
   nodes_.insert(nodes_.end(), frame.tlas_nodes.begin(), frame.tlas_nodes.end());
   TraceInputs in;

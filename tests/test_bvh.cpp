@@ -521,7 +521,7 @@ TEST(Bvh, WideTreesKeepTheBinaryLeavesBelowEveryEntry) {
         x = nodes[x].first + static_cast<uint32_t>(rng.below(2));
       entries.push_back(x);
     }
-    const WideTrees wide = build_wide_trees(nodes, entries);
+    const WideTrees wide = build_wide_trees(nodes.data(), nodes.size(), entries);
     ASSERT_EQ(wide.roots.size(), entries.size());
     auto binary_leaves = [&](uint32_t x) {
       std::vector<uint32_t> out, todo = {x};

@@ -140,7 +140,7 @@ int main(int argc, char** argv) {
     options.fold = fold;
     const Frame frame = build_frame(scene, data, cam, rays, options);
     const rf_camera traced = frame_camera(cam, frame);
-    std::vector<rf_node> nodes = data.blas.nodes;
+    std::vector<rf_node> nodes(data.blas.nodes.begin(), data.blas.nodes.end());
     nodes.insert(nodes.end(), frame.tlas_nodes.begin(), frame.tlas_nodes.end());
     std::vector<rf_pixel_hit> out(static_cast<size_t>(w) * h);
     const std::vector<float> depth_scales = frame.depth_scales();

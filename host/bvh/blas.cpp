@@ -9,6 +9,7 @@
 
 #include "bvh/bvh_flatten.h"
 #include "rf_geometry.h"
+#include "util/large_pages.h"
 #include "util/parallel.h"
 #include "util/pow2.h"
 #include "util/timer.h"
@@ -181,7 +182,7 @@ BlasSet build_blas_set(const Scene& scene, const BuildOptions& options, unsigned
   by_size(tree_count, tree_size, [&](size_t s, unsigned tree_threads) {
     const TreeSource& src = sources[s];
     const size_t tri_count = src.triangles();
-    std::vector<Aabb> boxes(tri_count);
+    LargeArray<Aabb> boxes(tri_count);  // each written once below
     std::vector<size_t> tiny((tri_count + kChunk - 1) / kChunk, 0);
     parallel_for(tri_count, tree_threads, kChunk, [&](size_t begin, size_t end) {
       for (size_t p = src.part_of(begin), t = begin; t < end; ++t) {
@@ -189,8 +190,10 @@ BlasSet build_blas_set(const Scene& scene, const BuildOptions& options, unsigned
         const Mesh& mesh = scene.meshes[src.parts[p].mesh];
         const std::vector<glm::vec3>& pos = positions[src.parts[p].mesh];
         const size_t local = t - src.first[p];
-        for (int k = 0; k < 3; ++k) boxes[t].grow(pos[mesh.indices[3 * local + k]]);
-        const glm::vec3 extent = boxes[t].extent();
+        Aabb box;
+        for (int k = 0; k < 3; ++k) box.grow(pos[mesh.indices[3 * local + k]]);
+        boxes[t] = box;
+        const glm::vec3 extent = box.extent();
         const float size = std::max({extent.x, extent.y, extent.z});
         if (size > 0.0f && size < 0x1p-60f) tiny[begin / kChunk]++;
       }
@@ -198,7 +201,7 @@ BlasSet build_blas_set(const Scene& scene, const BuildOptions& options, unsigned
     for (size_t n : tiny) unresolvable[s] += n;
     BuildOptions tree_options = options;
     if (src.largest_part >= options.dense_triangles) tree_options.intersection_cost = options.dense_intersection_cost;
-    trees[s] = build_sah(boxes, tree_options, tree_threads);
+    trees[s] = build_sah(boxes.data(), boxes.size(), tree_options, tree_threads);
   });
   for (size_t n : unresolvable) set.unresolvable_triangles += n;
 

@@ -20,7 +20,7 @@ namespace rayfold::core {
 // trees of a scene scaled by 2^k hold the same floats; the scale moves into
 // the instance transforms.
 struct BlasSet {
-  std::vector<rf_node> nodes;       // all trees (tree space); the TLAS follows them
+  PageAlignedVector<rf_node> nodes;  // all trees (tree space); the TLAS follows them
   PageAlignedVector<rf_tri> tris;   // all trees' triangles in leaf order (tree space)
   // Per mesh; RF_INVALID for a mesh with no triangle, or whose every
   // instance is traced in a merged tree (below).

@@ -12,6 +12,7 @@
 #include <thread>
 
 #include "util/errors.h"
+#include "util/large_pages.h"
 #include "util/parallel.h"
 
 namespace rayfold::core {
@@ -162,7 +163,7 @@ class Builder {
   // `staging`: room for as many records as `refs`, the large nodes'
   // partition's (each node uses its own range, so nodes split side by side
   // share it); null when no node is large enough to need it.
-  Builder(std::vector<PrimRef>& refs, const BuildOptions& opt, PrimRef* staging)
+  Builder(LargeArray<PrimRef>& refs, const BuildOptions& opt, PrimRef* staging)
       : refs_(refs), opt_(opt), staging_(staging) {
     RF_CHECK(opt_.bins >= 2 && opt_.bins <= kMaxBins, "bin count out of range");
     RF_CHECK(opt_.sweep_size <= kSweepNode, "sweep size out of range");
@@ -170,7 +171,7 @@ class Builder {
 
   // Builds the subtree under nodes[0] (its range and box already set) into
   // `nodes`, given its centres' box and level; returns the deepest level.
-  int build_subtree(std::vector<BuildNode>& nodes, const Box4& root_centres, int root_depth) const {
+  int build_subtree(PageAlignedVector<BuildNode>& nodes, const Box4& root_centres, int root_depth) const {
     int depth = root_depth;
     std::vector<Task> stack{{0, root_depth, root_centres}};
     while (!stack.empty()) {
@@ -190,7 +191,7 @@ class Builder {
   // Splits the task's node in two (appending both children, their centre
   // boxes to `children`); false when it stays a leaf. `threads` > 1 bins it
   // in parallel.
-  bool subdivide(std::vector<BuildNode>& nodes, const Task& task, unsigned threads, Box4 children[2]) const {
+  bool subdivide(PageAlignedVector<BuildNode>& nodes, const Task& task, unsigned threads, Box4 children[2]) const {
     const uint32_t ni = task.node;
     const int depth = task.depth;
     const uint32_t first = nodes[ni].first, count = nodes[ni].count;
@@ -220,7 +221,7 @@ class Builder {
       const v4f e = cb.hi - cb.lo;
       const int axis = (e[0] >= e[1] && e[0] >= e[2]) ? 0 : (e[1] >= e[2] ? 1 : 2);
       mid = first + count / 2;
-      std::nth_element(refs_.begin() + first, refs_.begin() + mid, refs_.begin() + first + count,
+      std::nth_element(refs_.data() + first, refs_.data() + mid, refs_.data() + first + count,
                        [axis](const PrimRef& a, const PrimRef& b) {
                          const float ca = a.centre()[axis], cb = b.centre()[axis];
                          if (ca != cb) return ca < cb;
@@ -472,7 +473,7 @@ class Builder {
     return first + l;
   }
 
-  std::vector<PrimRef>& refs_;
+  LargeArray<PrimRef>& refs_;
   const BuildOptions& opt_;
   PrimRef* const staging_;
 };
@@ -557,7 +558,7 @@ class SplitSchedule {
         }
         tree.nodes[k == 0 ? node_of[subtrees[s]] : offset + k] = n;
       }
-      std::vector<BuildNode>().swap(p.nodes);
+      PageAlignedVector<BuildNode>().swap(p.nodes);
     });
     for (uint32_t id : subtrees) tree.depth = std::max(tree.depth, pieces_[id].subtree_depth);
   }
@@ -570,7 +571,7 @@ class SplitSchedule {
     bool large;
     bool split = false;
     uint32_t child[2] = {0, 0};     // pieces of a split large node's children
-    std::vector<BuildNode> nodes;   // a subtree's nodes, its root first, as build_subtree numbers them
+    PageAlignedVector<BuildNode> nodes;   // a subtree's nodes, its root first, as build_subtree numbers them
     int subtree_depth = 0;
   };
 
@@ -588,7 +589,7 @@ class SplitSchedule {
 
   // Splits a large piece (outside mutex_), its children added under it.
   void split(Piece& p, unsigned threads, std::unique_lock<std::mutex>* lock = nullptr) {
-    std::vector<BuildNode> out{p.node};
+    PageAlignedVector<BuildNode> out{p.node};
     Box4 centres[2];
     p.split = builder_.subdivide(out, Task{0, p.depth, p.centres}, threads, centres);
     p.node = out[0];
@@ -677,24 +678,24 @@ double sah_cost(const BuildTree& tree, const BuildOptions& opt) {
 
 }  // namespace
 
-BuildTree build_sah(const std::vector<Aabb>& prim_bounds, const BuildOptions& options, unsigned threads) {
+BuildTree build_sah(const Aabb* prim_bounds, size_t count, const BuildOptions& options, unsigned threads) {
   threads = resolve_threads(threads);
   BuildTree tree;
   // The records in chunks side by side: each chunk's non-empty boxes are
   // counted, then written from the chunk's offset on, so the order (and so
   // the tree) is the input's on any thread count.
   constexpr size_t kChunk = size_t{1} << 14;
-  const size_t chunks = (prim_bounds.size() + kChunk - 1) / kChunk;
+  const size_t chunks = (count + kChunk - 1) / kChunk;
   std::vector<size_t> offsets(chunks + 1, 0);
   parallel_for(chunks, threads, 1, [&](size_t c, size_t) {
-    const size_t end = std::min(prim_bounds.size(), (c + 1) * kChunk);
+    const size_t end = std::min(count, (c + 1) * kChunk);
     for (size_t i = c * kChunk; i < end; ++i) offsets[c + 1] += !prim_bounds[i].empty();
   });
   for (size_t c = 0; c < chunks; ++c) offsets[c + 1] += offsets[c];
-  std::vector<PrimRef> refs(offsets[chunks]);
+  LargeArray<PrimRef> refs(offsets[chunks]);
   std::vector<Box4> chunk_boxes(chunks), chunk_centres(chunks);
   parallel_for(chunks, threads, 1, [&](size_t c, size_t) {
-    const size_t end = std::min(prim_bounds.size(), (c + 1) * kChunk);
+    const size_t end = std::min(count, (c + 1) * kChunk);
     PrimRef* out = refs.data() + offsets[c];
     for (size_t i = c * kChunk; i < end; ++i) {
       const Aabb& b = prim_bounds[i];
@@ -721,8 +722,8 @@ BuildTree build_sah(const std::vector<Aabb>& prim_bounds, const BuildOptions& op
   // node was a fresh page for every record at every large level (a fifth
   // of the conference room's page faults). No zeroing: every slot a node
   // uses is written before it is read.
-  const std::unique_ptr<PrimRef[]> staging(refs.size() > kParallelBinning ? new PrimRef[refs.size()] : nullptr);
-  const Builder builder(refs, options, staging.get());
+  LargeArray<PrimRef> staging(refs.size() > kParallelBinning ? refs.size() : 0);
+  const Builder builder(refs, options, staging.data());
   BuildNode root;
   root.bounds = root_box.aabb();
   root.count = static_cast<uint32_t>(refs.size());
@@ -735,6 +736,7 @@ BuildTree build_sah(const std::vector<Aabb>& prim_bounds, const BuildOptions& op
   } else {
     SplitSchedule schedule(builder, subtree_size, root, root_centres);
     schedule.run(threads);
+    staging = LargeArray<PrimRef>();  // the subtrees' nodes are copied next: not at the peak beside them
     schedule.number(tree, threads);
   }
   tree.order.resize(refs.size());

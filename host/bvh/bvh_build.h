@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "scene/aabb.h"
+#include "util/page_aligned.h"
 
 namespace rayfold::core {
 
@@ -46,7 +47,7 @@ struct BuildOptions {
 };
 
 struct BuildTree {
-  std::vector<BuildNode> nodes;  // nodes[0] is the root; empty for no input
+  PageAlignedVector<BuildNode> nodes;  // nodes[0] is the root; empty for no input (large: util/large_pages.h)
   std::vector<uint32_t> order;   // primitive indices in leaf order
   int depth = 0;                 // levels, root = 1
   double sah_cost = 0.0;         // expected cost per ray through the root
@@ -55,6 +56,9 @@ struct BuildTree {
 // Primitives with empty boxes are dropped (they can never be hit). The tree
 // (every node's box and primitives, the leaf order) is the same for every
 // thread count (0: all cores).
-BuildTree build_sah(const std::vector<Aabb>& prim_bounds, const BuildOptions& options = {}, unsigned threads = 1);
+BuildTree build_sah(const Aabb* prim_bounds, size_t count, const BuildOptions& options = {}, unsigned threads = 1);
+inline BuildTree build_sah(const std::vector<Aabb>& prim_bounds, const BuildOptions& options = {}, unsigned threads = 1) {
+  return build_sah(prim_bounds.data(), prim_bounds.size(), options, threads);
+}
 
 }  // namespace rayfold::core

@@ -111,7 +111,7 @@ SceneData prepare_scene(const Scene& scene, unsigned threads, const BraidOptions
   // The wide trees are part of the bottom level: their time counts in its
   // build time.
   const auto wide_start = Clock::now();
-  WideTrees wide = build_wide_trees(data.blas.nodes, data.braid_nodes);
+  WideTrees wide = build_wide_trees(data.blas.nodes.data(), data.blas.nodes.size(), data.braid_nodes);
   data.wide_nodes = std::move(wide.nodes);
   data.braid_wide = std::move(wide.roots);
   data.blas.build_ms += ms_since(wide_start);

@@ -262,7 +262,7 @@ SceneFile read_scene_file(const char* bytes, size_t size, const std::string& wha
   for (std::string& n : f.warnings) n = r.get_string();
 
   SceneData& d = f.data;
-  d.blas.nodes = r.get_all<rf_node>();
+  d.blas.nodes = r.get_all<rf_node, PageAlignedAllocator<rf_node>>();
   d.blas.tris = r.get_all<rf_tri, PageAlignedAllocator<rf_tri>>();
   d.blas.roots = r.get_all<uint32_t>();
   d.blas.bounds = r.get_all<Aabb>();

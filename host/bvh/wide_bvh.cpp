@@ -18,8 +18,8 @@ float half_area(const rf_node& n) {
 
 class Collapser {
  public:
-  Collapser(const std::vector<rf_node>& nodes, const std::vector<uint32_t>& entries)
-      : nodes_(nodes), is_entry_(nodes.size(), false) {
+  Collapser(const rf_node* nodes, size_t node_count, const std::vector<uint32_t>& entries)
+      : nodes_(nodes), is_entry_(node_count, false) {
     for (uint32_t e : entries) {
       entry_wide_.emplace(e, RF_INVALID);
       is_entry_[e] = true;
@@ -29,7 +29,7 @@ class Collapser {
     // grown instead, the array was copied into fresh pages at every
     // doubling (a sixth of the conference room's build's page faults). The
     // room reserved and never used is never touched, so it takes no memory.
-    out_.reserve(nodes.size() / 2 + 1);
+    out_.reserve(node_count / 2 + 1);
   }
 
   // The wide node of interior binary node x's children.
@@ -81,7 +81,7 @@ class Collapser {
   PageAlignedVector<rf_wide_node> take() { return std::move(out_); }
 
  private:
-  const std::vector<rf_node>& nodes_;
+  const rf_node* nodes_;
   std::vector<bool> is_entry_;
   std::unordered_map<uint32_t, uint32_t> entry_wide_;
   PageAlignedVector<rf_wide_node> out_;
@@ -89,9 +89,9 @@ class Collapser {
 
 }  // namespace
 
-WideTrees build_wide_trees(const std::vector<rf_node>& nodes, const std::vector<uint32_t>& entries) {
-  for (uint32_t e : entries) RF_CHECK(e < nodes.size(), "wide tree entry outside the node array");
-  Collapser c(nodes, entries);
+WideTrees build_wide_trees(const rf_node* nodes, size_t node_count, const std::vector<uint32_t>& entries) {
+  for (uint32_t e : entries) RF_CHECK(e < node_count, "wide tree entry outside the node array");
+  Collapser c(nodes, node_count, entries);
   WideTrees trees;
   trees.roots.reserve(entries.size());
   for (uint32_t e : entries) {
@@ -111,7 +111,7 @@ WideTrees build_wide_tlas(const std::vector<rf_node>& tlas, uint32_t node_base, 
     n.meta = count;
     n.first = count != 0 || first < node_base ? first : first - node_base;  // below node_base: padding, never read
   }
-  return build_wide_trees(nodes, {root - node_base});
+  return build_wide_trees(nodes.data(), nodes.size(), {root - node_base});
 }
 
 }  // namespace rayfold::core

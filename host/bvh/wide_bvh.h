@@ -33,7 +33,7 @@ struct WideTrees {
 // largest interior one (by surface area) until it holds four; an entry is
 // never opened into its parent, so that it keeps a wide node of its own.
 // A subtree shared by several entries is collapsed once.
-WideTrees build_wide_trees(const std::vector<rf_node>& nodes, const std::vector<uint32_t>& entries);
+WideTrees build_wide_trees(const rf_node* nodes, size_t node_count, const std::vector<uint32_t>& entries);
 
 // A frame's top level as 4-wide nodes, for the single-ray query kernel
 // (kernels/rf_trace.h, rf_trace_query_tlas_wide): the top-level nodes

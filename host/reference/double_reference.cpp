@@ -123,7 +123,7 @@ std::vector<ReferenceHit> trace_double_reference(const Scene& scene, const Scene
   // the frame's trace space, as in the float tracers.
   const RayList rays = make_ray_list(camera.params, FoldMode::none);
   const Frame frame = build_frame(scene, data, camera, rays, FrameOptions{});
-  std::vector<rf_node> nodes = data.blas.nodes;
+  std::vector<rf_node> nodes(data.blas.nodes.begin(), data.blas.nodes.end());
   nodes.insert(nodes.end(), frame.tlas_nodes.begin(), frame.tlas_nodes.end());
   std::vector<Xform> tree_from_trace(scene.instances.size());
   for (size_t i = 0; i < scene.instances.size(); ++i)

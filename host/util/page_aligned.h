@@ -5,11 +5,14 @@
 // memcpy, and held its 870k triangles twice. A page is more than any
 // device's base address alignment (PoCL asks 128 bytes), so a kernel's
 // vector loads see the alignment they would in a buffer of their own.
+// Large arrays are mapped in 2 MiB pages (util/large_pages.h).
 #pragma once
 
 #include <cstddef>
 #include <new>
 #include <vector>
+
+#include "util/large_pages.h"
 
 namespace rayfold::core {
 
@@ -22,8 +25,16 @@ struct PageAlignedAllocator {
   template <class U>
   PageAlignedAllocator(const PageAlignedAllocator<U>&) noexcept {}
 
-  T* allocate(size_t n) { return static_cast<T*>(::operator new(n * sizeof(T), kPage)); }
-  void deallocate(T* p, size_t) noexcept { ::operator delete(p, kPage); }
+  T* allocate(size_t n) {
+    const size_t bytes = n * sizeof(T);
+    return static_cast<T*>(bytes >= kLargeArrayBytes ? allocate_large(bytes) : ::operator new(bytes, kPage));
+  }
+  void deallocate(T* p, size_t n) noexcept {
+    if (n * sizeof(T) >= kLargeArrayBytes)
+      free_large(p, n * sizeof(T));
+    else
+      ::operator delete(p, kPage);
+  }
 
   template <class U>
   bool operator==(const PageAlignedAllocator<U>&) const noexcept {

@@ -1,0 +1,74 @@
+// The build's large arrays (util/large_pages.h): where they start, that
+// every element holds what was written, and that on a Linux with
+// transparent huge pages they fault in 2 MiB at a time.
+#include <gtest/gtest.h>
+
+#include <cstdint>
+#include <fstream>
+#include <string>
+
+#include "util/large_pages.h"
+#include "util/page_aligned.h"
+
+#ifdef __linux__
+#include <sys/resource.h>
+#endif
+
+namespace rayfold::core {
+namespace {
+
+constexpr uintptr_t kHugePage = uintptr_t{2} << 20;
+
+TEST(LargePages, LargeArraysStartOnA2MiBPageAndKeepEveryElement) {
+  for (size_t n : {size_t{1}, size_t{1000}, kLargeArrayBytes / 8 - 1, kLargeArrayBytes / 8, 3 * kLargeArrayBytes / 8 + 5}) {
+    LargeArray<uint64_t> a(n);
+    ASSERT_EQ(a.size(), n);
+    const bool large = n * sizeof(uint64_t) >= kLargeArrayBytes;
+    EXPECT_EQ(reinterpret_cast<uintptr_t>(a.data()) % (large ? kHugePage : alignof(uint64_t)), 0u)
+        << n << " elements at " << a.data();
+    for (size_t i = 0; i < n; ++i) a[i] = i * 0x9E3779B97F4A7C15ull;
+    LargeArray<uint64_t> moved(std::move(a));
+    EXPECT_TRUE(a.empty());
+    for (size_t i = 0; i < n; ++i) ASSERT_EQ(moved[i], i * 0x9E3779B97F4A7C15ull) << "element " << i << " of " << n;
+  }
+}
+
+TEST(LargePages, PageAlignedVectorsGrowAcrossTheLargeSizeWithTheirContents) {
+  PageAlignedVector<uint32_t> v;
+  for (uint32_t i = 0; i < 3 * kLargeArrayBytes / sizeof(uint32_t); ++i) {
+    v.push_back(i * 2654435761u);
+    if ((i & (i + 1)) == 0) {
+      ASSERT_EQ(reinterpret_cast<uintptr_t>(v.data()) % 4096, 0u) << v.size() << " elements";
+    }
+  }
+  EXPECT_EQ(reinterpret_cast<uintptr_t>(v.data()) % kHugePage, 0u);
+  for (uint32_t i = 0; i < v.size(); ++i) ASSERT_EQ(v[i], i * 2654435761u) << "element " << i;
+}
+
+#ifdef __linux__
+long minor_faults() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return u.ru_minflt;
+}
+
+// What the arrays are for: 32 MiB written for the first time take a few
+// dozen faults, not one per 4 KiB page (8192), where the kernel gives
+// transparent huge pages to a mapping that asks.
+TEST(LargePages, FreshLargeArraysFaultInWholeHugePages) {
+  std::ifstream thp("/sys/kernel/mm/transparent_hugepage/enabled");
+  std::string mode;
+  std::getline(thp, mode);
+  if (mode.find("[always]") == std::string::npos && mode.find("[madvise]") == std::string::npos)
+    GTEST_SKIP() << "transparent huge pages are off here ('" << mode << "')";
+  constexpr size_t kBytes = size_t{32} << 20;
+  LargeArray<char> a(kBytes);
+  const long before = minor_faults();
+  for (size_t i = 0; i < kBytes; i += 4096) a[i] = 1;
+  const long faults = minor_faults() - before;
+  EXPECT_LT(faults, static_cast<long>(kBytes / 4096 / 4)) << "faults for " << kBytes / 4096 << " fresh 4 KiB pages";
+}
+#endif
+
+}  // namespace
+}  // namespace rayfold::core
