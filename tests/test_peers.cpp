@@ -68,6 +68,8 @@ TEST(Peers, EveryVariantIsMeasured) {
     EXPECT_LT(r.rows[k].accuracy.depth_max, r.rows[0].accuracy.depth_max) << r.rows[k].fold;
   }
   const std::string md = peers_markdown(r);
+  EXPECT_EQ(r.build_rounds, opt.build_rounds);
+  EXPECT_NE(md.find("Bottom-level build (median of " + std::to_string(opt.build_rounds) + ","), std::string::npos) << md;
   EXPECT_NE(md.find("| OpenCL tile | xy |"), std::string::npos);
   EXPECT_NE(md.find("| OpenCL single | xy |"), std::string::npos);
   if (EmbreePeer::available()) {

@@ -253,6 +253,15 @@ double EmbreePeer::build_ms(EmbreeScene which) const {
   return which == EmbreeScene::flat ? impl_->flat_build_ms : which == EmbreeScene::flat_high ? impl_->flat_high_build_ms : 0.0;
 }
 
+double EmbreePeer::rebuild_ms(EmbreeScene which) {
+  RF_CHECK(which != EmbreeScene::instanced, "only the flat scenes are rebuilt");
+  double ms = 0.0;
+  size_t peak = 0;
+  rtcReleaseScene(impl_->make_flat(which == EmbreeScene::flat ? RTC_BUILD_QUALITY_MEDIUM : RTC_BUILD_QUALITY_HIGH, &ms,
+                                   &peak));
+  return ms;
+}
+
 double EmbreePeer::trace1(std::vector<rf_pixel_hit>& hits, EmbreeScene which) {
   Impl& m = *impl_;
   const bool flat = which != EmbreeScene::instanced;
@@ -388,6 +397,7 @@ EmbreePeer::EmbreePeer(const Scene&, const SceneData&, unsigned) {
 EmbreePeer::~EmbreePeer() = default;
 void EmbreePeer::set_camera(const Camera&) {}
 double EmbreePeer::build_ms(EmbreeScene) const { return 0.0; }
+double EmbreePeer::rebuild_ms(EmbreeScene) { return 0.0; }
 size_t EmbreePeer::build_peak_bytes(EmbreeScene) const { return 0; }
 double EmbreePeer::trace1(std::vector<rf_pixel_hit>&, EmbreeScene) { return 0.0; }
 double EmbreePeer::trace16(std::vector<rf_pixel_hit>&, EmbreeScene) { return 0.0; }

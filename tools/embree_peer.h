@@ -35,6 +35,10 @@ class EmbreePeer {
   void set_camera(const Camera& camera);
   // The flat scenes' build (rtcCommitScene) in ms; 0 for the instanced one.
   double build_ms(EmbreeScene scene) const;
+  // A flat scene built again from nothing at that scene's quality, then
+  // released: its rtcCommitScene in ms (the builds' medians, alternated
+  // with rayfold's, in rayfold-peers --build-rounds).
+  double rebuild_ms(EmbreeScene scene);
   // The same builds' peak resident memory (tools/peak_memory.h), bytes.
   size_t build_peak_bytes(EmbreeScene scene) const;
   // Every pixel's G-buffer as rayfold's (distance, world-space unit

@@ -113,6 +113,7 @@ PeerReport run_peers(const PeerOptions& opt) {
   rep.views_note = opt.views_note;
   rep.cameras = path;
   const double triangles = std::max<double>(1.0, static_cast<double>(rep.triangles));
+  std::vector<double> rayfold_builds;
   {
     // The renderer's trees again, alone, for their time and peak memory
     // without the renderer's other set-up. Deterministic, so they are the
@@ -121,19 +122,36 @@ PeerReport run_peers(const PeerOptions& opt) {
     MergeOptions merge;
     merge.enabled = opt.merge;
     const SceneData again = prepare_scene(scene, opt.threads, BraidOptions{}, merge);
-    rep.rayfold_build_ms = again.blas.build_ms;
+    rayfold_builds.push_back(again.blas.build_ms);
     rep.rayfold_build_bytes = static_cast<double>(memory.peak_bytes()) / triangles;
   }
 
   std::unique_ptr<EmbreePeer> embree;
+  std::vector<double> embree_builds, embree_high_builds;
   if (EmbreePeer::available()) {
     embree = std::make_unique<EmbreePeer>(scene, data, opt.threads);
-    rep.embree_build_ms = embree->build_ms(EmbreeScene::flat);
-    rep.embree_high_build_ms = embree->build_ms(EmbreeScene::flat_high);
+    embree_builds.push_back(embree->build_ms(EmbreeScene::flat));
+    embree_high_builds.push_back(embree->build_ms(EmbreeScene::flat_high));
     rep.embree_build_bytes = static_cast<double>(embree->build_peak_bytes(EmbreeScene::flat)) / triangles;
     rep.embree_high_build_bytes = static_cast<double>(embree->build_peak_bytes(EmbreeScene::flat_high)) / triangles;
   } else
     rep.embree_note = "rayfold was built without Embree: its rows are skipped (install libembree-dev and reconfigure).";
+  // More builds, rayfold's and Embree's alternated so that the machine's
+  // drift hits them alike; the first of each above is the first round.
+  for (int round = 1; round < opt.build_rounds; ++round) {
+    MergeOptions merge;
+    merge.enabled = opt.merge;
+    rayfold_builds.push_back(prepare_scene(scene, opt.threads, BraidOptions{}, merge).blas.build_ms);
+    if (!embree) continue;
+    embree_builds.push_back(embree->rebuild_ms(EmbreeScene::flat));
+    embree_high_builds.push_back(embree->rebuild_ms(EmbreeScene::flat_high));
+  }
+  rep.build_rounds = static_cast<int>(rayfold_builds.size());
+  rep.rayfold_build_ms = median(rayfold_builds);
+  if (embree) {
+    rep.embree_build_ms = median(embree_builds);
+    rep.embree_high_build_ms = median(embree_high_builds);
+  }
 
   // Time to the first G-buffer of view 0: rayfold's load, renderer (trees,
   // device, programs) and first frame (its kernels' first launch included)
@@ -260,12 +278,13 @@ std::string peers_markdown(const PeerReport& r) {
   if (!r.views_note.empty()) s << "Views: " << r.views_note << ".\n";
   if (!r.embree_note.empty()) s << r.embree_note << "\n";
   auto bytes = [](double b) { return b > 0.0 ? ", peak " + fmt("%.0f", b) + " B/scene triangle" : std::string(); };
-  s << "Bottom-level build: rayfold " << fmt("%.0f", r.rayfold_build_ms) << " ms" << bytes(r.rayfold_build_bytes);
+  s << "Bottom-level build (median of " << r.build_rounds << ", rayfold's and Embree's alternated): rayfold "
+    << fmt("%.0f", r.rayfold_build_ms) << " ms" << bytes(r.rayfold_build_bytes);
   if (r.embree_build_ms > 0.0)
     s << "; Embree flat " << fmt("%.0f", r.embree_build_ms) << " ms" << bytes(r.embree_build_bytes)
       << " (default quality), " << fmt("%.0f", r.embree_high_build_ms) << " ms" << bytes(r.embree_high_build_bytes)
       << " (high)";
-  s << ". Peak: the resident set's high-water mark during the build, less where it started.\n";
+  s << ". Peak: the resident set's high-water mark during the first build, less where it started.\n";
   const FirstGbuffer& a = r.rayfold_first_gbuffer;
   if (a.total() > 0.0) {
     s << "First G-buffer (view 0): rayfold " << fmt("%.0f", a.total()) << " ms (load " << fmt("%.0f", a.load_ms)
@@ -331,6 +350,7 @@ std::string peers_json(const PeerReport& r) {
                             {"up", {c.up.x, c.up.y, c.up.z}},
                             {"vfov", c.vfov_degrees}});
   j["rayfold_build_ms"] = r.rayfold_build_ms;
+  j["build_rounds"] = r.build_rounds;
   j["embree_build_ms"] = r.embree_build_ms;
   auto first = [](const FirstGbuffer& f) {
     return nlohmann::json{{"load_ms", f.load_ms},

@@ -25,6 +25,9 @@ struct PeerOptions : ViewPath {
   // exact row whether timed or not).
   std::set<std::string> variants{"tile", "single", "fast", "exact-depth", "cpu"};
   bool merge = true;  // static instances of one transform share a tree (MergeOptions)
+  // Bottom-level builds timed: rayfold's and Embree's flat default and high
+  // quality builds alternated this many times, medians reported.
+  int build_rounds = 5;
 };
 
 struct PeerRow {
@@ -56,7 +59,8 @@ struct PeerReport {
   size_t triangles = 0, instances = 0;
   // Bottom-level builds: rayfold's (every mesh's tree) against Embree's flat
   // scene at its default and its high quality (rtcCommitScene), in ms.
-  double rayfold_build_ms = 0.0, embree_build_ms = 0.0, embree_high_build_ms = 0.0;
+  double rayfold_build_ms = 0.0, embree_build_ms = 0.0, embree_high_build_ms = 0.0;  // medians of build_rounds
+  int build_rounds = 0;
   // The same builds' peak resident memory per scene triangle (instances
   // counted each time, as Embree's flat scene holds them; tools/peak_memory.h;
   // 0 where it cannot be measured), bytes.

@@ -32,18 +32,21 @@ int main(int argc, char** argv) {
             "                     [--eye X,Y,Z --look-at X,Y,Z | --random-views K [--seed S]\n"
             "                     [--view-kind auto|interior|object]]\n"
             "                     [--variants tile,single,fast,exact-depth,cpu]\n"
-            "                     [--device NAME] [--rays N] [--no-merge] [--json F] [--md F]\n"
+            "                     [--device NAME] [--rays N] [--build-rounds N] [--no-merge] [--json F] [--md F]\n"
             "Speed against accuracy: rayfold's OpenCL tile and single-ray kernels, the fast build, the\n"
             "tile kernel with the exact depth and the CPU reference in every fold mode, and Embree's rtcIntersect1 and rtcIntersect16 over an\n"
             "instanced and a flat scene (when installed), on the same views, each measured against a\n"
             "double-precision reference. Exact variants are checked bit for bit against the CPU reference\n"
             "first (exit code 3 when one differs). --rays N adds ray queries (Renderer::intersect) against\n"
             "Embree's rtcIntersect1 and rtcIntersect16 on the same rays: N incoherent rays and every view's\n"
-            "pixel rays as an array, checked bit for bit against the CPU reference too.");
+            "pixel rays as an array, checked bit for bit against the CPU reference too. --build-rounds N\n"
+            "(default 5): bottom-level builds, rayfold's and Embree's alternated, medians reported.");
         return 0;
       } else if (parse_view_path_option(a, args, opt, &have_scene)) {
       } else if (a == "--threads") {
         opt.threads = static_cast<unsigned>(cli::parse_int(a, args.value(a), 1, 1024));
+      } else if (a == "--build-rounds") {
+        opt.build_rounds = cli::parse_int(a, args.value(a), 1, 1000);
       } else if (a == "--no-merge") {
         opt.merge = false;
       } else if (a == "--variants") {
