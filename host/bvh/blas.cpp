@@ -164,11 +164,11 @@ BlasSet build_blas_set(const Scene& scene, const BuildOptions& options, unsigned
   std::vector<char> mesh_read(mesh_count, 0);
   for (const TreeSource& src : sources)
     for (const TreeSource::Part& part : src.parts) mesh_read[part.mesh] = 1;
-  std::vector<std::vector<glm::vec3>> positions(mesh_count);
+  std::vector<LargeArray<glm::vec3>> positions(mesh_count);
   by_size(mesh_count, mesh_size, [&](size_t m, unsigned mesh_threads) {
     if (!mesh_read[m]) return;
     const Mesh& mesh = scene.meshes[m];
-    positions[m].resize(mesh.positions.size());
+    positions[m] = LargeArray<glm::vec3>(mesh.positions.size());  // each written below
     const Pow2Scale tree_from_object(-set.tree_exponents[m]);
     parallel_for(mesh.positions.size(), mesh_threads, kChunk, [&](size_t begin, size_t end) {
       for (size_t i = begin; i < end; ++i)
@@ -188,7 +188,7 @@ BlasSet build_blas_set(const Scene& scene, const BuildOptions& options, unsigned
       for (size_t p = src.part_of(begin), t = begin; t < end; ++t) {
         while (t >= src.first[p + 1]) ++p;
         const Mesh& mesh = scene.meshes[src.parts[p].mesh];
-        const std::vector<glm::vec3>& pos = positions[src.parts[p].mesh];
+        const LargeArray<glm::vec3>& pos = positions[src.parts[p].mesh];
         const size_t local = t - src.first[p];
         Aabb box;
         for (int k = 0; k < 3; ++k) box.grow(pos[mesh.indices[3 * local + k]]);
