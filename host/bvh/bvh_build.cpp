@@ -149,7 +149,7 @@ constexpr uint32_t kParallelBinning = 1u << 15;
 
 // Nodes of at most max(kSubtreeMin, primitives / kSubtrees) are whole
 // subtrees built by one thread each, largest first; the nodes above them
-// are split level by level, each level's nodes side by side. Subtrees of
+// are split one thread a node (SplitSchedule). Subtrees of
 // up to 2^15 primitives left a thread idle for a third of an unbalanced
 // tree's build (a building's few large triangles and many small ones).
 constexpr uint32_t kSubtreeMin = 1u << 12;
@@ -633,6 +633,7 @@ class SplitSchedule {
           }
         } catch (...) {
           if (!lock.owns_lock()) lock.lock();
+          if (large && splitting_ > 0) --splitting_;
           if (!failure_) failure_ = std::current_exception();
           cv_.notify_all();
         }
@@ -656,7 +657,7 @@ class SplitSchedule {
 };
 
 // Summed depth first from the root, so that the rounding does not depend on
-// how the nodes are numbered (which differs with the thread count).
+// how the nodes are numbered.
 double sah_cost(const BuildTree& tree, const BuildOptions& opt) {
   const double root_area = std::max<double>(tree.nodes[0].bounds.half_area(), 1e-300);
   double cost = 0.0;

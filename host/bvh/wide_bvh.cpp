@@ -28,7 +28,8 @@ class Collapser {
     // own, and a binary tree has fewer interior nodes than half its nodes:
     // grown instead, the array was copied into fresh pages at every
     // doubling (a sixth of the conference room's build's page faults). The
-    // room reserved and never used is never touched, so it takes no memory.
+    // room reserved and never used (about two thirds) is never touched: it
+    // is address space, not resident memory.
     out_.reserve(node_count / 2 + 1);
   }
 

@@ -16,7 +16,20 @@ size_t mapped_size(size_t bytes) { return (bytes + kHugePage - 1) & ~(kHugePage 
 
 }  // namespace
 
-#ifdef __linux__
+// Under AddressSanitizer the heap's aligned allocations, whose overruns it
+// reports; mapped memory has no redzones.
+#if defined(__SANITIZE_ADDRESS__)
+#define RF_LARGE_PAGES_MAPPED 0
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define RF_LARGE_PAGES_MAPPED 0
+#endif
+#endif
+#if !defined(RF_LARGE_PAGES_MAPPED) && defined(__linux__)
+#define RF_LARGE_PAGES_MAPPED 1
+#endif
+
+#if RF_LARGE_PAGES_MAPPED
 
 void* allocate_large(size_t bytes) {
   const size_t size = mapped_size(bytes);
@@ -30,20 +43,23 @@ void* allocate_large(size_t bytes) {
   const uintptr_t end = start + size + kHugePage, used_end = aligned + size;
   if (end > used_end) munmap(reinterpret_cast<void*>(used_end), end - used_end);
   void* p = reinterpret_cast<void*>(aligned);
+#ifdef MADV_HUGEPAGE
   madvise(p, size, MADV_HUGEPAGE);  // a hint: refused, the pages are 4 KiB ones
+#endif
   return p;
 }
 
 void free_large(void* p, size_t bytes) noexcept { munmap(p, mapped_size(bytes)); }
 
+bool large_arrays_are_mapped() { return true; }
+
 #else
 
-void* allocate_large(size_t bytes) {
-  void* p = ::operator new(mapped_size(bytes), std::align_val_t{kHugePage});
-  return p;
-}
+void* allocate_large(size_t bytes) { return ::operator new(bytes, std::align_val_t{kHugePage}); }
 
 void free_large(void* p, size_t) noexcept { ::operator delete(p, std::align_val_t{kHugePage}); }
+
+bool large_arrays_are_mapped() { return false; }
 
 #endif
 

@@ -19,7 +19,8 @@
 
 namespace rayfold::core {
 
-// Arrays of at least this many bytes are mapped on their own.
+// Arrays of at least this many bytes are mapped on their own, except under
+// AddressSanitizer, which guards only the heap's arrays with redzones.
 constexpr size_t kLargeArrayBytes = size_t{4} << 20;
 
 // `bytes` (at least kLargeArrayBytes) of memory aligned to 2 MiB, asked
@@ -28,9 +29,15 @@ void* allocate_large(size_t bytes);
 // Returns what allocate_large gave for the same `bytes`.
 void free_large(void* p, size_t bytes) noexcept;
 
-// A fixed number of T whose elements start uninitialised (T trivial), each
-// written before it is read: for arrays filled in one pass, which a
-// std::vector would zero first. At least kLargeArrayBytes come from
+// Whether allocate_large maps its memory and asks for 2 MiB pages (Linux,
+// not under AddressSanitizer), rather than taking it from the heap.
+bool large_arrays_are_mapped();
+
+// A fixed number of T whose elements start uninitialised, each written
+// before it is read: for arrays filled in one pass, which a std::vector
+// would zero first. No constructor runs (T trivially copyable and
+// destructible; a default member initialiser, as Aabb's, is skipped: the
+// element is assigned whole). At least kLargeArrayBytes come from
 // allocate_large.
 template <class T>
 class LargeArray {
