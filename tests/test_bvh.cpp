@@ -123,6 +123,61 @@ TEST(Bvh, BuildIsTheSameOnAnyThreadCount) {
   }
 }
 
+// Primitives 2i and 2i + 1 whose boxes overlap enough are built as one
+// record (BuildOptions::pair_primitives): the halves of each quad of a
+// grid share a leaf, side by side in the leaf order, while a neighbour in
+// index order that lies far away does not pair. The SAH counts a pair as
+// two primitives: with leaves of at most 2, no leaf holds two pairs.
+TEST(Bvh, QuadHalvesPairAndFarNeighboursDoNot) {
+  Rng rng(81);
+  std::vector<Aabb> boxes;
+  std::vector<char> far;  // per pair: its second half moved away
+  for (int y = 0; y < 150; ++y)
+    for (int x = 0; x < 150; ++x) {
+      Aabb quad;  // flat in z, as both triangles of an axis-aligned quad
+      quad.grow(glm::vec3(x, y, 0.0f));
+      quad.grow(glm::vec3(x + 1, y + 1, 0.0f));
+      const bool moved = rng.below(5) == 0;
+      Aabb other = quad;
+      if (moved) {
+        other = Aabb();
+        other.grow(glm::vec3(x + 70, y, 5.0f));
+        other.grow(glm::vec3(x + 71, y + 1, 5.0f));
+      }
+      boxes.push_back(quad);
+      boxes.push_back(other);
+      far.push_back(moved);
+    }
+  BuildOptions opt;
+  opt.max_leaf_size = 2;
+  opt.intersection_cost = 0.01f;  // the SAH would rather make leaves as full as allowed
+  for (unsigned threads : {1u, 2u}) {
+    const BuildTree tree = build_sah(boxes, opt, threads);
+    check_tree(tree, boxes);
+    std::vector<uint32_t> leaf_of(boxes.size()), at(boxes.size());
+    for (uint32_t k = 0; k < tree.nodes.size(); ++k) {
+      const BuildNode& n = tree.nodes[k];
+      if (!n.is_leaf()) continue;
+      EXPECT_LE(n.count, opt.max_leaf_size) << "leaf " << k;
+      for (uint32_t i = n.first; i < n.first + n.count; ++i) {
+        leaf_of[tree.order[i]] = k;
+        at[tree.order[i]] = i;
+      }
+    }
+    for (size_t p = 0; p < far.size(); ++p) {
+      const uint32_t a = static_cast<uint32_t>(2 * p), b = a + 1;
+      if (far[p]) {
+        EXPECT_NE(leaf_of[a], leaf_of[b]) << "far pair " << p;
+      } else {
+        EXPECT_EQ(leaf_of[a], leaf_of[b]) << "quad " << p;
+        EXPECT_EQ(at[b], at[a] + 1) << "quad " << p;
+      }
+    }
+  }
+  opt.pair_primitives = false;  // the same boxes one record each
+  check_tree(build_sah(boxes, opt, 2), boxes);
+}
+
 // The flat layout at an odd and an even start: every pair on an even node
 // index after its parent, every leaf's items once, each node's box the
 // build node's. The same tree flattened in parallel is the same bytes.
@@ -174,7 +229,8 @@ TEST(Bvh, FlatTreeKeepsPairsAlignedAfterTheirParents) {
 TEST(Bvh, EverySplitIsTheCheapestBinOrSweepBoundary) {
   Rng rng(78);
   const std::vector<Aabb> boxes = clustered_boxes(rng, 40000);
-  const BuildOptions opt;
+  BuildOptions opt;
+  opt.pair_primitives = false;  // one record a primitive, as the brute force splits (pairs: QuadHalvesPair...)
   const BuildTree tree = build_sah(boxes, opt, 2);
   check_tree(tree, boxes);
   size_t sah_splits = 0, sweeps = 0, medians = 0;
