@@ -46,7 +46,7 @@ struct BuildOptions {
   // and share a leaf; the SAH counts them as two. Where most pair the
   // build moves far fewer records: Lost Empire's build took 0.71x the time,
   // the conference room's 0.78x, with the tile kernel's counters on random
-  // views within 3% (docs/results.md).
+  // views within 4% (docs/results.md).
   bool pair_primitives = true;
   // Past this depth splits become object medians, so that trees of up to
   // 2^24 primitives stay within the device's 64-entry traversal stack.
