@@ -3,6 +3,8 @@
 // as matrices and intrinsics against the same view given by look-at, moved
 // instances against a scene built with them in place, and its errors.
 #include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <cstring>
@@ -658,6 +660,47 @@ TEST(Api, DeviceTypesPickTheFirstDeviceOfThatType) {
     EXPECT_NE(message_of<RuntimeFailure>([&] { Renderer r(scene, o); }).find("no OpenCL device is a gpu; the devices"),
               std::string::npos);
   }
+}
+
+// The command line loads the OpenCL drivers while it reads the scene
+// (core::start_loading_opencl). What is found after that load is what a
+// process that did not load ahead finds; a second call changes nothing. The
+// load counts as the process's first use of OpenCL: a child forked after it
+// is refused OpenCL, as after any other first use (check_not_forked).
+TEST(Api, LoadingOpenClAheadFindsTheSameDevicesAndCountsAsAFirstUse) {
+  int fds[2];
+  ASSERT_EQ(::pipe(fds), 0);
+  const pid_t lister = ::fork();  // before this process uses OpenCL
+  ASSERT_GE(lister, 0);
+  if (lister == 0) {
+    const std::string found = core::describe_devices(core::list_devices());
+    const bool whole = ::write(fds[1], found.data(), found.size()) == static_cast<ssize_t>(found.size());
+    ::_exit(whole ? 0 : 1);
+  }
+  ::close(fds[1]);
+  std::string without;
+  char buf[256];
+  for (ssize_t n; (n = ::read(fds[0], buf, sizeof buf)) > 0;) without.append(buf, static_cast<size_t>(n));
+  ::close(fds[0]);
+  int status = 0;
+  ASSERT_EQ(::waitpid(lister, &status, 0), lister);
+  ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0);
+  core::start_loading_opencl();
+  core::start_loading_opencl();
+  const pid_t child = ::fork();  // after the load, before any device is opened
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    try {
+      core::check_not_forked();
+    } catch (const RuntimeFailure&) {
+      ::_exit(0);
+    }
+    ::_exit(1);
+  }
+  ASSERT_EQ(::waitpid(child, &status, 0), child);
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << "the child was not refused OpenCL";
+  EXPECT_EQ(core::describe_devices(core::list_devices()), without);
+  EXPECT_FALSE(without.empty());
 }
 
 // A scene saved with its trees and loaded back renders the original's bits

@@ -10,6 +10,7 @@
 
 #include "bench.h"
 #include "embree_peer.h"
+#include "opencl/cl_device.h"
 #include "opencl/kernel_cache.h"
 #include "peak_memory.h"
 #include "reference/double_reference.h"
@@ -52,6 +53,8 @@ PeerRow make_row(const std::string& variant, const std::string& fold) {
 }  // namespace
 
 PeerReport run_peers(const PeerOptions& opt) {
+  // The drivers load while the scene is read, as `rayfold render` does.
+  if (opt.variants.size() > opt.variants.count("cpu")) start_loading_opencl();
   const auto load_start = Clock::now();
   const Scene scene = load_gltf(opt.scene);
   const double load_ms = ms_since(load_start);

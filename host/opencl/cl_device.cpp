@@ -6,6 +6,8 @@
 #include <atomic>
 #include <cctype>
 #include <cstdlib>
+#include <future>
+#include <mutex>
 #include <vector>
 
 #include "opencl/kernel_cache.h"
@@ -51,11 +53,21 @@ struct Candidate {
 // The process that first used OpenCL; 0 before any use.
 std::atomic<pid_t> g_opencl_pid{0};
 
+// start_loading_opencl's load, valid once started.
+std::mutex g_loading_mutex;
+std::shared_future<void> g_loading;
+
 // Every device of every platform; throws RuntimeFailure when there is none.
 std::vector<Candidate> all_devices() {
   check_not_forked();
   pid_t none = 0;
   g_opencl_pid.compare_exchange_strong(none, ::getpid());
+  std::shared_future<void> loading;
+  {
+    std::lock_guard<std::mutex> lock(g_loading_mutex);
+    loading = g_loading;
+  }
+  if (loading.valid()) loading.wait();  // one thread in the ICD loader's start-up at a time
   std::vector<cl::Platform> platforms;
   try {
     cl::Platform::get(&platforms);
@@ -104,6 +116,28 @@ void check_not_forked() {
       "would wait forever. Start workers with the 'spawn' or 'forkserver' method (Python: "
       "multiprocessing.get_context('spawn'); PyTorch: DataLoader(..., multiprocessing_context='spawn')), or "
       "use OpenCL only in the workers, or render with backend='cpu' in forked workers");
+}
+
+void start_loading_opencl() {
+  check_not_forked();
+  std::lock_guard<std::mutex> lock(g_loading_mutex);
+  if (g_loading.valid()) return;
+  pid_t none = 0;
+  g_opencl_pid.compare_exchange_strong(none, ::getpid());
+  g_loading = std::async(std::launch::async, [] {
+                try {
+                  std::vector<cl::Platform> platforms;
+                  cl::Platform::get(&platforms);
+                  for (cl::Platform& p : platforms) {
+                    std::vector<cl::Device> devices;
+                    try {
+                      p.getDevices(CL_DEVICE_TYPE_ALL, &devices);
+                    } catch (const cl::Error&) {  // a platform without devices
+                    }
+                  }
+                } catch (const cl::Error&) {  // no platform: all_devices says so
+                }
+              }).share();
 }
 
 std::vector<DeviceInfo> list_devices() {

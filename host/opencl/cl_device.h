@@ -60,6 +60,15 @@ class ClDevice {
   DeviceInfo info_;
 };
 
+// Starts loading the OpenCL platforms and their devices on a thread of its
+// own, for a caller that will open a device after other work (the command
+// line, before it reads the scene): on PoCL that is about 35 ms of dynamic
+// loading (its LLVM), which the read then hides. Device openings wait for
+// it. Counts as this process's first use of OpenCL (check_not_forked), so a
+// library that its caller may fork afterwards must not call it. Errors are
+// left to the opening, which reports them.
+void start_loading_opencl();
+
 // Every OpenCL device of every platform, in platform order; throws
 // RuntimeFailure when there is none.
 std::vector<DeviceInfo> list_devices();
