@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <iterator>
 #include <memory>
+#include <optional>
 #include <sstream>
 
 #include <nlohmann/json.hpp>
@@ -54,7 +55,8 @@ PeerRow make_row(const std::string& variant, const std::string& fold) {
 
 PeerReport run_peers(const PeerOptions& opt) {
   // The drivers load while the scene is read, as `rayfold render` does.
-  if (opt.variants.size() > opt.variants.count("cpu")) start_loading_opencl();
+  std::optional<OpenClPreload> preload;
+  if (opt.variants.size() > opt.variants.count("cpu")) preload.emplace();
   const auto load_start = Clock::now();
   const Scene scene = load_gltf(opt.scene);
   const double load_ms = ms_since(load_start);

@@ -33,9 +33,9 @@ inline v4f vmax(v4f a, v4f b) { return a < b ? b : a; }
 // lane of lo its first index times 2, plus 1 for a pair. Partitioning these
 // 32-byte records in place keeps every pass over a node a sequential read
 // (an index array into the boxes made the deep levels cache misses). The
-// spare lane's bits read as a float are a denormal, and arithmetic on
-// denormals is slow: every use of the box goes through box_lo(), which
-// clears that lane.
+// spare lane's bits read as a float are a denormal, a NaN or any other
+// value, and arithmetic on denormals is slow: every use of the box goes
+// through box_lo(), which clears that lane.
 struct PrimRef {
   v4f lo, hi;  // hi's spare lane is 0
   uint32_t key() const {
@@ -79,7 +79,7 @@ struct Box4 {
 
 constexpr int kMaxBins = 64;
 
-// The most primitives BuildOptions::sweep_size may name.
+// The most records BuildOptions::sweep_size may name.
 constexpr uint32_t kSweepNode = 16;
 
 // Every axis's bins of one node (or of one chunk of a large node), set to
@@ -150,11 +150,11 @@ struct Task {
   Box4 centres;
 };
 
-// Above this many primitives a node's binning and partition are spread over
+// Above this many records a node's binning and partition are spread over
 // the threads.
 constexpr uint32_t kParallelBinning = 1u << 15;
 
-// Nodes of at most max(kSubtreeMin, primitives / kSubtrees) are whole
+// Nodes of at most max(kSubtreeMin, records / kSubtrees) are whole
 // subtrees built by one thread each, largest first; the nodes above them
 // are split one thread a node (SplitSchedule). Subtrees of
 // up to 2^15 primitives left a thread idle for a third of an unbalanced
@@ -719,7 +719,8 @@ int make_records(const Aabb* bounds, size_t count, size_t i, bool pair, PrimRef 
     const Aabb& b = bounds[i + 1];
     Aabb both = a;
     both.grow(b);
-    if (both.half_area() <= 1.5f * std::min(a.half_area(), b.half_area())) {
+    const float area = both.half_area();  // 0: lines, which would pair however far apart
+    if (area > 0.0f && area <= 1.5f * std::min(a.half_area(), b.half_area())) {
       out[0] = record(both, i, 1u);
       return 1;
     }
@@ -763,6 +764,9 @@ LargeArray<PrimRef> make_all_records(const Aabb* bounds, size_t count, bool pair
       }
       out += n;
     }
+    RF_CHECK(out == refs.data() + offsets[c + 1], "records of chunk " + std::to_string(c) + " counted " +
+                                                       std::to_string(offsets[c + 1] - offsets[c]) + ", written " +
+                                                       std::to_string(out - refs.data() - offsets[c]));
     chunk_boxes[c] = chunk_box;
     chunk_centres[c] = chunk_centre;
   });
@@ -802,11 +806,14 @@ void expand_records(BuildTree& tree, const LargeArray<PrimRef>& refs, unsigned t
 
 BuildTree build_sah(const Aabb* prim_bounds, size_t count, const BuildOptions& options, unsigned threads) {
   threads = resolve_threads(threads);
-  RF_CHECK(count < (size_t{1} << 31), "too many primitives for one tree: " + std::to_string(count));
+  if (count >= (size_t{1} << 31))
+    throw InputError("", "a tree of " + std::to_string(count) + " primitives: at most 2^31 - 1 in one tree");
   BuildTree tree;
+  // A pair is a leaf of two at least, which a limit of one forbids.
+  const bool pair = options.pair_primitives && options.max_leaf_size >= 2;
   Box4 root_box, root_centres;
   LargeArray<PrimRef> refs =
-      make_all_records(prim_bounds, count, options.pair_primitives, threads, root_box, root_centres);
+      make_all_records(prim_bounds, count, pair, threads, root_box, root_centres);
   if (refs.empty()) return tree;
 
   // One staging array for every large node's partition: a fresh one per

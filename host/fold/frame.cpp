@@ -235,7 +235,7 @@ Frame build_frame(const Scene& scene, const SceneData& data, const std::vector<C
   BuildOptions tlas_options;
   tlas_options.max_leaf_size = 4;
   tlas_options.intersection_cost = 2.0f;  // an instance costs a ray transform on top of its root test
-  tlas_options.pair_primitives = false;  // neighbours in the instance list need not lie close
+  tlas_options.pair_primitives = false;  // its leaf costs were tuned on unpaired trees; pairs there are unmeasured
   const BuildTree tree = build_sah(boxes, tlas_options);
   frame.instances.reserve(tree.order.size());
   std::vector<uint32_t> groups;

@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <future>
 #include <mutex>
+#include <system_error>
 #include <vector>
 
 #include "opencl/kernel_cache.h"
@@ -53,21 +54,13 @@ struct Candidate {
 // The process that first used OpenCL; 0 before any use.
 std::atomic<pid_t> g_opencl_pid{0};
 
-// start_loading_opencl's load, valid once started.
+// OpenClPreload's load, valid once started.
 std::mutex g_loading_mutex;
 std::shared_future<void> g_loading;
 
-// Every device of every platform; throws RuntimeFailure when there is none.
-std::vector<Candidate> all_devices() {
-  check_not_forked();
-  pid_t none = 0;
-  g_opencl_pid.compare_exchange_strong(none, ::getpid());
-  std::shared_future<void> loading;
-  {
-    std::lock_guard<std::mutex> lock(g_loading_mutex);
-    loading = g_loading;
-  }
-  if (loading.valid()) loading.wait();  // one thread in the ICD loader's start-up at a time
+// Every device of every platform, as the ICD loader lists them; throws
+// RuntimeFailure when there is none.
+std::vector<Candidate> platform_devices() {
   std::vector<cl::Platform> platforms;
   try {
     cl::Platform::get(&platforms);
@@ -86,6 +79,25 @@ std::vector<Candidate> all_devices() {
   }
   if (all.empty()) throw RuntimeFailure("no OpenCL device found (install pocl-opencl-icd)");
   return all;
+}
+
+// Waits for OpenClPreload's load, if one was started.
+void wait_for_preload() {
+  std::shared_future<void> loading;
+  {
+    std::lock_guard<std::mutex> lock(g_loading_mutex);
+    loading = g_loading;
+  }
+  if (loading.valid()) loading.wait();
+}
+
+// Every device of every platform; throws RuntimeFailure when there is none.
+std::vector<Candidate> all_devices() {
+  check_not_forked();
+  pid_t none = 0;
+  g_opencl_pid.compare_exchange_strong(none, ::getpid());
+  wait_for_preload();  // one thread in the ICD loader's start-up at a time
+  return platform_devices();
 }
 
 DeviceInfo describe(const Candidate& c) {
@@ -118,27 +130,24 @@ void check_not_forked() {
       "use OpenCL only in the workers, or render with backend='cpu' in forked workers");
 }
 
-void start_loading_opencl() {
+OpenClPreload::OpenClPreload() {
   check_not_forked();
   std::lock_guard<std::mutex> lock(g_loading_mutex);
   if (g_loading.valid()) return;
   pid_t none = 0;
   g_opencl_pid.compare_exchange_strong(none, ::getpid());
-  g_loading = std::async(std::launch::async, [] {
-                try {
-                  std::vector<cl::Platform> platforms;
-                  cl::Platform::get(&platforms);
-                  for (cl::Platform& p : platforms) {
-                    std::vector<cl::Device> devices;
-                    try {
-                      p.getDevices(CL_DEVICE_TYPE_ALL, &devices);
-                    } catch (const cl::Error&) {  // a platform without devices
-                    }
+  try {
+    g_loading = std::async(std::launch::async, [] {
+                  try {
+                    platform_devices();
+                  } catch (const RuntimeFailure&) {  // the opening reports it
                   }
-                } catch (const cl::Error&) {  // no platform: all_devices says so
-                }
-              }).share();
+                }).share();
+  } catch (const std::system_error&) {  // no thread to spare: the opening loads the drivers itself
+  }
 }
+
+OpenClPreload::~OpenClPreload() { wait_for_preload(); }
 
 std::vector<DeviceInfo> list_devices() {
   std::vector<DeviceInfo> out;

@@ -60,14 +60,22 @@ class ClDevice {
   DeviceInfo info_;
 };
 
-// Starts loading the OpenCL platforms and their devices on a thread of its
-// own, for a caller that will open a device after other work (the command
-// line, before it reads the scene): on PoCL that is about 35 ms of dynamic
-// loading (its LLVM), which the read then hides. Device openings wait for
-// it. Counts as this process's first use of OpenCL (check_not_forked), so a
-// library that its caller may fork afterwards must not call it. Errors are
+// Loads the OpenCL platforms and their devices on a thread of its own, for
+// a caller that will open a device after other work (the command line,
+// while it reads the scene): on PoCL that is about 35 ms of dynamic loading
+// (its LLVM), which the read then hides. Device openings wait for the load;
+// so does the destructor, since a process must not exit (or fork) while a
+// thread loads libraries. Once per process: later objects only wait. It
+// counts as this process's first use of OpenCL (check_not_forked), so a
+// library whose caller may fork afterwards must not make one. Errors are
 // left to the opening, which reports them.
-void start_loading_opencl();
+class OpenClPreload {
+ public:
+  OpenClPreload();
+  ~OpenClPreload();
+  OpenClPreload(const OpenClPreload&) = delete;
+  OpenClPreload& operator=(const OpenClPreload&) = delete;
+};
 
 // Every OpenCL device of every platform, in platform order; throws
 // RuntimeFailure when there is none.

@@ -384,7 +384,8 @@ int run_render(cli::Args& args) {
 
   // The OpenCL drivers load while the scene is read: the whole process 0.91x
   // to 0.97x the time on the shared scenes (docs/results.md).
-  if (r.renderer.backend == Backend::opencl) start_loading_opencl();
+  std::optional<OpenClPreload> preload;
+  if (r.renderer.backend == Backend::opencl) preload.emplace();
   // Progress on a terminal only; the table and warnings come after it.
   Progress progress(!r.quiet);
   progress.stage("loading " + r.scene);
