@@ -45,10 +45,10 @@ struct BuildOptions {
   // Primitives 2i and 2i + 1 whose boxes are alike (the two halves of a
   // quad, neighbours in a mesh's triangle order) are binned as one record
   // and share a leaf; the SAH and max_leaf_size count them as two (with a
-  // max_leaf_size of 1 nothing pairs). Where most pair the
-  // build moves far fewer records: Lost Empire's build took 0.71x the time,
-  // the conference room's 0.78x, with the tile kernel's counters on random
-  // views within 4% (docs/results.md).
+  // max_leaf_size of 1 nothing pairs). Where most pair, the build moves far
+  // fewer records: Lost Empire's build took 0.71x the time, the conference
+  // room's 0.78x, with the tile kernel's counters on random views within 4%
+  // (docs/results.md).
   bool pair_primitives = true;
   // Past this depth splits become object medians, so that trees of up to
   // 2^24 primitives stay within the device's 64-entry traversal stack.
