@@ -696,46 +696,47 @@ double sah_cost(const BuildTree& tree, const BuildOptions& opt) {
   return cost;
 }
 
-// Records of primitives i and i + 1 (i even): 1 or 2, into out, or none
-// for two empty boxes. A record's key is its first index times 2, plus 1
-// for a pair. With `pair`, the two make one pair record where their box's
-// area is at most 1.5 times the smaller of theirs: the halves of an
-// axis-aligned quad give 1. A rule on the sum of their areas (at most 7/8
-// of it) also paired large triangles with small ones inside their boxes:
-// the trees' SAH costs stayed within 2.3%, but on random views of the
-// conference room the tile kernel tested up to 2.4 times the triangles per
-// pixel. With this rule the counters of every scene are within 4% of
-// unpaired trees'.
-int make_records(const Aabb* bounds, size_t count, size_t i, bool pair, PrimRef out[2]) {
-  auto record = [](const Aabb& b, size_t index, uint32_t flag) {
-    const uint32_t key = static_cast<uint32_t>(index) << 1 | flag;
+// The record that starts at primitive i, below `end`: with `pair`, i and
+// i + 1 as one pair record where their box's area is at most 1.5 times the
+// smaller of theirs (the halves of an axis-aligned quad give 1), else i
+// alone; none for an empty box (`made` false). A record's key is its first
+// index times 2, plus 1 for a pair. Returns the primitives it takes, 1 or 2.
+// A rule on the sum of the two areas (at most 7/8 of it) also paired large
+// triangles with small ones inside their boxes: the trees' SAH costs stayed
+// within 2.3%, but on random views of the conference room the tile kernel
+// tested up to 2.4 times the triangles per pixel. With this rule the
+// counters of every scene are within 4% of unpaired trees'.
+size_t make_record(const Aabb* bounds, size_t end, size_t i, bool pair, PrimRef& out, bool& made) {
+  auto record = [&](const Aabb& b, uint32_t flag) {
+    const uint32_t key = static_cast<uint32_t>(i) << 1 | flag;
     float key_bits;
     std::memcpy(&key_bits, &key, 4);
-    return PrimRef{v4f{b.lo.x, b.lo.y, b.lo.z, key_bits}, v4f{b.hi.x, b.hi.y, b.hi.z, 0.0f}};
+    out = PrimRef{v4f{b.lo.x, b.lo.y, b.lo.z, key_bits}, v4f{b.hi.x, b.hi.y, b.hi.z, 0.0f}};
   };
   const Aabb& a = bounds[i];
-  const bool has_next = i + 1 < count && !bounds[i + 1].empty();
-  if (pair && has_next && !a.empty()) {
+  made = !a.empty();
+  if (!made) return 1;
+  if (pair && i + 1 < end && !bounds[i + 1].empty()) {
     const Aabb& b = bounds[i + 1];
     Aabb both = a;
     both.grow(b);
     const float area = both.half_area();  // 0: lines, which would pair however far apart
     if (area > 0.0f && area <= 1.5f * std::min(a.half_area(), b.half_area())) {
-      out[0] = record(both, i, 1u);
-      return 1;
+      record(both, 1u);
+      return 2;
     }
   }
-  int n = 0;
-  if (!a.empty()) out[n++] = record(a, i, 0u);
-  if (has_next) out[n++] = record(bounds[i + 1], i + 1, 0u);
-  return n;
+  record(a, 0u);
+  return 1;
 }
 
-// The records of every primitive with a box (pairs where `pair`), with
-// their boxes' and centres' boxes, chunk by chunk side by side: each
-// chunk's records are counted, then written from the chunk's offset on,
-// so the order is the same on any thread count. A chunk starts at an even
-// index, so that pairs never straddle two.
+// The records of every primitive with a box, with their boxes' and
+// centres' boxes, chunk by chunk side by side: each chunk's records are
+// counted, then written from the chunk's offset on, so the order is the
+// same on any thread count. With `pair`, each chunk is paired greedily in
+// index order: a primitive that does not pair with the next leaves that
+// one free to pair with its own next (the sports car's triangles pair 80%
+// so, 30% as 2i and 2i + 1 only). Pairs never straddle two chunks.
 LargeArray<PrimRef> make_all_records(const Aabb* bounds, size_t count, bool pair, unsigned threads, Box4& boxes,
                                      Box4& centres) {
   constexpr size_t kChunk = size_t{1} << 14;
@@ -743,8 +744,9 @@ LargeArray<PrimRef> make_all_records(const Aabb* bounds, size_t count, bool pair
   std::vector<size_t> offsets(chunks + 1, 0);
   parallel_for(chunks, threads, 1, [&](size_t c, size_t) {
     const size_t end = std::min(count, (c + 1) * kChunk);
-    PrimRef two[2];
-    for (size_t i = c * kChunk; i < end; i += 2) offsets[c + 1] += make_records(bounds, count, i, pair, two);
+    PrimRef r;
+    bool made = false;
+    for (size_t i = c * kChunk; i < end; offsets[c + 1] += made) i += make_record(bounds, end, i, pair, r, made);
   });
   for (size_t c = 0; c < chunks; ++c) offsets[c + 1] += offsets[c];
   LargeArray<PrimRef> refs(offsets[chunks]);  // each written below
@@ -755,14 +757,15 @@ LargeArray<PrimRef> make_all_records(const Aabb* bounds, size_t count, bool pair
     // Grown in locals: grown in chunk_boxes[c], each record waited on the
     // last one's store (half of this pass's time).
     Box4 chunk_box, chunk_centre;
-    for (size_t i = c * kChunk; i < end; i += 2) {
-      const int n = make_records(bounds, count, i, pair, out);
-      for (int r = 0; r < n; ++r) {
-        chunk_box.grow(out[r].box_lo(), out[r].hi);
-        const v4f centre = out[r].centre();
-        chunk_centre.grow(centre, centre);
-      }
-      out += n;
+    PrimRef r;
+    bool made = false;
+    for (size_t i = c * kChunk; i < end;) {
+      i += make_record(bounds, end, i, pair, r, made);
+      if (!made) continue;
+      *out++ = r;
+      chunk_box.grow(r.box_lo(), r.hi);
+      const v4f centre = r.centre();
+      chunk_centre.grow(centre, centre);
     }
     RF_CHECK(out == refs.data() + offsets[c + 1], "records of chunk " + std::to_string(c) + " counted " +
                                                        std::to_string(offsets[c + 1] - offsets[c]) + ", written " +
