@@ -47,9 +47,9 @@ struct BuildOptions {
   // order, are binned as one record and share a leaf; the SAH and
   // max_leaf_size count them as two (with a max_leaf_size of 1 nothing
   // pairs). Where most pair, the build moves far fewer records: Lost
-  // Empire's build took 0.71x the time, the conference room's 0.74x, the
-  // car's 0.77x, with the tile kernel's counters on random views within 3%
-  // (docs/results.md).
+  // Empire's build took 0.70x the time, the conference room's 0.71x, the
+  // car's 0.77x (with a fix to the records pass), with the tile kernel's
+  // counters on random views within 3% (docs/results.md).
   bool pair_primitives = true;
   // Past this depth splits become object medians, so that trees of up to
   // 2^24 primitives stay within the device's 64-entry traversal stack.
