@@ -54,6 +54,12 @@ struct Candidate {
 // The process that first used OpenCL; 0 before any use.
 std::atomic<pid_t> g_opencl_pid{0};
 
+// Marks this process as the one that first used OpenCL, unless one is.
+void mark_first_use() {
+  pid_t none = 0;
+  g_opencl_pid.compare_exchange_strong(none, ::getpid());
+}
+
 // OpenClPreload's load, valid once started.
 std::mutex g_loading_mutex;
 std::shared_future<void> g_loading;
@@ -94,8 +100,7 @@ void wait_for_preload() {
 // Every device of every platform; throws RuntimeFailure when there is none.
 std::vector<Candidate> all_devices() {
   check_not_forked();
-  pid_t none = 0;
-  g_opencl_pid.compare_exchange_strong(none, ::getpid());
+  mark_first_use();
   wait_for_preload();  // one thread in the ICD loader's start-up at a time
   return platform_devices();
 }
@@ -134,8 +139,7 @@ OpenClPreload::OpenClPreload() {
   check_not_forked();
   std::lock_guard<std::mutex> lock(g_loading_mutex);
   if (g_loading.valid()) return;
-  pid_t none = 0;
-  g_opencl_pid.compare_exchange_strong(none, ::getpid());
+  mark_first_use();
   try {
     g_loading = std::async(std::launch::async, [] {
                   try {
