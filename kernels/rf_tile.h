@@ -216,8 +216,11 @@ RF_INLINE int rf_tile_triangle(const RF_GLOBAL rf_tri* tri, rf_u32 ti, const rf_
   const int woop_u = r->uniform && rf_woop_distance_suits(uaz, ubz, ucz);
   const float offset = woop_u ? 0.0f : rf_plane_offset(tri, r->o);
   int taken = 0;
-  for (int j = 0; j < RF_LANE_GROUPS; ++j) {
-    if (((lanes >> j) & 1u) == 0u) continue;
+  /* Over the set bits only: a leaf's triangles meet about three of the 32
+   * groups on dense meshes, and a test of every bit cost a fifth of this
+   * function's time there (the dragon's). */
+  for (rf_u32 m = lanes; m != 0u; m &= m - 1u) {
+    const int j = (int)RF_CTZ(m);
     RF_TSTAT(RF_TILE_STAT_TRI_LANES, 1);
     rf_vf t, ev, ew, det;
     rf_vi ok;
