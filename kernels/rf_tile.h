@@ -701,29 +701,47 @@ RF_INLINE void rf_tile_gather_normal_xforms(const rf_tile_hits* h, int j, rf_vi 
   for (int k = 0; k < 9; ++k) m[k] = one_inst ? (rf_vf)(gm[k][0]) : *(const rf_vf*)gm[k];
 }
 
+/* The last world-space normal rf_tile_lane_normals made for a whole lane
+ * group: the lane groups in a row on one large triangle share it. */
+typedef struct {
+  rf_u32 tri, instance; /* tri RF_INVALID: empty */
+  float n[3];
+} rf_tile_normal_cache;
+
 /* rf_geometric_normal for the lanes of lane group j that hit (hit: their
- * mask): each lane's triangle and normal matrix gathered in one pass (lane
- * 0's where a lane missed; its result is replaced): one load for the whole
- * vector when its lanes agree, as on large triangles and within one
- * instance, else a gather. */
+ * mask), 0 where a lane missed. Where every lane hit one triangle of one
+ * instance, as on large triangles, the scalar rf_geometric_normal once
+ * (kept in `cache` for the next such groups): a lane's operations are its
+ * operations, so every lane gets the same bits, without eight lanes of
+ * divisions and a square root for one value. Elsewhere each lane's stored
+ * cross product (rf_tri.n, the scalar code's input) and normal matrix
+ * (lane 0's where a lane missed; its result is replaced), one load for the
+ * whole vector where the lanes agree, else a gather. */
 RF_INLINE void rf_tile_lane_normals(const rf_tile_hits* h, int j, rf_vi hit, const RF_GLOBAL rf_tri* tris,
-                                    const RF_GLOBAL rf_normal_xform* normal_xforms, rf_vf* nx, rf_vf* ny,
-                                    rf_vf* nz) {
-  float gv[9][RF_LANES], gm[9][RF_LANES];
+                                    const RF_GLOBAL rf_normal_xform* normal_xforms, rf_tile_normal_cache* cache,
+                                    rf_vf* nx, rf_vf* ny, rf_vf* nz) {
   const rf_u32* tri_idx = (const rf_u32*)&h->tri[j];
   const rf_u32* inst_idx = (const rf_u32*)&h->instance[j];
-  const rf_vi all_hit = ~hit;
-  const int one_tri = !rf_lanes_any(all_hit | (h->tri[j] != (rf_vu)(tri_idx[0])));
-  const int one_inst = !rf_lanes_any(all_hit | (h->instance[j] != (rf_vu)(inst_idx[0])));
+  const rf_vi missed = ~hit;
+  const int one_tri = !rf_lanes_any(missed | (h->tri[j] != (rf_vu)(tri_idx[0])));
+  const int one_inst = !rf_lanes_any(missed | (h->instance[j] != (rf_vu)(inst_idx[0])));
+  if (one_tri && one_inst) {
+    if (cache->tri != tri_idx[0] || cache->instance != inst_idx[0]) {
+      rf_geometric_normal(&tris[tri_idx[0]], &normal_xforms[inst_idx[0]], cache->n);
+      cache->tri = tri_idx[0];
+      cache->instance = inst_idx[0];
+    }
+    *nx = (rf_vf)(cache->n[0]);
+    *ny = (rf_vf)(cache->n[1]);
+    *nz = (rf_vf)(cache->n[2]);
+    return;
+  }
+  float gc[3][RF_LANES], gm[9][RF_LANES];
   for (int l = 0; l < RF_LANES; ++l) {
     const int lane_hit = inst_idx[l] != RF_INVALID;
     if (!one_tri || l == 0) {
       const RF_GLOBAL rf_tri* tri = &tris[lane_hit ? tri_idx[l] : 0u];
-      for (int k = 0; k < 3; ++k) {
-        gv[k][l] = tri->v0[k];
-        gv[3 + k][l] = tri->v1[k];
-        gv[6 + k][l] = tri->v2[k];
-      }
+      for (int k = 0; k < 3; ++k) gc[k][l] = tri->n[k];
     }
     if (!one_inst || l == 0) {
       const RF_GLOBAL float* m = normal_xforms[lane_hit ? inst_idx[l] : 0u].m;
@@ -733,16 +751,13 @@ RF_INLINE void rf_tile_lane_normals(const rf_tile_hits* h, int j, rf_vi hit, con
   /* Each value read where it is used: gathering the vectors into arrays
    * first took a fifth more instructions here (callgrind, Sponza). */
 #define RF_G(a, k) (one_##a ? (rf_vf)(a[k][0]) : *(const rf_vf*)a[k])
-#define one_gv one_tri
+#define one_gc one_tri
 #define one_gm one_inst
-  const rf_vf e1x = RF_G(gv, 3) - RF_G(gv, 0), e1y = RF_G(gv, 4) - RF_G(gv, 1), e1z = RF_G(gv, 5) - RF_G(gv, 2);
-  const rf_vf e2x = RF_G(gv, 6) - RF_G(gv, 0), e2y = RF_G(gv, 7) - RF_G(gv, 1), e2z = RF_G(gv, 8) - RF_G(gv, 2);
-  const rf_vf c[3] = {e1y * e2z - e1z * e2y, e1z * e2x - e1x * e2z, e1x * e2y - e1y * e2x};
-  const rf_vf w[3] = {RF_G(gm, 0) * c[0] + RF_G(gm, 1) * c[1] + RF_G(gm, 2) * c[2],
-                      RF_G(gm, 3) * c[0] + RF_G(gm, 4) * c[1] + RF_G(gm, 5) * c[2],
-                      RF_G(gm, 6) * c[0] + RF_G(gm, 7) * c[1] + RF_G(gm, 8) * c[2]};
+  const rf_vf w[3] = {RF_G(gm, 0) * RF_G(gc, 0) + RF_G(gm, 1) * RF_G(gc, 1) + RF_G(gm, 2) * RF_G(gc, 2),
+                      RF_G(gm, 3) * RF_G(gc, 0) + RF_G(gm, 4) * RF_G(gc, 1) + RF_G(gm, 5) * RF_G(gc, 2),
+                      RF_G(gm, 6) * RF_G(gc, 0) + RF_G(gm, 7) * RF_G(gc, 1) + RF_G(gm, 8) * RF_G(gc, 2)};
 #undef RF_G
-#undef one_gv
+#undef one_gc
 #undef one_gm
   rf_tile_unit_normals(w, hit, nx, ny, nz);
 }
@@ -874,6 +889,8 @@ RF_INLINE void rf_tile_write_group(const RF_GLOBAL rf_u32* rays, rf_u32 begin, r
   const int exact_depth = (cam->write_flags & RF_WRITE_EXACT_DEPTH) != 0u;
   rf_tile_plane_cache plane_cache;
   plane_cache.tri = RF_INVALID;
+  rf_tile_normal_cache normal_cache;
+  normal_cache.tri = RF_INVALID;
   for (int j = 0; j < RF_LANE_GROUPS; ++j) {
     const rf_vi hit = h->instance[j] != (rf_vu)(RF_INVALID);
     const rf_vf dz = (rf_vf)(-1.0f);
@@ -889,7 +906,7 @@ RF_INLINE void rf_tile_write_group(const RF_GLOBAL rf_u32* rays, rf_u32 begin, r
       rf_tile_exact_lane_group(rays, begin, count, j, cam, g, h, hit, depths, depth_scale, &plane_cache, tris,
                                normals ? normal_xforms : 0, &z[j], &nx[j], &ny[j], &nz[j]);
     } else if (normals) {
-      rf_tile_lane_normals(h, j, hit, tris, normal_xforms, &nx[j], &ny[j], &nz[j]);
+      rf_tile_lane_normals(h, j, hit, tris, normal_xforms, &normal_cache, &nx[j], &ny[j], &nz[j]);
     }
   }
   const float* zs = (const float*)z;
@@ -1047,13 +1064,15 @@ RF_INLINE void rf_trace_query_tile(const rf_query_arrays* rays, rf_u32 begin, rf
     rf_tile_trace_tlas(nodes, wide, tris, instances, tlas_root, &tc, &q, 1u, ro, hits RF_TSTAT_ARG);
 
   rf_vf nx[RF_LANE_GROUPS], ny[RF_LANE_GROUPS], nz[RF_LANE_GROUPS];
+  rf_tile_normal_cache normal_cache;
+  normal_cache.tri = RF_INVALID;
   for (int j = 0; j < RF_LANE_GROUPS; ++j) {
     const rf_vi hit = hits[0].instance[j] != (rf_vu)(RF_INVALID);
     if (!rf_lanes_any(hit) || (write_flags & RF_WRITE_NO_NORMALS)) {
       nx[j] = ny[j] = nz[j] = (rf_vf)(0.0f);
       continue;
     }
-    rf_tile_lane_normals(&hits[0], j, hit, tris, normal_xforms, &nx[j], &ny[j], &nz[j]);
+    rf_tile_lane_normals(&hits[0], j, hit, tris, normal_xforms, &normal_cache, &nx[j], &ny[j], &nz[j]);
   }
   const float* ts = (const float*)hits[0].t;
   const float* xs = (const float*)nx;

@@ -264,6 +264,41 @@ TEST(TileKernel, LanesTakeOnlyHitsTheirOwnBoxTestsReach) {
   }
 }
 
+TEST(TileKernel, LaneGroupsOnOneTriangleOfTwoInstancesTakeEachItsOwnNormal) {
+  // A lane group whose lanes all hit one triangle of one instance takes
+  // the normal made for the last such group when the triangle and the
+  // instance are the same. Here one triangle's mesh is instanced twice,
+  // tilted differently, one in front of the other: the lane groups of a
+  // tile on either side of the front one's edge hit triangle 0 of two
+  // instances with two normals. A normal kept by triangle alone gives one
+  // instance's lanes the other's.
+  Scene scene;
+  Mesh tri;
+  tri.positions = {{-1.0f, -1.0f, 0.0f}, {1.0f, -1.0f, 0.0f}, {0.0f, 1.0f, 0.0f}};
+  tri.indices = {0, 1, 2};
+  scene.meshes.push_back(tri);
+  const Xform back = glm::translate(Xform(1.0), glm::dvec3(0.0, 0.0, -10.0)) *
+                     glm::rotate(Xform(1.0), glm::radians(20.0), glm::dvec3(0.0, 1.0, 0.0)) *
+                     glm::scale(Xform(1.0), glm::dvec3(12.0));
+  const Xform front = glm::translate(Xform(1.0), glm::dvec3(0.3, -0.2, -5.0)) *
+                      glm::rotate(Xform(1.0), glm::radians(-35.0), glm::dvec3(1.0, 0.0, 0.0)) *
+                      glm::scale(Xform(1.0), glm::dvec3(1.5));
+  scene.instances.push_back({0, back, "back"});
+  scene.instances.push_back({0, front, "front"});
+  ThreeWays r(scene);
+  CameraSpec spec;
+  spec.vfov_degrees = 50.0;
+  const Camera cam = make_camera(spec, 96, 80);
+  // The premise: both instances are seen, each over whole lane groups.
+  const std::vector<rf_pixel_hit> ref = r.reference(cam);
+  size_t seen[2] = {0, 0};
+  for (const rf_pixel_hit& h : ref)
+    if (h.instance < 2) ++seen[h.instance];
+  EXPECT_GT(seen[0], 1000u);
+  EXPECT_GT(seen[1], 1000u);
+  EXPECT_EQ(r.differences(cam), "");
+}
+
 TEST(TileKernel, SharedScenes) {
   if (testing::shared_scenes_dir().empty())
     GTEST_SKIP() << "../shared/scenes not found (set RAYFOLD_SCENES_DIR); real scenes not tested";
