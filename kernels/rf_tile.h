@@ -876,6 +876,127 @@ RF_INLINE void rf_tile_put(const rf_answers* out, size_t i, uint8 w) {
   if (out->primitive) out->primitive[i] = w.s7;
 }
 
+/* Eight lanes' answers, w0 .. w7 (word w of rf_pixel_hit, lane k in
+ * element k), as eight 32-byte records, r0 .. r7 (lane k's in rk): an 8x8
+ * transpose in three rounds of shuffles, where putting each lane's words
+ * one by one took a dozen inserts a pixel. */
+#define RF_UNPACK_LO(a, b) ((uint8)((a).s0, (b).s0, (a).s1, (b).s1, (a).s4, (b).s4, (a).s5, (b).s5))
+#define RF_UNPACK_HI(a, b) ((uint8)((a).s2, (b).s2, (a).s3, (b).s3, (a).s6, (b).s6, (a).s7, (b).s7))
+#define RF_UNPACK2_LO(a, b) ((uint8)((a).s0, (a).s1, (b).s0, (b).s1, (a).s4, (a).s5, (b).s4, (b).s5))
+#define RF_UNPACK2_HI(a, b) ((uint8)((a).s2, (a).s3, (b).s2, (b).s3, (a).s6, (a).s7, (b).s6, (b).s7))
+#define RF_TRANSPOSE8(w0, w1, w2, w3, w4, w5, w6, w7, r0, r1, r2, r3, r4, r5, r6, r7)                      \
+  do {                                                                                                    \
+    const uint8 t0_ = RF_UNPACK_LO(w0, w1), t1_ = RF_UNPACK_HI(w0, w1);                                   \
+    const uint8 t2_ = RF_UNPACK_LO(w2, w3), t3_ = RF_UNPACK_HI(w2, w3);                                   \
+    const uint8 t4_ = RF_UNPACK_LO(w4, w5), t5_ = RF_UNPACK_HI(w4, w5);                                   \
+    const uint8 t6_ = RF_UNPACK_LO(w6, w7), t7_ = RF_UNPACK_HI(w6, w7);                                   \
+    const uint8 u0_ = RF_UNPACK2_LO(t0_, t2_), u1_ = RF_UNPACK2_HI(t0_, t2_);                             \
+    const uint8 u2_ = RF_UNPACK2_LO(t1_, t3_), u3_ = RF_UNPACK2_HI(t1_, t3_);                             \
+    const uint8 u4_ = RF_UNPACK2_LO(t4_, t6_), u5_ = RF_UNPACK2_HI(t4_, t6_);                             \
+    const uint8 u6_ = RF_UNPACK2_LO(t5_, t7_), u7_ = RF_UNPACK2_HI(t5_, t7_);                             \
+    r0 = (uint8)(u0_.lo, u4_.lo);                                                                         \
+    r1 = (uint8)(u1_.lo, u5_.lo);                                                                         \
+    r2 = (uint8)(u2_.lo, u6_.lo);                                                                         \
+    r3 = (uint8)(u3_.lo, u7_.lo);                                                                         \
+    r4 = (uint8)(u0_.hi, u4_.hi);                                                                         \
+    r5 = (uint8)(u1_.hi, u5_.hi);                                                                         \
+    r6 = (uint8)(u2_.hi, u6_.hi);                                                                         \
+    r7 = (uint8)(u3_.hi, u7_.hi);                                                                         \
+  } while (0)
+
+/* Half b (lanes 8b .. 8b + 7) of a lane vector as a uint8 of its bits;
+ * a lane vector's bits as rf_vu. */
+#if RF_LANES == 8
+#define RF_EIGHT(v, b) as_uint8(v)
+#define RF_AS_VU(v) as_uint8(v)
+#else
+#define RF_EIGHT(v, b) ((b) ? as_uint8((v).hi) : as_uint8((v).lo))
+#define RF_AS_VU(v) as_uint16(v)
+#endif
+
+/* Writes the answers of lane group j to group g when its lanes are one whole
+ * block of the ray list (fold/ray_list.h: lane k at (x0 + k % 4, y0 + k / 4))
+ * and every lane answers g: a few vector stores a row of four pixels
+ * (reversed where g mirrors the columns) instead of a decode and a store a
+ * lane. Returns 0, having written nothing, otherwise (tile edges, partial
+ * quads beside a fold line, lanes of other groups). Each word is the
+ * per-lane path's, ids and NaN patterns as integers. */
+RF_INLINE_ALWAYS int rf_tile_write_block(const RF_GLOBAL rf_u32* rays, rf_u32 begin, rf_u32 count, int j,
+                                         const rf_camera* cam, const rf_u32* lane_groups, rf_u32 g, rf_u32 mirror,
+                                         size_t view_base, const rf_vf* z, const rf_vf* nx, const rf_vf* ny,
+                                         const rf_vf* nz, const rf_tile_hits* h, const rf_answers* out) {
+  const rf_u32 l0 = (rf_u32)j * RF_LANES;
+  if (l0 + RF_LANES > count) return 0;
+  const rf_vu e = rf_lanes_load_u(0, rays + begin + l0);
+  const rf_vu answers_g = (rf_lanes_load_u(0, lane_groups + l0) >> g) & 1u;
+  const rf_vu x = e & RF_RAY_COORD_MASK, y = (e >> RF_RAY_COORD_BITS) & RF_RAY_COORD_MASK;
+#if RF_LANES == 8
+  const rf_vu k = (rf_vu)(0u, 1u, 2u, 3u, 4u, 5u, 6u, 7u);
+#else
+  const rf_vu k = (rf_vu)(0u, 1u, 2u, 3u, 4u, 5u, 6u, 7u, 8u, 9u, 10u, 11u, 12u, 13u, 14u, 15u);
+#endif
+  const rf_u32 x0 = x.s0, y0 = y.s0;
+  if (rf_lanes_any((answers_g == (rf_vu)(0u)) | (x != x0 + (k & 3u)) | (y != y0 + (k >> 2u)))) return 0;
+  const int flip_x = (mirror & 1u) != 0u;
+  const rf_i32 px0 = flip_x ? cam->xpair - (rf_i32)x0 - 3 : (rf_i32)x0;
+  const rf_vi hit = h->instance[j] != (rf_vu)(RF_INVALID);
+  const rf_vu u = select((rf_vu)(0u), RF_AS_VU(h->u[j]), hit); /* 0.0f's bits on a miss */
+  const rf_vu v = select((rf_vu)(0u), RF_AS_VU(h->v[j]), hit);
+  const rf_vu prim = select((rf_vu)(RF_INVALID), h->prim[j], hit);
+  /* The pixel index of lane c (0 .. 3) of row r. */
+#define RF_PIXEL(r, c)                                                                          \
+  (view_base + (size_t)(((mirror & 2u) ? cam->ypair - ((rf_i32)y0 + (r)) : (rf_i32)y0 + (r)) * \
+                            cam->width +                                                         \
+                        px0 + (flip_x ? 3 - (c) : (c))))
+  if (out->hits) {
+    for (int b = 0; b < RF_LANES / 8; ++b) {
+      uint8 r0, r1, r2, r3, r4, r5, r6, r7;
+      RF_TRANSPOSE8(RF_EIGHT(z[j], b), RF_EIGHT(nx[j], b), RF_EIGHT(ny[j], b), RF_EIGHT(nz[j], b), RF_EIGHT(u, b),
+                    RF_EIGHT(v, b), RF_EIGHT(h->instance[j], b), RF_EIGHT(prim, b), r0, r1, r2, r3, r4, r5, r6, r7);
+      RF_GLOBAL rf_u32* hits = (RF_GLOBAL rf_u32*)out->hits;
+      vstore8(r0, RF_PIXEL(2 * b, 0), hits);
+      vstore8(r1, RF_PIXEL(2 * b, 1), hits);
+      vstore8(r2, RF_PIXEL(2 * b, 2), hits);
+      vstore8(r3, RF_PIXEL(2 * b, 3), hits);
+      vstore8(r4, RF_PIXEL(2 * b + 1, 0), hits);
+      vstore8(r5, RF_PIXEL(2 * b + 1, 1), hits);
+      vstore8(r6, RF_PIXEL(2 * b + 1, 2), hits);
+      vstore8(r7, RF_PIXEL(2 * b + 1, 3), hits);
+    }
+    return 1;
+  }
+  const rf_u32* zs = (const rf_u32*)&z[j];
+  const rf_u32* xs = (const rf_u32*)&nx[j];
+  const rf_u32* ys = (const rf_u32*)&ny[j];
+  const rf_u32* ws = (const rf_u32*)&nz[j];
+  const rf_u32* is = (const rf_u32*)&h->instance[j];
+  const rf_u32* us = (const rf_u32*)&u;
+  const rf_u32* vs = (const rf_u32*)&v;
+  const rf_u32* ps = (const rf_u32*)&prim;
+  /* Row r's four words of a lane vector, left to right in the image. */
+#define RF_ROW(a, r) (flip_x ? vload4(r, a).s3210 : vload4(r, a))
+  for (int r = 0; r < RF_LANES / 4; ++r) {
+    const size_t i = RF_PIXEL(r, flip_x ? 3 : 0);
+    if (out->z) vstore4(RF_ROW(zs, r), 0, (RF_GLOBAL rf_u32*)out->z + i);
+    if (out->normal) {
+      const uint4 a = RF_ROW(xs, r), b = RF_ROW(ys, r), c = RF_ROW(ws, r);
+      RF_GLOBAL rf_u32* n = (RF_GLOBAL rf_u32*)out->normal + 3 * i;
+      vstore4((uint4)(a.s0, b.s0, c.s0, a.s1), 0, n);
+      vstore4((uint4)(b.s1, c.s1, a.s2, b.s2), 0, n + 4);
+      vstore4((uint4)(c.s2, a.s3, b.s3, c.s3), 0, n + 8);
+    }
+    if (out->uv) {
+      const uint4 a = RF_ROW(us, r), b = RF_ROW(vs, r);
+      vstore8((uint8)(a.s0, b.s0, a.s1, b.s1, a.s2, b.s2, a.s3, b.s3), 0, (RF_GLOBAL rf_u32*)out->uv + 2 * i);
+    }
+    if (out->instance) vstore4(RF_ROW(is, r), 0, out->instance + i);
+    if (out->primitive) vstore4(RF_ROW(ps, r), 0, out->primitive + i);
+  }
+#undef RF_ROW
+#undef RF_PIXEL
+  return 1;
+}
+
 /* rf_write_pixel for every lane of the tile that answers group g, lane by
  * lane: the normal (rf_geometric_normal) and depth in vectors, with the
  * scalar code's operations per lane, then one pixel store per lane. The
@@ -920,6 +1041,11 @@ RF_INLINE void rf_tile_write_group(const RF_GLOBAL rf_u32* rays, rf_u32 begin, r
   const rf_u32 mirror = rf_group_mirror(g, cam);
   const size_t view_base = rf_group_view_base(g, cam);
   for (rf_u32 l = 0; l < count; ++l) {
+    if (l % RF_LANES == 0u && rf_tile_write_block(rays, begin, count, (int)(l / RF_LANES), cam, lane_groups, g,
+                                                  mirror, view_base, z, nx, ny, nz, h, out)) {
+      l += RF_LANES - 1u;
+      continue;
+    }
     if (((lane_groups[l] >> g) & 1u) == 0u) continue;
     const rf_u32 entry = rays[begin + l];
     const rf_i32 x = (rf_i32)(entry & RF_RAY_COORD_MASK);
