@@ -163,7 +163,13 @@ TEST(BadInput, IndicesAndPositions) {
   {
     GltfFile f;
     f.one_triangle({0, 1, 3});
-    expect_error(f.write("index_range"), "past the 3 vertices");
+    expect_error(f.write("index_range"), "index 2 is 3, past the 3 vertices");
+  }
+  {
+    // The first index past the vertices is named, not the largest.
+    GltfFile f;
+    f.one_triangle({0, 5, 1, 0, 1, 9});
+    expect_error(f.write("index_first"), "index 1 is 5, past the 3 vertices");
   }
   for (float bad : {NAN, INFINITY, -INFINITY}) {
     GltfFile f;

@@ -80,8 +80,10 @@ TEST(Loader, IndexTypesStridesStripsFansAndTransforms) {
   const int points_pos = f.positions({{0, 0, 0}});
   f.j["meshes"] = json::array({mesh({prim(strided, a8)}), mesh({prim(strided, a16)}), mesh({prim(strided, a32)}),
                                mesh({prim(strided)}),  // non-indexed: 1 triangle of 4 vertices
-                               mesh({prim(strip_pos, -1, 5), prim(fan_pos, -1, 6), prim(points_pos, -1, 0)})});
-  json n0, n1, n2, n3, n4;
+                               mesh({prim(strip_pos, -1, 5), prim(fan_pos, -1, 6), prim(points_pos, -1, 0)}),
+                               // Two lists of triangles: the first taken whole, the second after it.
+                               mesh({prim(strided, a16), prim(strided, a32)})});
+  json n0, n1, n2, n3, n4, n5;
   n0["mesh"] = 0;
   n0["children"] = {1};
   n0["translation"] = {10, 0, 0};
@@ -92,13 +94,14 @@ TEST(Loader, IndexTypesStridesStripsFansAndTransforms) {
   n2["scale"] = {1, 2, 3};
   n3["mesh"] = 3;
   n4["mesh"] = 4;
-  f.j["nodes"] = json::array({n0, n1, n2, n3, n4});
-  f.j["scenes"] = json::array({json{{"nodes", {0, 2, 3, 4}}}});
+  n5["mesh"] = 5;
+  f.j["nodes"] = json::array({n0, n1, n2, n3, n4, n5});
+  f.j["scenes"] = json::array({json{{"nodes", {0, 2, 3, 4, 5}}}});
   f.j["scene"] = 0;
   std::vector<std::string> warnings;
   const Scene s = load_gltf(f.write("kinds"), &warnings);
-  ASSERT_EQ(s.meshes.size(), 5u);
-  ASSERT_EQ(s.instances.size(), 5u);
+  ASSERT_EQ(s.meshes.size(), 6u);
+  ASSERT_EQ(s.instances.size(), 6u);
   const std::vector<uint32_t> quad = {0, 1, 2, 0, 2, 3};
   for (int m = 0; m < 3; ++m) {
     EXPECT_EQ(s.meshes[m].indices, quad) << m;
@@ -107,6 +110,9 @@ TEST(Loader, IndexTypesStridesStripsFansAndTransforms) {
   EXPECT_EQ(s.meshes[3].indices, (std::vector<uint32_t>{0, 1, 2}));
   // Strip (spec order i, i+1+i%2, i+2-i%2) then fan (i+1, i+2, 0), offset by 5.
   EXPECT_EQ(s.meshes[4].indices, (std::vector<uint32_t>{0, 1, 2, 1, 3, 2, 2, 3, 4, 6, 7, 5, 7, 8, 5, 8, 9, 5}));
+  EXPECT_EQ(s.meshes[5].indices, (std::vector<uint32_t>{0, 1, 2, 0, 2, 3, 4, 5, 6, 4, 6, 7}));
+  ASSERT_EQ(s.meshes[5].positions.size(), 8u);
+  EXPECT_EQ(s.meshes[5].positions[6], glm::vec3(1, 1, 0));
   bool warned_points = false;
   for (const std::string& w : warnings) warned_points |= w.find("points or lines") != std::string::npos;
   EXPECT_TRUE(warned_points);
@@ -117,6 +123,20 @@ TEST(Loader, IndexTypesStridesStripsFansAndTransforms) {
   const glm::dvec3 p2 = transform_point(s.instances[2].world_from_object, glm::dvec3(1, 0, 0));
   EXPECT_NEAR(p2.x, 0.0, 1e-9);  // 90 degrees about z takes +x to +y
   EXPECT_NEAR(p2.y, 1.0, 1e-9);
+}
+
+TEST(Loader, ListsOfTrianglesDropAPartialLastTriangleWithAWarning) {
+  // 7 indices: two triangles, and one index that makes none, ignored and said.
+  GltfFile f;
+  f.one_triangle({0, 1, 2, 2, 1, 0, 1});
+  std::vector<std::string> warnings;
+  const Scene s = load_gltf(f.write("partial"), &warnings);
+  ASSERT_EQ(s.meshes.size(), 1u);
+  EXPECT_EQ(s.meshes[0].indices, (std::vector<uint32_t>{0, 1, 2, 2, 1, 0}));
+  bool warned = false;
+  for (const std::string& w : warnings)
+    warned |= w.find("7 triangle vertices, not a multiple of 3; the last 1") != std::string::npos;
+  EXPECT_TRUE(warned);
 }
 
 TEST(Loader, BrokenFilesGiveClearErrors) {

@@ -88,7 +88,7 @@ const unsigned char* Loader::view_data(int vi, size_t offset, size_t count, size
 }
 
 const unsigned char* Loader::plain_elements(int ai, const std::string& what, int components, bool is_index,
-                                           size_t* stride) const {
+                                            size_t* stride) const {
   if (ai < 0 || static_cast<size_t>(ai) >= model_.accessors.size() || decoded_.count(ai) != 0) return nullptr;
   const tinygltf::Accessor& a = model_.accessors[ai];
   const size_t cb = component_bytes(a.componentType);
@@ -206,11 +206,18 @@ void Loader::read_indices(int ai, const std::string& where, uint32_t vertex_coun
   if (p != nullptr) {
     out.resize(a.count);
     auto read = [&](auto type) {
+      // Read, then checked by their largest: a check per index kept the
+      // loop from vectorising. The first index past the vertices is then
+      // found for the message.
+      uint32_t largest = 0;
       for (size_t i = 0; i < out.size(); ++i) {
         decltype(type) v;
         std::memcpy(&v, p + i * stride, sizeof v);
-        check(i, v);
+        out[i] = v;
+        largest = std::max<uint32_t>(largest, v);
       }
+      if (largest >= vertex_count)
+        for (size_t i = 0; i < out.size(); ++i) check(i, out[i]);
     };
     if (a.componentType == TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT)
       read(uint32_t{});

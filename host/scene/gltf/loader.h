@@ -166,7 +166,7 @@ class Loader {
 
   int convert_mesh(int mi, const std::vector<double>& weights, int skin);
 
-  static void append_triangles(int mode, const std::vector<uint32_t>& seq, uint32_t base, std::vector<uint32_t>& out,
+  static void append_triangles(int mode, std::vector<uint32_t>&& seq, uint32_t base, std::vector<uint32_t>& out,
                                size_t* dropped);
 
   bool uses_extension(const std::string& name) const;
