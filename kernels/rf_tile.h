@@ -341,7 +341,11 @@ RF_INLINE int rf_tile_narrow(const float c0[3], const float c1[3], const rf_vf* 
 #endif
 RF_INLINE rf_u32 rf_tile_keep_groups(const float c0[3], const float c1[3], const rf_tile_ray* r, const rf_tile_hits* h,
                                      rf_u32 groups RF_TSTAT_PARAM) {
-#define RF_GROUP_ENTERS(j) rf_lanes_any(rf_tile_lane_box(c0, c1, r->ix, r->iy, r->iz, h, 1u, (j)))
+  /* rf_tile_lane_box of the one group h, whose bound max(-1, t) is t (a
+   * lane's t is -1 where it does not answer the group, else at least 0):
+   * written out, as the compiler left that loop over the groups a loop
+   * (a tenth of this function on the dragon). */
+#define RF_GROUP_ENTERS(j) rf_lanes_any(rf_lanes_box(c0, c1, r->ix[j], r->iy[j], r->iz[j], h->t[j]))
   if (popcount(groups) <= RF_KEEP_EACH_GROUP) {
     rf_u32 kept = 0u;
     for (rf_u32 m = groups; m != 0u; m &= m - 1u) {
