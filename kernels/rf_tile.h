@@ -611,13 +611,13 @@ RF_INLINE void rf_tile_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBA
   }
 }
 
-/* The triangles of lane group j's hits, for the exact depth and then its
- * normals: their vertices (lane 0's where a lane missed; its results are
- * not used) and each lane's rf_depth_key. One load for the whole vector
- * when its lanes agree, as on large triangles, else a gather. (The float
- * depth's normals keep their own gather of triangles and normal matrices in
- * one pass: this one, with its keys, slowed those frames by a tenth on
- * Sponza.) */
+/* The triangles of lane group j's hits, for the exact depth: their
+ * vertices (lane 0's where a lane missed; its results are not used) and
+ * each lane's rf_depth_key. One load for the whole vector when its lanes
+ * agree, as on large triangles, else a gather. (The normals,
+ * rf_tile_lane_normals, read the triangles' stored cross products instead:
+ * sharing this gather with the float depth's normals, with its keys,
+ * slowed those frames by a tenth on Sponza.) */
 typedef struct {
   rf_vf v[9]; /* v0, v1, v2 by coordinate */
   rf_vu key;
@@ -675,34 +675,6 @@ RF_INLINE void rf_tile_unit_normals(const rf_vf* w, rf_vi hit, rf_vf* nx, rf_vf*
   *nx = select(wx / len, (rf_vf)(0.0f), zero);
   *ny = select(wy / len, (rf_vf)(0.0f), zero);
   *nz = select(wz / len, (rf_vf)(0.0f), zero);
-}
-
-/* rf_geometric_normal on lanes from each lane's vertices v (v0, v1, v2 by
- * coordinate) and normal matrix m, with the scalar code's operations per
- * lane; 0 where a lane missed (hit) or its triangle is degenerate. */
-RF_INLINE void rf_tile_normals_of(const rf_vf* v, const rf_vf* m, rf_vi hit, rf_vf* nx, rf_vf* ny, rf_vf* nz) {
-  const rf_vf e1x = v[3] - v[0], e1y = v[4] - v[1], e1z = v[5] - v[2];
-  const rf_vf e2x = v[6] - v[0], e2y = v[7] - v[1], e2z = v[8] - v[2];
-  const rf_vf c[3] = {e1y * e2z - e1z * e2y, e1z * e2x - e1x * e2z, e1x * e2y - e1y * e2x};
-  const rf_vf w[3] = {m[0] * c[0] + m[1] * c[1] + m[2] * c[2], m[3] * c[0] + m[4] * c[1] + m[5] * c[2],
-                      m[6] * c[0] + m[7] * c[1] + m[8] * c[2]};
-  rf_tile_unit_normals(w, hit, nx, ny, nz);
-}
-
-/* Each lane's normal matrix for lane group j (lane 0's where a lane
- * missed): one load for the whole vector when its lanes agree, as within
- * one instance, else a gather. */
-RF_INLINE void rf_tile_gather_normal_xforms(const rf_tile_hits* h, int j, rf_vi hit,
-                                            const RF_GLOBAL rf_normal_xform* normal_xforms, rf_vf* m) {
-  float gm[9][RF_LANES];
-  const rf_u32* inst_idx = (const rf_u32*)&h->instance[j];
-  const int one_inst = !rf_lanes_any(~hit | (h->instance[j] != (rf_vu)(inst_idx[0])));
-  for (int l = 0; l < RF_LANES; ++l) {
-    if (one_inst && l > 0) break;
-    const RF_GLOBAL float* x = normal_xforms[inst_idx[l] != RF_INVALID ? inst_idx[l] : 0u].m;
-    for (int k = 0; k < 9; ++k) gm[k][l] = x[k];
-  }
-  for (int k = 0; k < 9; ++k) m[k] = one_inst ? (rf_vf)(gm[k][0]) : *(const rf_vf*)gm[k];
 }
 
 /* The last world-space normal rf_tile_lane_normals made for a whole lane
@@ -845,23 +817,20 @@ RF_INLINE rf_vf rf_tile_lane_depths(const RF_GLOBAL rf_u32* rays, rf_u32 begin, 
 }
 
 /* The exact depth of lane group j, and its normals unless normal_xforms is
- * null, from one gather of the triangles. Not inlined where the compiler
- * allows: inlined, its code slowed the float depth's write stage, which
- * never runs it. */
+ * null (rf_tile_lane_normals, as the float depth's). Not inlined where the
+ * compiler allows: inlined, its code slowed the float depth's write stage,
+ * which never runs it. */
 RF_NOINLINE void rf_tile_exact_lane_group(const RF_GLOBAL rf_u32* rays, rf_u32 begin, rf_u32 count, int j,
                                           const rf_camera* cam, rf_u32 g, const rf_tile_hits* h, rf_vi hit,
                                           const rf_depth_table* depths, float depth_scale,
                                           rf_tile_plane_cache* plane_cache, const RF_GLOBAL rf_tri* tris,
-                                          const RF_GLOBAL rf_normal_xform* normal_xforms, rf_vf* z, rf_vf* nx,
-                                          rf_vf* ny, rf_vf* nz) {
+                                          const RF_GLOBAL rf_normal_xform* normal_xforms,
+                                          rf_tile_normal_cache* normal_cache, rf_vf* z, rf_vf* nx, rf_vf* ny,
+                                          rf_vf* nz) {
   rf_tile_lane_tris lt;
   rf_tile_gather_tris(h, j, hit, tris, &lt);
   *z = rf_tile_lane_depths(rays, begin, count, j, cam, g, h, hit, &lt, depths, depth_scale, plane_cache, *z);
-  if (normal_xforms) {
-    rf_vf m[9];
-    rf_tile_gather_normal_xforms(h, j, hit, normal_xforms, m);
-    rf_tile_normals_of(lt.v, m, hit, nx, ny, nz);
-  }
+  if (normal_xforms) rf_tile_lane_normals(h, j, hit, tris, normal_xforms, normal_cache, nx, ny, nz);
 }
 
 /* Puts one lane's answer, w (rf_pixel_hit's eight words), at index i of
@@ -1029,7 +998,7 @@ RF_INLINE void rf_tile_write_group(const RF_GLOBAL rf_u32* rays, rf_u32 begin, r
     if (!rf_lanes_any(hit)) continue;
     if (exact_depth) {
       rf_tile_exact_lane_group(rays, begin, count, j, cam, g, h, hit, depths, depth_scale, &plane_cache, tris,
-                               normals ? normal_xforms : 0, &z[j], &nx[j], &ny[j], &nz[j]);
+                               normals ? normal_xforms : 0, &normal_cache, &z[j], &nx[j], &ny[j], &nz[j]);
     } else if (normals) {
       rf_tile_lane_normals(h, j, hit, tris, normal_xforms, &normal_cache, &nx[j], &ny[j], &nz[j]);
     }
