@@ -410,10 +410,7 @@ TEST(Bvh, MirroredInstanceKeepsFrontNormal) {
   // report the world normal (0, 0, 1), the front side glTF keeps under
   // mirroring node transforms.
   Scene scene;
-  Mesh tri;
-  tri.positions = {{-1, -1, 0}, {1, -1, 0}, {0, 1, 0}};
-  tri.indices = {0, 1, 2};
-  scene.meshes.push_back(tri);
+  scene.meshes.push_back(testing::unit_triangle());
   scene.instances.push_back({0, glm::translate(Xform(1.0), glm::dvec3(-2, 0, 0)), "plain"});
   scene.instances.push_back(
       {0, glm::scale(glm::translate(Xform(1.0), glm::dvec3(2, 0, 0)), glm::dvec3(-1, 1, 1)), "mirrored"});

@@ -273,10 +273,7 @@ TEST(TileKernel, LaneGroupsOnOneTriangleOfTwoInstancesTakeEachItsOwnNormal) {
   // instances with two normals. A normal kept by triangle alone gives one
   // instance's lanes the other's.
   Scene scene;
-  Mesh tri;
-  tri.positions = {{-1.0f, -1.0f, 0.0f}, {1.0f, -1.0f, 0.0f}, {0.0f, 1.0f, 0.0f}};
-  tri.indices = {0, 1, 2};
-  scene.meshes.push_back(tri);
+  scene.meshes.push_back(testing::unit_triangle());
   const Xform back = glm::translate(Xform(1.0), glm::dvec3(0.0, 0.0, -10.0)) *
                      glm::rotate(Xform(1.0), glm::radians(20.0), glm::dvec3(0.0, 1.0, 0.0)) *
                      glm::scale(Xform(1.0), glm::dvec3(12.0));

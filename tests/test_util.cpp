@@ -332,6 +332,13 @@ CameraSpec SharedView::camera() const {
   return spec;
 }
 
+Mesh unit_triangle() {
+  Mesh tri;
+  tri.positions = {{-1.0f, -1.0f, 0.0f}, {1.0f, -1.0f, 0.0f}, {0.0f, 1.0f, 0.0f}};
+  tri.indices = {0, 1, 2};
+  return tri;
+}
+
 Mesh closed_cube(int n) {
   Mesh m;
   std::map<std::tuple<int, int, int>, uint32_t> index;

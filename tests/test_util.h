@@ -63,6 +63,9 @@ void move_eye_inside_an_instance(Rng& rng, const Scene& scene, CameraSpec& spec)
 // random affine transforms: rotations, non-uniform scales and mirrors.
 Scene random_scene(Rng& rng, int meshes, int instances, int triangles_per_mesh);
 
+// One triangle, (-1, -1, 0), (1, -1, 0), (0, 1, 0), facing +z.
+Mesh unit_triangle();
+
 // The surface of an n x n x n lattice cube [-1, 1]^3 with shared vertices, so
 // every edge is shared by exactly two triangles: a closed mesh. The diagonals
 // alternate so that edges meet at every angle.
