@@ -9,12 +9,16 @@
 #include <glm/geometric.hpp>
 
 #include <algorithm>
+#include <array>
+#include <cmath>
 #include <filesystem>
 #include <memory>
+#include <utility>
 
 #include <glm/gtc/matrix_transform.hpp>
 
 #include "../tools/scene_gen.h"
+#include "bvh/bvh_build.h"
 #include "renderer.h"
 #include "rf_trace.h"
 #include "scene/gltf_loader.h"
@@ -294,6 +298,53 @@ TEST(TileKernel, LaneGroupsOnOneTriangleOfTwoInstancesTakeEachItsOwnNormal) {
   EXPECT_GT(seen[0], 1000u);
   EXPECT_GT(seen[1], 1000u);
   EXPECT_EQ(r.differences(cam), "");
+}
+
+TEST(TileKernel, DuplicatedTrianglesOfADenseMeshTakeTheLowerPrimitive) {
+  // A sphere of about 150k triangles, each written twice (the same
+  // vertices, two primitive ids), so that it is built as a dense mesh
+  // (fuller leaves) with both copies in one leaf, seen whole in small
+  // images. Every hit meets both copies at the same t, so the tie rule (the
+  // lower primitive) decides every pixel: a lane that takes the higher copy
+  // differs from the CPU reference. No other test ties every pixel.
+  constexpr int kU = 240, kV = 160;
+  Mesh sphere;
+  for (int v = 0; v <= kV; ++v)
+    for (int u = 0; u <= kU; ++u) {
+      const double th = M_PI * v / kV, ph = 2.0 * M_PI * u / kU;
+      sphere.positions.push_back(
+          glm::vec3(glm::dvec3(std::sin(th) * std::cos(ph), std::cos(th), std::sin(th) * std::sin(ph))));
+    }
+  for (int v = 0; v < kV; ++v)
+    for (int u = 0; u < kU; ++u) {
+      const uint32_t a = static_cast<uint32_t>(v * (kU + 1) + u), b = a + 1, c = a + kU + 1, d = c + 1;
+      for (const std::array<uint32_t, 3>& t : {std::array<uint32_t, 3>{a, c, b}, std::array<uint32_t, 3>{b, c, d}})
+        for (int copy = 0; copy < 2; ++copy) sphere.indices.insert(sphere.indices.end(), t.begin(), t.end());
+    }
+  ASSERT_GE(sphere.triangle_count(), BuildOptions{}.dense_triangles);
+  Scene scene;
+  scene.meshes.push_back(sphere);
+  scene.instances.push_back({0, Xform(1.0), "sphere"});
+  ThreeWays r(scene);
+  for (const glm::dvec3 eye : {glm::dvec3(0, 0, 3), glm::dvec3(2, 1.5, 1.2)}) {
+    CameraSpec spec;
+    spec.eye = eye;
+    spec.look_at = glm::dvec3(0.0);
+    spec.vfov_degrees = 45.0;
+    for (const auto& [w, h] : {std::pair{48, 40}, std::pair{17, 9}}) {
+      const Camera cam = make_camera(spec, w, h);
+      // The premise: every hit is the lower copy, an even primitive.
+      size_t hits = 0, odd = 0;
+      for (const rf_pixel_hit& p : r.reference(cam))
+        if (p.instance != RF_INVALID) {
+          ++hits;
+          odd += p.primitive % 2u;
+        }
+      EXPECT_GT(hits, static_cast<size_t>(w * h) / 4);
+      EXPECT_EQ(odd, 0u);
+      EXPECT_EQ(r.differences(cam), "") << w << "x" << h;
+    }
+  }
 }
 
 TEST(TileKernel, SharedScenes) {
