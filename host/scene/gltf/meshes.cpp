@@ -83,10 +83,13 @@ void Loader::append_triangles(int mode, std::vector<uint32_t>&& seq, uint32_t ba
     out = std::move(seq);
     return;
   }
-  // Grown once: a push_back at a time, the dragon's 2.6M indices were
-  // copied into ever larger fresh arrays, 20 MB of page faults.
+  // Grown once a primitive: a push_back at a time, the dragon's 2.6M
+  // indices were copied into ever larger fresh arrays (20 MB of page
+  // faults). At least doubled, so that a mesh of many primitives is not
+  // copied once for each.
   const size_t triangles = mode == TINYGLTF_MODE_TRIANGLES ? n / 3 : (n >= 3 ? n - 2 : 0);
-  out.reserve(out.size() + 3 * triangles);
+  const size_t needed = out.size() + 3 * triangles;
+  if (needed > out.capacity()) out.reserve(std::max(needed, 2 * out.capacity()));
   if (mode == TINYGLTF_MODE_TRIANGLES) {
     for (size_t i = 0; i + 2 < n; i += 3) tri(i, i + 1, i + 2);
     if (n % 3 != 0 && dropped) *dropped = n % 3;
