@@ -103,14 +103,38 @@ typedef struct {
     pl[2] = rf_dd_dot_##S(nh, nl, m + 6, m + 9, &pl[6]);                                         \
     pl[3] = rf_dd_dot_##S(nh, nl, m + 12, m + 15, &pl[7]);                                       \
   }                                                                                              \
-  /* The depth of the pixel with offsets (ix, iy) (exact integers as                             \
-   * floats) from its hit's rf_depth_plane pl and the view's camera entry                        \
-   * cm: t |d_trace|, d_trace the camera entry's direction (along the                            \
-   * camera's axis for planar), in trace units (the caller scales by the                         \
-   * view's power of two); not finite or not positive where the ray runs in                      \
-   * the plane. */                                                                               \
-  RF_INLINE T rf_depth_finish_##S(const T* pl, const T* cm, T ix, T iy, int ortho, int planar) { \
-    T al, bl, sl, num_l, den_l, len_h, len_l;                                                    \
+  /* |d_trace| of the pixel with offsets (ix, iy) (exact integers as                             \
+   * floats), d_trace the camera entry cm's direction (along the camera's                        \
+   * axis for planar), as a pair (hi returned, lo in *len_l). A function of                      \
+   * (ix, iy) and cm alone: where cm's offsets (its c's x and y) are 0, as                       \
+   * on every camera that folds, of (|ix|, |iy|), so mirror partners share it.                   \
+   */                                                                                            \
+  RF_INLINE T rf_depth_length_##S(const T* cm, T ix, T iy, int ortho, int planar, T* len_l) {    \
+    if (planar || ortho) {                                                                       \
+      /* Along the axis: the camera entry's -c.z, exact. */                                      \
+      *len_l = (T)(0.0f);                                                                        \
+      return -cm[14];                                                                            \
+    }                                                                                            \
+    T ul, wl, xl, yl, xxl, yyl, ql, rl;                                                          \
+    const T uh = rf_dd_mul_##S(cm[0], cm[3], ix, (T)(0.0f), &ul);                                \
+    const T wh = rf_dd_mul_##S(cm[7], cm[10], iy, (T)(0.0f), &wl);                               \
+    const T xh = rf_dd_add_##S(uh, ul, cm[12], cm[15], &xl);                                     \
+    const T yh = rf_dd_add_##S(wh, wl, cm[13], cm[16], &yl);                                     \
+    const T xxh = rf_dd_mul_##S(xh, xl, xh, xl, &xxl);                                           \
+    const T yyh = rf_dd_mul_##S(yh, yl, yh, yl, &yyl);                                           \
+    const T qh = rf_dd_add_##S(xxh, xxl, yyh, yyl, &ql);                                         \
+    const T rh = rf_dd_add_##S(qh, ql, cm[14] * cm[14], (T)(0.0f), &rl);                         \
+    /* sqrt of a pair: one Newton step on the float root. */                                     \
+    const T r = RF_SQRT(rh);                                                                     \
+    const T rr = (RF_FMA(-r, r, rh) + rl) / (r + r);                                             \
+    return rf_fast_two_sum_##S(r, rr, len_l);                                                    \
+  }                                                                                              \
+  /* The depth of the pixel with offsets (ix, iy) from its hit's                                 \
+   * rf_depth_plane pl and its rf_depth_length (len_h, len_l): t |d_trace|,                      \
+   * in trace units (the caller scales by the view's power of two); not                          \
+   * finite or not positive where the ray runs in the plane. */                                  \
+  RF_INLINE T rf_depth_finish_##S(const T* pl, T len_h, T len_l, T ix, T iy, int ortho) {        \
+    T al, bl, sl, num_l, den_l;                                                                  \
     const T ah = rf_dd_mul_##S(pl[1], pl[5], ix, (T)(0.0f), &al);                                \
     const T bh = rf_dd_mul_##S(pl[2], pl[6], iy, (T)(0.0f), &bl);                                \
     const T sh = rf_dd_add_##S(ah, al, bh, bl, &sl);                                             \
@@ -121,25 +145,6 @@ typedef struct {
       num_h = rf_dd_add_##S(pl[0], pl[4], -sh, -sl, &num_l);                                     \
     else                                                                                         \
       den_h = rf_dd_add_##S(sh, sl, pl[3], pl[7], &den_l);                                       \
-    if (planar || ortho) {                                                                       \
-      /* |d_trace| along the axis: the camera entry's -c.z, exact. */                            \
-      len_h = -cm[14];                                                                           \
-      len_l = (T)(0.0f);                                                                         \
-    } else {                                                                                     \
-      T ul, wl, xl, yl, xxl, yyl, ql, rl;                                                        \
-      const T uh = rf_dd_mul_##S(cm[0], cm[3], ix, (T)(0.0f), &ul);                              \
-      const T wh = rf_dd_mul_##S(cm[7], cm[10], iy, (T)(0.0f), &wl);                             \
-      const T xh = rf_dd_add_##S(uh, ul, cm[12], cm[15], &xl);                                   \
-      const T yh = rf_dd_add_##S(wh, wl, cm[13], cm[16], &yl);                                   \
-      const T xxh = rf_dd_mul_##S(xh, xl, xh, xl, &xxl);                                         \
-      const T yyh = rf_dd_mul_##S(yh, yl, yh, yl, &yyl);                                         \
-      const T qh = rf_dd_add_##S(xxh, xxl, yyh, yyl, &ql);                                       \
-      const T rh = rf_dd_add_##S(qh, ql, cm[14] * cm[14], (T)(0.0f), &rl);                       \
-      /* sqrt of a pair: one Newton step on the float root. */                                   \
-      const T r = RF_SQRT(rh);                                                                   \
-      const T rr = (RF_FMA(-r, r, rh) + rl) / (r + r);                                           \
-      len_h = rf_fast_two_sum_##S(r, rr, &len_l);                                                \
-    }                                                                                            \
     T pl2;                                                                                       \
     const T ph = rf_dd_mul_##S(num_h, num_l, len_h, len_l, &pl2);                                \
     /* (ph, pl2) / (den_h, den_l): the float quotient and one correction. */                     \
@@ -187,7 +192,10 @@ RF_INLINE float rf_pixel_depth(const rf_depth_table* dt, rf_u32 view, rf_u32 ins
   }
   rf_depth_plane_f(v, m, pl);
   const float ix = (float)(2 * px + cam->kx0), iy = (float)(cam->ky0 - 2 * py);
-  const float d = rf_depth_finish_f(pl, cm, ix, iy, cam->ortho, (cam->write_flags & RF_WRITE_PLANAR_DEPTH) != 0u);
+  float len_l;
+  const float len_h =
+      rf_depth_length_f(cm, ix, iy, cam->ortho, (cam->write_flags & RF_WRITE_PLANAR_DEPTH) != 0u, &len_l);
+  const float d = rf_depth_finish_f(pl, len_h, len_l, ix, iy, cam->ortho);
   const float e = d * depth_scale;
   return rf_depth_plausible(e, z) ? e : z;
 }

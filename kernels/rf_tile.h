@@ -749,32 +749,69 @@ typedef struct {
   float pl[8];
 } rf_tile_plane_cache;
 
+/* The exact depth's per-pixel part that does not depend on the hit, for the
+ * tile's rays in one view: per lane the offsets (ix, iy) of its ray's own
+ * pixel (unmirrored) and rf_depth_length's pair, made for lane group j when
+ * it first needs them (bit j of `made`). A mirror partner's offsets are the
+ * negated ones, exactly (xpair = -kx0, ypair = ky0: rf_types.h), and its
+ * length the same bits: the camera entry has no offset along an axis that
+ * folds (can_fold_columns, can_fold_rows), so the length is a function of
+ * |ix| and |iy| there. A ray's two or four pixels make it once: exact-depth
+ * frames folded xy 1.14x to 1.19x faster on the interiors' random views,
+ * where every pixel pays the length (docs/results.md). */
+typedef struct {
+  rf_u32 view; /* RF_INVALID: none made */
+  rf_u32 made; /* bit j: lane group j's below are made */
+  rf_vf ix[RF_LANE_GROUPS], iy[RF_LANE_GROUPS];
+  rf_vf len_h[RF_LANE_GROUPS], len_l[RF_LANE_GROUPS];
+} rf_tile_pixel_rays;
+
+/* rf_depth_length of the lanes of group j, ix and iy their pixel offsets,
+ * for the view's camera entry cm. */
+RF_INLINE rf_vf rf_tile_lane_lengths(const RF_GLOBAL float* cm_g, const rf_camera* cam, rf_vf ix, rf_vf iy,
+                                     rf_vf* len_l) {
+  rf_vf cm[24];
+  for (int k = 0; k < 24; ++k) cm[k] = (rf_vf)(cm_g[k]);
+  return rf_depth_length_v(cm, ix, iy, cam->ortho, (cam->write_flags & RF_WRITE_PLANAR_DEPTH) != 0u, len_l);
+}
+
 /* rf_pixel_depth for the lanes of lane group j that hit, in vectors: for
  * group g's view and pixels, the depth of rf_depth.h where it is
  * plausible, else z. */
 RF_INLINE rf_vf rf_tile_lane_depths(const RF_GLOBAL rf_u32* rays, rf_u32 begin, rf_u32 count, int j,
                                     const rf_camera* cam, rf_u32 g,
                                     const rf_tile_hits* h, rf_vi hit, const rf_tile_lane_tris* lt,
-                                    const rf_depth_table* dt, float depth_scale, rf_tile_plane_cache* cache, rf_vf z) {
+                                    const rf_depth_table* dt, float depth_scale, rf_tile_plane_cache* cache,
+                                    rf_tile_pixel_rays* pr, rf_vf z) {
   const rf_u32 view = g >> cam->group_shift;
   const rf_u32 mirror = rf_group_mirror(g, cam);
   const RF_GLOBAL rf_depth_xform* cam_xf = &dt->xforms[(size_t)view * (dt->instances + 1u)];
-  /* Each lane's pixel offsets 2 px + kx0 and ky0 - 2 py (px, py its ray's
-   * pixel mirrored as g says; rays j * RF_LANES + l of the tile), exact in
-   * float. Decoded here rather than kept with the tile's rays, which the
-   * float depth's frames would pay for. */
-  float gix[RF_LANES], giy[RF_LANES];
-  for (int l = 0; l < RF_LANES; ++l) {
-    const rf_u32 r = (rf_u32)(j * RF_LANES + l);
-    const rf_u32 entry = rays[begin + (r < count ? r : count - 1u)];
-    const rf_i32 x = (rf_i32)(entry & RF_RAY_COORD_MASK);
-    const rf_i32 y = (rf_i32)((entry >> RF_RAY_COORD_BITS) & RF_RAY_COORD_MASK);
-    const rf_i32 px = (mirror & 1u) ? cam->xpair - x : x;
-    const rf_i32 py = (mirror & 2u) ? cam->ypair - y : y;
-    gix[l] = (float)(2 * px + cam->kx0);
-    giy[l] = (float)(cam->ky0 - 2 * py);
+  if (pr->view != view) {
+    pr->view = view;
+    pr->made = 0u;
   }
-  const rf_vf ix = *(const rf_vf*)gix, iy = *(const rf_vf*)giy;
+  if (((pr->made >> j) & 1u) == 0u) {
+    /* Each lane's pixel offsets 2 x + kx0 and ky0 - 2 y (rays
+     * j * RF_LANES + l of the tile), exact in float. Decoded here rather
+     * than kept with the tile's rays, which the float depth's frames would
+     * pay for. */
+    float gix[RF_LANES], giy[RF_LANES];
+    for (int l = 0; l < RF_LANES; ++l) {
+      const rf_u32 r = (rf_u32)(j * RF_LANES + l);
+      const rf_u32 entry = rays[begin + (r < count ? r : count - 1u)];
+      const rf_i32 x = (rf_i32)(entry & RF_RAY_COORD_MASK);
+      const rf_i32 y = (rf_i32)((entry >> RF_RAY_COORD_BITS) & RF_RAY_COORD_MASK);
+      gix[l] = (float)(2 * x + cam->kx0);
+      giy[l] = (float)(cam->ky0 - 2 * y);
+    }
+    pr->ix[j] = *(const rf_vf*)gix;
+    pr->iy[j] = *(const rf_vf*)giy;
+    pr->len_h[j] = rf_tile_lane_lengths(cam_xf->m, cam, pr->ix[j], pr->iy[j], &pr->len_l[j]);
+    pr->made |= 1u << j;
+  }
+  const rf_vf ix = (mirror & 1u) ? -pr->ix[j] : pr->ix[j];
+  const rf_vf iy = (mirror & 2u) ? -pr->iy[j] : pr->iy[j];
+  const rf_vf len_h = pr->len_h[j], len_l = pr->len_l[j];
   /* The plane part: once for the vector where its lanes share the
    * triangle and the tree (large triangles), else per lane, each lane's
    * transform gathered unless the lanes share a tree. */
@@ -808,9 +845,7 @@ RF_INLINE rf_vf rf_tile_lane_depths(const RF_GLOBAL rf_u32* rays, rf_u32 begin, 
     }
     rf_depth_plane_v(lt->v, m, pl);
   }
-  rf_vf cm[24];
-  for (int k = 0; k < 24; ++k) cm[k] = (rf_vf)(cam_xf->m[k]);
-  const rf_vf d = rf_depth_finish_v(pl, cm, ix, iy, cam->ortho, (cam->write_flags & RF_WRITE_PLANAR_DEPTH) != 0u);
+  const rf_vf d = rf_depth_finish_v(pl, len_h, len_l, ix, iy, cam->ortho);
   /* rf_depth_plausible on lanes. */
   const rf_vf e = d * depth_scale;
   return select(z, e, hit & (e > (rf_vf)(0.0f)) & (e < (rf_vf)(RF_FAR)) & (fabs(e - z) <= z * 0x1p-8f));
@@ -826,10 +861,11 @@ RF_NOINLINE void rf_tile_exact_lane_group(const RF_GLOBAL rf_u32* rays, rf_u32 b
                                           rf_tile_plane_cache* plane_cache, const RF_GLOBAL rf_tri* tris,
                                           const RF_GLOBAL rf_normal_xform* normal_xforms,
                                           rf_tile_normal_cache* normal_cache, rf_vf* z, rf_vf* nx, rf_vf* ny,
-                                          rf_vf* nz) {
+                                          rf_vf* nz, rf_tile_pixel_rays* pixel_rays) {
   rf_tile_lane_tris lt;
   rf_tile_gather_tris(h, j, hit, tris, &lt);
-  *z = rf_tile_lane_depths(rays, begin, count, j, cam, g, h, hit, &lt, depths, depth_scale, plane_cache, *z);
+  *z = rf_tile_lane_depths(rays, begin, count, j, cam, g, h, hit, &lt, depths, depth_scale, plane_cache, pixel_rays,
+                           *z);
   if (normal_xforms) rf_tile_lane_normals(h, j, hit, tris, normal_xforms, normal_cache, nx, ny, nz);
 }
 
@@ -978,7 +1014,8 @@ RF_INLINE_ALWAYS int rf_tile_write_block(const RF_GLOBAL rf_u32* rays, rf_u32 be
 RF_INLINE void rf_tile_write_group(const RF_GLOBAL rf_u32* rays, rf_u32 begin, rf_u32 count, const rf_camera* cam,
                                    const rf_u32* lane_groups, const rf_tile_camera* tc, const rf_tile_hits* h, rf_u32 g,
                                    float depth_scale, const rf_depth_table* depths, const RF_GLOBAL rf_tri* tris,
-                                   const RF_GLOBAL rf_normal_xform* normal_xforms, const rf_answers* out) {
+                                   const RF_GLOBAL rf_normal_xform* normal_xforms, rf_tile_pixel_rays* pixel_rays,
+                                   const rf_answers* out) {
   rf_vf z[RF_LANE_GROUPS], nx[RF_LANE_GROUPS], ny[RF_LANE_GROUPS], nz[RF_LANE_GROUPS];
   const int exact_depth = (cam->write_flags & RF_WRITE_EXACT_DEPTH) != 0u;
   rf_tile_plane_cache plane_cache;
@@ -998,7 +1035,8 @@ RF_INLINE void rf_tile_write_group(const RF_GLOBAL rf_u32* rays, rf_u32 begin, r
     if (!rf_lanes_any(hit)) continue;
     if (exact_depth) {
       rf_tile_exact_lane_group(rays, begin, count, j, cam, g, h, hit, depths, depth_scale, &plane_cache, tris,
-                               normals ? normal_xforms : 0, &normal_cache, &z[j], &nx[j], &ny[j], &nz[j]);
+                               normals ? normal_xforms : 0, &normal_cache, &z[j], &nx[j], &ny[j], &nz[j],
+                               pixel_rays);
     } else if (normals) {
       rf_tile_lane_normals(h, j, hit, tris, normal_xforms, &normal_cache, &nx[j], &ny[j], &nz[j]);
     }
@@ -1095,9 +1133,11 @@ RF_INLINE void rf_trace_tile(const RF_GLOBAL rf_u32* rays, rf_u32 begin, rf_u32 
   if (tlas_root != RF_INVALID)
     rf_tile_trace_tlas(nodes, wide, tris, instances, tlas_root, &tc, 0, tile_groups, ro, hits RF_TSTAT_ARG);
 
+  rf_tile_pixel_rays pixel_rays;
+  pixel_rays.view = RF_INVALID;
   RF_FOR_EACH_GROUP(g, tile_groups) {
     rf_tile_write_group(rays, begin, count, cam, lane_groups, &tc, &hits[g], g, depth_scales[g >> cam->group_shift],
-                        depths, tris, normal_xforms, out);
+                        depths, tris, normal_xforms, &pixel_rays, out);
   }
 }
 

@@ -71,6 +71,32 @@ TEST(ExactDepth, KernelsEqualTheCpuReferenceInEveryFold) {
   EXPECT_GE(views, 30);
 }
 
+TEST(ExactDepth, OnePrincipalPointOffsetFoldsTheOtherAxisWithItsOwnRayLengths) {
+  // The tile kernel makes a ray's exact length once for its mirror pixels,
+  // which holds along an axis that folds; a principal point off the
+  // half-pixel grid along the other axis gives every pixel an offset there
+  // that a shared length must keep (negated along it, the length differs).
+  Rng rng(3131);
+  const Scene scene = testing::generated_atrium(717, 30, 8000);
+  testing::ThreeWays r(scene);
+  int folded = 0;
+  for (int v = 0; v < 4; ++v) {
+    const Xform world_from_camera =
+        make_camera(testing::random_camera(rng, scene.world_bounds()), 8, 8).world_from_camera;
+    const int w = 45 + v, h = 31 + v;
+    const double on = 0.5 * w + 1.0, off = 0.5 * h + 0.3;  // on the grid: a whole pixel off centre
+    const Intrinsics k =
+        v % 2 == 0 ? Intrinsics{40.0, 37.0, on, off} : Intrinsics{40.0, 37.0, 0.5 * w + 0.3, 0.5 * h - 1.0};
+    const Camera cam = make_camera(world_from_camera, k, w, h);
+    ASSERT_NE(can_fold_columns(cam), can_fold_rows(cam)) << "view " << v;
+    FrameOptions o = exact();
+    o.planar_depth = v == 3;
+    EXPECT_EQ(r.differences(cam, -1, o), "") << "view " << v;
+    folded += r.tile->render(cam, 1, exact(FoldMode::xy)).fold != FoldMode::none;
+  }
+  EXPECT_EQ(folded, 4);
+}
+
 TEST(ExactDepth, LanesOnOneTriangleOfTwoInstances) {
   // Two instances of a one-triangle mesh cover the two halves of a square:
   // the tile kernel's lanes along the diagonal hit the same triangle index

@@ -44,9 +44,11 @@ Camera make_camera(const CameraSpec& spec, int width, int height, double shift_x
 Camera make_camera(const Xform& world_from_camera, const Intrinsics& k, int width, int height);
 
 // Whether the principal point lets the fold pair columns (mirror about the
-// vertical plane) or rows.
-inline bool can_fold_columns(const Camera& c) { return c.params.frac_x == 0.0f; }
-inline bool can_fold_rows(const Camera& c) { return c.params.frac_y == 0.0f; }
+// vertical plane) or rows. The exact value is asked too: the exact depth
+// (kernels/rf_depth.h) gives mirror partners one ray length, which holds
+// where the exact ray has no offset along the folded axis.
+inline bool can_fold_columns(const Camera& c) { return c.params.frac_x == 0.0f && c.frac_x == 0.0; }
+inline bool can_fold_rows(const Camera& c) { return c.params.frac_y == 0.0f && c.frac_y == 0.0; }
 
 // The camera's intrinsics (whatever made it), pixel centres at +0.5.
 Intrinsics intrinsics(const Camera& camera);
