@@ -33,7 +33,7 @@ python-env: deps
 
 # Fold tables, speed against accuracy with Embree, from Python against
 # Mitsuba 3 and Open3D, and charts for the bundled scene and every scene in
-# ../shared/scenes, into out/bench/. Long (about 5 minutes a scene);
+# ../shared/scenes, into out/bench/. Long (about 75 minutes on 2 cores);
 # BENCH_ARGS="--views 3 --frames 3" shortens it. Open3D's wheel needs libusb.
 BENCH_ARGS ?=
 bench: PYTHON_FLAGS = -DRAYFOLD_PYTHON=ON -DPython_EXECUTABLE=$(CURDIR)/$(BUILD_DIR)/venv/bin/python

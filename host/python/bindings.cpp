@@ -675,7 +675,7 @@ NB_MODULE(_core, m) {
           "Renders a G-buffer. The trees and kernels for these options are built on first use and kept. channels: "
           "the planes to fill (a list or 'depth,instance_id'; default all), the others None. depth: 'distance' "
           "along each pixel's ray, or 'planar' along the camera's axis. exact_depth: each depth from the pixel's "
-          "exact ray in double-float, within 2^-24 of the exact value (slower: about 1.1x to 1.35x the frame). "
+          "exact ray in double-float, within 2^-24 of the exact value (slower: about 1.2x to 1.5x the frame). "
           "Releases the GIL.")
       .def(
           "render_views",

@@ -75,7 +75,7 @@ const char* kRenderUsage =
     "                         depth along the camera's axis (Nuke's and Blender's Z)\n"
     "  --exact-depth          Z from each pixel's exact ray in double-float: within 2^-24\n"
     "                         of the exact value (the float ray's is off by up to 1e-4\n"
-    "                         on grazing pixels); about 1.1x to 1.35x the frame time\n"
+    "                         on grazing pixels); about 1.2x to 1.5x the frame time\n"
     "  --channels C,...       the EXR channels written: Z, N (N.X, N.Y, N.Z), UV (U, V),\n"
     "                         InstanceID, PrimitiveID (default: all eight)\n"
     "  --exr-compression M    zip (default), zips, piz, rle or none: OpenEXR's lossless\n"

@@ -39,7 +39,7 @@ struct RendererOptions {
   // true: each depth from the pixel's exact ray and the hit triangle's plane
   // in double-float, rounded once: within 2^-24 of the exact value where the
   // float ray's is off by up to 1e-4 on grazing pixels (docs/results.md);
-  // about 1.1x to 1.35x the frame time on a CPU. The other channels and the
+  // about 1.2x to 1.5x the frame time on a CPU. The other channels and the
   // bits on every backend are unchanged.
   bool exact_depth = false;
 };

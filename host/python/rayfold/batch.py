@@ -421,7 +421,7 @@ def main(argv=None):
     p.add_argument("--depth", default="distance", choices=["distance", "planar"])
     p.add_argument("--exact-depth", action="store_true",
                    help="each depth from the pixel's exact ray in double-float, within 2^-24 of the exact value "
-                        "(about 1.1x to 1.35x the frame time on a CPU)")
+                        "(about 1.2x to 1.5x the frame time on a CPU)")
     p.add_argument("--exr-compression", choices=["zip", "zips", "piz", "rle", "none"],
                    help="the EXRs' lossless compression: zip (default); none writes 3 to 4 times faster at 10 times "
                         "the bytes")
