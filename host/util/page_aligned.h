@@ -10,6 +10,8 @@
 
 #include <cstddef>
 #include <new>
+#include <type_traits>
+#include <utility>
 #include <vector>
 
 #include "util/large_pages.h"
@@ -34,6 +36,20 @@ struct PageAlignedAllocator {
       free_large(p, n * sizeof(T));
     else
       ::operator delete(p, kPage);
+  }
+
+  // resize(n) and emplace_back() default-initialise: a device struct
+  // (rf_tri, rf_node, rf_wide_node) is left as it was, to be written whole
+  // by its producer, where value-initialising zeroed the car's 17 MB of
+  // triangles on one thread before the fill wrote them on all. A type with
+  // a constructor still runs it.
+  template <class U>
+  void construct(U* p) noexcept(std::is_nothrow_default_constructible_v<U>) {
+    ::new (static_cast<void*>(p)) U;
+  }
+  template <class U, class... Args>
+  void construct(U* p, Args&&... args) {
+    ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
   }
 
   template <class U>
