@@ -74,6 +74,7 @@ TEST(LargePages, FreshLargeArraysFaultInWholeHugePages) {
   if (mode.find("[always]") == std::string::npos && mode.find("[madvise]") == std::string::npos)
     GTEST_SKIP() << "transparent huge pages are off here ('" << mode << "')";
   constexpr size_t kBytes = size_t{32} << 20;
+  release_kept_large_arrays();  // a kept block would have no fresh pages to fault
   LargeArray<char> a(kBytes);
   const long fallbacks = thp_fallbacks();
   const long before = minor_faults();
@@ -82,6 +83,56 @@ TEST(LargePages, FreshLargeArraysFaultInWholeHugePages) {
   if (faults >= static_cast<long>(kBytes / 4096 / 4) && thp_fallbacks() > fallbacks)
     GTEST_SKIP() << "the kernel had no 2 MiB pages to give (thp_fault_fallback rose; " << faults << " faults)";
   EXPECT_LT(faults, static_cast<long>(kBytes / 4096 / 4)) << "faults for " << kBytes / 4096 << " fresh 4 KiB pages";
+}
+
+// A rebuild asks for the sizes the last build freed: it gets those blocks
+// back, pages and all, rather than fresh ones to fault in; a much smaller
+// array does not take a large block.
+TEST(LargePages, FreedLargeArraysServeTheNextOfTheirSize) {
+  if (!large_arrays_are_mapped()) GTEST_SKIP() << "large arrays come from the heap in this build (AddressSanitizer)";
+  release_kept_large_arrays();
+  constexpr size_t kBytes = size_t{24} << 20;
+  const void* first = nullptr;
+  {
+    LargeArray<char> a(kBytes);
+    first = a.data();
+    for (size_t i = 0; i < kBytes; i += 4096) a[i] = 1;
+  }
+  if (kept_large_bytes() == 0) GTEST_SKIP() << "the kernel refuses MADV_FREE (before Linux 4.5): nothing is kept";
+  EXPECT_EQ(kept_large_bytes(), kBytes);
+  {
+    LargeArray<char> small(kBytes / 4);  // under half: a fresh mapping
+    EXPECT_NE(static_cast<const void*>(small.data()), first);
+    EXPECT_EQ(kept_large_bytes(), kBytes);
+  }
+  LargeArray<char> again(kBytes - 100);
+  EXPECT_EQ(static_cast<const void*>(again.data()), first);
+  EXPECT_EQ(kept_large_bytes(), kBytes / 4) << "the small array's block, kept after it was freed";
+  const long before = minor_faults();
+  for (size_t i = 0; i < kBytes - 100; i += 4096) again[i] = 2;
+  EXPECT_LT(minor_faults() - before, static_cast<long>(kBytes / 4096 / 4)) << "faults writing a kept block";
+  release_kept_large_arrays();
+  EXPECT_EQ(kept_large_bytes(), 0u);
+}
+
+// What is kept stays within kKeptLargeBytes, the oldest blocks unmapped
+// first. Address space only: none of these pages is touched.
+TEST(LargePages, KeptBlocksStayWithinTheirCapOldestFirst) {
+  if (!large_arrays_are_mapped()) GTEST_SKIP() << "large arrays come from the heap in this build (AddressSanitizer)";
+  release_kept_large_arrays();
+  constexpr size_t kBytes = kKeptLargeBytes / 2 - (size_t{2} << 20);
+  const void* last = nullptr;
+  {
+    LargeArray<char> a(kBytes), b(kBytes), c(kBytes);
+    last = c.data();
+  }  // freed c, b, a: a is the newest
+  if (kept_large_bytes() == 0) GTEST_SKIP() << "the kernel refuses MADV_FREE (before Linux 4.5): nothing is kept";
+  EXPECT_EQ(kept_large_bytes(), 2 * kBytes) << "of three blocks of " << kBytes << " under a cap of " << kKeptLargeBytes;
+  LargeArray<char> x(kBytes), y(kBytes), z(kBytes);
+  EXPECT_NE(static_cast<const void*>(x.data()), last);
+  EXPECT_NE(static_cast<const void*>(y.data()), last);
+  EXPECT_EQ(kept_large_bytes(), 0u);
+  release_kept_large_arrays();
 }
 #endif
 

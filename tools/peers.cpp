@@ -18,6 +18,7 @@
 #include "reference/hit_compare.h"
 #include "renderer.h"
 #include "scene/gltf_loader.h"
+#include "util/large_pages.h"
 #include "util/timer.h"
 
 namespace rayfold::core {
@@ -122,7 +123,9 @@ PeerReport run_peers(const PeerOptions& opt) {
   {
     // The renderer's trees again, alone, for their time and peak memory
     // without the renderer's other set-up. Deterministic, so they are the
-    // same trees.
+    // same trees. In fresh memory: blocks kept from the renderer's build
+    // (util/large_pages.h) would hide this one's peak.
+    release_kept_large_arrays();
     const PeakMemory memory;
     MergeOptions merge;
     merge.enabled = opt.merge;

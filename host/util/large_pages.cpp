@@ -1,7 +1,10 @@
 #include "util/large_pages.h"
 
 #include <cstdint>
+#include <mutex>
 #include <new>
+#include <unordered_map>
+#include <vector>
 
 #ifdef __linux__
 #include <sys/mman.h>
@@ -31,8 +34,27 @@ size_t mapped_size(size_t bytes) { return (bytes + kHugePage - 1) & ~(kHugePage 
 
 #if RF_LARGE_PAGES_MAPPED
 
-void* allocate_large(size_t bytes) {
-  const size_t size = mapped_size(bytes);
+namespace {
+
+// The blocks free_large keeps, oldest first, and the size of each block
+// handed out (a kept block may be larger than the array it serves).
+struct KeptBlocks {
+  struct Block {
+    void* p;
+    size_t size;
+  };
+  std::mutex mutex;
+  std::vector<Block> kept;
+  size_t kept_bytes = 0;
+  std::unordered_map<void*, size_t> given;
+};
+
+KeptBlocks& kept_blocks() {
+  static KeptBlocks* blocks = new KeptBlocks;  // never destroyed: arrays may be freed during static destruction
+  return *blocks;
+}
+
+void* map_fresh(size_t size) {
   // Over-mapped by one huge page, then trimmed to a 2 MiB boundary at both
   // ends: only whole, aligned 2 MiB ranges can be huge pages.
   void* raw = mmap(nullptr, size + kHugePage, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
@@ -49,7 +71,93 @@ void* allocate_large(size_t bytes) {
   return p;
 }
 
-void free_large(void* p, size_t bytes) noexcept { munmap(p, mapped_size(bytes)); }
+}  // namespace
+
+void* allocate_large(size_t bytes) {
+  const size_t size = mapped_size(bytes);
+  KeptBlocks& b = kept_blocks();
+  {
+    std::lock_guard<std::mutex> lock(b.mutex);
+    size_t best = b.kept.size();
+    for (size_t k = 0; k < b.kept.size(); ++k)
+      if (b.kept[k].size >= size && b.kept[k].size / 2 <= size &&
+          (best == b.kept.size() || b.kept[k].size < b.kept[best].size))
+        best = k;
+    if (best < b.kept.size()) {
+      const KeptBlocks::Block block = b.kept[best];
+      b.kept.erase(b.kept.begin() + static_cast<std::ptrdiff_t>(best));
+      b.kept_bytes -= block.size;
+      b.given[block.p] = block.size;
+      return block.p;
+    }
+  }
+  void* p = map_fresh(size);
+  try {
+    std::lock_guard<std::mutex> lock(b.mutex);
+    b.given[p] = size;
+  } catch (...) {
+    munmap(p, size);
+    throw std::bad_alloc();
+  }
+  return p;
+}
+
+void free_large(void* p, size_t bytes) noexcept {
+  KeptBlocks& b = kept_blocks();
+  std::vector<KeptBlocks::Block> unmap;
+  size_t size = mapped_size(bytes);
+  try {
+    std::lock_guard<std::mutex> lock(b.mutex);
+    const auto given = b.given.find(p);
+    if (given != b.given.end()) {
+      size = given->second;
+      b.given.erase(given);
+    }
+    unmap.reserve(b.kept.size() + 1);
+    b.kept.reserve(b.kept.size() + 1);
+    bool keep = size <= kKeptLargeBytes;
+#ifdef MADV_FREE
+    keep = keep && madvise(p, size, MADV_FREE) == 0;  // kernels before 4.5 refuse: then unmapped
+#else
+    keep = false;
+#endif
+    if (!keep) {
+      unmap.push_back({p, size});
+    } else {
+      // The oldest go first: a rebuild asks for what was freed last.
+      size_t drop = 0;
+      while (b.kept_bytes + size > kKeptLargeBytes) {
+        unmap.push_back(b.kept[drop]);
+        b.kept_bytes -= b.kept[drop++].size;
+      }
+      b.kept.erase(b.kept.begin(), b.kept.begin() + static_cast<std::ptrdiff_t>(drop));
+      b.kept.push_back({p, size});
+      b.kept_bytes += size;
+    }
+  } catch (...) {  // no memory for the bookkeeping: the block goes back now
+    unmap.clear();
+    munmap(p, size);
+    return;
+  }
+  for (const KeptBlocks::Block& block : unmap) munmap(block.p, block.size);
+}
+
+void release_kept_large_arrays() noexcept {
+  KeptBlocks& b = kept_blocks();
+  std::vector<KeptBlocks::Block> unmap;
+  {
+    std::lock_guard<std::mutex> lock(b.mutex);
+    unmap.swap(b.kept);
+    b.kept_bytes = 0;
+  }
+  for (const KeptBlocks::Block& block : unmap) munmap(block.p, block.size);
+}
+
+size_t kept_large_bytes() noexcept {
+  KeptBlocks& b = kept_blocks();
+  std::lock_guard<std::mutex> lock(b.mutex);
+  return b.kept_bytes;
+}
 
 bool large_arrays_are_mapped() { return true; }
 
@@ -58,6 +166,10 @@ bool large_arrays_are_mapped() { return true; }
 void* allocate_large(size_t bytes) { return ::operator new(bytes, std::align_val_t{kHugePage}); }
 
 void free_large(void* p, size_t) noexcept { ::operator delete(p, std::align_val_t{kHugePage}); }
+
+void release_kept_large_arrays() noexcept {}
+
+size_t kept_large_bytes() noexcept { return 0; }
 
 bool large_arrays_are_mapped() { return false; }
 

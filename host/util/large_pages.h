@@ -23,11 +23,29 @@ namespace rayfold::core {
 // AddressSanitizer, which guards only the heap's arrays with redzones.
 constexpr size_t kLargeArrayBytes = size_t{4} << 20;
 
+// Freed arrays are kept for the next ones (a rebuild asks for the same
+// sizes again), up to kKeptLargeBytes in all, their pages handed back to
+// the kernel lazily (MADV_FREE: reclaimed only under memory pressure, and
+// then faulted in fresh again). Fresh pages cost every rebuild a tenth of
+// its time in faults and zeroing (the car, the conference room), where
+// Embree's rebuilds in one process take none after the second (its
+// allocator keeps its blocks too).
+constexpr size_t kKeptLargeBytes = size_t{512} << 20;
+
 // `bytes` (at least kLargeArrayBytes) of memory aligned to 2 MiB, asked
-// for in 2 MiB pages; throws std::bad_alloc when it cannot be had.
+// for in 2 MiB pages: a kept block of at least that size and at most twice
+// it, else a fresh mapping; its contents are undefined. Throws
+// std::bad_alloc when it cannot be had.
 void* allocate_large(size_t bytes);
-// Returns what allocate_large gave for the same `bytes`.
+// Returns what allocate_large gave for the same `bytes`: kept for reuse
+// while the kept blocks stay within kKeptLargeBytes, else unmapped.
 void free_large(void* p, size_t bytes) noexcept;
+
+// Unmaps every kept block: before measuring a build's peak memory, which
+// kept blocks would hide.
+void release_kept_large_arrays() noexcept;
+// The bytes kept for reuse now.
+size_t kept_large_bytes() noexcept;
 
 // Whether allocate_large maps its memory and asks for 2 MiB pages (Linux,
 // not under AddressSanitizer), rather than taking it from the heap.
