@@ -679,24 +679,25 @@ class SplitSchedule {
   std::condition_variable cv_;
 };
 
-// Summed depth first from the root, so that the rounding does not depend on
-// how the nodes are numbered.
-double sah_cost(const BuildTree& tree, const BuildOptions& opt) {
+// Summed over fixed chunks of the node array, side by side, and the
+// chunks' sums in order: the same bits on any thread count, the numbering
+// being the same on any (SplitSchedule::number). A walk from the root, one
+// thread, was 3% of the car's build.
+double sah_cost(const BuildTree& tree, const BuildOptions& opt, unsigned threads) {
   const double root_area = std::max<double>(tree.nodes[0].bounds.half_area(), 1e-300);
-  double cost = 0.0;
-  std::vector<uint32_t> stack{0};
-  while (!stack.empty()) {
-    const BuildNode& n = tree.nodes[stack.back()];
-    stack.pop_back();
-    const double a = n.bounds.half_area() / root_area;
-    if (n.is_leaf()) {
-      cost += a * opt.intersection_cost * n.count;
-    } else {
-      cost += a * opt.traversal_cost;
-      stack.push_back(n.right);
-      stack.push_back(n.left);
+  constexpr size_t kChunk = size_t{1} << 14;
+  std::vector<double> sums((tree.nodes.size() + kChunk - 1) / kChunk, 0.0);
+  parallel_for(tree.nodes.size(), threads, kChunk, [&](size_t begin, size_t end) {
+    double sum = 0.0;
+    for (size_t i = begin; i < end; ++i) {
+      const BuildNode& n = tree.nodes[i];
+      const double a = n.bounds.half_area() / root_area;
+      sum += n.is_leaf() ? a * opt.intersection_cost * n.count : a * opt.traversal_cost;
     }
-  }
+    sums[begin / kChunk] = sum;
+  });
+  double cost = 0.0;
+  for (double sum : sums) cost += sum;
   return cost;
 }
 
@@ -845,7 +846,7 @@ BuildTree build_sah(const Aabb* prim_bounds, size_t count, const BuildOptions& o
     schedule.number(tree, threads);
   }
   expand_records(tree, refs, threads);
-  tree.sah_cost = sah_cost(tree, options);
+  tree.sah_cost = sah_cost(tree, options, threads);
   return tree;
 }
 
