@@ -287,7 +287,12 @@ class Builder {
     Split best;
     best.weight = total;
     float best_sum = INFINITY;  // area times count, both sides
-    for (int axis = 0; axis < 3; ++axis) {
+    // Two records part the same way on every axis, each side one record:
+    // the other axes' sums are the same two products added in either
+    // order, the same bits, which the strict comparison never takes over
+    // the first's. A fifth of the nodes split hold two records.
+    const int axes = count == 2 ? 1 : 3;
+    for (int axis = 0; axis < axes; ++axis) {
       uint8_t o[kSweepNode];
       const float* kk = key[axis];
       for (uint32_t k = 0; k < count; ++k) {
