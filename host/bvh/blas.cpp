@@ -159,22 +159,14 @@ BlasSet build_blas_set(const Scene& scene, const BuildOptions& options, unsigned
     sources[group_source[first]].add(scene, scene.instances[i].mesh, static_cast<uint32_t>(i - first));
   }
 
-  // Tree-space positions of the meshes the trees read, by an exact scaling
-  // (util/pow2.h).
-  std::vector<char> mesh_read(mesh_count, 0);
-  for (const TreeSource& src : sources)
-    for (const TreeSource::Part& part : src.parts) mesh_read[part.mesh] = 1;
-  std::vector<LargeArray<glm::vec3>> positions(mesh_count);
-  by_size(mesh_count, mesh_size, [&](size_t m, unsigned mesh_threads) {
-    if (!mesh_read[m]) return;
-    const Mesh& mesh = scene.meshes[m];
-    positions[m] = LargeArray<glm::vec3>(mesh.positions.size());  // each written below
-    const Pow2Scale tree_from_object(-set.tree_exponents[m]);
-    parallel_for(mesh.positions.size(), mesh_threads, kChunk, [&](size_t begin, size_t end) {
-      for (size_t i = begin; i < end; ++i)
-        for (int k = 0; k < 3; ++k) positions[m][i][k] = tree_from_object(mesh.positions[i][k]);
-    });
-  });
+  // Tree space is object space scaled exactly (util/pow2.h), which keeps
+  // the order of coordinates: a triangle's tree-space box is its object
+  // box scaled, and its tree-space vertices are scaled where the fill
+  // reads them. A tree-space copy of every mesh's vertices, made first, was
+  // a pass over them all and their size again in memory.
+  std::vector<Pow2Scale> tree_from_object;
+  tree_from_object.reserve(mesh_count);
+  for (size_t m = 0; m < mesh_count; ++m) tree_from_object.emplace_back(-set.tree_exponents[m]);
   const size_t tree_count = sources.size();
   std::vector<BuildTree> trees(tree_count);
   std::vector<size_t> unresolvable(tree_count, 0);
@@ -196,10 +188,14 @@ BlasSet build_blas_set(const Scene& scene, const BuildOptions& options, unsigned
         while (t >= src.first[p + 1]) ++p;
         if (parts) parts[t] = static_cast<uint32_t>(p);
         const Mesh& mesh = scene.meshes[src.parts[p].mesh];
-        const LargeArray<glm::vec3>& pos = positions[src.parts[p].mesh];
+        const Pow2Scale& scale = tree_from_object[src.parts[p].mesh];
         const size_t local = t - src.first[p];
         Aabb box;
-        for (int k = 0; k < 3; ++k) box.grow(pos[mesh.indices[3 * local + k]]);
+        for (int k = 0; k < 3; ++k) box.grow(mesh.positions[mesh.indices[3 * local + k]]);
+        for (int c = 0; c < 3; ++c) {
+          box.lo[c] = scale(box.lo[c]);
+          box.hi[c] = scale(box.hi[c]);
+        }
         boxes[t] = box;
         const glm::vec3 extent = box.extent();
         const float size = std::max({extent.x, extent.y, extent.z});
@@ -227,7 +223,8 @@ BlasSet build_blas_set(const Scene& scene, const BuildOptions& options, unsigned
   constexpr size_t kAhead = 16;
   struct Source {
     const uint32_t* indices;  // its three
-    const glm::vec3* positions;  // its mesh's, in tree space
+    const glm::vec3* positions;  // its mesh's, in object space
+    const Pow2Scale* tree_from_object;
     uint32_t prim, inst;
   };
   auto source_of = [&](size_t s, size_t i) {
@@ -236,7 +233,8 @@ BlasSet build_blas_set(const Scene& scene, const BuildOptions& options, unsigned
     const size_t at = part_at[s].empty() ? 0 : part_at[s][t];
     const TreeSource::Part& part = src.parts[at];
     const size_t local = t - src.first[at];
-    return Source{scene.meshes[part.mesh].indices.data() + 3 * local, positions[part.mesh].data(),
+    return Source{scene.meshes[part.mesh].indices.data() + 3 * local, scene.meshes[part.mesh].positions.data(),
+                  &tree_from_object[part.mesh],
                   static_cast<uint32_t>(local), part.inst};
   };
   parallel_for(set.tris.size(), threads, size_t{1} << 14, [&](size_t begin, size_t end) {
@@ -251,9 +249,10 @@ BlasSet build_blas_set(const Scene& scene, const BuildOptions& options, unsigned
       const Source src = source_of(s, i);
       rf_tri& tri = set.tris[i];
       for (int k = 0; k < 3; ++k) {
-        tri.v0[k] = src.positions[src.indices[0]][k];
-        tri.v1[k] = src.positions[src.indices[1]][k];
-        tri.v2[k] = src.positions[src.indices[2]][k];
+        const Pow2Scale& scale = *src.tree_from_object;
+        tri.v0[k] = scale(src.positions[src.indices[0]][k]);
+        tri.v1[k] = scale(src.positions[src.indices[1]][k]);
+        tri.v2[k] = scale(src.positions[src.indices[2]][k]);
       }
       tri.prim = src.prim;
       tri.inst = src.inst;
