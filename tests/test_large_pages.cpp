@@ -20,7 +20,8 @@ namespace {
 constexpr uintptr_t kHugePage = uintptr_t{2} << 20;
 
 TEST(LargePages, LargeArraysStartOnA2MiBPageAndKeepEveryElement) {
-  for (size_t n : {size_t{1}, size_t{1000}, kLargeArrayBytes / 8 - 1, kLargeArrayBytes / 8, 3 * kLargeArrayBytes / 8 + 5}) {
+  for (size_t n :
+       {size_t{1}, size_t{1000}, kLargeArrayBytes / 8 - 1, kLargeArrayBytes / 8, 3 * kLargeArrayBytes / 8 + 5}) {
     LargeArray<uint64_t> a(n);
     ASSERT_EQ(a.size(), n);
     const bool large = n * sizeof(uint64_t) >= kLargeArrayBytes;

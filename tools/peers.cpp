@@ -59,7 +59,9 @@ PeerReport run_peers(const PeerOptions& opt) {
   std::optional<OpenClPreload> preload;
   if (opt.variants.size() > opt.variants.count("cpu")) preload.emplace();
   const auto load_start = Clock::now();
-  const Scene scene = load_gltf(opt.scene);
+  LoadOptions load;
+  load.threads = opt.threads;
+  const Scene scene = load_gltf(opt.scene, nullptr, load);
   const double load_ms = ms_since(load_start);
   const std::vector<CameraSpec> path = camera_path(scene, opt);
 

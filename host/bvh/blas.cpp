@@ -222,7 +222,7 @@ BlasSet build_blas_set(const Scene& scene, const BuildOptions& options, unsigned
   // on, are asked for early.
   constexpr size_t kAhead = 16;
   struct Source {
-    const uint32_t* indices;  // its three
+    const uint32_t* indices;     // its three
     const glm::vec3* positions;  // its mesh's, in object space
     const Pow2Scale* tree_from_object;
     uint32_t prim, inst;
@@ -234,8 +234,7 @@ BlasSet build_blas_set(const Scene& scene, const BuildOptions& options, unsigned
     const TreeSource::Part& part = src.parts[at];
     const size_t local = t - src.first[at];
     return Source{scene.meshes[part.mesh].indices.data() + 3 * local, scene.meshes[part.mesh].positions.data(),
-                  &tree_from_object[part.mesh],
-                  static_cast<uint32_t>(local), part.inst};
+                  &tree_from_object[part.mesh], static_cast<uint32_t>(local), part.inst};
   };
   parallel_for(set.tris.size(), threads, size_t{1} << 14, [&](size_t begin, size_t end) {
     size_t s = static_cast<size_t>(std::upper_bound(tri_base.begin(), tri_base.end(), begin) - tri_base.begin()) - 1;

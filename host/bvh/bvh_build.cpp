@@ -3,8 +3,8 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <cstring>
 #include <condition_variable>
+#include <cstring>
 #include <deque>
 #include <exception>
 #include <memory>
@@ -300,8 +300,8 @@ class Builder {
         // Bitwise, not || and &&: the compiler made those branches, and
         // they mispredicted on most nodes.
         for (uint32_t j = 0; j < count; ++j)
-          rank += static_cast<uint32_t>(kk[j] < kk[k]) | (static_cast<uint32_t>(kk[j] == kk[k]) &
-                                                          static_cast<uint32_t>(index[j] < index[k]));
+          rank += static_cast<uint32_t>(kk[j] < kk[k]) |
+                  (static_cast<uint32_t>(kk[j] == kk[k]) & static_cast<uint32_t>(index[j] < index[k]));
         o[rank] = static_cast<uint8_t>(k);
       }
       float right[kSweepNode];
@@ -333,8 +333,8 @@ class Builder {
 
   // Puts the sweep's left primitives first, in their order along its axis;
   // returns the first right one, with both sides' boxes and centre boxes.
-  uint32_t apply_sweep(uint32_t first, uint32_t count, const Split& split, const uint8_t* order, Box4& lbox,
-                       Box4& rbox, Box4& lcentres, Box4& rcentres) const {
+  uint32_t apply_sweep(uint32_t first, uint32_t count, const Split& split, const uint8_t* order, Box4& lbox, Box4& rbox,
+                       Box4& lcentres, Box4& rcentres) const {
     PrimRef* r = refs_.data() + first;
     PrimRef sorted[kSweepNode];
     for (uint32_t k = 0; k < count; ++k) sorted[k] = r[order[k]];
@@ -598,8 +598,8 @@ class SplitSchedule {
     int depth;
     bool large;
     bool split = false;
-    uint32_t child[2] = {0, 0};     // pieces of a split large node's children
-    PageAlignedVector<BuildNode> nodes;   // a subtree's nodes, its root first, as build_subtree numbers them
+    uint32_t child[2] = {0, 0};          // pieces of a split large node's children
+    PageAlignedVector<BuildNode> nodes;  // a subtree's nodes, its root first, as build_subtree numbers them
     int subtree_depth = 0;
   };
 
@@ -778,8 +778,8 @@ LargeArray<PrimRef> make_all_records(const Aabb* bounds, size_t count, bool pair
       chunk_centre.grow(centre, centre);
     }
     RF_CHECK(out == refs.data() + offsets[c + 1], "records of chunk " + std::to_string(c) + " counted " +
-                                                       std::to_string(offsets[c + 1] - offsets[c]) + ", written " +
-                                                       std::to_string(out - refs.data() - offsets[c]));
+                                                      std::to_string(offsets[c + 1] - offsets[c]) + ", written " +
+                                                      std::to_string(out - refs.data() - offsets[c]));
     chunk_boxes[c] = chunk_box;
     chunk_centres[c] = chunk_centre;
   });
@@ -825,8 +825,7 @@ BuildTree build_sah(const Aabb* prim_bounds, size_t count, const BuildOptions& o
   // A pair is a leaf of two at least, which a limit of one forbids.
   const bool pair = options.pair_primitives && options.max_leaf_size >= 2;
   Box4 root_box, root_centres;
-  LargeArray<PrimRef> refs =
-      make_all_records(prim_bounds, count, pair, threads, root_box, root_centres);
+  LargeArray<PrimRef> refs = make_all_records(prim_bounds, count, pair, threads, root_box, root_centres);
   if (refs.empty()) return tree;
 
   // One staging array for every large node's partition: a fresh one per

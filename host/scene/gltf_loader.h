@@ -18,6 +18,9 @@ struct LoadOptions {
   // translation, rotation, scale and morph weights channels; step, linear
   // with slerp for rotations, and cubic spline). NaN: the file's rest pose.
   double time = NAN;
+  // Threads the reading may use (0: every core): with two or more,
+  // tinygltf parses the file while rayfold's own checks parse its JSON.
+  unsigned threads = 0;
 };
 
 // A glTF file read once and posed at any time: each frame of its

@@ -163,9 +163,9 @@ bool large_arrays_are_mapped() { return true; }
 
 #else
 
-void* allocate_large(size_t bytes) { return ::operator new(bytes, std::align_val_t{kHugePage}); }
+void* allocate_large(size_t bytes) { return ::operator new (bytes, std::align_val_t{kHugePage}); }
 
-void free_large(void* p, size_t) noexcept { ::operator delete(p, std::align_val_t{kHugePage}); }
+void free_large(void* p, size_t) noexcept { ::operator delete (p, std::align_val_t{kHugePage}); }
 
 void release_kept_large_arrays() noexcept {}
 

@@ -67,7 +67,7 @@ class LargeArray {
     if (bytes() >= kLargeArrayBytes)
       data_ = static_cast<T*>(allocate_large(bytes()));
     else if (n > 0)
-      data_ = static_cast<T*>(::operator new(bytes(), std::align_val_t{alignof(T)}));
+      data_ = static_cast<T*>(::operator new (bytes(), std::align_val_t{alignof(T)}));
   }
   LargeArray(LargeArray&& o) noexcept : data_(std::exchange(o.data_, nullptr)), size_(std::exchange(o.size_, 0)) {}
   LargeArray& operator=(LargeArray&& o) noexcept {
@@ -82,7 +82,7 @@ class LargeArray {
     if (bytes() >= kLargeArrayBytes)
       free_large(data_, bytes());
     else
-      ::operator delete(data_, std::align_val_t{alignof(T)});
+      ::operator delete (data_, std::align_val_t{alignof(T)});
   }
 
   T* data() { return data_; }

@@ -390,6 +390,7 @@ int run_render(cli::Args& args) {
   Progress progress(!r.quiet);
   progress.stage("loading " + r.scene);
   auto t0 = Clock::now();
+  r.load.threads = r.renderer.threads;
   GltfFile file(r.scene, r.load);
   Scene scene = file.scene_at(r.load.time);
   // Warnings are printed under -q too: it silences the table and progress.
