@@ -1,4 +1,5 @@
 #include "bvh/scene_data.h"
+#include "util/large_pages.h"
 
 #include <algorithm>
 #include <cmath>
@@ -83,6 +84,7 @@ void choose_braid_cuts(const Scene& scene, SceneData& data, const BraidOptions& 
 
 SceneData prepare_scene(const Scene& scene, unsigned threads, const BraidOptions& braid, const MergeOptions& merge) {
   check_world_range(scene, "");
+  const BuildScope scope;
   SceneData data;
   data.blas = build_blas_set(scene, BuildOptions{}, threads, merge);
   const size_t n = scene.instances.size();

@@ -1,5 +1,6 @@
 #include "util/large_pages.h"
 
+#include <atomic>
 #include <cstdint>
 #include <mutex>
 #include <new>
@@ -48,6 +49,9 @@ struct KeptBlocks {
   size_t kept_bytes = 0;
   std::unordered_map<void*, size_t> given;
 };
+
+// BuildScopes alive.
+std::atomic<int> g_building{0};
 
 KeptBlocks& kept_blocks() {
   static KeptBlocks* blocks = new KeptBlocks;  // never destroyed: arrays may be freed during static destruction
@@ -115,7 +119,7 @@ void free_large(void* p, size_t bytes) noexcept {
     }
     unmap.reserve(b.kept.size() + 1);
     b.kept.reserve(b.kept.size() + 1);
-    bool keep = size <= kKeptLargeBytes;
+    bool keep = size <= kKeptLargeBytes && g_building.load() == 0;
 #ifdef MADV_FREE
     keep = keep && madvise(p, size, MADV_FREE) == 0;  // kernels before 4.5 refuse: then unmapped
 #else
@@ -142,6 +146,9 @@ void free_large(void* p, size_t bytes) noexcept {
   for (const KeptBlocks::Block& block : unmap) munmap(block.p, block.size);
 }
 
+BuildScope::BuildScope() { ++g_building; }
+BuildScope::~BuildScope() { --g_building; }
+
 void release_kept_large_arrays() noexcept {
   KeptBlocks& b = kept_blocks();
   std::vector<KeptBlocks::Block> unmap;
@@ -166,6 +173,9 @@ bool large_arrays_are_mapped() { return true; }
 void* allocate_large(size_t bytes) { return ::operator new (bytes, std::align_val_t{kHugePage}); }
 
 void free_large(void* p, size_t) noexcept { ::operator delete (p, std::align_val_t{kHugePage}); }
+
+BuildScope::BuildScope() {}
+BuildScope::~BuildScope() {}
 
 void release_kept_large_arrays() noexcept {}
 
