@@ -39,31 +39,47 @@ TEST(Loader, GeneratedSceneRoundTrips) {
   const Scene a = generate_atrium(gen);
   const std::string path = (temp_dir() / "roundtrip.glb").string();
   write_glb(a, path);
-  // On one thread, and with tinygltf's parse beside the loader's checks.
-  for (unsigned threads : {1u, 2u}) {
-    SCOPED_TRACE(std::to_string(threads) + " threads");
-    LoadOptions options;
-    options.threads = threads;
-    const Scene b = load_gltf(path, nullptr, options);
-    ASSERT_EQ(a.meshes.size(), b.meshes.size());
-    ASSERT_EQ(a.instances.size(), b.instances.size());
-    for (size_t m = 0; m < a.meshes.size(); ++m) {
-      EXPECT_EQ(a.meshes[m].indices, b.meshes[m].indices);
-      ASSERT_EQ(a.meshes[m].positions.size(), b.meshes[m].positions.size());
-      EXPECT_EQ(0, std::memcmp(a.meshes[m].positions.data(), b.meshes[m].positions.data(),
-                               a.meshes[m].positions.size() * sizeof(glm::vec3)));
-    }
-    for (size_t i = 0; i < a.instances.size(); ++i) {
-      EXPECT_EQ(a.instances[i].mesh, b.instances[i].mesh);
-      EXPECT_TRUE(a.instances[i].world_from_object == b.instances[i].world_from_object) << "instance " << i;
-    }
-    ASSERT_TRUE(b.camera.has_value());
-    EXPECT_NEAR(glm::length(a.camera->eye - b.camera->eye), 0.0, 1e-9);
-    EXPECT_NEAR(b.camera->vfov_degrees, a.camera->vfov_degrees, 1e-9);
-    const glm::dvec3 da = glm::normalize(a.camera->look_at - a.camera->eye);
-    const glm::dvec3 db = glm::normalize(b.camera->look_at - b.camera->eye);
-    EXPECT_NEAR(glm::length(da - db), 0.0, 1e-9);
+  const Scene b = load_gltf(path);
+  ASSERT_EQ(a.meshes.size(), b.meshes.size());
+  ASSERT_EQ(a.instances.size(), b.instances.size());
+  for (size_t m = 0; m < a.meshes.size(); ++m) {
+    EXPECT_EQ(a.meshes[m].indices, b.meshes[m].indices);
+    ASSERT_EQ(a.meshes[m].positions.size(), b.meshes[m].positions.size());
+    EXPECT_EQ(0, std::memcmp(a.meshes[m].positions.data(), b.meshes[m].positions.data(),
+                             a.meshes[m].positions.size() * sizeof(glm::vec3)));
   }
+  for (size_t i = 0; i < a.instances.size(); ++i) {
+    EXPECT_EQ(a.instances[i].mesh, b.instances[i].mesh);
+    EXPECT_TRUE(a.instances[i].world_from_object == b.instances[i].world_from_object) << "instance " << i;
+  }
+  ASSERT_TRUE(b.camera.has_value());
+  EXPECT_NEAR(glm::length(a.camera->eye - b.camera->eye), 0.0, 1e-9);
+  EXPECT_NEAR(b.camera->vfov_degrees, a.camera->vfov_degrees, 1e-9);
+  const glm::dvec3 da = glm::normalize(a.camera->look_at - a.camera->eye);
+  const glm::dvec3 db = glm::normalize(b.camera->look_at - b.camera->eye);
+  EXPECT_NEAR(glm::length(da - db), 0.0, 1e-9);
+}
+
+// A file whose JSON is large enough for tinygltf's parse to run beside the
+// checks' (gltf/document.cpp) reads as on one thread: the same scene.
+TEST(Loader, LargeJsonReadsSideBySideAsOnOneThread) {
+  GltfFile f;
+  f.one_triangle();
+  f.j["nodes"].push_back({{"mesh", 0}, {"translation", {1.0, 2.0, 3.0}}});
+  f.j["scenes"] = {{{"nodes", {0, 1}}}};
+  f.j["extras"] = {{"padding", std::string(size_t{600} << 10, ' ')}};
+  const std::string path = f.write("large_json");
+  LoadOptions one, two;
+  one.threads = 1;
+  two.threads = 2;
+  const Scene a = load_gltf(path, nullptr, one), b = load_gltf(path, nullptr, two);
+  ASSERT_EQ(a.meshes.size(), 1u);
+  ASSERT_EQ(b.meshes.size(), 1u);
+  EXPECT_EQ(a.meshes[0].indices, b.meshes[0].indices);
+  EXPECT_EQ(a.meshes[0].positions, b.meshes[0].positions);
+  ASSERT_EQ(a.instances.size(), 2u);
+  ASSERT_EQ(b.instances.size(), 2u);
+  for (size_t i = 0; i < 2; ++i) EXPECT_TRUE(a.instances[i].world_from_object == b.instances[i].world_from_object);
 }
 
 TEST(Loader, IndexTypesStridesStripsFansAndTransforms) {

@@ -12,6 +12,19 @@ namespace rayfold::core::gltf {
 
 namespace {
 
+// The JSON that makes tinygltf's parse worth a thread of its own beside
+// the checks' (Loader::read_model).
+constexpr size_t kSideBySideJson = size_t{512} << 10;
+
+// The size of a file's JSON: the whole file, or a GLB's first chunk as its
+// header gives it (the checks reject a header that is wrong).
+size_t json_bytes(const std::string& file) {
+  if (file.size() < 20 || std::memcmp(file.data(), "glTF", 4) != 0) return file.size();
+  uint32_t chunk_length;
+  std::memcpy(&chunk_length, &file[12], 4);
+  return chunk_length;
+}
+
 // Hit info needs no pixels: images are neither decoded nor required.
 bool skip_image(tinygltf::Image*, const int, std::string*, std::string*, int, int, const unsigned char*, int, void*) {
   return true;
@@ -217,11 +230,15 @@ void Loader::read_model() {
     if (!binary_) check_json_start(bytes);
   }
   // tinygltf's parse of the file and the schema checks' parse of its JSON
-  // (check_raw), side by side where a second thread is allowed: the car's
-  // 1 MB of JSON took 21 ms of checks before tinygltf's 42. Compressed files
-  // (gltf_decompress.h) carry JSON tinygltf rejects: it then reads the
-  // prepared JSON from memory, after the checks, and its first parse is
-  // dropped. A check's error is the one reported, as before.
+  // (check_raw), side by side where a second thread is allowed and the JSON
+  // is large: the car's 1 MB of JSON took 21 ms of checks before
+  // tinygltf's 42 (its load 75 ms alone, 50 side by side). Small JSON stays
+  // on one thread: its checks take a millisecond or two, and a thread
+  // started while `rayfold render` loads the OpenCL drivers beside the
+  // scene waited longer than that (Sponza's load 9 ms, 26 with a thread).
+  // Compressed files (gltf_decompress.h) carry JSON tinygltf rejects: it
+  // then reads the prepared JSON from memory, after the checks, and its
+  // first parse is dropped. A check's error is the one reported, as before.
   struct Parsed {
     tinygltf::Model model;
     std::string err, warn;
@@ -249,7 +266,8 @@ void Loader::read_model() {
     return p;
   };
   std::future<Parsed> early;  // its destructor waits for the parse, whatever happens here
-  if (resolve_threads(options_.threads) > 1) early = std::async(std::launch::async, parse, std::cref(bytes));
+  if (resolve_threads(options_.threads) > 1 && json_bytes(bytes) >= kSideBySideJson)
+    early = std::async(std::launch::async, parse, std::cref(bytes));
   size_t bin_offset = bytes.size();
   nlohmann::json j = check_raw(bytes, &bin_offset);
   JsonFixups fixups;
