@@ -8,6 +8,7 @@
 #include <vector>
 
 #ifdef __linux__
+#include <pthread.h>
 #include <sys/mman.h>
 #endif
 
@@ -54,7 +55,16 @@ struct KeptBlocks {
 std::atomic<int> g_building{0};
 
 KeptBlocks& kept_blocks() {
-  static KeptBlocks* blocks = new KeptBlocks;  // never destroyed: arrays may be freed during static destruction
+  // Never destroyed: arrays may be freed during static destruction. A fork
+  // (Python's multiprocessing) takes the mutex first and both sides let go
+  // of it after, so that a child never starts with it held by a thread it
+  // does not have.
+  static KeptBlocks* blocks = [] {
+    auto* b = new KeptBlocks;
+    pthread_atfork([] { kept_blocks().mutex.lock(); }, [] { kept_blocks().mutex.unlock(); },
+                   [] { kept_blocks().mutex.unlock(); });
+    return b;
+  }();
   return *blocks;
 }
 
