@@ -68,6 +68,11 @@ KeptBlocks& kept_blocks() {
   return *blocks;
 }
 
+// Made, and its fork handlers set, as the library loads: made on first
+// use, a fork during that first use (a thread's first large array) left
+// the child waiting on the initialisation's guard.
+[[maybe_unused]] const KeptBlocks& kKeptAtLoad = kept_blocks();
+
 void* map_fresh(size_t size) {
   // Over-mapped by one huge page, then trimmed to a 2 MiB boundary at both
   // ends: only whole, aligned 2 MiB ranges can be huge pages.
