@@ -16,6 +16,7 @@
 #include "../tools/scene_gen.h"
 #include "gltf_fixture.h"
 #include "renderer.h"
+#include "scene/gltf/loader.h"
 #include "scene/gltf_loader.h"
 #include "test_util.h"
 #include "util/errors.h"
@@ -72,7 +73,11 @@ TEST(Loader, LargeJsonReadsSideBySideAsOnOneThread) {
   LoadOptions one, two;
   one.threads = 1;
   two.threads = 2;
-  const Scene a = load_gltf(path, nullptr, one), b = load_gltf(path, nullptr, two);
+  const size_t reads = gltf::Loader::side_by_side_reads();
+  const Scene a = load_gltf(path, nullptr, one);
+  EXPECT_EQ(gltf::Loader::side_by_side_reads(), reads) << "one thread read it side by side";
+  const Scene b = load_gltf(path, nullptr, two);
+  EXPECT_EQ(gltf::Loader::side_by_side_reads(), reads + 1) << "two threads did not read it side by side";
   ASSERT_EQ(a.meshes.size(), 1u);
   ASSERT_EQ(b.meshes.size(), 1u);
   EXPECT_EQ(a.meshes[0].indices, b.meshes[0].indices);

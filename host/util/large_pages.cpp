@@ -51,8 +51,10 @@ struct KeptBlocks {
   std::unordered_map<void*, size_t> given;
 };
 
-// BuildScopes alive.
+// BuildScopes alive in the process, and on this thread: a forked child has
+// only the forking thread, so it keeps that thread's count.
 std::atomic<int> g_building{0};
+thread_local int t_building = 0;
 
 KeptBlocks& kept_blocks() {
   // Never destroyed: arrays may be freed during static destruction. A fork
@@ -62,7 +64,10 @@ KeptBlocks& kept_blocks() {
   static KeptBlocks* blocks = [] {
     auto* b = new KeptBlocks;
     pthread_atfork([] { kept_blocks().mutex.lock(); }, [] { kept_blocks().mutex.unlock(); },
-                   [] { kept_blocks().mutex.unlock(); });
+                   [] {
+                     g_building = t_building;
+                     kept_blocks().mutex.unlock();
+                   });
     return b;
   }();
   return *blocks;
@@ -104,9 +109,9 @@ void* allocate_large(size_t bytes) {
         best = k;
     if (best < b.kept.size()) {
       const KeptBlocks::Block block = b.kept[best];
+      b.given[block.p] = block.size;  // first: should it throw, the block is still kept
       b.kept.erase(b.kept.begin() + static_cast<std::ptrdiff_t>(best));
       b.kept_bytes -= block.size;
-      b.given[block.p] = block.size;
       return block.p;
     }
   }
@@ -161,8 +166,14 @@ void free_large(void* p, size_t bytes) noexcept {
   for (const KeptBlocks::Block& block : unmap) munmap(block.p, block.size);
 }
 
-BuildScope::BuildScope() { ++g_building; }
-BuildScope::~BuildScope() { --g_building; }
+BuildScope::BuildScope() {
+  ++g_building;
+  ++t_building;
+}
+BuildScope::~BuildScope() {
+  --g_building;
+  --t_building;
+}
 
 void release_kept_large_arrays() noexcept {
   KeptBlocks& b = kept_blocks();

@@ -4,11 +4,14 @@
 
 #include <climits>
 #include <future>
+#include <system_error>
 
 #include "bvh/scene_file.h"
 #include "util/parallel.h"
 
 namespace rayfold::core::gltf {
+
+std::atomic<size_t> Loader::side_by_side_reads_{0};
 
 namespace {
 
@@ -266,8 +269,13 @@ void Loader::read_model() {
     return p;
   };
   std::future<Parsed> early;  // its destructor waits for the parse, whatever happens here
-  if (resolve_threads(options_.threads) > 1 && json_bytes(bytes) >= kSideBySideJson)
-    early = std::async(std::launch::async, parse, std::cref(bytes));
+  if (resolve_threads(options_.threads) > 1 && json_bytes(bytes) >= kSideBySideJson) {
+    try {
+      early = std::async(std::launch::async, parse, std::cref(bytes));
+      side_by_side_reads_++;
+    } catch (const std::system_error&) {  // no thread to be had (a limit on them): tinygltf parses after the checks
+    }
+  }
   size_t bin_offset = bytes.size();
   nlohmann::json j = check_raw(bytes, &bin_offset);
   JsonFixups fixups;

@@ -7,6 +7,7 @@
 #pragma once
 
 #include <algorithm>
+#include <atomic>
 #include <cerrno>
 #include <cmath>
 #include <cstring>
@@ -51,6 +52,10 @@ class Loader {
 
   // The last keyframe time over the node animations; NaN without any.
   double animation_end() const;
+
+  // Files whose tinygltf parse ran beside the checks' (read_model), in this
+  // process: for the tests.
+  static size_t side_by_side_reads() { return side_by_side_reads_; }
 
  private:
   [[noreturn]] void fail(const std::string& what) const { throw InputError(path_, what); }
@@ -214,6 +219,7 @@ class Loader {
   std::vector<Warning> pending_;
   bool binary_ = false;
   tinygltf::Model model_;
+  static std::atomic<size_t> side_by_side_reads_;
   std::vector<int> fallback_buffers_;           // meshopt fallback buffers: no data to read
   std::map<int, std::vector<double>> decoded_;  // accessors decoded from Draco primitives
   Scene scene_;
