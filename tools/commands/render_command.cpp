@@ -67,7 +67,7 @@ const char* kRenderUsage =
     "  --no-merge             a tree per mesh, also for static instances that share\n"
     "                         a transform (by default they share one tree)\n"
     "  --no-cull              keep instances outside the view in the top-level tree\n"
-    "  --threads N            CPU threads for the CPU backend and builds (0 = all)\n"
+    "  --threads N            CPU threads for loading, builds and the CPU backend (0 = all)\n"
     "  --frames N             trace N times and report the medians (default 1)\n"
     "  -o, --output F.exr     OpenEXR hit info: Z N.X N.Y N.Z U V InstanceID PrimitiveID;\n"
     "                         a frame field (out/frame_%04d.exr) writes every frame\n"
