@@ -3,6 +3,7 @@
 // the brute-force hit, and the trees must satisfy their structural invariants.
 #include <gtest/gtest.h>
 
+#include <malloc.h>
 #include <cstring>
 #include <set>
 
@@ -17,6 +18,7 @@
 #include "renderer.h"
 #include "rf_trace.h"
 #include "test_util.h"
+#include "util/large_pages.h"
 
 namespace rayfold::core {
 namespace {
@@ -121,6 +123,42 @@ TEST(Bvh, BuildIsTheSameOnAnyThreadCount) {
     EXPECT_EQ(tree.sah_cost, one.sah_cost) << threads << " threads";
     check_tree(tree, boxes);
   }
+}
+
+// Every byte of a scene's device arrays (bottom-level nodes, triangles,
+// wide nodes) is written by the build: they are not zeroed first
+// (util/page_aligned.h), so a byte left unwritten would hold whatever the
+// memory held. Two builds into memory filled with different bytes (kept
+// blocks poisoned, malloc's memory perturbed) must give the same bytes.
+TEST(Bvh, EveryByteOfTheDeviceArraysIsWritten) {
+  // Triangle soups under random transforms (merged where they share one),
+  // and a closed lattice cube large enough that every array is over
+  // kLargeArrayBytes: mapped, kept and reused.
+  Rng rng(91);
+  Scene scene = testing::random_scene(rng, 3, 6, 4000);
+  scene.meshes.push_back(testing::closed_cube(180));
+  Instance cube;
+  cube.mesh = static_cast<uint32_t>(scene.meshes.size() - 1);
+  scene.instances.push_back(cube);
+  prepare_scene(scene, 2);  // dropped: its arrays are kept for the builds below
+  auto build = [&](unsigned char byte) {
+    poison_kept_large_arrays(byte);
+    mallopt(M_PERTURB, byte);
+    SceneData d = prepare_scene(scene, 2);
+    mallopt(M_PERTURB, 0);
+    return d;
+  };
+  const SceneData a = build(0x5A);
+  const SceneData b = build(0xA5);
+  auto same_bytes = [](const auto& x, const auto& y, const char* what) {
+    ASSERT_EQ(x.size(), y.size()) << what;
+    EXPECT_EQ(std::memcmp(x.data(), y.data(), x.size() * sizeof(x[0])), 0) << what << " differ";
+  };
+  same_bytes(a.blas.nodes, b.blas.nodes, "bottom-level nodes");
+  same_bytes(a.blas.tris, b.blas.tris, "triangles");
+  same_bytes(a.wide_nodes, b.wide_nodes, "wide nodes");
+  EXPECT_GT(a.blas.nodes.size() * sizeof(rf_node), kLargeArrayBytes) << "the nodes are not a large array";
+  EXPECT_GT(a.wide_nodes.size() * sizeof(rf_wide_node), kLargeArrayBytes / 2) << "the wide nodes' reserve is not large";
 }
 
 // Neighbours in index order whose boxes are alike are built as one record
@@ -299,7 +337,8 @@ TEST(Bvh, EverySplitIsTheCheapestBinOrSweepBoundary) {
         for (uint32_t j = 1; j < count; ++j) {
           Aabb left, right;
           for (uint32_t k = 0; k < count; ++k) (k < j ? left : right).grow(boxes[prims[k]]);
-          const float sum = left.half_area() * static_cast<float>(j) + right.half_area() * static_cast<float>(count - j);
+          const float sum =
+              left.half_area() * static_cast<float>(j) + right.half_area() * static_cast<float>(count - j);
           if (sum < best_sum) {
             best_sum = sum;
             best_left.assign(prims.begin(), prims.begin() + j);
@@ -588,8 +627,10 @@ TEST(Bvh, WideTreesKeepTheBinaryLeavesBelowEveryEntry) {
       while (!todo.empty()) {
         const uint32_t y = todo.back();
         todo.pop_back();
-        if (nodes[y].meta & RF_NODE_COUNT_MASK) out.push_back(y);
-        else todo.insert(todo.end(), {nodes[y].first, nodes[y].first + 1});
+        if (nodes[y].meta & RF_NODE_COUNT_MASK)
+          out.push_back(y);
+        else
+          todo.insert(todo.end(), {nodes[y].first, nodes[y].first + 1});
       }
       return out;
     };
@@ -660,7 +701,8 @@ TEST(Bvh, DenseMeshesGetFullerLeaves) {
     const int n = 256;
     for (int y = 0; y <= n; ++y)
       for (int x = 0; x <= n; ++x)
-        dense.positions.push_back({x / 64.0f - 2.0f, y / 64.0f - 2.0f, 0.05f * std::sin(0.7f * x) * std::cos(0.3f * y)});
+        dense.positions.push_back(
+            {x / 64.0f - 2.0f, y / 64.0f - 2.0f, 0.05f * std::sin(0.7f * x) * std::cos(0.3f * y)});
     for (int y = 0; y < n; ++y)
       for (int x = 0; x < n; ++x) {
         const uint32_t a = y * (n + 1) + x, b = a + 1, c = a + n + 1, d = c + 1;
@@ -688,7 +730,8 @@ TEST(Bvh, DenseMeshesGetFullerLeaves) {
     return count;
   };
   const size_t last = scene.meshes.size() - 1;
-  EXPECT_LT(nodes(dense, last), nodes(sparse, last) * 3 / 4) << nodes(dense, last) << " against " << nodes(sparse, last);
+  EXPECT_LT(nodes(dense, last), nodes(sparse, last) * 3 / 4)
+      << nodes(dense, last) << " against " << nodes(sparse, last);
   for (size_t m = 0; m < last; ++m) EXPECT_EQ(nodes(dense, m), nodes(sparse, m)) << "mesh " << m;
   const Camera cam = make_camera(testing::random_camera(rng, scene.world_bounds()), 64, 40);
   RendererOptions opt;

@@ -2,6 +2,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <cstring>
 #include <mutex>
 #include <new>
 #include <unordered_map>
@@ -186,6 +187,12 @@ void release_kept_large_arrays() noexcept {
   for (const KeptBlocks::Block& block : unmap) munmap(block.p, block.size);
 }
 
+void poison_kept_large_arrays(unsigned char byte) noexcept {
+  KeptBlocks& b = kept_blocks();
+  std::lock_guard<std::mutex> lock(b.mutex);
+  for (const KeptBlocks::Block& block : b.kept) std::memset(block.p, byte, block.size);
+}
+
 size_t kept_large_bytes() noexcept {
   KeptBlocks& b = kept_blocks();
   std::lock_guard<std::mutex> lock(b.mutex);
@@ -204,6 +211,8 @@ BuildScope::BuildScope() {}
 BuildScope::~BuildScope() {}
 
 void release_kept_large_arrays() noexcept {}
+
+void poison_kept_large_arrays(unsigned char) noexcept {}
 
 size_t kept_large_bytes() noexcept { return 0; }
 

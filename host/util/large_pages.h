@@ -62,6 +62,9 @@ class BuildScope {
 void release_kept_large_arrays() noexcept;
 // The bytes kept for reuse now.
 size_t kept_large_bytes() noexcept;
+// Fills every kept block with `byte`: for tests, so that a byte an array's
+// producer leaves unwritten shows as a difference between two builds.
+void poison_kept_large_arrays(unsigned char byte) noexcept;
 
 // Whether allocate_large maps its memory and asks for 2 MiB pages (Linux,
 // not under AddressSanitizer), rather than taking it from the heap.
