@@ -247,8 +247,8 @@ BlasSet build_blas_set(const Scene& scene, const BuildOptions& options, unsigned
       }
       const Source src = source_of(s, i);
       rf_tri& tri = set.tris[i];
+      const Pow2Scale& scale = *src.tree_from_object;
       for (int k = 0; k < 3; ++k) {
-        const Pow2Scale& scale = *src.tree_from_object;
         tri.v0[k] = scale(src.positions[src.indices[0]][k]);
         tri.v1[k] = scale(src.positions[src.indices[1]][k]);
         tri.v2[k] = scale(src.positions[src.indices[2]][k]);

@@ -1,5 +1,4 @@
 #include "bvh/scene_data.h"
-#include "util/large_pages.h"
 
 #include <algorithm>
 #include <cmath>
@@ -7,6 +6,7 @@
 
 #include "bvh/wide_bvh.h"
 #include "util/errors.h"
+#include "util/large_pages.h"
 #include "util/timer.h"
 
 namespace rayfold::core {
