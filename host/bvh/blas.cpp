@@ -94,7 +94,8 @@ std::vector<uint32_t> merge_groups(const Scene& scene, const std::vector<int>& e
 
 }  // namespace
 
-BlasSet build_blas_set(const Scene& scene, const BuildOptions& options, unsigned threads, const MergeOptions& merge) {
+BlasSet build_blas_set(const Scene& scene, const BuildOptions& options, unsigned threads, const MergeOptions& merge,
+                       const std::function<void(const BlasSet&)>& beside_fill) {
   const auto start = Clock::now();
   const size_t mesh_count = scene.meshes.size(), instance_count = scene.instances.size();
   BlasSet set;
@@ -211,9 +212,36 @@ BlasSet build_blas_set(const Scene& scene, const BuildOptions& options, unsigned
 
   double weighted_sah = 0.0;
   size_t weight = 0;
-  // Triangles in leaf order, every tree's after the one before, side by side.
   std::vector<size_t> tri_base(tree_count + 1, 0);
   for (size_t s = 0; s < tree_count; ++s) tri_base[s + 1] = tri_base[s] + trees[s].order.size();
+  // Every tree's nodes after the one before, written side by side.
+  std::vector<uint32_t> node_base(tree_count + 1, 0);
+  for (size_t s = 0; s < tree_count; ++s)
+    node_base[s + 1] = node_base[s] + static_cast<uint32_t>(flat_node_count(trees[s], node_base[s]));
+  // The TLAS starts at an even index: a padding node where the count is odd.
+  set.nodes.resize(node_base[tree_count] + node_base[tree_count] % 2);  // each written below
+  if (node_base[tree_count] % 2 != 0) set.nodes.back() = rf_node{};
+  std::vector<uint32_t> tree_roots(tree_count);
+  by_size(tree_count, tree_size, [&](size_t s, unsigned tree_threads) {
+    tree_roots[s] = flatten_bvh_at(trees[s], static_cast<uint32_t>(tri_base[s]), nullptr, node_base[s],
+                                   set.nodes.data() + node_base[s], tree_threads);
+  });
+  for (size_t s = 0; s < tree_count; ++s)
+    if (source_mesh[s] != RF_INVALID) set.roots[source_mesh[s]] = tree_roots[s];
+  set.instance_roots.assign(instance_count, RF_INVALID);
+  for (size_t i = 0; i < instance_count; ++i) {
+    if (!set.merged[i])
+      set.instance_roots[i] = set.roots[scene.instances[i].mesh];
+    else if (set.traced_by[i] == i)
+      set.instance_roots[i] = tree_roots[group_source[i]];
+  }
+  for (size_t s = 0; s < tree_count; ++s) {
+    const BuildTree& tree = trees[s];
+    set.max_depth = std::max(set.max_depth, tree.depth);
+    weighted_sah += tree.sah_cost * tree.order.size();
+    weight += tree.order.size();
+  }
+  // Triangles in leaf order, every tree's after the one before, side by side.
   set.tris.resize(tri_base[tree_count]);
   // In leaf order the source triangles are read at random: each one's
   // indices and then its vertices were cache misses in turn (the fill took
@@ -236,7 +264,9 @@ BlasSet build_blas_set(const Scene& scene, const BuildOptions& options, unsigned
     return Source{scene.meshes[part.mesh].indices.data() + 3 * local, scene.meshes[part.mesh].positions.data(),
                   &tree_from_object[part.mesh], static_cast<uint32_t>(local), part.inst};
   };
-  parallel_for(set.tris.size(), threads, size_t{1} << 14, [&](size_t begin, size_t end) {
+  // The nodes are done: `beside_fill` runs on this thread while the others
+  // fill, then this one joins them.
+  auto fill = [&](size_t begin, size_t end) {
     size_t s = static_cast<size_t>(std::upper_bound(tri_base.begin(), tri_base.end(), begin) - tri_base.begin()) - 1;
     for (size_t i = begin; i < end; ++i) {
       while (i >= tri_base[s + 1]) ++s;
@@ -257,34 +287,10 @@ BlasSet build_blas_set(const Scene& scene, const BuildOptions& options, unsigned
       tri.inst = src.inst;
       rf_tri_set_normal(&tri);
     }
-  });
+  };
+  parallel_for_beside(set.tris.size(), threads, size_t{1} << 14, fill,
+                      beside_fill ? std::function<void()>([&] { beside_fill(set); }) : std::function<void()>());
   part_at.clear();
-  // Every tree's nodes after the one before, written side by side.
-  std::vector<uint32_t> node_base(tree_count + 1, 0);
-  for (size_t s = 0; s < tree_count; ++s)
-    node_base[s + 1] = node_base[s] + static_cast<uint32_t>(flat_node_count(trees[s], node_base[s]));
-  set.nodes.resize(node_base[tree_count]);
-  std::vector<uint32_t> tree_roots(tree_count);
-  by_size(tree_count, tree_size, [&](size_t s, unsigned tree_threads) {
-    tree_roots[s] = flatten_bvh_at(trees[s], static_cast<uint32_t>(tri_base[s]), nullptr, node_base[s],
-                                   set.nodes.data() + node_base[s], tree_threads);
-  });
-  for (size_t s = 0; s < tree_count; ++s)
-    if (source_mesh[s] != RF_INVALID) set.roots[source_mesh[s]] = tree_roots[s];
-  set.instance_roots.assign(instance_count, RF_INVALID);
-  for (size_t i = 0; i < instance_count; ++i) {
-    if (!set.merged[i])
-      set.instance_roots[i] = set.roots[scene.instances[i].mesh];
-    else if (set.traced_by[i] == i)
-      set.instance_roots[i] = tree_roots[group_source[i]];
-  }
-  for (size_t s = 0; s < tree_count; ++s) {
-    const BuildTree& tree = trees[s];
-    set.max_depth = std::max(set.max_depth, tree.depth);
-    weighted_sah += tree.sah_cost * tree.order.size();
-    weight += tree.order.size();
-  }
-  if (set.nodes.size() % 2 != 0) set.nodes.push_back(rf_node{});  // the TLAS starts at an even index
   set.sah_cost = weight ? weighted_sah / weight : 0.0;
   set.build_ms = ms_since(start);
   return set;

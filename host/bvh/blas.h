@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include "bvh/bvh_build.h"
@@ -21,7 +22,7 @@ namespace rayfold::core {
 // the instance transforms.
 struct BlasSet {
   PageAlignedVector<rf_node> nodes;  // all trees (tree space); the TLAS follows them
-  PageAlignedVector<rf_tri> tris;   // all trees' triangles in leaf order (tree space)
+  PageAlignedVector<rf_tri> tris;    // all trees' triangles in leaf order (tree space)
   // Per mesh; RF_INVALID for a mesh with no triangle, or whose every
   // instance is traced in a merged tree (below).
   std::vector<uint32_t> roots;
@@ -63,8 +64,12 @@ struct MergeOptions {
 };
 
 // Builds the trees in parallel on `threads` threads (0: all cores).
+// `beside_fill`, if set, is called with the set once everything but its
+// triangles is done, on the calling thread while the others fill them
+// (it must not read `tris`): serial work that needs the nodes, beside the
+// fill.
 BlasSet build_blas_set(const Scene& scene, const BuildOptions& options = {}, unsigned threads = 0,
-                       const MergeOptions& merge = {});
+                       const MergeOptions& merge = {}, const std::function<void(const BlasSet&)>& beside_fill = {});
 
 // The power of two that brings a box's largest coordinate magnitude into
 // [1, 2): floor(log2(max |coordinate|)), 0 for an empty or all-zero box.

@@ -22,7 +22,7 @@ double half_area(const Aabb& b) {
 
 // Opens the largest (in world space) BLAS nodes of all instances until the
 // budget is spent; the open frontier is each instance's cut.
-void choose_braid_cuts(const Scene& scene, SceneData& data, const BraidOptions& opt) {
+void choose_braid_cuts(const Scene& scene, const BlasSet& blas, SceneData& data, const BraidOptions& opt) {
   struct Item {
     double area;
     uint32_t instance, node;
@@ -37,14 +37,14 @@ void choose_braid_cuts(const Scene& scene, SceneData& data, const BraidOptions& 
   std::priority_queue<Item> open;
   auto world_area = [&](uint32_t i, uint32_t node) {
     Aabb b;
-    b.grow(glm::vec3(data.blas.nodes[node].bmin[0], data.blas.nodes[node].bmin[1], data.blas.nodes[node].bmin[2]));
-    b.grow(glm::vec3(data.blas.nodes[node].bmax[0], data.blas.nodes[node].bmax[1], data.blas.nodes[node].bmax[2]));
+    b.grow(glm::vec3(blas.nodes[node].bmin[0], blas.nodes[node].bmin[1], blas.nodes[node].bmin[2]));
+    b.grow(glm::vec3(blas.nodes[node].bmax[0], blas.nodes[node].bmax[1], blas.nodes[node].bmax[2]));
     const Instance& inst = scene.instances[i];
-    return half_area(transform_bounds_conservative(inst.world_from_object * object_from_tree(data.blas, inst.mesh), b));
+    return half_area(transform_bounds_conservative(inst.world_from_object * object_from_tree(blas, inst.mesh), b));
   };
   size_t items = 0;
   for (uint32_t i = 0; i < n; ++i) {
-    const uint32_t root = data.blas.instance_roots[i];
+    const uint32_t root = blas.instance_roots[i];
     if (!data.renderable[i] || root == RF_INVALID) continue;  // a merged tree is traced once, by its first member
     open.push({world_area(i, root), i, root});
     ++items;
@@ -55,7 +55,7 @@ void choose_braid_cuts(const Scene& scene, SceneData& data, const BraidOptions& 
     const double loose = opt.loose_ratio;
     while (!open.empty() && open.top().area >= min_area) {
       const Item top = open.top();
-      const rf_node& node = data.blas.nodes[top.node];
+      const rf_node& node = blas.nodes[top.node];
       open.pop();
       if ((node.meta & RF_NODE_COUNT_MASK) != 0) {  // a leaf cannot open
         cuts[top.instance].push_back(top.node);
@@ -86,37 +86,39 @@ SceneData prepare_scene(const Scene& scene, unsigned threads, const BraidOptions
   check_world_range(scene, "");
   const BuildScope scope;
   SceneData data;
-  data.blas = build_blas_set(scene, BuildOptions{}, threads, merge);
-  const size_t n = scene.instances.size();
-  data.tree_from_world.resize(n);
-  data.renderable.resize(n);
-  data.normal_xforms.resize(n);
-  for (size_t i = 0; i < n; ++i) {
-    const Instance& inst = scene.instances[i];
-    const Xform world_from_tree = inst.world_from_object * object_from_tree(data.blas, inst.mesh);
-    // glTF allows a zero scale: such an instance is simply not there.
-    const bool invertible = affine_inverse(world_from_tree, &data.tree_from_world[i]);
-    // A merged instance is rendered through its group's tree (the same
-    // world_from_tree: its tree_from_world and normal matrix are the first
-    // member's, bit for bit).
-    data.renderable[i] = invertible && data.blas.instance_roots[data.blas.traced_by[i]] != RF_INVALID;
-    if (invertible) normal_matrix_rows3x3(world_from_tree, data.normal_xforms[i].m);
-    if (!invertible) data.hidden_instances++;
-    if (!data.renderable[i]) continue;
-    data.world_bounds.grow(transform_bounds_conservative(inst.world_from_object, data.blas.bounds[inst.mesh]));
-    double big = 0.0;
-    for (int c = 0; c < 3; ++c)
-      for (int r = 0; r < 3; ++r) big = std::max(big, std::fabs(data.tree_from_world[i][c][r]));
-    if (big > 0.0 && std::isfinite(big)) data.max_tree_scale = std::max(data.max_tree_scale, std::ilogb(big));
-  }
-  choose_braid_cuts(scene, data, braid);
-  // The wide trees are part of the bottom level: their time counts in its
-  // build time.
-  const auto wide_start = Clock::now();
-  WideTrees wide = build_wide_trees(data.blas.nodes.data(), data.blas.nodes.size(), data.braid_nodes);
-  data.wide_nodes = std::move(wide.nodes);
-  data.braid_wide = std::move(wide.roots);
-  data.blas.build_ms += ms_since(wide_start);
+  // The instances' transforms, the re-braid cuts and the wide trees need the
+  // nodes, not the triangles: they are made on one thread while the others
+  // fill the triangles (the wide collapse, on one thread, took as long as
+  // the fill on two on the conference room and the car). The wide trees are
+  // part of the bottom level: their time counts in its build time.
+  data.blas = build_blas_set(scene, BuildOptions{}, threads, merge, [&](const BlasSet& blas) {
+    const size_t n = scene.instances.size();
+    data.tree_from_world.resize(n);
+    data.renderable.resize(n);
+    data.normal_xforms.resize(n);
+    for (size_t i = 0; i < n; ++i) {
+      const Instance& inst = scene.instances[i];
+      const Xform world_from_tree = inst.world_from_object * object_from_tree(blas, inst.mesh);
+      // glTF allows a zero scale: such an instance is simply not there.
+      const bool invertible = affine_inverse(world_from_tree, &data.tree_from_world[i]);
+      // A merged instance is rendered through its group's tree (the same
+      // world_from_tree: its tree_from_world and normal matrix are the first
+      // member's, bit for bit).
+      data.renderable[i] = invertible && blas.instance_roots[blas.traced_by[i]] != RF_INVALID;
+      if (invertible) normal_matrix_rows3x3(world_from_tree, data.normal_xforms[i].m);
+      if (!invertible) data.hidden_instances++;
+      if (!data.renderable[i]) continue;
+      data.world_bounds.grow(transform_bounds_conservative(inst.world_from_object, blas.bounds[inst.mesh]));
+      double big = 0.0;
+      for (int c = 0; c < 3; ++c)
+        for (int r = 0; r < 3; ++r) big = std::max(big, std::fabs(data.tree_from_world[i][c][r]));
+      if (big > 0.0 && std::isfinite(big)) data.max_tree_scale = std::max(data.max_tree_scale, std::ilogb(big));
+    }
+    choose_braid_cuts(scene, blas, data, braid);
+    WideTrees wide = build_wide_trees(blas.nodes.data(), blas.nodes.size(), data.braid_nodes);
+    data.wide_nodes = std::move(wide.nodes);
+    data.braid_wide = std::move(wide.roots);
+  });
   return data;
 }
 
