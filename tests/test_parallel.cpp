@@ -50,10 +50,14 @@ TEST(Parallel, BesideRunsFirstOnTheCallerWhileOthersTakeChunks) {
     const std::thread::id caller = std::this_thread::get_id();
     std::vector<std::atomic<int>> seen(400);
     std::atomic<int> firsts{0}, done_during_first{0};
-    std::atomic<bool> in_first{false};
+    std::atomic<bool> in_first{false}, first_started{false};
     parallel_for_beside(
         seen.size(), threads, 4,
         [&](size_t begin, size_t end) {
+          // Held until `first` has begun, so that the other threads cannot
+          // finish every chunk before it.
+          for (int wait = 0; wait < 2000 && !first_started; ++wait)
+            std::this_thread::sleep_for(std::chrono::microseconds(100));
           for (size_t i = begin; i < end; ++i) seen[i]++;
           if (in_first) done_during_first++;
         },
@@ -61,6 +65,7 @@ TEST(Parallel, BesideRunsFirstOnTheCallerWhileOthersTakeChunks) {
           EXPECT_EQ(std::this_thread::get_id(), caller);
           firsts++;
           in_first = true;
+          first_started = true;
           for (int wait = 0; wait < 2000 && done_during_first == 0 && threads > 1; ++wait)
             std::this_thread::sleep_for(std::chrono::microseconds(100));
           in_first = false;
