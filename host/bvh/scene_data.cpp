@@ -7,7 +7,6 @@
 #include "bvh/wide_bvh.h"
 #include "util/errors.h"
 #include "util/large_pages.h"
-#include "util/timer.h"
 
 namespace rayfold::core {
 namespace {
