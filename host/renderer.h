@@ -14,6 +14,7 @@
 #include "reference/trace_inputs.h"
 #include "scene/camera.h"
 #include "scene/scene.h"
+#include "util/page_aligned.h"
 
 namespace rayfold::core {
 
@@ -67,9 +68,13 @@ struct FrameTimes {
   double readback_ms = 0.0;
 };
 
+// A frame's hits: left as allocated (the kernels write every pixel of
+// every frame), large ones in 2 MiB pages kept for reuse (util/page_aligned.h).
+using HitBuffer = PageAlignedVector<rf_pixel_hit>;
+
 struct RenderResult {
   // width * height per view, row-major, row 0 at the top; view after view.
-  std::vector<rf_pixel_hit> hits;
+  HitBuffer hits;
   FrameTimes median;
   std::vector<FrameTimes> frames;
   FrameStats frame_stats;        // of the last frame

@@ -22,7 +22,7 @@ namespace {
 std::string aligned_differences(testing::ThreeWays& r, const std::vector<Camera>& views, int animate_frame = -1,
                                 std::vector<FoldMode> folds = {FoldMode::none, FoldMode::y, FoldMode::x,
                                                                FoldMode::xy}) {
-  std::vector<std::vector<rf_pixel_hit>> alone;
+  std::vector<HitBuffer> alone;
   for (const Camera& v : views) alone.push_back(r.reference(v, animate_frame));
   const size_t pixels = static_cast<size_t>(views[0].width) * views[0].height;
   std::string out;

@@ -737,7 +737,7 @@ TEST(Bvh, DenseMeshesGetFullerLeaves) {
   RendererOptions opt;
   opt.backend = Backend::cpu;
   Renderer cpu(scene, opt);
-  const std::vector<rf_pixel_hit> want = cpu.render(cam).hits;
+  const HitBuffer want = cpu.render(cam).hits;
   EXPECT_EQ(testing::compare_hits(testing::brute_force(scene, cpu.scene_data(), cam), want, cam.width), "");
   for (KernelChoice k : {KernelChoice::tile, KernelChoice::single}) {
     opt.backend = Backend::opencl;

@@ -12,6 +12,7 @@
 #include "renderer.h"
 #include "scene/gltf_loader.h"
 #include "test_util.h"
+#include "util/span.h"
 
 namespace rayfold::core {
 namespace {
@@ -27,7 +28,7 @@ FrameOptions exact(FoldMode fold = FoldMode::none) {
 
 // The largest relative depth error against the double reference over the
 // pixels that hit its triangle, and how many there were.
-std::pair<double, size_t> worst_depth(const std::vector<ReferenceHit>& ref, const std::vector<rf_pixel_hit>& hits) {
+std::pair<double, size_t> worst_depth(const std::vector<ReferenceHit>& ref, ConstSpan<rf_pixel_hit> hits) {
   double worst = 0.0;
   size_t n = 0;
   for (size_t i = 0; i < ref.size(); ++i) {
@@ -199,7 +200,7 @@ TEST(ExactDepth, PlanarIsTheDistanceTimesTheAxisCosine) {
   const Camera cam = make_camera(*scene.camera, 90, 50, 0.2, -0.1);
   FrameOptions planar = exact();
   planar.planar_depth = true;
-  const std::vector<rf_pixel_hit> a = r.render(cam, 1, exact()).hits, b = r.render(cam, 1, planar).hits;
+  const HitBuffer a = r.render(cam, 1, exact()).hits, b = r.render(cam, 1, planar).hits;
   size_t hits = 0;
   for (int y = 0; y < cam.height; ++y)
     for (int x = 0; x < cam.width; ++x) {

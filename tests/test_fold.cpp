@@ -4,10 +4,13 @@
 // And the folded ray list answers every pixel exactly once with fewer rays.
 #include <gtest/gtest.h>
 
+#include <cstring>
 #include <filesystem>
 
 #include "../tools/scene_gen.h"
 #include "fold/ray_list.h"
+#include "fold/view_passes.h"
+#include "reference/hit_compare.h"
 #include "renderer.h"
 #include "scene/gltf_loader.h"
 #include "test_util.h"
@@ -33,7 +36,7 @@ FrameOptions with_fold(FoldMode f, bool cull = true) {
 // Renders `cam` unfolded and in every fold mode on one renderer; returns ""
 // when all agree bit for bit, else the first difference.
 std::string fold_differences(Renderer& r, const Camera& cam) {
-  const std::vector<rf_pixel_hit> none = r.render(cam, 1, with_fold(FoldMode::none)).hits;
+  const HitBuffer none = r.render(cam, 1, with_fold(FoldMode::none)).hits;
   std::string out;
   for (FoldMode f : kFolds) {
     const std::string d = testing::compare_hits(none, r.render(cam, 1, with_fold(f)).hits, cam.width);
@@ -222,6 +225,50 @@ TEST(Fold, RandomCamerasOverGeneratedScenes) {
   EXPECT_GE(cameras, 100);
 }
 
+// A frame's hit buffer is neither cleared when it is made nor between
+// frames (Renderer::begin_views): each kernel, the CPU reference and every
+// fold, one view or two in a pass, must write every pixel, misses included.
+// Rendered into buffers filled with two different bytes, the answers agree.
+TEST(Fold, EveryPixelIsWrittenIntoAnUnclearedBuffer) {
+  testing::Rng rng(2718);
+  const Scene scene = testing::random_scene(rng, 2, 8, 120);
+  testing::ThreeWays r(scene);
+  int checked = 0;
+  for (int v = 0; v < 4; ++v) {
+    const int w = v % 2 ? 41 : 48, h = v % 2 ? 29 : 32;  // odd sizes: a middle row and column fold onto themselves
+    const CameraSpec left = testing::random_camera(rng, scene.world_bounds());
+    std::vector<Camera> cams{make_camera(left, w, h)};
+    if (v >= 2) {  // a second eye beside the first: the same rays, another view
+      CameraSpec right = left;
+      const glm::dvec3 side = glm::dvec3(scene.world_bounds().extent()) * 0.05;
+      right.eye += side;
+      right.look_at += side;
+      cams.push_back(make_camera(right, w, h));
+    }
+    const size_t pixels = static_cast<size_t>(w) * h * cams.size();
+    for (Renderer* renderer : {r.cpu.get(), r.single.get(), r.tile.get()})
+      for (FoldMode f : testing::kAllFolds) {
+        if (static_cast<int>(cams.size()) > max_pass_views(f)) continue;
+        HitBuffer seen[2];
+        for (int k = 0; k < 2; ++k) {
+          RenderResult res;
+          res.hits.resize(pixels);
+          std::memset(static_cast<void*>(res.hits.data()), k ? 0xC3 : 0x5A, pixels * sizeof(rf_pixel_hit));
+          renderer->render_views_into(res, cams, 1, with_fold(f));
+          ASSERT_EQ(res.hits.size(), pixels);
+          seen[k] = res.hits;
+        }
+        size_t misses = 0;
+        for (const rf_pixel_hit& h : seen[0]) misses += h.instance == RF_INVALID;
+        EXPECT_GT(misses, 0u) << "the views should see past the scene too";
+        EXPECT_EQ(count_differing_pixels(seen[0], seen[1]), 0u)
+            << "view " << v << " fold " << fold_name(f) << ", " << cams.size() << " views a pass";
+        ++checked;
+      }
+  }
+  EXPECT_GE(checked, 40);
+}
+
 TEST(Fold, RandomMirroredSoupsAgainstBruteForce) {
   // Folded and culled renders equal brute force without trees or culling.
   testing::Rng rng(77);
@@ -262,7 +309,7 @@ TEST(Fold, AnimatedFramesStayLossless) {
   for (int frame : {0, 3, 17}) {
     FrameOptions none = with_fold(FoldMode::none);
     none.animate_frame = frame;
-    const std::vector<rf_pixel_hit> ref = cpu.render(cam, 1, none).hits;
+    const HitBuffer ref = cpu.render(cam, 1, none).hits;
     if (frame > 0) {
       EXPECT_NE(testing::compare_hits(ref, cpu.render(cam, 1, with_fold(FoldMode::none)).hits, 160), "")
           << "animation should move something in view";

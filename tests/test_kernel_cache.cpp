@@ -62,7 +62,7 @@ std::vector<fs::path> files_in(const std::string& dir) {
 struct Views {
   Scene scene;
   std::vector<Camera> cams;
-  std::vector<std::vector<rf_pixel_hit>> want;  // the CPU reference's
+  std::vector<HitBuffer> want;  // the CPU reference's
 };
 
 Views views() {

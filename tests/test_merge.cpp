@@ -121,7 +121,7 @@ TEST(Merge, SceneFilesKeepMergedTreesAndTheirBits) {
   const Camera cam = make_camera(testing::random_camera(rng, s.world_bounds()), 41, 27);
   RendererOptions o;
   o.backend = Backend::cpu;
-  const std::vector<rf_pixel_hit> want = Renderer(s, o).render(cam).hits;
+  const HitBuffer want = Renderer(s, o).render(cam).hits;
   o.backend = Backend::opencl;
   o.kernel = KernelChoice::tile;
   Renderer loaded(back.scene, o, std::make_shared<const SceneData>(back.data));
@@ -148,7 +148,7 @@ TEST(Merge, CoincidentCopiesResolveToTheLowerInstance) {
   spec.look_at = glm::dvec3(0.0, 0.0, 0.0);
   spec.vfov_degrees = 50.0;
   const Camera cam = make_camera(spec, 40, 30);
-  const std::vector<rf_pixel_hit> ref = r.reference(cam);
+  const HitBuffer ref = r.reference(cam);
   size_t cube = 0;
   for (const rf_pixel_hit& h : ref) {
     if (h.instance == RF_INVALID) continue;

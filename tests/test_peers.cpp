@@ -212,7 +212,7 @@ TEST(Peers, EmbreeWritesRayfoldsGBuffer) {
   size_t compared = 0;
   for (int v = 0; v < 3; ++v) {
     const Camera cam = make_camera(testing::random_camera(rng, scene.world_bounds()), 80, 48);
-    const std::vector<rf_pixel_hit> want = cpu.render(cam).hits;
+    const HitBuffer want = cpu.render(cam).hits;
     embree.set_camera(cam);
     for (EmbreeScene which : {EmbreeScene::flat, EmbreeScene::instanced, EmbreeScene::flat_high})
       for (int packets = 0; packets < 2; ++packets) {

@@ -14,6 +14,7 @@
 #include "rays/ray_queries.h"
 #include "rf_trace.h"
 #include "test_util.h"
+#include "util/span.h"
 
 namespace rayfold::core {
 namespace {
@@ -81,7 +82,7 @@ std::vector<rf_pixel_hit> query(Renderer& r, const Rays& rays, float tmin = 0.0f
 }
 
 // "" when every field is the same bits; else the first difference and the count.
-std::string differences(const std::vector<rf_pixel_hit>& a, const std::vector<rf_pixel_hit>& b) {
+std::string differences(ConstSpan<rf_pixel_hit> a, ConstSpan<rf_pixel_hit> b) {
   size_t count = 0;
   std::string first;
   for (size_t i = 0; i < a.size(); ++i) {
@@ -617,7 +618,7 @@ TEST(RayQuery, AnswersDoNotDependOnOrderOrBatching) {
   // The first 10 rays alone: another top level (its box padding follows the
   // batch's origins), the same answers.
   Rays ten{{rays.o.begin(), rays.o.begin() + 30}, {rays.d.begin(), rays.d.begin() + 30}};
-  EXPECT_EQ(differences({all.begin(), all.begin() + 10}, query(r, ten)), "");
+  EXPECT_EQ(differences(ConstSpan<rf_pixel_hit>(all.data(), 10), query(r, ten)), "");
 }
 
 // A scattered query longer than a chunk (2^20 rays) is ordered chunk by

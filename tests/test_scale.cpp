@@ -17,6 +17,7 @@
 #include "scene/gltf_loader.h"
 #include "test_util.h"
 #include "util/errors.h"
+#include "util/span.h"
 
 namespace rayfold::core {
 namespace {
@@ -50,14 +51,14 @@ CameraSpec scaled(CameraSpec spec, int k) {
 
 // "" when `hits` is `base` with every depth times 2^k and everything else
 // bit-identical; else the first difference and the count.
-std::string compare_scaled(const std::vector<rf_pixel_hit>& base, const std::vector<rf_pixel_hit>& hits, int k,
+std::string compare_scaled(ConstSpan<rf_pixel_hit> base, ConstSpan<rf_pixel_hit> hits, int k,
                            int width) {
-  std::vector<rf_pixel_hit> expected = base;
+  std::vector<rf_pixel_hit> expected(base.begin(), base.end());
   for (rf_pixel_hit& h : expected) h.z = std::ldexp(h.z, k);
   return testing::compare_hits(expected, hits, width);
 }
 
-size_t count_hits(const std::vector<rf_pixel_hit>& hits) {
+size_t count_hits(ConstSpan<rf_pixel_hit> hits) {
   size_t n = 0;
   for (const rf_pixel_hit& h : hits) n += h.instance != RF_INVALID;
   return n;
@@ -125,14 +126,14 @@ TEST(Scale, EveryPowerOfTwoFromMinus100To100) {
     const Camera cam0 = make_camera(spec, 40, 30);
     RendererOptions cpu;
     cpu.backend = Backend::cpu;
-    const std::vector<rf_pixel_hit> ref = Renderer(base, cpu).render(cam0).hits;
+    const HitBuffer ref = Renderer(base, cpu).render(cam0).hits;
     ASSERT_GT(count_hits(ref), ref.size() / 20) << "seed " << seed << ": the view must see the soup";
     for (Placement where : {Placement::vertices, Placement::nodes})
       for (int k = -100; k <= 100; ++k) {
         const Scene s = scaled(base, k, where);
         const Camera cam = make_camera(scaled(spec, k), 40, 30);
         const char* w = where == Placement::vertices ? "vertices" : "nodes";
-        const std::vector<rf_pixel_hit> hits = Renderer(s, cpu).render(cam).hits;
+        const HitBuffer hits = Renderer(s, cpu).render(cam).hits;
         EXPECT_EQ(compare_scaled(ref, hits, k, cam.width), "") << "seed " << seed << ", 2^" << k << " in " << w;
         if (seed == 11 || k % 37 == 0 || std::abs(k) == 100) {
           EXPECT_EQ(testing::ThreeWays(s).differences(cam), "") << "seed " << seed << ", 2^" << k << " in " << w;
@@ -150,8 +151,8 @@ TEST(Scale, SubnormalDepthsKeepEveryOtherChannel) {
   RendererOptions cpu;
   cpu.backend = Backend::cpu;
   const Camera cam0 = make_camera(scaled(spec, -135), 40, 30);
-  const std::vector<rf_pixel_hit> tiny = Renderer(scaled(base, -135, Placement::nodes), cpu).render(cam0).hits;
-  const std::vector<rf_pixel_hit> ref = Renderer(base, cpu).render(make_camera(spec, 40, 30)).hits;
+  const HitBuffer tiny = Renderer(scaled(base, -135, Placement::nodes), cpu).render(cam0).hits;
+  const HitBuffer ref = Renderer(base, cpu).render(make_camera(spec, 40, 30)).hits;
   size_t subnormal = 0;
   for (size_t i = 0; i < ref.size(); ++i) {
     rf_pixel_hit a = ref[i], b = tiny[i];
@@ -163,7 +164,7 @@ TEST(Scale, SubnormalDepthsKeepEveryOtherChannel) {
     } else {
       a.z = std::ldexp(a.z, -135);
     }
-    EXPECT_EQ(testing::compare_hits({a}, {b}, 1), "") << "pixel " << i;
+    EXPECT_EQ(testing::compare_hits(ConstSpan<rf_pixel_hit>(&a, 1), ConstSpan<rf_pixel_hit>(&b, 1), 1), "") << "pixel " << i;
   }
   EXPECT_EQ(subnormal, count_hits(ref)) << "every depth is subnormal at 2^-135";
   EXPECT_GT(subnormal, 0u);
@@ -177,7 +178,7 @@ TEST(Scale, SubnormalDepthsKeepEveryOtherChannel) {
       EXPECT_EQ(b.z, 0.0f) << "pixel " << i;
       a.z = b.z;
     }
-    EXPECT_EQ(testing::compare_hits({a}, {b}, 1), "") << "pixel " << i;
+    EXPECT_EQ(testing::compare_hits(ConstSpan<rf_pixel_hit>(&a, 1), ConstSpan<rf_pixel_hit>(&b, 1), 1), "") << "pixel " << i;
   }
   ASSERT_EQ(zero.warnings.size(), 1u);
   EXPECT_NE(zero.warnings[0].find("below 2^-125"), std::string::npos) << zero.warnings[0];
@@ -207,7 +208,7 @@ TEST(Scale, DecimalScalesKeepTheirHits) {
   const CameraSpec spec = soup_camera(32, base);
   RendererOptions cpu;
   cpu.backend = Backend::cpu;
-  const std::vector<rf_pixel_hit> ref = Renderer(base, cpu).render(make_camera(spec, 64, 48)).hits;
+  const HitBuffer ref = Renderer(base, cpu).render(make_camera(spec, 64, 48)).hits;
   const size_t ref_hits = count_hits(ref);
   for (int e = -36; e <= 36; e += 3) {
     const double f = std::pow(10.0, e);
@@ -219,7 +220,7 @@ TEST(Scale, DecimalScalesKeepTheirHits) {
     CameraSpec sc = spec;
     sc.eye *= f;
     sc.look_at *= f;
-    const std::vector<rf_pixel_hit> hits = Renderer(s, cpu).render(make_camera(sc, 64, 48)).hits;
+    const HitBuffer hits = Renderer(s, cpu).render(make_camera(sc, 64, 48)).hits;
     size_t same = 0;
     for (size_t i = 0; i < hits.size(); ++i) same += hits[i].instance == ref[i].instance;
     EXPECT_NEAR(double(count_hits(hits)), double(ref_hits), 0.01 * ref_hits) << "scale 1e" << e;
@@ -234,7 +235,7 @@ TEST(Scale, FramingOfTinyAndHugeScenes) {
   const CameraSpec f0 = frame_bounds(base.world_bounds());
   RendererOptions cpu;
   cpu.backend = Backend::cpu;
-  const std::vector<rf_pixel_hit> ref = Renderer(base, cpu).render(make_camera(f0, 40, 30)).hits;
+  const HitBuffer ref = Renderer(base, cpu).render(make_camera(f0, 40, 30)).hits;
   for (int k : {-120, -60, -40, 40, 60, 100}) {
     const Scene s = scaled(base, k, Placement::nodes);
     const CameraSpec f = frame_bounds(s.world_bounds());
@@ -265,7 +266,7 @@ TEST(Scale, MixedScalesInOneScene) {
   spec.vfov_degrees = 90.0;
   const Camera cam = make_camera(spec, 48, 32);
   testing::ThreeWays r(s);
-  const std::vector<rf_pixel_hit> hits = r.reference(cam);
+  const HitBuffer hits = r.reference(cam);
   size_t per_instance[2] = {0, 0};
   for (const rf_pixel_hit& h : hits)
     if (h.instance != RF_INVALID) per_instance[h.instance]++;

@@ -15,6 +15,7 @@
 #include "renderer.h"
 #include "scene/gltf_loader.h"
 #include "test_util.h"
+#include "util/span.h"
 
 namespace rayfold::core {
 namespace {
@@ -23,11 +24,11 @@ using testing::Rng;
 
 // Renders on both backends in every fold mode; all must equal the CPU's
 // unfolded render bit for bit and hold no NaN. Returns that render.
-std::vector<rf_pixel_hit> render_everywhere(const Scene& scene, const Camera& cam, const std::string& what) {
+HitBuffer render_everywhere(const Scene& scene, const Camera& cam, const std::string& what) {
   RendererOptions cpu_opt;
   cpu_opt.backend = Backend::cpu;
   Renderer cpu(scene, cpu_opt), cl(scene, RendererOptions{});
-  const std::vector<rf_pixel_hit> ref = cpu.render(cam, 1, FrameOptions{FoldMode::none}).hits;
+  const HitBuffer ref = cpu.render(cam, 1, FrameOptions{FoldMode::none}).hits;
   for (const rf_pixel_hit& h : ref) {
     if (std::isnan(h.z) || std::isnan(h.nx) || std::isnan(h.ny) || std::isnan(h.nz) || std::isnan(h.u) ||
         std::isnan(h.v)) {
@@ -44,7 +45,7 @@ std::vector<rf_pixel_hit> render_everywhere(const Scene& scene, const Camera& ca
   return ref;
 }
 
-size_t count_hits(const std::vector<rf_pixel_hit>& hits) {
+size_t count_hits(ConstSpan<rf_pixel_hit> hits) {
   size_t n = 0;
   for (const rf_pixel_hit& h : hits) n += h.instance != RF_INVALID;
   return n;
@@ -167,7 +168,7 @@ TEST(Stress, NonUniformNegativeAndSingularScales) {
 // render_everywhere); against the untransformed render, hits may change
 // where float precision runs out. The shares printed here are the figures
 // docs/exactness.md quotes; the bounds only catch regressions.
-double same_hit_share(const std::vector<rf_pixel_hit>& a, const std::vector<rf_pixel_hit>& b) {
+double same_hit_share(ConstSpan<rf_pixel_hit> a, ConstSpan<rf_pixel_hit> b) {
   size_t same = 0;
   for (size_t i = 0; i < a.size(); ++i) same += a[i].instance == b[i].instance && a[i].primitive == b[i].primitive;
   return static_cast<double>(same) / a.size();
@@ -230,7 +231,7 @@ struct Agreement {
   size_t differing = 0;
 };
 
-Agreement agreement(const std::vector<rf_pixel_hit>& exact, const std::vector<rf_pixel_hit>& other) {
+Agreement agreement(ConstSpan<rf_pixel_hit> exact, ConstSpan<rf_pixel_hit> other) {
   Agreement a;
   std::vector<double> rel;
   size_t same = 0, hit_miss = 0;

@@ -143,8 +143,8 @@ TEST(TileKernel, NormalsOffWriteZeroNormalsAndTheSameRest) {
     FrameOptions without = with;
     without.normals = false;
     for (Renderer* renderer : {r.cpu.get(), r.single.get(), r.tile.get()}) {
-      const std::vector<rf_pixel_hit> a = renderer->render(cam, 1, with).hits;
-      const std::vector<rf_pixel_hit> b = renderer->render(cam, 1, without).hits;
+      const HitBuffer a = renderer->render(cam, 1, with).hits;
+      const HitBuffer b = renderer->render(cam, 1, without).hits;
       ASSERT_EQ(a.size(), b.size());
       size_t hits = 0;
       for (size_t i = 0; i < a.size(); ++i) {
@@ -171,10 +171,10 @@ TEST(TileKernel, PlanarDepthIsTheDistanceAlongTheCameraAxis) {
     distance.fold = fold;
     FrameOptions planar = distance;
     planar.planar_depth = true;
-    const std::vector<rf_pixel_hit> ref = r.cpu->render(cam, 1, planar).hits;
+    const HitBuffer ref = r.cpu->render(cam, 1, planar).hits;
     for (Renderer* renderer : {r.cpu.get(), r.single.get(), r.tile.get()}) {
-      const std::vector<rf_pixel_hit> a = renderer->render(cam, 1, distance).hits;
-      const std::vector<rf_pixel_hit> b = renderer->render(cam, 1, planar).hits;
+      const HitBuffer a = renderer->render(cam, 1, distance).hits;
+      const HitBuffer b = renderer->render(cam, 1, planar).hits;
       ASSERT_EQ(std::memcmp(b.data(), ref.data(), b.size() * sizeof(rf_pixel_hit)), 0) << renderer->kernel_label();
       size_t hits = 0;
       for (int y = 0; y < cam.height; ++y)
@@ -291,7 +291,7 @@ TEST(TileKernel, LaneGroupsOnOneTriangleOfTwoInstancesTakeEachItsOwnNormal) {
   spec.vfov_degrees = 50.0;
   const Camera cam = make_camera(spec, 96, 80);
   // The premise: both instances are seen, each over whole lane groups.
-  const std::vector<rf_pixel_hit> ref = r.reference(cam);
+  const HitBuffer ref = r.reference(cam);
   size_t seen[2] = {0, 0};
   for (const rf_pixel_hit& h : ref)
     if (h.instance < 2) ++seen[h.instance];

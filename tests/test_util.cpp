@@ -154,7 +154,7 @@ std::vector<rf_pixel_hit> brute_force_rays(const Scene& scene, const SceneData& 
   return out;
 }
 
-std::string compare_hits(const std::vector<rf_pixel_hit>& expected, const std::vector<rf_pixel_hit>& actual,
+std::string compare_hits(ConstSpan<rf_pixel_hit> expected, ConstSpan<rf_pixel_hit> actual,
                          int width) {
   if (expected.size() != actual.size()) return "sizes differ";
   size_t bad = 0;
@@ -254,7 +254,7 @@ ThreeWays::ThreeWays(const Scene& scene) {
   tile = std::make_unique<Renderer>(scene, o);
 }
 
-std::vector<rf_pixel_hit> ThreeWays::reference(const Camera& cam, int animate_frame, const FrameOptions& base) {
+HitBuffer ThreeWays::reference(const Camera& cam, int animate_frame, const FrameOptions& base) {
   FrameOptions none = base;
   none.fold = FoldMode::none;
   none.animate_frame = animate_frame;
@@ -262,7 +262,7 @@ std::vector<rf_pixel_hit> ThreeWays::reference(const Camera& cam, int animate_fr
 }
 
 std::string ThreeWays::differences(const Camera& cam, int animate_frame, const FrameOptions& base) {
-  const std::vector<rf_pixel_hit> ref = reference(cam, animate_frame, base);
+  const HitBuffer ref = reference(cam, animate_frame, base);
   std::string out;
   for (FoldMode f : kAllFolds) {
     FrameOptions o = base;

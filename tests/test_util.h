@@ -14,6 +14,7 @@
 #include "renderer.h"
 #include "scene/camera.h"
 #include "scene/scene.h"
+#include "util/span.h"
 
 namespace rayfold::core::testing {
 
@@ -42,7 +43,7 @@ std::vector<rf_pixel_hit> brute_force_rays(const Scene& scene, const SceneData& 
 
 // "" when equal bit for bit, else a description of the first difference and
 // the number of differing pixels.
-std::string compare_hits(const std::vector<rf_pixel_hit>& expected, const std::vector<rf_pixel_hit>& actual, int width);
+std::string compare_hits(ConstSpan<rf_pixel_hit> expected, ConstSpan<rf_pixel_hit> actual, int width);
 
 // A camera somewhere in or around the bounds, looking anywhere, with roll;
 // sometimes along an axis, sometimes from inside an object's box.
@@ -78,7 +79,7 @@ inline constexpr FoldMode kAllFolds[] = {FoldMode::none, FoldMode::y, FoldMode::
 struct ThreeWays {
   explicit ThreeWays(const Scene& scene);
   // The CPU reference's unfolded render.
-  std::vector<rf_pixel_hit> reference(const Camera& cam, int animate_frame = -1, const FrameOptions& base = {});
+  HitBuffer reference(const Camera& cam, int animate_frame = -1, const FrameOptions& base = {});
   // "" when, for every fold mode, the single-ray and tile kernels equal the
   // CPU reference's unfolded render; else every difference found. base: the
   // frame options besides the fold and animation (the exact depth).

@@ -21,7 +21,7 @@ namespace {
 struct Measured {
   double render_ms = 0.0, trace_ms = 0.0, update_ms = 0.0;
   size_t bytes = 0, instances = 0;
-  std::vector<std::vector<rf_pixel_hit>> hits;  // per view, of the last frame
+  std::vector<HitBuffer> hits;  // per view, of the last frame
 };
 
 // One frame of every pass; the hits kept when asked (they are large).

@@ -22,12 +22,14 @@
 #include "scene_gen.h"
 #include "util/atomic_file.h"
 #include "util/errors.h"
+#include "util/span.h"
 
 namespace rayfold::core {
 namespace {
 
 struct Render {
-  std::vector<rf_pixel_hit> rayfold, embree_flat, embree_instanced;  // empty: Embree refused the rays
+  HitBuffer rayfold;
+  std::vector<rf_pixel_hit> embree_flat, embree_instanced;  // empty: Embree refused the rays
 };
 
 // Embree's hits in a child process: Embree asserts (and aborts) on rays it
@@ -78,7 +80,7 @@ Render render_all(const Scene& scene, const Camera& camera) {
   return r;
 }
 
-size_t hits(const std::vector<rf_pixel_hit>& h) {
+size_t hits(ConstSpan<rf_pixel_hit> h) {
   size_t n = 0;
   for (const rf_pixel_hit& p : h) n += p.instance != RF_INVALID;
   return n;
@@ -86,7 +88,7 @@ size_t hits(const std::vector<rf_pixel_hit>& h) {
 
 // Share of pixels with the same (instance, primitive) as `base`, misses
 // included.
-double same_triangle(const std::vector<rf_pixel_hit>& base, const std::vector<rf_pixel_hit>& h) {
+double same_triangle(ConstSpan<rf_pixel_hit> base, ConstSpan<rf_pixel_hit> h) {
   if (h.empty()) return 0.0;
   size_t n = 0;
   for (size_t i = 0; i < h.size(); ++i) n += h[i].instance == base[i].instance && h[i].primitive == base[i].primitive;
@@ -98,7 +100,7 @@ std::string pct(double share) {
   std::snprintf(s, sizeof s, "%.2f%%", 100.0 * share);
   return s;
 }
-std::string kept(const std::vector<rf_pixel_hit>& base, const std::vector<rf_pixel_hit>& h) {
+std::string kept(ConstSpan<rf_pixel_hit> base, ConstSpan<rf_pixel_hit> h) {
   if (h.empty()) return "aborts";
   return pct(hits(base) ? static_cast<double>(hits(h)) / hits(base) : 0.0);
 }
@@ -119,7 +121,7 @@ CameraSpec scaled(CameraSpec spec, double factor) {
   return spec;
 }
 
-bool bit_identical_scaled(const std::vector<rf_pixel_hit>& base, const std::vector<rf_pixel_hit>& h, int k) {
+bool bit_identical_scaled(ConstSpan<rf_pixel_hit> base, ConstSpan<rf_pixel_hit> h, int k) {
   for (size_t i = 0; i < h.size(); ++i) {
     rf_pixel_hit e = base[i];
     e.z = std::ldexp(e.z, k);
@@ -200,7 +202,7 @@ int run(int width, int height, const std::string& md) {
     cpu.backend = Backend::cpu;
     const SceneData data = prepare_scene(atrium);
     const std::vector<ReferenceHit> ref = trace_double_reference(atrium, data, cam, 0, false);
-    auto agree = [&](const std::vector<rf_pixel_hit>& h, bool hit_miss) {
+    auto agree = [&](ConstSpan<rf_pixel_hit> h, bool hit_miss) {
       if (h.empty()) return std::string("-");
       size_t n = 0;
       for (size_t i = 0; i < h.size(); ++i) {
@@ -230,7 +232,7 @@ int run(int width, int height, const std::string& md) {
     const Camera cam = make_camera(scaled(view, std::ldexp(1.0, -80)), width, height);
     const Render r = render_all(mixed, cam);
     const uint32_t room_id = static_cast<uint32_t>(mixed.instances.size() - 1);
-    auto on_atrium = [&](const std::vector<rf_pixel_hit>& h) {
+    auto on_atrium = [&](ConstSpan<rf_pixel_hit> h) {
       size_t n = 0;
       for (const rf_pixel_hit& p : h) n += p.instance != RF_INVALID && p.instance != room_id;
       return n;

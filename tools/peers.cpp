@@ -169,6 +169,9 @@ PeerReport run_peers(const PeerOptions& opt) {
   // first rtcIntersect16 frame.
   if (!path.empty() && timed_renderers > 0) {
     const Camera cam = make_camera(path[0], opt.width, opt.height);
+    // In fresh memory, as in a new process: the build rounds' freed arrays
+    // (util/large_pages.h) would otherwise hold the frame's hits.
+    release_kept_large_arrays();
     const auto start = Clock::now();
     renderers[0]->render(cam, 1, FrameOptions{});
     rep.rayfold_first_gbuffer = {load_ms, first_renderer_ms, ms_since(start), first_kernels_cached};
@@ -197,8 +200,8 @@ PeerReport run_peers(const PeerOptions& opt) {
     const std::vector<ReferenceHit> reference = trace_double_reference(scene, data, cam, opt.threads);
     // Exact variants are validated against the CPU reference's unfolded
     // image, bit for bit, before their figures count.
-    const std::vector<rf_pixel_hit> exact = renderers.back()->render(cam, 1, FrameOptions{}).hits;
-    std::vector<rf_pixel_hit> exact_depth;  // the same with the exact depth, when a variant has it
+    const HitBuffer exact = renderers.back()->render(cam, 1, FrameOptions{}).hits;
+    HitBuffer exact_depth;  // the same with the exact depth, when a variant has it
     for (size_t r = 0; r < timed_renderers; ++r)
       if (ours[r].exact_depth && exact_depth.empty()) {
         FrameOptions fo;

@@ -19,6 +19,7 @@
 #include "scene/camera.h"
 #include "scene/gltf_loader.h"
 #include "util/errors.h"
+#include "util/span.h"
 
 thread_local rf_traversal_stats rf_stats;
 
@@ -31,7 +32,7 @@ namespace {
 // the exact ray's), and the triangle test (rayfold's depth against that
 // float ray's exact depth: the watertight t and the raise to the leaf entry).
 void print_depth_sources(const Scene& scene, const SceneData& data, const Camera& cam, const Frame& frame,
-                         const std::vector<rf_pixel_hit>& hits) {
+                         ConstSpan<rf_pixel_hit> hits) {
   const std::vector<ReferenceHit> ref = trace_double_reference(scene, data, cam, 0);
   std::vector<const rf_instance*> copy(scene.instances.size(), nullptr);
   for (const rf_instance& inst : frame.instances)

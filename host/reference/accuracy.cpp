@@ -7,7 +7,7 @@
 
 namespace rayfold::core {
 
-Accuracy measure_accuracy(const std::vector<ReferenceHit>& ref, const std::vector<rf_pixel_hit>& hits) {
+Accuracy measure_accuracy(const std::vector<ReferenceHit>& ref, ConstSpan<rf_pixel_hit> hits) {
   RF_CHECK(ref.size() == hits.size(), "accuracy: images of different sizes");
   Accuracy a;
   if (ref.empty()) return a;

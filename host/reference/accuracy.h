@@ -5,6 +5,7 @@
 
 #include "device_layout.h"
 #include "reference/double_reference.h"
+#include "util/span.h"
 
 namespace rayfold::core {
 
@@ -20,6 +21,6 @@ struct Accuracy {
   double disagree() const { return 1.0 - same_hit; }
 };
 
-Accuracy measure_accuracy(const std::vector<ReferenceHit>& reference, const std::vector<rf_pixel_hit>& hits);
+Accuracy measure_accuracy(const std::vector<ReferenceHit>& reference, ConstSpan<rf_pixel_hit> hits);
 
 }  // namespace rayfold::core

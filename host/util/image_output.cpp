@@ -194,7 +194,7 @@ rayfold::ExrCompression parse_exr_compression(const std::string& name) {
   throw InputError("", "unknown EXR compression '" + name + "' (" + exr_compressions() + ")");
 }
 
-void write_exr(const std::string& path, const std::vector<rf_pixel_hit>& hits, int width, int height,
+void write_exr(const std::string& path, ConstSpan<rf_pixel_hit> hits, int width, int height,
                const ExrMetadata* metadata, unsigned channels, rayfold::ExrCompression compression) {
   RF_CHECK(hits.size() == static_cast<size_t>(width) * height, "hit buffer does not match the image size");
   // ZIP compression of a 1280x720 G-buffer takes ten times the trace on one
@@ -246,7 +246,7 @@ std::vector<rf_pixel_hit> read_exr(const std::string& path, int* width, int* hei
   }
 }
 
-void write_png(const std::string& path, const std::vector<rf_pixel_hit>& hits, int width, int height) {
+void write_png(const std::string& path, ConstSpan<rf_pixel_hit> hits, int width, int height) {
   RF_CHECK(hits.size() == static_cast<size_t>(width) * height, "hit buffer does not match the image size");
   std::vector<uint8_t> rgb(hits.size() * 3, 0);
   auto to_byte = [](float n) {

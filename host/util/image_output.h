@@ -12,6 +12,7 @@
 #include "rayfold/gbuffer.h"
 #include "scene/camera.h"
 #include "scene/scene.h"
+#include "util/span.h"
 
 namespace rayfold::core {
 
@@ -58,7 +59,7 @@ ExrMetadata view_metadata(const Camera& camera, const Scene& scene, const std::s
 // compression: an OpenEXR lossless method (exr_compressions()): zip by
 // default; none writes 3 to 4 times faster at 10 times the bytes, which
 // pays where the disk is fast and a job writes many views.
-void write_exr(const std::string& path, const std::vector<rf_pixel_hit>& hits, int width, int height,
+void write_exr(const std::string& path, ConstSpan<rf_pixel_hit> hits, int width, int height,
                const ExrMetadata* metadata = nullptr, unsigned channels = kAllChannels,
                rayfold::ExrCompression compression = rayfold::ExrCompression::zip);
 // The lossless methods by name ("none, rle, zips, zip, piz"), for messages.
@@ -71,7 +72,7 @@ rayfold::ExrCompression parse_exr_compression(const std::string& name);
 
 // Normals mapped to colour ((n + 1) / 2), misses black. RuntimeFailure
 // naming the file on failure.
-void write_png(const std::string& path, const std::vector<rf_pixel_hit>& hits, int width, int height);
+void write_png(const std::string& path, ConstSpan<rf_pixel_hit> hits, int width, int height);
 
 // Reads back what write_exr wrote; InputError naming the file on failure.
 // *channels (when given): the planes the file has (all of a plane's

@@ -26,6 +26,7 @@
 #include "renderer.h"
 #include "scene/gltf_loader.h"
 #include "util/errors.h"
+#include "util/span.h"
 
 namespace {
 
@@ -59,7 +60,7 @@ uint64_t hash(const uint8_t* data, size_t size);
   std::abort();
 }
 
-void expect_same(const char* what, const std::vector<rf_pixel_hit>& a, const std::vector<rf_pixel_hit>& b) {
+void expect_same(const char* what, ConstSpan<rf_pixel_hit> a, ConstSpan<rf_pixel_hit> b) {
   for (size_t i = 0; i < a.size(); ++i)
     if (std::memcmp(&a[i], &b[i], sizeof(rf_pixel_hit)) != 0) fail(what, i, a[i], b[i]);
 }
@@ -74,7 +75,7 @@ ClTracer& tracer() {
 
 // Renders like Renderer does for OpenCL, with both kernels.
 void check_opencl(const Scene& scene, const SceneData& data, const Camera& camera,
-                  const std::vector<rf_pixel_hit>& reference) {
+                  ConstSpan<rf_pixel_hit> reference) {
   const size_t pixels = static_cast<size_t>(camera.width) * camera.height;
   tracer().upload_scene(data, max_tlas_nodes(data), max_tlas_items(data), pixels, pixels);
   for (FoldMode fold : {FoldMode::none, FoldMode::xy}) {
@@ -123,7 +124,7 @@ double world_magnitude(const Scene& scene, const CameraSpec& spec) {
   return m;
 }
 
-void check_scaled(const Scene& scene, const CameraSpec& spec, const std::vector<rf_pixel_hit>& reference, int k) {
+void check_scaled(const Scene& scene, const CameraSpec& spec, ConstSpan<rf_pixel_hit> reference, int k) {
   Scene scaled = scene;
   for (Instance& inst : scaled.instances) inst.world_from_object = uniform_scale(k) * inst.world_from_object;
   CameraSpec s = spec;
@@ -134,7 +135,7 @@ void check_scaled(const Scene& scene, const CameraSpec& spec, const std::vector<
   options.threads = 1;
   Renderer renderer(scaled, options);
   const Camera camera = make_camera(s, 9, 7);
-  const std::vector<rf_pixel_hit> hits = renderer.render(camera, 1, FrameOptions{FoldMode::none}).hits;
+  const HitBuffer hits = renderer.render(camera, 1, FrameOptions{FoldMode::none}).hits;
   for (size_t i = 0; i < hits.size(); ++i) {
     rf_pixel_hit expected = reference[i];
     expected.z = std::ldexp(expected.z, k);
