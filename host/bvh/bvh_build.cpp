@@ -82,6 +82,14 @@ constexpr int kMaxBins = 64;
 // The most records BuildOptions::sweep_size may name.
 constexpr uint32_t kSweepNode = 16;
 
+// Nodes of at most kFewBinsNode records are binned in at most kFewBins
+// bins: setting up and pricing 16 bins on three axes cost more than
+// binning a few records into them. Builds 1.02x to 1.06x faster (Sponza,
+// the conference room, the car, Lost Empire), SAH costs within 0.05%, and
+// the trace the same on 24 random views (0.99x to 1.01x).
+constexpr uint32_t kFewBinsNode = 32;
+constexpr int kFewBins = 8;
+
 // Every axis's bins of one node (or of one chunk of a large node), set to
 // empty for the bins in use before binning. Growing a bin then needs no
 // test of whether it was written before: that test's branch mispredicts
@@ -119,7 +127,8 @@ struct BinSet {
 // has scale 0 and bins everything into bin 0.
 struct Binner {
   v4f lo, scale, last;
-  Binner(const Box4& centres, int bins) {
+  int bins;
+  Binner(const Box4& centres, int bin_count) : bins(bin_count) {
     lo = centres.lo;
     for (int a = 0; a < 4; ++a) {
       const bool splittable = a < 3 && centres.hi[a] > centres.lo[a];
@@ -217,7 +226,7 @@ class Builder {
       if (split.cost >= leaf_cost && split.weight <= opt_.max_leaf_size) return false;
       mid = apply_sweep(first, count, split, order, lbox, rbox, lcentres, rcentres);
     } else {
-      const Binner binner(cb, opt_.bins);
+      const Binner binner(cb, count <= kFewBinsNode ? std::min(opt_.bins, kFewBins) : opt_.bins);
       const Split split = find_split(first, count, binner, nodes[ni].bounds, threads);
       const float leaf_cost = opt_.intersection_cost * static_cast<float>(split.weight);
       const bool sah_prefers_leaf = split.axis < 0 || split.cost >= leaf_cost;
@@ -363,11 +372,11 @@ class Builder {
   // the one before them and, the comparison being strict, are never chosen.
   Split find_split(uint32_t first, uint32_t count, const Binner& binner, const Aabb& node_bounds,
                    unsigned threads) const {
-    BinSet bins(opt_.bins);
+    BinSet bins(binner.bins);
     if (threads > 1 && count > kParallelBinning) {
       constexpr uint32_t kChunk = 1u << 14;
       const size_t chunks = (count + kChunk - 1) / kChunk;
-      std::vector<BinSet> partial(chunks, BinSet(opt_.bins));
+      std::vector<BinSet> partial(chunks, BinSet(binner.bins));
       parallel_for(chunks, threads, 1, [&](size_t c, size_t) {
         const uint32_t b = first + static_cast<uint32_t>(c) * kChunk;
         bin_range(b, std::min(first + count, b + kChunk), binner, partial[c]);
@@ -381,13 +390,13 @@ class Builder {
     // traversal cost added and the parent's area divided once, for the
     // best, keep the order (both are monotonic).
     Split best;
-    for (int i = 0; i < opt_.bins; ++i) best.weight += bins.counts[0][i];
+    for (int i = 0; i < binner.bins; ++i) best.weight += bins.counts[0][i];
     float best_sum = INFINITY;
     for (int axis = 0; axis < 3; ++axis) {
       if (binner.scale[axis] == 0.0f) continue;
       int occupied[kMaxBins];
       int m = 0;
-      for (int i = 0; i < opt_.bins; ++i) {
+      for (int i = 0; i < binner.bins; ++i) {
         occupied[m] = i;
         m += bins.counts[axis][i] != 0;
       }

@@ -19,7 +19,7 @@ struct BuildNode {
 };
 
 struct BuildOptions {
-  int bins = 16;
+  int bins = 16;  // nodes of at most 32 records: at most 8 (bvh_build.cpp, kFewBins)
   uint32_t max_leaf_size = 8;
   // Nodes of at most this many records (up to 16; a record is a primitive
   // or a pair, below) are split at the best of every boundary between them
