@@ -269,8 +269,8 @@ TEST(Bvh, FlatTreeKeepsPairsAlignedAfterTheirParents) {
 // The split rules, checked node by node by brute force: every interior node
 // splits at the cheapest boundary of 16 equal centre bins (8 for nodes of at
 // most 32 primitives) over the three axes (first on ties, axes in order), or
-// at the object median where no boundary separates anything; a node is a leaf exactly when it has one
-// primitive or SAH prefers it and it fits.
+// at the object median where no boundary separates anything; a node is a
+// leaf exactly when it has one primitive or SAH prefers it and it fits.
 TEST(Bvh, EverySplitIsTheCheapestBinOrSweepBoundary) {
   Rng rng(78);
   const std::vector<Aabb> boxes = clustered_boxes(rng, 40000);
