@@ -4,6 +4,7 @@
 
 #include <climits>
 #include <future>
+#include <memory>
 #include <system_error>
 
 #include "bvh/scene_file.h"
@@ -21,7 +22,7 @@ constexpr size_t kSideBySideJson = size_t{512} << 10;
 
 // The size of a file's JSON: the whole file, or a GLB's first chunk as its
 // header gives it (the checks reject a header that is wrong).
-size_t json_bytes(const std::string& file) {
+size_t json_bytes(std::string_view file) {
   if (file.size() < 20 || std::memcmp(file.data(), "glTF", 4) != 0) return file.size();
   uint32_t chunk_length;
   std::memcpy(&chunk_length, &file[12], 4);
@@ -60,7 +61,7 @@ bool geometry_neutral(const std::string& ext) {
 
 }  // namespace
 
-void Loader::check_json_start(const std::string& bytes) const {
+void Loader::check_json_start(std::string_view bytes) const {
   const size_t first = bytes.find_first_not_of(" \t\r\n");
   if (first != std::string::npos && bytes[first] == '{') return;
   std::string ext = std::filesystem::path(path_).extension().string();
@@ -175,9 +176,8 @@ void Loader::check_schema_types(const nlohmann::json& j) const {
   });
 }
 
-nlohmann::json Loader::check_raw(const std::string& bytes, size_t* bin_offset) const {
-  std::string json_text;
-  if (!binary_) json_text = bytes;
+nlohmann::json Loader::check_raw(std::string_view bytes, size_t* bin_offset) const {
+  std::string_view json_text = bytes;
   if (binary_) {
     if (bytes.size() < 20) fail("the GLB header is truncated");
     uint32_t version, length, chunk_length, chunk_type;
@@ -194,7 +194,7 @@ nlohmann::json Loader::check_raw(const std::string& bytes, size_t* bin_offset) c
     json_text = bytes.substr(20, chunk_length);
     *bin_offset = 20 + static_cast<size_t>(chunk_length);
   }
-  nlohmann::json j = nlohmann::json::parse(json_text, nullptr, false);
+  nlohmann::json j = nlohmann::json::parse(json_text.begin(), json_text.end(), nullptr, false);
   if (j.is_discarded() || !j.is_object()) return j;  // tinygltf reports these
   check_schema_types(j);
   const auto nodes = j.find("nodes");
@@ -209,7 +209,13 @@ nlohmann::json Loader::check_raw(const std::string& bytes, size_t* bin_offset) c
 }
 
 void Loader::read_model() {
-  std::string bytes;
+  // The file's bytes, read once into memory that is not cleared first: a
+  // std::string zeroed Lost Empire's 17 MB before the read wrote them. From
+  // the heap, which keeps a large block for the next load without faults
+  // (2 MiB pages, util/large_pages.h, were refused often enough here that
+  // a second load took 20 ms rather than 14).
+  std::unique_ptr<char[]> file;
+  std::string_view bytes;
   {
     std::error_code ec;
     const auto status = std::filesystem::status(path_, ec);
@@ -223,8 +229,9 @@ void Loader::read_model() {
     const std::streamoff size = f.tellg();
     f.seekg(0);
     if (size > 0) {
-      bytes.resize(static_cast<size_t>(size));
-      if (!f.read(bytes.data(), size)) fail(std::string("cannot read the file (") + std::strerror(errno) + ")");
+      file.reset(new char[static_cast<size_t>(size)]);  // default-initialised: not cleared
+      if (!f.read(file.get(), size)) fail(std::string("cannot read the file (") + std::strerror(errno) + ")");
+      bytes = std::string_view(file.get(), static_cast<size_t>(size));
     }
     if (bytes.empty()) fail("the file is empty");
     if (is_scene_file(bytes.data(), bytes.size()))
@@ -247,7 +254,7 @@ void Loader::read_model() {
     std::string err, warn;
     bool ok = false;
   };
-  auto parse = [this](const std::string& text) {
+  auto parse = [this](std::string_view text) {
     Parsed p;
     tinygltf::TinyGLTF gltf;
     gltf.SetImageLoader(skip_image, nullptr);
@@ -271,7 +278,7 @@ void Loader::read_model() {
   std::future<Parsed> early;  // its destructor waits for the parse, whatever happens here
   if (resolve_threads(options_.threads) > 1 && json_bytes(bytes) >= kSideBySideJson) {
     try {
-      early = std::async(std::launch::async, parse, std::cref(bytes));
+      early = std::async(std::launch::async, parse, bytes);
       side_by_side_reads_++;
     } catch (const std::system_error&) {  // no thread to be had (a limit on them): tinygltf parses after the checks
     }
@@ -286,7 +293,7 @@ void Loader::read_model() {
       std::string text = j.dump();
       if (binary_) {
         text.append((4 - text.size() % 4) % 4, ' ');
-        const std::string rest = bytes.substr(bin_offset);
+        const std::string rest(bytes.substr(bin_offset));
         const uint32_t chunk = static_cast<uint32_t>(text.size()), total = 20 + chunk + rest.size();
         prepared.assign("glTF", 4);
         for (uint32_t word : {2u, total, chunk, 0x4E4F534Au}) prepared.append(reinterpret_cast<const char*>(&word), 4);
@@ -301,7 +308,7 @@ void Loader::read_model() {
     parsed = early.get();
   } else {
     if (early.valid()) early.wait();  // its result (or error) is for the file as it was: dropped
-    parsed = parse(prepared.empty() ? bytes : prepared);
+    parsed = parse(prepared.empty() ? bytes : std::string_view(prepared));
   }
   model_ = std::move(parsed.model);
   const bool ok = parsed.ok;

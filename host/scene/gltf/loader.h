@@ -17,6 +17,7 @@
 #include <optional>
 #include <set>
 #include <sstream>
+#include <string_view>
 #include <tuple>
 
 #include <tiny_gltf.h>
@@ -81,7 +82,7 @@ class Loader {
 
   // A file that is neither GLB nor JSON is some other format: say which, if
   // its extension tells, rather than report a JSON syntax error.
-  void check_json_start(const std::string& bytes) const;
+  void check_json_start(std::string_view bytes) const;
 
   // tinygltf reads a member of the wrong JSON type as absent: "primitives"
   // written as an object gives a mesh without triangles, silently. Every
@@ -93,7 +94,7 @@ class Loader {
   // nodes that carry both a matrix and TRS (tinygltf silently drops the TRS).
   // Returns the parsed JSON (discarded when it does not parse) and, for a
   // GLB, sets *bin_offset to where the chunks after the JSON start.
-  nlohmann::json check_raw(const std::string& bytes, size_t* bin_offset) const;
+  nlohmann::json check_raw(std::string_view bytes, size_t* bin_offset) const;
 
   void read_model();
 
