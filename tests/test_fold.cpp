@@ -227,16 +227,22 @@ TEST(Fold, RandomCamerasOverGeneratedScenes) {
 
 // A frame's hit buffer is neither cleared when it is made nor between
 // frames (Renderer::begin_views): each kernel, the CPU reference and every
-// fold, one view or two in a pass, must write every pixel, misses included.
-// Rendered into buffers filled with two different bytes, the answers agree.
+// fold, one view or two in a pass, perspective or orthographic, with each
+// of the depth and normal options, must write every pixel, misses
+// included. Rendered into buffers filled with two different bytes, the
+// answers agree.
 TEST(Fold, EveryPixelIsWrittenIntoAnUnclearedBuffer) {
   testing::Rng rng(2718);
   const Scene scene = testing::random_scene(rng, 2, 8, 120);
   testing::ThreeWays r(scene);
   int checked = 0;
-  for (int v = 0; v < 4; ++v) {
+  for (int v = 0; v < 5; ++v) {
     const int w = v % 2 ? 41 : 48, h = v % 2 ? 29 : 32;  // odd sizes: a middle row and column fold onto themselves
-    const CameraSpec left = testing::random_camera(rng, scene.world_bounds());
+    CameraSpec left = testing::random_camera(rng, scene.world_bounds());
+    if (v == 4) {  // parallel rays, through the single-ray kernel whatever is asked
+      left.orthographic = true;
+      left.ymag = 0.3 * scene.world_bounds().extent()[1];
+    }
     std::vector<Camera> cams{make_camera(left, w, h)};
     if (v >= 2) {  // a second eye beside the first: the same rays, another view
       CameraSpec right = left;
@@ -249,12 +255,17 @@ TEST(Fold, EveryPixelIsWrittenIntoAnUnclearedBuffer) {
     for (Renderer* renderer : {r.cpu.get(), r.single.get(), r.tile.get()})
       for (FoldMode f : testing::kAllFolds) {
         if (static_cast<int>(cams.size()) > max_pass_views(f)) continue;
+        FrameOptions options = with_fold(f);
+        const int kind = checked % 4;  // each kind meets every renderer and fold over the views
+        options.exact_depth = kind == 1;
+        options.planar_depth = kind == 2;
+        options.normals = kind != 3;
         HitBuffer seen[2];
         for (int k = 0; k < 2; ++k) {
           RenderResult res;
           res.hits.resize(pixels);
           std::memset(static_cast<void*>(res.hits.data()), k ? 0xC3 : 0x5A, pixels * sizeof(rf_pixel_hit));
-          renderer->render_views_into(res, cams, 1, with_fold(f));
+          renderer->render_views_into(res, cams, 1, options);
           ASSERT_EQ(res.hits.size(), pixels);
           seen[k] = res.hits;
         }
@@ -262,11 +273,11 @@ TEST(Fold, EveryPixelIsWrittenIntoAnUnclearedBuffer) {
         for (const rf_pixel_hit& h : seen[0]) misses += h.instance == RF_INVALID;
         EXPECT_GT(misses, 0u) << "the views should see past the scene too";
         EXPECT_EQ(count_differing_pixels(seen[0], seen[1]), 0u)
-            << "view " << v << " fold " << fold_name(f) << ", " << cams.size() << " views a pass";
+            << "view " << v << " fold " << fold_name(f) << ", " << cams.size() << " views a pass, options " << kind;
         ++checked;
       }
   }
-  EXPECT_GE(checked, 40);
+  EXPECT_GE(checked, 50);
 }
 
 TEST(Fold, RandomMirroredSoupsAgainstBruteForce) {
