@@ -1,5 +1,5 @@
 // Memory for the build's large arrays (triangles, nodes, the builder's
-// records), in 2 MiB pages where the system has them.
+// records) and a frame's hits, in 2 MiB pages where the system has them.
 //
 // Why: every array the build writes is fresh memory, and on the machines
 // this project is measured on a fresh 4 KiB page costs a fault of about

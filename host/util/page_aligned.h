@@ -5,6 +5,8 @@
 // memcpy, and held its 870k triangles twice. A page is more than any
 // device's base address alignment (PoCL asks 128 bytes), so a kernel's
 // vector loads see the alignment they would in a buffer of their own.
+// A frame's hits (renderer.h, HitBuffer) take it too, for the
+// default-initialising resize below: the kernels write every pixel.
 // Large arrays are mapped in 2 MiB pages (util/large_pages.h).
 #pragma once
 
