@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <optional>
 
 #include <unistd.h>
 
@@ -378,19 +379,34 @@ std::vector<std::string> Renderer::intersect(const float* origins, const float* 
     throw InputError("", "ray queries run on the exact build only; this renderer was made with the fast one");
   const float origin_bound = check_query_rays(origins, directions, n, tmin, tmax);
   if (n == 0) return {};
-  const Frame frame = build_query_frame(scene_, *data_, origin_bound, frame_options);
-  std::vector<std::string> warnings;
-  add_range_warnings(frame.views[0].out_of_range, "traced: in world space", warnings);
-  const unsigned flags = frame.normals ? 0u : RF_WRITE_NO_NORMALS;
+  // Two frames can serve a query: the re-braided one, for the tile kernel
+  // and the CPU reference, and one of whole trees for the single-ray kernel
+  // (FrameOptions::whole_trees), its 8-wide trees made at the renderer's
+  // first query after each scene upload (most renderers never answer one).
+  // Each is built where a chunk first needs it.
+  std::optional<Frame> frames[2];
+  int uploaded = -1;
+  if (tracer_) ensure_capacity(1, RF_MIRRORS);
+  auto frame_for = [&](bool single_ray) -> const Frame& {
+    const int k = single_ray ? 1 : 0;
+    if (!frames[k]) {
+      if (single_ray && !tracer_->has_query_trees()) {
+        query_trees_ = build_query_trees(*data_);
+        tracer_->upload_query_trees(query_trees_);
+      }
+      frames[k] = build_query_frame(scene_, *data_, origin_bound, frame_options, single_ray ? &query_trees_ : nullptr);
+    }
+    if (tracer_ && uploaded != k) {
+      tracer_->upload_frame(*frames[k]);
+      uploaded = k;
+    }
+    return *frames[k];
+  };
   TraceInputs in;
-  if (tracer_) {
-    ensure_capacity(1, RF_MIRRORS);
-    tracer_->upload_frame(frame);
-  } else {
-    in = host_inputs(frame);
-  }
+  if (!tracer_) in = host_inputs(frame_for(false));
   const size_t chunk_rays = query_chunk_rays(row_length);
   std::vector<rf_query_ray>& chunk = query_rays_;  // kept: fresh pages per query cost as much as the copy
+  unsigned flags = 0;
   for (size_t begin = 0; begin < n; begin += chunk_rays) {
     const size_t end = std::min(n, begin + chunk_rays);
     // Rays that share an origin (a camera's, a sensor's, a light's) go in
@@ -406,6 +422,8 @@ std::vector<std::string> Renderer::intersect(const float* origins, const float* 
     if (tiles.tiles.empty())
       scattered_ray_order(origins + 3 * begin, directions + 3 * begin, end - begin, tiles.scattered,
                           options_.threads);
+    const Frame& frame = frame_for(tracer_ && tiles.tiles.empty());
+    flags = frame.normals ? 0u : RF_WRITE_NO_NORMALS;
     ClTracer::QueryRays rays;
     rays.count = end - begin;
     if (!tiles.tiles.empty()) {  // the tile kernel reads the arrays themselves
@@ -415,7 +433,7 @@ std::vector<std::string> Renderer::intersect(const float* origins, const float* 
       rays.tmax = tmax;
       rays.exponent = -frame.views.at(0).trace_exponent;
     } else {
-      to_trace_space(origins, directions, begin, end, tmin, tmax, frame, chunk);
+      to_trace_space(origins, directions, begin, end, tmin, tmax, frame, chunk, tiles.scattered);
       rays.records = &chunk;
     }
     if (tracer_)
@@ -423,6 +441,9 @@ std::vector<std::string> Renderer::intersect(const float* origins, const float* 
     else
       trace_queries_cpu(in, chunk, any_hit, flags, out + begin, options_.threads, tiles.scattered);
   }
+  // Both frames hold the same instances in the same trace space.
+  std::vector<std::string> warnings;
+  add_range_warnings((frames[0] ? *frames[0] : *frames[1]).views[0].out_of_range, "traced: in world space", warnings);
   return warnings;
 }
 

@@ -58,28 +58,25 @@ __kernel void rf_trace_primary(__global const rf_node* nodes, __global const rf_
   rf_trace_entry(rays[i], &cam, depth_scales, &depths, nodes, tris, instances, normal_xforms, tlas_root, &answers);
 }
 
-/* Ray queries: one work-item per ray, through the 4-wide trees, the top
- * level's (tlas_wide, rf_trace_query_tlas_wide) and the bottom levels';
- * any_hit for occlusion. With
- * `ordered`, work-item k traces ray order[k] (host/rays/ray_order.h) and
- * writes its answer to out[k], in the traced order, for the host to put
- * back (a store to a line not in the cache holds up every later store of
- * the core, the traversal stack's included: answers written in place cost
- * more than the order saved). It fetches the next ray early: consecutive
- * work-items run one after the other on a CPU. */
-__kernel void rf_trace_queries(__global const rf_node* nodes, __global const rf_wide_node* wide,
-                               __global const rf_wide_node* tlas_wide, uint tlas_wide_root, __global const rf_tri* tris,
+/* Ray queries: one work-item per ray, through the 8-wide trees, the top
+ * level's (tlas_wide, rf_trace_query_tlas_wide) and the bottom levels'
+ * (wide, each instance's root in wide_roots); any_hit for occlusion.
+ * Work-item k traces rays[k] and answers out[k]: the host hands the rays
+ * over in the order they are traced (host/rays/ray_order.h) and puts the
+ * answers back. Read through the order here, every ray was a cache and TLB
+ * miss of its own in a 32 MB array (7% of the dragon's query time), and
+ * answers written in place would be too (a store to a line not in the
+ * cache holds up every later store of the core, the traversal stack's
+ * included). */
+__kernel void rf_trace_queries(__global const rf_node* nodes, __global const rf_wide8_node* wide,
+                               __global const rf_wide8_node* tlas_wide, uint tlas_wide_root,
+                               __global const uint* wide_roots, __global const rf_tri* tris,
                                __global const rf_instance* instances, __global const rf_normal_xform* normal_xforms,
                                uint tlas_root, __global const rf_query_ray* rays, uint ray_count, uint any_hit,
-                               uint write_flags, __global const uint* order, uint ordered, __global rf_pixel_hit* out) {
+                               uint write_flags, __global rf_pixel_hit* out) {
   const uint k = get_global_id(0);
   if (k >= ray_count) return;
-  uint i = k;
-  if (ordered) {
-    i = order[k];
-    if (k + 1u < ray_count) RF_PREFETCH_LINE(&rays[order[k + 1u]]);
-  }
-  rf_trace_query(&rays[i], nodes, wide, tlas_wide, tlas_wide_root, tris, instances, normal_xforms, tlas_root,
+  rf_trace_query(&rays[k], nodes, wide, tlas_wide, tlas_wide_root, wide_roots, tris, instances, normal_xforms, tlas_root,
                  any_hit != 0u, write_flags, &out[k]);
 }
 

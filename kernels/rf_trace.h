@@ -241,6 +241,100 @@ RF_INLINE void rf_trace_blas_wide(const RF_GLOBAL rf_node* nodes, const RF_GLOBA
     if (!rf_wide_pop(&s, best->t, &child, &count, &t)) return;
   }
 }
+
+/* rf_intersect_box4 for the eight child boxes of an 8-wide node (float8,
+ * element k child k), the same operations element by element. */
+RF_INLINE float8 rf_intersect_box8(const RF_GLOBAL rf_wide8_node* n, const rf_ray* r, float tmax) {
+#define RF_MIN8(a, b) select((b), (a), (a) < (b))
+#define RF_MAX8(a, b) select((b), (a), (a) > (b))
+  const float8 lx = vload8(0, n->lo_x), ly = vload8(0, n->lo_y), lz = vload8(0, n->lo_z);
+  const float8 hx = vload8(0, n->hi_x), hy = vload8(0, n->hi_y), hz = vload8(0, n->hi_z);
+  const int px = r->invd[0] >= 0.0f, py = r->invd[1] >= 0.0f, pz = r->invd[2] >= 0.0f;
+  const float8 nx = ((px ? lx : hx) - r->o[0]) * r->invd[0], fx = ((px ? hx : lx) - r->o[0]) * r->invd[0];
+  const float8 ny = ((py ? ly : hy) - r->o[1]) * r->invd[1], fy = ((py ? hy : ly) - r->o[1]) * r->invd[1];
+  const float8 nz = ((pz ? lz : hz) - r->o[2]) * r->invd[2], fz = ((pz ? hz : lz) - r->o[2]) * r->invd[2];
+  const float8 tnear = RF_MAX8(RF_MAX8(nx, ny), RF_MAX8(nz, (float8)(0.0f))) * RF_BOX_NEAR_SCALE;
+  const float8 tfar = RF_MIN8(RF_MIN8(fx, fy), fz) * RF_BOX_FAR_SCALE;
+  return select((float8)(RF_FAR), tnear, tnear <= RF_MIN8(tfar, (float8)(tmax)));
+#undef RF_MIN8
+#undef RF_MAX8
+}
+
+#define RF_WIDE8_RAY_STACK (7 * RF_STACK_SIZE + 1)
+typedef struct {
+  rf_u32 child[RF_WIDE8_RAY_STACK], count[RF_WIDE8_RAY_STACK];
+  float t[RF_WIDE8_RAY_STACK];
+  int size;
+} rf_wide8_stack;
+
+RF_INLINE_ALWAYS int rf_wide8_step(const RF_GLOBAL rf_wide8_node* n, const rf_ray* r, float tmax, rf_wide8_stack* s,
+                                   rf_u32* child, rf_u32* count, float* t) {
+  const float8 tv = rf_intersect_box8(n, r, tmax);
+  const int8 in = (tv != (float8)(RF_FAR)) & (vload8(0, n->count) != (uint8)(RF_INVALID));
+  const int8 b8 = in & (int8)(1, 2, 4, 8, 16, 32, 64, 128);
+  const int4 b4 = b8.lo | b8.hi;
+  const int2 b2 = b4.lo | b4.hi;
+  rf_u32 mask = (rf_u32)(b2.x | b2.y);
+  float t8[8];
+  vstore8(tv, 0, t8);
+  if (mask != 0u && (mask & (mask - 1u)) == 0u) {
+    const rf_u32 k = RF_CTZ(mask);
+    *child = n->child[k];
+    *count = n->count[k];
+    *t = t8[k];
+    return 1;
+  }
+  const int base = s->size;
+  for (; mask != 0u; mask &= mask - 1u) {
+    const rf_u32 k = RF_CTZ(mask);
+    const float tk = t8[k];
+    int i = s->size++;
+    for (; i > base && s->t[i - 1] < tk; --i) {
+      s->t[i] = s->t[i - 1];
+      s->child[i] = s->child[i - 1];
+      s->count[i] = s->count[i - 1];
+    }
+    s->t[i] = tk;
+    s->child[i] = n->child[k];
+    s->count[i] = n->count[k];
+  }
+  return 0;
+}
+
+RF_INLINE int rf_wide8_pop(rf_wide8_stack* s, float bound, rf_u32* child, rf_u32* count, float* t) {
+  while (s->size > 0) {
+    --s->size;
+    if (s->t[s->size] > bound) continue;
+    *child = s->child[s->size];
+    *count = s->count[s->size];
+    *t = s->t[s->size];
+    return 1;
+  }
+  return 0;
+}
+
+RF_INLINE void rf_trace_blas_wide8(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_wide8_node* wide,
+                                   const RF_GLOBAL rf_tri* tris, rf_u32 root, rf_u32 wide_root, const rf_ray* r,
+                                   rf_u32 instance_id, float tmin, int any_hit, rf_hit* best) {
+  const RF_GLOBAL rf_node* rn = &nodes[root];
+  float t = rf_intersect_box(rn, r, best->t);
+  if (t == RF_FAR) return;
+  rf_u32 child = wide_root, count = 0;
+  if (wide_root == RF_INVALID) {
+    child = rn->first;
+    count = rn->meta & RF_NODE_COUNT_MASK;
+  }
+  rf_wide8_stack s;
+  s.size = 0;
+  for (;;) {
+    if (count == 0u) {
+      if (rf_wide8_step(&wide[child], r, best->t, &s, &child, &count, &t)) continue;
+    } else if (rf_trace_leaf(tris, child, count, r, instance_id, tmin, t, any_hit, best)) {
+      return;
+    }
+    if (!rf_wide8_pop(&s, best->t, &child, &count, &t)) return;
+  }
+}
 #endif
 
 /* Pruning bound of a top-level node: the farthest current hit among the
@@ -375,9 +469,10 @@ RF_INLINE void rf_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_
  * its first instance and `count` their number (host/bvh/wide_bvh.h,
  * build_wide_tlas). The same hits as the binary walk, for the reasons of
  * rf_trace_blas_wide. */
-RF_INLINE void rf_trace_query_tlas_wide(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_wide_node* wide,
-                                        const RF_GLOBAL rf_wide_node* tlas_wide, rf_u32 tlas_wide_root,
+RF_INLINE void rf_trace_query_tlas_wide(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_wide8_node* wide,
+                                        const RF_GLOBAL rf_wide8_node* tlas_wide, rf_u32 tlas_wide_root,
                                         const RF_GLOBAL rf_tri* tris, const RF_GLOBAL rf_instance* instances,
+                                        const RF_GLOBAL rf_u32* wide_roots,
                                         rf_u32 tlas_root, float ox, float oy, float oz, float dx, float dy, float dz,
                                         float tmin, int any_hit, rf_hit* hit) {
   rf_ray r;
@@ -392,17 +487,29 @@ RF_INLINE void rf_trace_query_tlas_wide(const RF_GLOBAL rf_node* nodes, const RF
     child = root->first & RF_TLAS_INDEX_MASK;
     count = root->first >> RF_TLAS_COUNT_SHIFT;
   }
-  rf_wide_stack s;
+  rf_wide8_stack s;
   s.size = 0;
   for (;;) {
     if (count == 0u) {
-      RF_STAT(tlas_nodes);
-      if (rf_wide_step(&tlas_wide[child], &r, hit->t, &s, &child, &count, &t)) continue;
-    } else if (rf_trace_instances(nodes, wide, tris, instances, child, count, RF_ORIGIN_ANY, ox, oy, oz, dx, dy, dz,
-                                  tmin, any_hit, 1u, &cache, hit)) {
-      return;
+      if (rf_wide8_step(&tlas_wide[child], &r, hit->t, &s, &child, &count, &t)) continue;
+    } else {
+      int done = 0;
+      for (rf_u32 k = 0; k < count; ++k) {
+        const RF_GLOBAL rf_instance* inst = &instances[child + k];
+        const rf_u32 key = inst->instance_id;
+        const rf_u32 slot = key & (rf_u32)(RF_RAY_CACHE - 1);
+        rf_ray* ro = &cache.ray[slot];
+        if (cache.key[slot] != key) {
+          rf_ray_to_object_at(ro, inst->tree_from_trace, ox, oy, oz, dx, dy, dz);
+          cache.key[slot] = key;
+        }
+        rf_trace_blas_wide8(nodes, wide, tris, inst->blas_root, wide_roots[child + k], ro, inst->instance_id, tmin,
+                            any_hit, hit);
+        if (any_hit && hit->instance != RF_INVALID) { done = 1; break; }
+      }
+      if (done) return;
     }
-    if (!rf_wide_pop(&s, hit->t, &child, &count, &t)) return;
+    if (!rf_wide8_pop(&s, hit->t, &child, &count, &t)) return;
   }
 }
 #endif
@@ -552,8 +659,8 @@ RF_INLINE void rf_trace_entry(rf_u32 entry, const rf_camera* cam, const RF_GLOBA
  * traversal enters every leaf whose box test passes at tmax until it finds
  * one). */
 RF_INLINE void rf_trace_query(const RF_GLOBAL rf_query_ray* q, const RF_GLOBAL rf_node* nodes,
-                              const RF_GLOBAL rf_wide_node* wide, const RF_GLOBAL rf_wide_node* tlas_wide,
-                              rf_u32 tlas_wide_root, const RF_GLOBAL rf_tri* tris,
+                              const RF_GLOBAL rf_wide8_node* wide, const RF_GLOBAL rf_wide8_node* tlas_wide,
+                              rf_u32 tlas_wide_root, const RF_GLOBAL rf_u32* wide_roots, const RF_GLOBAL rf_tri* tris,
                               const RF_GLOBAL rf_instance* instances, const RF_GLOBAL rf_normal_xform* normal_xforms,
                               rf_u32 tlas_root, int any_hit, rf_u32 write_flags, RF_GLOBAL rf_pixel_hit* out) {
   rf_hit hit;
@@ -562,13 +669,14 @@ RF_INLINE void rf_trace_query(const RF_GLOBAL rf_query_ray* q, const RF_GLOBAL r
   if (tlas_root != RF_INVALID) {
 #ifdef __OPENCL_C_VERSION__
     if (wide && tlas_wide)
-      rf_trace_query_tlas_wide(nodes, wide, tlas_wide, tlas_wide_root, tris, instances, tlas_root, q->o[0], q->o[1],
+      rf_trace_query_tlas_wide(nodes, wide, tlas_wide, tlas_wide_root, tris, instances, wide_roots, tlas_root, q->o[0], q->o[1],
                                q->o[2], q->d[0], q->d[1], q->d[2], q->tmin, any_hit, &hit);
     else
 #else
     (void)wide;
     (void)tlas_wide;
     (void)tlas_wide_root;
+    (void)wide_roots;
 #endif
       rf_trace_tlas(nodes, tris, instances, tlas_root, RF_ORIGIN_ANY, q->o[0], q->o[1], q->o[2], q->d[0], q->d[1],
                     q->d[2], q->tmin, any_hit, 1u, &hit);

@@ -69,6 +69,21 @@ typedef struct {
   rf_u32 count[4];
 } rf_wide_node;
 
+/* One node of the 8-wide trees, 256 bytes: rf_wide_node with eight
+ * children, collapsed from the same binary tree (host/bvh/wide_bvh.h) for
+ * the single-ray query kernel, where a scattered ray's walk is bound by the
+ * steps it takes: one 8-wide step decides eight boxes in one AVX vector.
+ *   bytes   0..191  lo_x, lo_y, lo_z, hi_x, hi_y, hi_z  child k's box in
+ *                   element k of each
+ *   bytes 192..223  child  as rf_wide_node's (interior: its 8-wide node)
+ *   bytes 224..255  count  as rf_wide_node's */
+typedef struct {
+  float lo_x[8], lo_y[8], lo_z[8];
+  float hi_x[8], hi_y[8], hi_z[8];
+  rf_u32 child[8];
+  rf_u32 count[8];
+} rf_wide8_node;
+
 /* Deepest traversal stack of every kernel; the builders cap tree depth
  * below it (host/bvh/bvh_flatten.cpp checks). */
 #define RF_STACK_SIZE 64

@@ -598,12 +598,17 @@ TEST(Bvh, MeshesWithinEightPowersOfTwoShareOneTreeSpace) {
 }
 
 // The wide trees hold the binary trees' leaves, boxes and ranges (what makes
-// the tile kernel's hits the CPU reference's): below every entry, each
-// binary leaf under it once, with its own box; two to four children per
-// node, the slots in use first; every child's box inside the binary box it
-// was collapsed from; an entry inside another's subtree collapsed once.
-TEST(Bvh, WideTreesKeepTheBinaryLeavesBelowEveryEntry) {
+// the tile and query kernels' hits the CPU reference's): below every entry,
+// each binary leaf under it once, with its own box; two to `width` children
+// per node, the slots in use first; every child's box inside the binary box
+// it was collapsed from; an entry inside another's subtree collapsed once.
+template <class Trees>
+void expect_wide_trees_keep_the_binary_leaves(
+    Trees (*collapse)(const rf_node*, size_t, const std::vector<uint32_t>&)) {
+  using WideNode = typename decltype(Trees::nodes)::value_type;
+  constexpr int width = static_cast<int>(sizeof(WideNode::child) / sizeof(WideNode::child[0]));
   Rng rng(83);
+  size_t full_nodes = 0;
   for (int n : {1, 2, 5, 3000}) {
     const std::vector<Aabb> boxes = clustered_boxes(rng, n);
     std::vector<rf_node> nodes;
@@ -621,7 +626,7 @@ TEST(Bvh, WideTreesKeepTheBinaryLeavesBelowEveryEntry) {
         x = nodes[x].first + static_cast<uint32_t>(rng.below(2));
       entries.push_back(x);
     }
-    const WideTrees wide = build_wide_trees(nodes.data(), nodes.size(), entries);
+    const Trees wide = collapse(nodes.data(), nodes.size(), entries);
     ASSERT_EQ(wide.roots.size(), entries.size());
     auto binary_leaves = [&](uint32_t x) {
       std::vector<uint32_t> out, todo = {x};
@@ -649,11 +654,12 @@ TEST(Bvh, WideTreesKeepTheBinaryLeavesBelowEveryEntry) {
         const auto [w, parent] = todo.back();
         todo.pop_back();
         ASSERT_LT(w, wide.nodes.size());
-        const rf_wide_node& wn = wide.nodes[w];
+        const WideNode& wn = wide.nodes[w];
         int used = 0;
-        while (used < 4 && wn.count[used] != RF_INVALID) ++used;
+        while (used < width && wn.count[used] != RF_INVALID) ++used;
         EXPECT_GE(used, 2) << "wide node " << w;
-        for (int k = used; k < 4; ++k) EXPECT_EQ(wn.count[k], RF_INVALID) << "wide node " << w << " slot " << k;
+        full_nodes += used == width;
+        for (int k = used; k < width; ++k) EXPECT_EQ(wn.count[k], RF_INVALID) << "wide node " << w << " slot " << k;
         for (int k = 0; k < used; ++k) {
           const float lo[3] = {wn.lo_x[k], wn.lo_y[k], wn.lo_z[k]}, hi[3] = {wn.hi_x[k], wn.hi_y[k], wn.hi_z[k]};
           for (int a = 0; a < 3; ++a) {
@@ -682,12 +688,19 @@ TEST(Bvh, WideTreesKeepTheBinaryLeavesBelowEveryEntry) {
         const uint32_t w = todo.back();
         todo.pop_back();
         ++seen[w];
-        for (int k = 0; k < 4; ++k)
+        for (int k = 0; k < width; ++k)
           if (wide.nodes[w].count[k] == 0) todo.push_back(wide.nodes[w].child[k]);
       }
       for (size_t w = 0; w < seen.size(); ++w) EXPECT_EQ(seen[w], 1) << "wide node " << w << " of " << n << " boxes";
     }
   }
+  EXPECT_GT(full_nodes, 100u) << "nodes with all " << width << " slots in use: too few for the test to mean anything";
+}
+
+TEST(Bvh, WideTreesKeepTheBinaryLeavesBelowEveryEntry) { expect_wide_trees_keep_the_binary_leaves(build_wide_trees); }
+
+TEST(Bvh, EightWideTreesKeepTheBinaryLeavesBelowEveryEntry) {
+  expect_wide_trees_keep_the_binary_leaves(build_wide8_trees);
 }
 
 // A mesh of dense_triangles or more is built with the dense leaf cost:

@@ -148,17 +148,32 @@ TEST(RayQuery, OpenClKernelEqualsTheCpuReference) {
 }
 
 // Scattered rays among hundreds of instances, a third of them mirrored:
-// the single-ray kernel walks the query frame's top level in 4-wide nodes
-// (rf_trace_query_tlas_wide), the CPU reference in binary ones.
+// the single-ray kernel walks the query frame's top level and each
+// instance's whole tree in 8-wide nodes (rf_trace_query_tlas_wide), the CPU
+// reference the re-braided cuts in binary ones.
 TEST(RayQuery, ManyInstancesThroughTheWideTopLevelEqualTheCpuReference) {
   Rng rng(7);
   const Scene scene = testing::random_scene(rng, 3, 300, 40);
   Renderer cpu(scene, on(Backend::cpu)), cl(scene, on(Backend::opencl));
   const Rays rays = random_rays(rng, scene, 6000);
-  const Frame frame =
-      build_query_frame(scene, cl.scene_data(),
-                        check_query_rays(rays.o.data(), rays.d.data(), rays.size(), 0.0f, INFINITY), FrameOptions{});
-  ASSERT_GT(frame.tlas_wide.size(), 50u) << "the top level the kernel walks";
+  const SceneData& data = cl.scene_data();
+  const float bound = check_query_rays(rays.o.data(), rays.d.data(), rays.size(), 0.0f, INFINITY);
+  const Wide8Trees trees = build_query_trees(data);
+  const Frame frame = build_query_frame(scene, data, bound, FrameOptions{}, &trees);
+  ASSERT_GT(frame.tlas_wide.size(), 10u) << "the top level the kernel walks";
+  // One item per traced tree, each with its whole tree's 8-wide root.
+  size_t trees_traced = 0;
+  for (uint32_t root : data.blas.instance_roots) trees_traced += root != RF_INVALID;
+  EXPECT_EQ(frame.instances.size(), trees_traced);
+  ASSERT_EQ(frame.query_wide_roots.size(), frame.instances.size());
+  for (size_t k = 0; k < frame.instances.size(); ++k) {
+    const rf_instance& inst = frame.instances[k];
+    EXPECT_EQ(inst.blas_root, data.blas.instance_roots[inst.instance_id]) << "item " << k;
+    EXPECT_EQ(frame.query_wide_roots[k], trees.roots[inst.instance_id]) << "item " << k;
+  }
+  // The re-braided frame (the tile kernel's, the reference's) enters more
+  // cuts than that.
+  EXPECT_GT(build_query_frame(scene, data, bound, FrameOptions{}).instances.size(), trees_traced);
   expect_kernel_equals_reference(cpu, cl, rays, "300 instances");
 }
 

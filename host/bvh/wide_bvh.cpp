@@ -7,8 +7,6 @@
 namespace rayfold::core {
 namespace {
 
-constexpr int kWidth = 4;
-
 bool is_leaf(const rf_node& n) { return (n.meta & RF_NODE_COUNT_MASK) != 0; }
 
 float half_area(const rf_node& n) {
@@ -16,7 +14,10 @@ float half_area(const rf_node& n) {
   return dx * dy + dy * dz + dz * dx;
 }
 
+template <class WideNode>
 class Collapser {
+  static constexpr int kWidth = static_cast<int>(sizeof(WideNode::child) / sizeof(WideNode::child[0]));
+
  public:
   Collapser(const rf_node* nodes, size_t node_count, const std::vector<uint32_t>& entries)
       : nodes_(nodes), is_entry_(node_count, false) {
@@ -58,7 +59,7 @@ class Collapser {
       slots[best] = nodes_[opened].first;
       slots[used++] = nodes_[opened].first + 1;
     }
-    rf_wide_node wide;  // every field written below: zeroing it first was a tenth of the collapse
+    WideNode wide;  // every field written below: zeroing it first was a tenth of the collapse
     for (int k = 0; k < kWidth; ++k) {
       if (k >= used) {
         wide.lo_x[k] = wide.lo_y[k] = wide.lo_z[k] = wide.hi_x[k] = wide.hi_y[k] = wide.hi_z[k] = 0.0f;
@@ -81,21 +82,20 @@ class Collapser {
     return w;
   }
 
-  PageAlignedVector<rf_wide_node> take() { return std::move(out_); }
+  PageAlignedVector<WideNode> take() { return std::move(out_); }
 
  private:
   const rf_node* nodes_;
   std::vector<bool> is_entry_;
   std::unordered_map<uint32_t, uint32_t> entry_wide_;
-  PageAlignedVector<rf_wide_node> out_;
+  PageAlignedVector<WideNode> out_;
 };
 
-}  // namespace
-
-WideTrees build_wide_trees(const rf_node* nodes, size_t node_count, const std::vector<uint32_t>& entries) {
+template <class Trees>
+Trees collapse_trees(const rf_node* nodes, size_t node_count, const std::vector<uint32_t>& entries) {
   for (uint32_t e : entries) RF_CHECK(e < node_count, "wide tree entry outside the node array");
-  Collapser c(nodes, node_count, entries);
-  WideTrees trees;
+  Collapser<typename decltype(Trees::nodes)::value_type> c(nodes, node_count, entries);
+  Trees trees;
   trees.roots.reserve(entries.size());
   for (uint32_t e : entries) {
     trees.roots.push_back(is_leaf(nodes[e]) ? RF_INVALID : c.collapse(e));
@@ -104,17 +104,38 @@ WideTrees build_wide_trees(const rf_node* nodes, size_t node_count, const std::v
   return trees;
 }
 
-WideTrees build_wide_tlas(const std::vector<rf_node>& tlas, uint32_t node_base, uint32_t root) {
+// The top-level nodes `tlas` in the bottom level's layout: a leaf's first
+// item and count, an interior node's children counted from the top level's
+// first node.
+std::vector<rf_node> tlas_as_blas(const std::vector<rf_node>& tlas, uint32_t node_base, uint32_t root) {
   RF_CHECK(root >= node_base && root - node_base < tlas.size(), "top-level root outside its nodes");
-  // In the bottom level's layout: a leaf's first item and count, an
-  // interior node's children counted from the top level's first node.
   std::vector<rf_node> nodes(tlas);
   for (rf_node& n : nodes) {
     const uint32_t count = n.first >> RF_TLAS_COUNT_SHIFT, first = n.first & RF_TLAS_INDEX_MASK;
     n.meta = count;
     n.first = count != 0 || first < node_base ? first : first - node_base;  // below node_base: padding, never read
   }
+  return nodes;
+}
+
+}  // namespace
+
+WideTrees build_wide_trees(const rf_node* nodes, size_t node_count, const std::vector<uint32_t>& entries) {
+  return collapse_trees<WideTrees>(nodes, node_count, entries);
+}
+
+Wide8Trees build_wide8_trees(const rf_node* nodes, size_t node_count, const std::vector<uint32_t>& entries) {
+  return collapse_trees<Wide8Trees>(nodes, node_count, entries);
+}
+
+WideTrees build_wide_tlas(const std::vector<rf_node>& tlas, uint32_t node_base, uint32_t root) {
+  const std::vector<rf_node> nodes = tlas_as_blas(tlas, node_base, root);
   return build_wide_trees(nodes.data(), nodes.size(), {root - node_base});
+}
+
+Wide8Trees build_wide8_tlas(const std::vector<rf_node>& tlas, uint32_t node_base, uint32_t root) {
+  const std::vector<rf_node> nodes = tlas_as_blas(tlas, node_base, root);
+  return build_wide8_trees(nodes.data(), nodes.size(), {root - node_base});
 }
 
 }  // namespace rayfold::core

@@ -44,4 +44,13 @@ WideTrees build_wide_trees(const rf_node* nodes, size_t node_count, const std::v
 // is a leaf.
 WideTrees build_wide_tlas(const std::vector<rf_node>& tlas, uint32_t node_base, uint32_t root);
 
+// The same trees collapsed into 8-wide nodes (rf_wide8_node), for the
+// single-ray query kernel (kernels/rf_trace.h, rf_trace_query_wide8).
+struct Wide8Trees {
+  PageAlignedVector<rf_wide8_node> nodes;
+  std::vector<uint32_t> roots;
+};
+Wide8Trees build_wide8_trees(const rf_node* nodes, size_t node_count, const std::vector<uint32_t>& entries);
+Wide8Trees build_wide8_tlas(const std::vector<rf_node>& tlas, uint32_t node_base, uint32_t root);
+
 }  // namespace rayfold::core

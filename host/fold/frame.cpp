@@ -185,14 +185,19 @@ Frame build_frame(const Scene& scene, const SceneData& data, const std::vector<C
     }
     const double origin_pad = origin * stretch * 0x1p-22;
     base.instance_id = static_cast<uint32_t>(i);
-    for (uint32_t c = data.braid_offsets[i]; c < data.braid_offsets[i + 1]; ++c) {
-      const rf_node& node = data.blas.nodes[data.braid_nodes[c]];
+    const uint32_t whole_root = data.blas.instance_roots[i];  // RF_INVALID for a merged tree's later members
+    const uint32_t cut_end = options.whole_trees ? (whole_root != RF_INVALID ? 1u : 0u)
+                                                 : data.braid_offsets[i + 1] - data.braid_offsets[i];
+    for (uint32_t k = 0; k < cut_end; ++k) {
+      const uint32_t c = data.braid_offsets[i] + k;
+      const uint32_t cut = options.whole_trees ? whole_root : data.braid_nodes[c];
+      const rf_node& node = data.blas.nodes[cut];
       Aabb tree_box;
       tree_box.grow(glm::vec3(node.bmin[0], node.bmin[1], node.bmin[2]));
       tree_box.grow(glm::vec3(node.bmax[0], node.bmax[1], node.bmax[2]));
       const Aabb box = transform_bounds_conservative(trace_from_tree, tree_box, origin_pad);
-      base.blas_root = data.braid_nodes[c];
-      base.wide_root = data.braid_wide[c];
+      base.blas_root = cut;
+      base.wide_root = options.whole_trees ? RF_INVALID : data.braid_wide[c];
       for (int slot = 0; slot < slots; ++slot) {
         const int m = slot_mirror(options.fold, slot);
         if (!rays.group_used[m]) continue;

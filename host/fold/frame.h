@@ -56,6 +56,13 @@ struct FrameOptions {
   // origin, in trace units (0: camera rays, from the eye or, orthographic,
   // the image plane); the top level's boxes leave room for its rounding.
   double query_origin_bound = 0.0;
+  // Each instance enters the top level as its whole tree (BlasSet::
+  // instance_roots) rather than its re-braided cut, with no 4-wide root:
+  // for the single-ray query kernel, which walks 8-wide trees collapsed
+  // from those roots (rays/ray_queries.h, build_query_trees). Re-braiding
+  // serves culling and a camera's tiles; a scattered ray entering one
+  // instance through two cuts paid a second set-up and a top-level walk.
+  bool whole_trees = false;
 };
 
 struct FrameStats {
@@ -91,13 +98,16 @@ struct Frame {
   uint32_t node_base = 0;           // first TLAS node index in the full node array
   uint32_t tlas_root = RF_INVALID;  // RF_INVALID: nothing to trace
   std::vector<rf_node> tlas_nodes;  // to be placed at node_base
-  // A query frame's top level as 4-wide nodes (build_wide_tlas; the
+  // A query frame's top level as 8-wide nodes (build_wide8_tlas; the
   // single-ray query kernel's): empty and RF_INVALID elsewhere, and where
   // the root is a leaf. query: made by build_query_frame (the query kernel
-  // reads tlas_wide_root only from such a frame).
+  // reads tlas_wide_root only from such a frame). query_wide_roots: per
+  // instance, the 8-wide node of its blas_root's children in the query
+  // trees build_query_frame was given (RF_INVALID: blas_root is a leaf).
   bool query = false;
-  PageAlignedVector<rf_wide_node> tlas_wide;
+  PageAlignedVector<rf_wide8_node> tlas_wide;
   uint32_t tlas_wide_root = RF_INVALID;
+  std::vector<uint32_t> query_wide_roots;
   std::vector<rf_instance> instances;  // in TLAS leaf order
   bool normals = true;                 // FrameOptions::normals
   bool planar_depth = false;           // FrameOptions::planar_depth

@@ -98,7 +98,11 @@ void ClTracer::upload_scene(const SceneData& data, size_t max_tlas_nodes, size_t
       // Grown by the first frame that asks for the exact depth (upload_frame).
       {"depth_xforms", sizeof(rf_depth_xform)},
       // Grown by the query frames (upload_frame).
-      {"query_top_level", sizeof(rf_wide_node)},
+      {"query_top_level", sizeof(rf_wide8_node)},
+      // Grown by the query frames (upload_frame).
+      {"query_roots", sizeof(uint32_t)},
+      // The 8-wide bottom levels, at the first query (upload_query_trees).
+      {"query_trees", sizeof(rf_wide8_node)},
   };
   const DeviceInfo& info = device_.info();
   for (const BufferInfo& b : buffer_info_) {
@@ -145,6 +149,10 @@ void ClTracer::upload_scene(const SceneData& data, size_t max_tlas_nodes, size_t
     depth_xforms_capacity_ = buffer_info_[7].bytes;
     tlas_wide_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, buffer_info_[8].bytes);
     tlas_wide_capacity_ = buffer_info_[8].bytes;
+    query_wide_roots_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, buffer_info_[9].bytes);
+    query_wide_roots_capacity_ = buffer_info_[9].bytes;
+    query_wide_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, buffer_info_[10].bytes);
+    query_trees_uploaded_ = false;
     if (!blas.nodes.empty())
       q.enqueueWriteBuffer(nodes_, CL_FALSE, 0, blas.nodes.size() * sizeof(rf_node), blas.nodes.data());
     if (!data.normal_xforms.empty())
@@ -185,18 +193,23 @@ double ClTracer::upload_frame(const Frame& frame) {
       }
       q.enqueueWriteBuffer(depth_xforms_, CL_FALSE, 0, bytes, frame.depth_xforms.data());
     }
-    if (!frame.tlas_wide.empty()) {
-      const size_t bytes = frame.tlas_wide.size() * sizeof(rf_wide_node);
-      if (bytes > tlas_wide_capacity_) {
+    // A query frame's arrays, into buffers grown to hold them.
+    auto put_query_array = [&](const auto& v, cl::Buffer& buf, size_t& capacity, BufferInfo& info, const char* what) {
+      if (v.empty()) return;
+      const size_t bytes = v.size() * sizeof(v[0]);
+      if (bytes > capacity) {
         if (bytes > device_.info().max_alloc_bytes)
-          throw RuntimeFailure("a query's top level needs " + std::to_string(bytes >> 20) +
+          throw RuntimeFailure(std::string("a query's ") + what + " needs " + std::to_string(bytes >> 20) +
                                " MiB, more than the largest allocation '" + device_.info().name + "' allows");
-        tlas_wide_ = cl::Buffer(device_.context(), CL_MEM_READ_ONLY, bytes);
-        tlas_wide_capacity_ = bytes;
-        buffer_info_[8].bytes = bytes;
+        buf = cl::Buffer(device_.context(), CL_MEM_READ_ONLY, bytes);
+        capacity = bytes;
+        info.bytes = bytes;
       }
-      q.enqueueWriteBuffer(tlas_wide_, CL_FALSE, 0, bytes, frame.tlas_wide.data());
-    }
+      q.enqueueWriteBuffer(buf, CL_FALSE, 0, bytes, v.data());
+    };
+    put_query_array(frame.tlas_wide, tlas_wide_, tlas_wide_capacity_, buffer_info_[8], "top level");
+    put_query_array(frame.query_wide_roots, query_wide_roots_, query_wide_roots_capacity_, buffer_info_[9],
+                    "instance roots");
     tlas_wide_root_ = frame.tlas_wide_root;
     query_frame_ = frame.query;
     depth_instances_ = frame.depth_instances;
@@ -429,6 +442,30 @@ ClTracer::PackedPlanes ClTracer::wait_packed(int slot) {
   return out;
 }
 
+void ClTracer::upload_query_trees(const Wide8Trees& trees) {
+  const size_t bytes = at_least_one(trees.nodes.size()) * sizeof(rf_wide8_node);
+  const DeviceInfo& info = device_.info();
+  if (bytes > info.max_alloc_bytes)
+    throw RuntimeFailure("the query trees need " + std::to_string(bytes >> 20) +
+                         " MiB, more than the largest allocation '" + info.name + "' allows");
+  try {
+    cl::Context& ctx = device_.context();
+    if (info.is_cpu && !trees.nodes.empty()) {
+      query_wide_ = cl::Buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_USE_HOST_PTR, trees.nodes.size() * sizeof(rf_wide8_node),
+                               const_cast<rf_wide8_node*>(trees.nodes.data()));
+    } else {
+      query_wide_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, bytes);
+      if (!trees.nodes.empty())
+        device_.queue().enqueueWriteBuffer(query_wide_, CL_TRUE, 0, trees.nodes.size() * sizeof(rf_wide8_node),
+                                           trees.nodes.data());
+    }
+  } catch (const cl::Error& e) {
+    throw RuntimeFailure("cannot upload the query trees to '" + info.name + "': " + cl_error_text(e));
+  }
+  buffer_info_[10].bytes = bytes;
+  query_trees_uploaded_ = true;
+}
+
 double ClTracer::trace_queries(const QueryRays& rays, bool any_hit, unsigned write_flags, rf_pixel_hit* out,
                                const QueryTiles* plan) {
   const size_t n = rays.count;
@@ -437,6 +474,7 @@ double ClTracer::trace_queries(const QueryRays& rays, bool any_hit, unsigned wri
   // which only a query frame's tlas_wide_root means.
   RF_CHECK(query_frame_, "ray queries traced in a frame that is not a query frame");
   const std::vector<uint32_t>* tiles = plan && !plan->tiles.empty() ? &plan->tiles : nullptr;
+  RF_CHECK(tiles || query_trees_uploaded_, "ray queries traced before the query trees' upload");
   RF_CHECK(!tiles || (tiles->size() >= 2 && tiles->front() == 0 && tiles->back() == n),
            "query tiles do not cover the rays");
   RF_CHECK(tiles ? rays.origins && rays.directions : rays.records && rays.records->size() == n,
@@ -495,7 +533,9 @@ double ClTracer::trace_queries(const QueryRays& rays, bool any_hit, unsigned wri
       }
       hits_buf = query_hits_;
     }
-    const bool ordered = !order.empty();
+    // The single-ray kernel's records come in the traced order already
+    // (to_trace_space); the tile kernel reads the arrays through it.
+    const bool ordered = !order.empty() && tiles;
     if (ordered && order.size() > query_order_capacity_) {
       query_order_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, order.size() * sizeof(uint32_t));
       query_order_capacity_ = order.size();
@@ -532,9 +572,10 @@ double ClTracer::trace_queries(const QueryRays& rays, bool any_hit, unsigned wri
       cl::Kernel& kernel = programs.queries;
       int a = 0;
       kernel.setArg(a++, nodes_);
-      kernel.setArg(a++, wide_nodes_);
+      kernel.setArg(a++, query_wide_);
       kernel.setArg(a++, tlas_wide_);
       kernel.setArg(a++, tlas_wide_root_);
+      kernel.setArg(a++, query_wide_roots_);
       kernel.setArg(a++, tris_);
       kernel.setArg(a++, instances_);
       kernel.setArg(a++, normal_xforms_);
@@ -543,8 +584,6 @@ double ClTracer::trace_queries(const QueryRays& rays, bool any_hit, unsigned wri
       kernel.setArg(a++, static_cast<uint32_t>(n));
       kernel.setArg(a++, static_cast<uint32_t>(any_hit ? 1u : 0u));
       kernel.setArg(a++, static_cast<uint32_t>(write_flags));
-      kernel.setArg(a++, ordered ? query_order_ : rays_buf);  // read only when ordered
-      kernel.setArg(a++, static_cast<uint32_t>(ordered ? 1u : 0u));
       kernel.setArg(a++, hits_buf);
       constexpr size_t kGroup = 64;
       const size_t global = (n + kGroup - 1) / kGroup * kGroup;

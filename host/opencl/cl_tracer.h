@@ -111,6 +111,12 @@ class ClTracer {
   // back into `out` here.
   double trace_queries(const QueryRays& rays, bool any_hit, unsigned write_flags, rf_pixel_hit* out,
                        const QueryTiles* tiles = nullptr);
+  // The bottom levels as the single-ray query kernel walks them
+  // (build_query_trees), before the first query frame's upload; on a CPU
+  // device read in place, so kept by the caller until the next
+  // upload_scene or the tracer's end.
+  void upload_query_trees(const Wide8Trees& trees);
+  bool has_query_trees() const { return query_trees_uploaded_; }
   // Milliseconds spent building programs so far: about 2 s on a machine's
   // first use of this rayfold version with PoCL, about 0.1 s once PoCL's
   // cache ($XDG_CACHE_HOME/pocl or ~/.cache/pocl) holds them.
@@ -155,10 +161,12 @@ class ClTracer {
   // frame asks for the exact depth, then grown to what a pass needs.
   cl::Buffer depth_xforms_;
   size_t depth_xforms_capacity_ = 0;
-  // A query frame's 4-wide top level (Frame::tlas_wide): one node until a
-  // query frame needs more.
-  cl::Buffer tlas_wide_;
-  size_t tlas_wide_capacity_ = 0;
+  // A query frame's 8-wide top level (Frame::tlas_wide) and its
+  // instances' 8-wide roots (Frame::query_wide_roots): one entry until a
+  // query frame needs more. query_wide_: the bottom levels' 8-wide trees.
+  cl::Buffer tlas_wide_, query_wide_roots_, query_wide_;
+  size_t tlas_wide_capacity_ = 0, query_wide_roots_capacity_ = 0;
+  bool query_trees_uploaded_ = false;
   uint32_t tlas_wide_root_ = RF_INVALID;
   bool query_frame_ = false;  // the uploaded frame is a query frame (trace_queries)
   uint32_t depth_instances_ = 0;

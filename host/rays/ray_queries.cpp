@@ -89,7 +89,20 @@ Camera query_camera() {
   return make_camera(spec, 1, 1);
 }
 
-Frame build_query_frame(const Scene& scene, const SceneData& data, float origin_bound, FrameOptions options) {
+Wide8Trees build_query_trees(const SceneData& data) {
+  std::vector<uint32_t> entries;
+  for (uint32_t root : data.blas.instance_roots)
+    if (root != RF_INVALID) entries.push_back(root);
+  Wide8Trees trees = build_wide8_trees(data.blas.nodes.data(), data.blas.nodes.size(), entries);
+  std::vector<uint32_t> per_instance(data.blas.instance_roots.size(), RF_INVALID);
+  for (size_t i = 0, e = 0; i < per_instance.size(); ++i)
+    if (data.blas.instance_roots[i] != RF_INVALID) per_instance[i] = trees.roots[e++];
+  trees.roots = std::move(per_instance);
+  return trees;
+}
+
+Frame build_query_frame(const Scene& scene, const SceneData& data, float origin_bound, FrameOptions options,
+                        const Wide8Trees* query_trees) {
   const Camera camera = query_camera();
   const int e = trace_exponent(data, camera);
   const double bound = origin_bound;
@@ -97,21 +110,28 @@ Frame build_query_frame(const Scene& scene, const SceneData& data, float origin_
   options.cull = false;
   options.planar_depth = false;
   options.query_origin_bound = std::ldexp(bound, -e);
+  options.whole_trees = query_trees != nullptr;
   Frame frame = build_frame(scene, data, camera, make_ray_list(camera.params, FoldMode::none), options);
   frame.query = true;
   if (frame.tlas_root != RF_INVALID) {
     // rf_trace_query_tlas_wide answers group 0 alone, which a frame of one
     // view and no mirrors is.
     for (const rf_instance& inst : frame.instances) RF_CHECK(inst.group == 0, "a query frame with mirrored copies");
-    WideTrees wide = build_wide_tlas(frame.tlas_nodes, frame.node_base, frame.tlas_root);
+    Wide8Trees wide = build_wide8_tlas(frame.tlas_nodes, frame.node_base, frame.tlas_root);
     frame.tlas_wide = std::move(wide.nodes);
     frame.tlas_wide_root = wide.roots[0];
+  }
+  if (query_trees) {
+    RF_CHECK(query_trees->roots.size() == data.blas.instance_roots.size(), "query trees of another scene");
+    frame.query_wide_roots.reserve(frame.instances.size());
+    for (const rf_instance& inst : frame.instances) frame.query_wide_roots.push_back(query_trees->roots[inst.instance_id]);
   }
   return frame;
 }
 
 void to_trace_space(const float* origins, const float* directions, size_t begin, size_t end, float tmin, float tmax,
-                    const Frame& frame, std::vector<rf_query_ray>& out) {
+                    const Frame& frame, std::vector<rf_query_ray>& out, const std::vector<uint32_t>& order) {
+  RF_CHECK(order.empty() || order.size() == end - begin, "query order of another length");
   // Origin and direction scaled alike keep t; a power of two is exact
   // while the result stays a normal float. The query tile kernel scales
   // its rays the same way (rf_tile.h, rf_pow2_scale).
@@ -120,7 +140,7 @@ void to_trace_space(const float* origins, const float* directions, size_t begin,
   parallel_for(end - begin, 0, size_t{1} << 16, [&](size_t lo, size_t hi) {
     for (size_t k = lo; k < hi; ++k) {
       rf_query_ray& q = out[k];
-      const size_t i = begin + k;
+      const size_t i = begin + (order.empty() ? k : order[k]);
       for (int c = 0; c < 3; ++c) {
         q.o[c] = trace_from_world(origins[3 * i + c]);
         q.d[c] = trace_from_world(directions[3 * i + c]);
@@ -257,7 +277,7 @@ void trace_queries_cpu(const TraceInputs& in, const std::vector<rf_query_ray>& r
   parallel_for(rays.size(), threads, 256, [&](size_t begin, size_t end) {
     for (size_t k = begin; k < end; ++k) {
       const size_t i = order.empty() ? k : order[k];
-      rf_trace_query(&rays[i], in.nodes, nullptr, nullptr, RF_INVALID, in.tris, in.instances, in.normal_xforms,
+      rf_trace_query(&rays[k], in.nodes, nullptr, nullptr, RF_INVALID, nullptr, in.tris, in.instances, in.normal_xforms,
                      in.tlas_root, any_hit ? 1 : 0, write_flags, &out[i]);
     }
   });

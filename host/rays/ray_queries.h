@@ -8,6 +8,7 @@
 #include <cstddef>
 #include <vector>
 
+#include "bvh/wide_bvh.h"
 #include "fold/frame.h"
 #include "reference/trace_inputs.h"
 
@@ -29,12 +30,22 @@ Camera query_camera();
 // origin in every coordinate (check_query_rays' answer); its options'
 // fold, cull and query_origin_bound are set here, moved and normals are
 // the caller's.
-Frame build_query_frame(const Scene& scene, const SceneData& data, float origin_bound, FrameOptions options);
+// query_trees: the bottom levels as 8-wide trees (build_query_trees), whose
+// roots the frame's query_wide_roots name; null leaves them empty (a frame
+// for the CPU reference or the tile kernel).
+Frame build_query_frame(const Scene& scene, const SceneData& data, float origin_bound, FrameOptions options,
+                        const Wide8Trees* query_trees = nullptr);
+
+// The bottom levels as 8-wide trees for the single-ray query kernel, each
+// instance's whole tree (BlasSet::instance_roots) collapsed from its root;
+// roots per scene instance (RF_INVALID: none, or a leaf).
+Wide8Trees build_query_trees(const SceneData& data);
 
 // Rays [begin, end) in trace space, as the single-ray kernel and the CPU
-// reference read them.
+// reference read them: in the order they are traced, out[k] ray begin +
+// order[k] (empty: the input order).
 void to_trace_space(const float* origins, const float* directions, size_t begin, size_t end, float tmin, float tmax,
-                    const Frame& frame, std::vector<rf_query_ray>& out);
+                    const Frame& frame, std::vector<rf_query_ray>& out, const std::vector<uint32_t>& order = {});
 
 // How the query tile kernel traces a batch of rays: tiles of rays with the
 // same origin (bit for bit), at most RF_TILE_RAYS each, as a table of first
@@ -69,8 +80,9 @@ void plan_query_tiles(const float* origins, size_t n, size_t row_length, size_t 
 // of RF_TILE_SIDE rows of row_length where that is given.
 size_t query_chunk_rays(size_t row_length);
 
-// The CPU reference's answers, one rf_pixel_hit per ray (z = t), the rays
-// taken in `order` where it is given (QueryTiles::scattered).
+// The CPU reference's answers, one rf_pixel_hit per ray (z = t): rays[k]
+// (to_trace_space's, in `order`) answers out[order[k]] (out[k] without an
+// order).
 void trace_queries_cpu(const TraceInputs& in, const std::vector<rf_query_ray>& rays, bool any_hit, unsigned write_flags,
                        rf_pixel_hit* out, unsigned threads, const std::vector<uint32_t>& order = {});
 
