@@ -50,11 +50,9 @@ typedef struct {
  * node, collapsed from the binary tree below it (host/bvh/wide_bvh.h) with
  * the binary tree's own leaves, boxes and ranges, so a walk that takes a
  * ray's hits only from leaves its own slab test enters (the tile kernel's
- * lanes, the single-ray query kernel) finds the same hits as the binary
- * traversal of the CPU reference. The bottom-level trees' (tree space), and
- * a query frame's top level's (trace space; its leaves hold instances).
- * Children's boxes side by side, so one node brings all four in two 64-byte
- * lines.
+ * lanes) finds the same hits as the binary traversal of the CPU reference.
+ * The bottom-level trees' (tree space). Children's boxes side by side, so
+ * one node brings all four in two 64-byte lines.
  *   bytes   0..95   lo_x, lo_y, lo_z, hi_x, hi_y, hi_z  child k's box in
  *                   element k of each
  *   bytes  96..111  child  interior child: its wide node; leaf: its first
@@ -70,12 +68,15 @@ typedef struct {
 } rf_wide_node;
 
 /* One node of the 8-wide trees, 256 bytes: rf_wide_node with eight
- * children, collapsed from the same binary tree (host/bvh/wide_bvh.h) for
- * the single-ray query kernel, where a scattered ray's walk is bound by the
- * steps it takes: one 8-wide step decides eight boxes in one AVX vector.
+ * children, collapsed from the same binary trees (host/bvh/wide_bvh.h) for
+ * the single-ray query kernel, whose scattered rays' walks are bound by the
+ * steps they take: one step decides eight boxes in one AVX vector. Each
+ * instance's whole tree (tree space), and a query frame's top level (trace
+ * space; its leaves hold instances).
  *   bytes   0..191  lo_x, lo_y, lo_z, hi_x, hi_y, hi_z  child k's box in
  *                   element k of each
- *   bytes 192..223  child  as rf_wide_node's (interior: its 8-wide node)
+ *   bytes 192..223  child  interior child: its 8-wide node; leaf: its first
+ *                   triangle (top level: its first rf_instance)
  *   bytes 224..255  count  as rf_wide_node's */
 typedef struct {
   float lo_x[8], lo_y[8], lo_z[8];

@@ -177,6 +177,40 @@ TEST(RayQuery, ManyInstancesThroughTheWideTopLevelEqualTheCpuReference) {
   expect_kernel_equals_reference(cpu, cl, rays, "300 instances");
 }
 
+// A cloud of 2^17 small triangles is built as a dense mesh (fuller leaves,
+// BuildOptions::dense_triangles), in clusters of 1 to 8 about one point that
+// no split separates, and the single-ray kernel tests the triangles of a
+// leaf of three or more eight at a time (rf_trace_leaf_wide): every slot of
+// the eight, in leaves of every size, gives the CPU reference's bits.
+// (Mutation-checked: dropping the eighth slot's triangle fails it; the
+// random scenes above hold no leaf of more than six.)
+TEST(RayQuery, LeavesTestedEightTrianglesAtATimeEqualTheCpuReference) {
+  Rng rng(808);
+  Mesh mesh;
+  for (uint32_t t = 0; t < (1u << 17);) {
+    const glm::vec3 c(rng.uniformf(0, 1), rng.uniformf(0, 1), rng.uniformf(0, 1));
+    const float r = rng.uniformf(0.001f, 0.005f);
+    for (int cluster = 1 + rng.below(8); cluster > 0; --cluster, ++t) {
+      for (int k = 0; k < 3; ++k)
+        mesh.positions.push_back(c + r * glm::vec3(rng.uniformf(-1, 1), rng.uniformf(-1, 1), rng.uniformf(-1, 1)));
+      mesh.indices.insert(mesh.indices.end(), {3 * t, 3 * t + 1, 3 * t + 2});
+    }
+  }
+  Scene scene;
+  scene.meshes.push_back(mesh);
+  scene.instances.emplace_back();
+  scene.instances[0].mesh = 0;
+  Renderer cpu(scene, on(Backend::cpu)), cl(scene, on(Backend::opencl));
+  size_t sizes[9] = {};
+  for (const rf_node& n : cl.scene_data().blas.nodes) {
+    const uint32_t count = n.meta & RF_NODE_COUNT_MASK;
+    if (count != 0) sizes[std::min<uint32_t>(count, 8)]++;
+  }
+  for (int count = 3; count <= 8; ++count)
+    EXPECT_GT(sizes[count], 100u) << "leaves of " << count << " triangles: too few for the test to mean anything";
+  expect_kernel_equals_reference(cpu, cl, random_rays(rng, scene, 20000), "a cloud of 2^17 triangles");
+}
+
 // Rays that graze a tilted triangle and hit it just inside the edge that
 // lies on its box's x = min face, coming through that face: the hit is
 // where the ray enters the leaf's box, and the triangle test's t, off by

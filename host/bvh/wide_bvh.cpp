@@ -128,11 +128,6 @@ Wide8Trees build_wide8_trees(const rf_node* nodes, size_t node_count, const std:
   return collapse_trees<Wide8Trees>(nodes, node_count, entries);
 }
 
-WideTrees build_wide_tlas(const std::vector<rf_node>& tlas, uint32_t node_base, uint32_t root) {
-  const std::vector<rf_node> nodes = tlas_as_blas(tlas, node_base, root);
-  return build_wide_trees(nodes.data(), nodes.size(), {root - node_base});
-}
-
 Wide8Trees build_wide8_tlas(const std::vector<rf_node>& tlas, uint32_t node_base, uint32_t root) {
   const std::vector<rf_node> nodes = tlas_as_blas(tlas, node_base, root);
   return build_wide8_trees(nodes.data(), nodes.size(), {root - node_base});

@@ -1,15 +1,18 @@
-// 4-wide trees collapsed from the binary ones (kernels/rf_types.h,
-// rf_wide_node): the bottom levels of the tile kernel and of the single-ray
-// query kernel, and a query frame's top level (build_wide_tlas).
+// Wide trees collapsed from the binary ones: 4-wide (kernels/rf_types.h,
+// rf_wide_node), the bottom levels of the tile kernel; 8-wide
+// (rf_wide8_node), the bottom levels and top level of the single-ray query
+// kernel (rays/ray_queries.h).
 //
 // Why wide: the tile kernel pays a fixed cost per node it pops (its stack,
 // the children's loads, the narrowing of the tile's lane groups), and on a
 // dense mesh it pops three nodes for every leaf it enters. A wide node holds
-// four children, so a pop decides four boxes. Why collapsed from the binary
-// tree rather than built anew: a lane of the tile takes hits only from the
-// leaves its own slab test enters, so with the binary tree's leaves, boxes
-// and triangle ranges the tile kernel finds exactly the CPU reference's
-// hits, whatever the nodes above the leaves.
+// four children, so a pop decides four boxes. A scattered ray's walk is
+// bound by its steps too, and one AVX vector decides eight boxes. Why
+// collapsed from the binary tree rather than built anew: a lane of the tile,
+// or a single ray, takes hits only from the leaves its own slab test enters,
+// so with the binary tree's leaves, boxes and triangle ranges the kernels
+// find exactly the CPU reference's hits, whatever the nodes above the
+// leaves.
 #pragma once
 
 #include <cstdint>
@@ -35,22 +38,20 @@ struct WideTrees {
 // A subtree shared by several entries is collapsed once.
 WideTrees build_wide_trees(const rf_node* nodes, size_t node_count, const std::vector<uint32_t>& entries);
 
-// A frame's top level as 4-wide nodes, for the single-ray query kernel
-// (kernels/rf_trace.h, rf_trace_query_tlas_wide): the top-level nodes
-// `tlas` (rf_node's top-level layout) placed at node_base, rooted at
-// `root`, collapsed as build_wide_trees collapses a bottom-level tree; a
-// leaf child's `child` is its first instance and `count` their number.
-// roots[0]: the wide node of the root's children, RF_INVALID when the root
-// is a leaf.
-WideTrees build_wide_tlas(const std::vector<rf_node>& tlas, uint32_t node_base, uint32_t root);
-
-// The same trees collapsed into 8-wide nodes (rf_wide8_node), for the
-// single-ray query kernel (kernels/rf_trace.h, rf_trace_query_wide8).
+// The same collapse into 8-wide nodes, opening children until a node holds
+// eight.
 struct Wide8Trees {
   PageAlignedVector<rf_wide8_node> nodes;
   std::vector<uint32_t> roots;
 };
 Wide8Trees build_wide8_trees(const rf_node* nodes, size_t node_count, const std::vector<uint32_t>& entries);
+
+// A query frame's top level as 8-wide nodes, for the single-ray query
+// kernel (kernels/rf_trace.h, rf_trace_query_tlas_wide): the top-level
+// nodes `tlas` (rf_node's top-level layout) placed at node_base, rooted at
+// `root`, collapsed as a bottom-level tree; a leaf child's `child` is its
+// first instance and `count` their number. roots[0]: the 8-wide node of the
+// root's children, RF_INVALID when the root is a leaf.
 Wide8Trees build_wide8_tlas(const std::vector<rf_node>& tlas, uint32_t node_base, uint32_t root);
 
 }  // namespace rayfold::core
