@@ -382,7 +382,7 @@ std::vector<std::string> Renderer::intersect(const float* origins, const float* 
   // Two frames can serve a query: the re-braided one, for the tile kernel
   // and the CPU reference, and one of whole trees for the single-ray kernel
   // (FrameOptions::whole_trees), its 8-wide trees made at the renderer's
-  // first query after each scene upload (most renderers never answer one).
+  // first query (most renderers never answer one).
   // Each is built where a chunk first needs it.
   std::optional<Frame> frames[2];
   int uploaded = -1;
@@ -390,10 +390,12 @@ std::vector<std::string> Renderer::intersect(const float* origins, const float* 
   auto frame_for = [&](bool single_ray) -> const Frame& {
     const int k = single_ray ? 1 : 0;
     if (!frames[k]) {
-      if (single_ray && !tracer_->has_query_trees()) {
+      if (single_ray && !query_trees_built_) {
         query_trees_ = build_query_trees(*data_);
-        tracer_->upload_query_trees(query_trees_);
+        query_trees_built_ = true;
       }
+      // Again after a scene upload for more pixels or groups.
+      if (single_ray && !tracer_->has_query_trees()) tracer_->upload_query_trees(query_trees_);
       frames[k] = build_query_frame(scene_, *data_, origin_bound, frame_options, single_ray ? &query_trees_ : nullptr);
     }
     if (tracer_ && uploaded != k) {

@@ -247,6 +247,7 @@ class Renderer {
   };
   std::array<CachedRays, 4> rays_;      // by fold mode
   Wide8Trees query_trees_;  // the single-ray query kernel's trees (intersect), read in place by a CPU device
+  bool query_trees_built_ = false;
   std::vector<rf_query_ray> query_rays_;  // intersect's trace-space rays, one chunk
   QueryTiles query_plan_;                 // and their tiles, its image order kept from query to query
   static constexpr int kProbeSlot = 4;  // the tracer's ray slot for predict's samples

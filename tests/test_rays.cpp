@@ -120,7 +120,7 @@ TEST(RayQuery, EqualsBruteForceBitForBitOnRandomScenes) {
 
 // The CPU reference against the OpenCL kernel on the same rays: every
 // field the same bits; for occlusion, which answers whether a hit exists,
-// the same answers (the kernel walks the 4-wide trees and stops at its
+// the same answers (the kernel walks the 8-wide trees and stops at its
 // first hit, another than the reference's first), at two tmax, and some
 // rays occluded and some not.
 void expect_kernel_equals_reference(Renderer& cpu, Renderer& cl, const Rays& rays, const std::string& what) {
@@ -145,6 +145,27 @@ TEST(RayQuery, OpenClKernelEqualsTheCpuReference) {
     Renderer cpu(scene, on(Backend::cpu)), cl(scene, on(Backend::opencl));
     expect_kernel_equals_reference(cpu, cl, random_rays(rng, scene, 5000), "scene " + std::to_string(s));
   }
+}
+
+// The query trees live beside the scene's device buffers: a render that
+// needs larger buffers uploads the scene again, and the next query must
+// find its trees there again (the trees themselves are made once).
+TEST(RayQuery, QueriesAfterALargerRenderEqualTheCpuReference) {
+  Rng rng(123);
+  const Scene scene = testing::random_scene(rng, 2, 6, 200);
+  Renderer cpu(scene, on(Backend::cpu)), cl(scene, on(Backend::opencl));
+  const Rays rays = random_rays(rng, scene, 3000);
+  expect_kernel_equals_reference(cpu, cl, rays, "before the render");
+  auto hits_bytes = [&] {
+    for (const BufferInfo& b : cl.device_buffers())
+      if (b.name == "hits") return b.bytes;
+    return size_t{0};
+  };
+  const size_t before = hits_bytes();
+  const Camera cam = make_camera(testing::random_camera(rng, scene.world_bounds()), 640, 480);
+  cl.render(cam);
+  ASSERT_GT(hits_bytes(), before) << "the render did not upload the scene again into larger buffers";
+  expect_kernel_equals_reference(cpu, cl, rays, "after the render");
 }
 
 // Scattered rays among hundreds of instances, a third of them mirrored:

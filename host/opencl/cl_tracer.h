@@ -116,6 +116,7 @@ class ClTracer {
   // device read in place, so kept by the caller until the next
   // upload_scene or the tracer's end.
   void upload_query_trees(const Wide8Trees& trees);
+  // Whether upload_query_trees ran since the last upload_scene.
   bool has_query_trees() const { return query_trees_uploaded_; }
   // Milliseconds spent building programs so far: about 2 s on a machine's
   // first use of this rayfold version with PoCL, about 0.1 s once PoCL's
