@@ -442,18 +442,32 @@ RF_INLINE void rf_trace_query_tlas_wide(const RF_GLOBAL rf_node* nodes, const RF
                                         const RF_GLOBAL rf_u32* wide_roots, const RF_GLOBAL rf_tri* tris,
                                         const RF_GLOBAL rf_instance* instances, rf_u32 tlas_root, float ox, float oy,
                                         float oz, float dx, float dy, float dz, float tmin, int any_hit, rf_hit* hit) {
+  const RF_GLOBAL rf_node* root = &nodes[tlas_root];
+  /* A top level that is one leaf (a scene of a few trees, each entered
+   * whole): its instances straight away, without the trace-space ray and
+   * the root's box. That box holds every instance's box (frame.cpp pads it
+   * for the rounding of the ray's transform), so a ray it turns away meets
+   * no triangle in them either, as the 8-wide walk already takes for the
+   * binary nodes it skips. 1M scattered rays 1.04x to 1.08x faster. */
+  if (tlas_wide_root == RF_INVALID) {
+    const rf_u32 first = root->first & RF_TLAS_INDEX_MASK, count = root->first >> RF_TLAS_COUNT_SHIFT;
+    for (rf_u32 k = first; k < first + count; ++k) {
+      const RF_GLOBAL rf_instance* inst = &instances[k];
+      rf_ray ro;
+      rf_ray_to_object_at(&ro, inst->tree_from_trace, ox, oy, oz, dx, dy, dz);
+      rf_trace_blas_wide(nodes, wide, tris, inst->blas_root, wide_roots[k], &ro, inst->instance_id, tmin, any_hit,
+                         hit);
+      if (any_hit && hit->instance != RF_INVALID) return;
+    }
+    return;
+  }
   rf_ray r;
   rf_ray_init(&r, ox, oy, oz, dx, dy, dz);
-  const RF_GLOBAL rf_node* root = &nodes[tlas_root];
   float t = rf_intersect_box(root, &r, hit->t);
   if (t == RF_FAR) return;
   rf_ray_cache cache;
   rf_ray_cache_reset(&cache);
   rf_u32 child = tlas_wide_root, count = 0;
-  if (tlas_wide_root == RF_INVALID) {
-    child = root->first & RF_TLAS_INDEX_MASK;
-    count = root->first >> RF_TLAS_COUNT_SHIFT;
-  }
   rf_wide_stack s;
   s.size = 0;
   for (;;) {

@@ -9,6 +9,8 @@
 #include <cstring>
 #include <numeric>
 
+#include <glm/gtc/matrix_transform.hpp>
+
 #include "rayfold/errors.h"
 #include "rays/ray_order.h"
 #include "rays/ray_queries.h"
@@ -166,6 +168,31 @@ TEST(RayQuery, QueriesAfterALargerRenderEqualTheCpuReference) {
   cl.render(cam);
   ASSERT_GT(hits_bytes(), before) << "the render did not upload the scene again into larger buffers";
   expect_kernel_equals_reference(cpu, cl, rays, "after the render");
+}
+
+// A few instances over one another make a top level of one leaf, which
+// the single-ray kernel enters without its box (rf_trace_query_tlas_wide):
+// every instance of the leaf is traced, mirrored ones included.
+TEST(RayQuery, ATopLevelOfOneLeafTracesEveryInstanceInIt) {
+  Rng rng(2024);
+  Scene scene = testing::random_scene(rng, 1, 3, 300);
+  Aabb box;
+  for (const glm::vec3& p : scene.meshes[0].positions) box.grow(p);
+  for (glm::vec3& p : scene.meshes[0].positions) p -= 0.5f * (box.lo + box.hi);
+  // About the same box each: the mesh as it is, mirrored in x, and turned
+  // a quarter about y.
+  scene.instances[0].world_from_object = Xform(1.0);
+  scene.instances[1].world_from_object = glm::scale(Xform(1.0), glm::dvec3(-1.0, 1.0, 1.0));
+  scene.instances[2].world_from_object = glm::rotate(Xform(1.0), 1.5707963267948966, glm::dvec3(0.0, 1.0, 0.0));
+  Renderer cpu(scene, on(Backend::cpu)), cl(scene, on(Backend::opencl));
+  const Rays rays = random_rays(rng, scene, 5000);
+  const SceneData& data = cl.scene_data();
+  const Wide8Trees trees = build_query_trees(data);
+  const Frame frame = build_query_frame(
+      scene, data, check_query_rays(rays.o.data(), rays.d.data(), rays.size(), 0.0f, INFINITY), FrameOptions{}, &trees);
+  ASSERT_EQ(frame.tlas_wide_root, RF_INVALID) << "the top level is not one leaf";
+  ASSERT_EQ(frame.tlas_nodes.at(frame.tlas_root - frame.node_base).first >> RF_TLAS_COUNT_SHIFT, 3u);
+  expect_kernel_equals_reference(cpu, cl, rays, "three instances in one leaf");
 }
 
 // Scattered rays among hundreds of instances, a third of them mirrored:
