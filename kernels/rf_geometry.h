@@ -216,18 +216,30 @@ RF_INLINE int rf_woop_distance_suits(float a_z, float b_z, float c_z) {
  * denominator is 0 (a ray in the plane, as rounded).
  * Returns 1 with t, u (weight of v1), v (weight of v2) when the ray's line
  * meets the triangle; the caller checks t against its interval. */
+/* The watertight test's first part, written once for one triangle (T
+ * float) and for several side by side (T float8: rf_trace.h,
+ * rf_leaf_candidates8), so that the vector sign tests are the scalar
+ * test's operations by construction: the vertices relative to ray r's
+ * origin (VERTEX(v0, axis) the coordinate `axis` of vertex v0), their
+ * depths a_z, b_z, c_z kept for the distance, and the sheared edge
+ * functions eu, ev, ew. */
+#define RF_WATERTIGHT_EDGES(T, VERTEX, r)                                                                         \
+  const rf_i32 kx = (r)->kx, ky = (r)->ky, kz = (r)->kz;                                                          \
+  const T a_x = VERTEX(v0, kx) - (r)->o[kx], a_y = VERTEX(v0, ky) - (r)->o[ky], a_z = VERTEX(v0, kz) - (r)->o[kz]; \
+  const T b_x = VERTEX(v1, kx) - (r)->o[kx], b_y = VERTEX(v1, ky) - (r)->o[ky], b_z = VERTEX(v1, kz) - (r)->o[kz]; \
+  const T c_x = VERTEX(v2, kx) - (r)->o[kx], c_y = VERTEX(v2, ky) - (r)->o[ky], c_z = VERTEX(v2, kz) - (r)->o[kz]; \
+  const T ax = a_x - (r)->sx * a_z, ay = a_y - (r)->sy * a_z;                                                     \
+  const T bx = b_x - (r)->sx * b_z, by = b_y - (r)->sy * b_z;                                                     \
+  const T cx = c_x - (r)->sx * c_z, cy = c_y - (r)->sy * c_z;                                                     \
+  const T eu = cx * by - cy * bx;                                                                                 \
+  const T ev = ax * cy - ay * cx;                                                                                 \
+  const T ew = bx * ay - by * ax
+
 RF_INLINE_ALWAYS int rf_intersect_triangle(const RF_GLOBAL rf_tri* tri, const rf_ray* r, float* t_out,
                                            float* u_out, float* v_out) {
-  const rf_i32 kx = r->kx, ky = r->ky, kz = r->kz;
-  const float a_x = tri->v0[kx] - r->o[kx], a_y = tri->v0[ky] - r->o[ky], a_z = tri->v0[kz] - r->o[kz];
-  const float b_x = tri->v1[kx] - r->o[kx], b_y = tri->v1[ky] - r->o[ky], b_z = tri->v1[kz] - r->o[kz];
-  const float c_x = tri->v2[kx] - r->o[kx], c_y = tri->v2[ky] - r->o[ky], c_z = tri->v2[kz] - r->o[kz];
-  const float ax = a_x - r->sx * a_z, ay = a_y - r->sy * a_z;
-  const float bx = b_x - r->sx * b_z, by = b_y - r->sy * b_z;
-  const float cx = c_x - r->sx * c_z, cy = c_y - r->sy * c_z;
-  const float eu = cx * by - cy * bx;
-  const float ev = ax * cy - ay * cx;
-  const float ew = bx * ay - by * ax;
+#define RF_TRI_VERTEX(v, axis) tri->v[axis]
+  RF_WATERTIGHT_EDGES(float, RF_TRI_VERTEX, r);
+#undef RF_TRI_VERTEX
   if ((eu < 0.0f || ev < 0.0f || ew < 0.0f) && (eu > 0.0f || ev > 0.0f || ew > 0.0f)) return 0;
   const float det = eu + ev + ew;
   if (det == 0.0f) return 0;

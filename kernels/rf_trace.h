@@ -75,6 +75,15 @@ RF_INLINE int rf_trace_leaf(const RF_GLOBAL rf_tri* tris, rf_u32 first, rf_u32 c
 }
 
 #ifdef __OPENCL_C_VERSION__
+/* The elements of a vector comparison's result that are true, as bits
+ * (element k bit k). */
+RF_INLINE rf_u32 rf_lane_bits8(int8 v) {
+  const int8 bits = v & (int8)(1, 2, 4, 8, 16, 32, 64, 128);
+  const int4 bits4 = bits.lo | bits.hi;
+  const int2 bits2 = bits4.lo | bits4.hi;
+  return (rf_u32)(bits2.x | bits2.y);
+}
+
 /* Leaves of fewer triangles are tested one by one: on the conference room
  * and Lost Empire (about 2 a leaf) the vector test of every leaf traced
  * 0.96x as fast. */
@@ -85,28 +94,16 @@ RF_INLINE int rf_trace_leaf(const RF_GLOBAL rf_tri* tris, rf_u32 first, rf_u32 c
  * each element the scalar test's bits. Elements past n repeat the last
  * triangle and are masked off. */
 RF_INLINE rf_u32 rf_leaf_candidates8(const RF_GLOBAL rf_tri* tris, rf_u32 first, rf_u32 n, const rf_ray* r) {
-  const rf_i32 kx = r->kx, ky = r->ky, kz = r->kz;
-#define RF_TRI8(field, axis)                                                                                      \
-  (float8)(tris[first].field[axis], tris[first + min(1u, n - 1u)].field[axis],                                    \
-           tris[first + min(2u, n - 1u)].field[axis], tris[first + min(3u, n - 1u)].field[axis],                  \
-           tris[first + min(4u, n - 1u)].field[axis], tris[first + min(5u, n - 1u)].field[axis],                  \
-           tris[first + min(6u, n - 1u)].field[axis], tris[first + min(7u, n - 1u)].field[axis])
-  const float8 a_x = RF_TRI8(v0, kx) - r->o[kx], a_y = RF_TRI8(v0, ky) - r->o[ky], a_z = RF_TRI8(v0, kz) - r->o[kz];
-  const float8 b_x = RF_TRI8(v1, kx) - r->o[kx], b_y = RF_TRI8(v1, ky) - r->o[ky], b_z = RF_TRI8(v1, kz) - r->o[kz];
-  const float8 c_x = RF_TRI8(v2, kx) - r->o[kx], c_y = RF_TRI8(v2, ky) - r->o[ky], c_z = RF_TRI8(v2, kz) - r->o[kz];
+#define RF_TRI8(v, axis)                                                                                          \
+  (float8)(tris[first].v[axis], tris[first + min(1u, n - 1u)].v[axis], tris[first + min(2u, n - 1u)].v[axis],     \
+           tris[first + min(3u, n - 1u)].v[axis], tris[first + min(4u, n - 1u)].v[axis],                          \
+           tris[first + min(5u, n - 1u)].v[axis], tris[first + min(6u, n - 1u)].v[axis],                          \
+           tris[first + min(7u, n - 1u)].v[axis])
+  RF_WATERTIGHT_EDGES(float8, RF_TRI8, r);
 #undef RF_TRI8
-  const float8 ax = a_x - r->sx * a_z, ay = a_y - r->sy * a_z;
-  const float8 bx = b_x - r->sx * b_z, by = b_y - r->sy * b_z;
-  const float8 cx = c_x - r->sx * c_z, cy = c_y - r->sy * c_z;
-  const float8 eu = cx * by - cy * bx;
-  const float8 ev = ax * cy - ay * cx;
-  const float8 ew = bx * ay - by * ax;
   const int8 negative = (eu < 0.0f) | (ev < 0.0f) | (ew < 0.0f);
   const int8 positive = (eu > 0.0f) | (ev > 0.0f) | (ew > 0.0f);
-  const int8 kept = ~(negative & positive) & (int8)(1, 2, 4, 8, 16, 32, 64, 128);
-  const int4 kept4 = kept.lo | kept.hi;
-  const int2 kept2 = kept4.lo | kept4.hi;
-  return (rf_u32)(kept2.x | kept2.y) & ((1u << n) - 1u);
+  return rf_lane_bits8(~(negative & positive)) & ((1u << n) - 1u);
 }
 
 /* rf_trace_leaf with its triangles' sign tests eight at a time
@@ -223,11 +220,7 @@ RF_INLINE_ALWAYS int rf_wide_step(const RF_GLOBAL rf_wide8_node* n, const rf_ray
   /* The entered children as bits: a branch per child on whether the ray
    * enters it held a quarter of the 4-wide walk's samples (perf), most of
    * them mispredictions. */
-  const int8 in = (tv != (float8)(RF_FAR)) & (vload8(0, n->count) != (uint8)(RF_INVALID));
-  const int8 bits8 = in & (int8)(1, 2, 4, 8, 16, 32, 64, 128);
-  const int4 bits4 = bits8.lo | bits8.hi;
-  const int2 bits2 = bits4.lo | bits4.hi;
-  rf_u32 mask = (rf_u32)(bits2.x | bits2.y);
+  rf_u32 mask = rf_lane_bits8((tv != (float8)(RF_FAR)) & (vload8(0, n->count) != (uint8)(RF_INVALID)));
   float t8[8];
   vstore8(tv, 0, t8);
   if (mask != 0u && (mask & (mask - 1u)) == 0u) {
