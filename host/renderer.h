@@ -231,6 +231,10 @@ class Renderer {
   RendererOptions options_;
   std::shared_ptr<const SceneData> data_;  // read-only once built
   std::vector<rf_node> nodes_;  // BLAS nodes, then the current frame's TLAS (host traces only)
+  // The single-ray query kernel's trees (intersect), read in place by a
+  // CPU device: declared before the tracer, whose buffers over them go first.
+  Wide8Trees query_trees_;
+  bool query_trees_built_ = false;
   std::unique_ptr<ClDevice> device_;
   std::unique_ptr<ClTracer> tracer_;
   KernelKind kernel_ = KernelKind::single;
@@ -246,8 +250,6 @@ class Renderer {
     bool built = false, uploaded = false;
   };
   std::array<CachedRays, 4> rays_;      // by fold mode
-  Wide8Trees query_trees_;  // the single-ray query kernel's trees (intersect), read in place by a CPU device
-  bool query_trees_built_ = false;
   std::vector<rf_query_ray> query_rays_;  // intersect's trace-space rays, one chunk
   QueryTiles query_plan_;                 // and their tiles, its image order kept from query to query
   static constexpr int kProbeSlot = 4;  // the tracer's ray slot for predict's samples

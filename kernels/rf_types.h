@@ -165,7 +165,10 @@ typedef struct {
  *                              not mirrored)
  *   bytes 60..63  wide_root    the rf_wide_node holding blas_root's
  *                              children (the 4-wide tree's);
- *                              RF_INVALID when blas_root is a leaf */
+ *                              RF_INVALID when blas_root is a leaf, and
+ *                              in a query frame of whole trees, whose
+ *                              8-wide roots are an array of their own
+ *                              (rf_trace_queries' wide_roots) */
 typedef struct {
   float tree_from_trace[12];
   rf_u32 blas_root;

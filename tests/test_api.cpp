@@ -801,6 +801,25 @@ TEST(Api, SceneBytesThatAreNotWholeAreRefusedSayingWhy) {
   bad = file;
   bad.data.braid_offsets.pop_back();
   EXPECT_NE(why(core::scene_file_bytes(bad, RAYFOLD_VERSION_STRING)).find("do not match"), std::string::npos);
+  {
+    // Cuts that leave part of the last instance's tree out, where a
+    // triangle names an instance past the last: ray queries trace whole
+    // trees, so the tree itself is checked.
+    bad = file;
+    const uint32_t last = static_cast<uint32_t>(bad.scene.instances.size() - 1);
+    const uint32_t root = bad.data.blas.instance_roots.at(last);
+    ASSERT_NE(root, RF_INVALID);
+    ASSERT_EQ(bad.data.blas.nodes[root].meta, 0u) << "the last instance's tree is a leaf";
+    for (uint32_t c = bad.data.braid_offsets[last]; c < bad.data.braid_offsets[last + 1]; ++c) {
+      bad.data.braid_nodes[c] = bad.data.blas.nodes[root].first;
+      bad.data.braid_wide[c] = RF_INVALID;
+    }
+    uint32_t x = bad.data.blas.nodes[root].first + 1;
+    while (bad.data.blas.nodes[x].meta == 0) x = bad.data.blas.nodes[x].first;
+    bad.data.blas.tris[bad.data.blas.nodes[x].first].inst = 1;
+    EXPECT_NE(why(core::scene_file_bytes(bad, RAYFOLD_VERSION_STRING)).find("instance's tree has triangles naming"),
+              std::string::npos);
+  }
   EXPECT_NO_THROW(Scene::from_bytes(core::scene_file_bytes(file, RAYFOLD_VERSION_STRING)));
 }
 

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstring>
 #include <set>
 #include <utility>
 
@@ -126,6 +127,42 @@ TEST(Merge, SceneFilesKeepMergedTreesAndTheirBits) {
   o.kernel = KernelChoice::tile;
   Renderer loaded(back.scene, o, std::make_shared<const SceneData>(back.data));
   EXPECT_EQ(testing::compare_hits(want, loaded.render(cam).hits, 41), "");
+}
+
+// Ray queries through merged trees: the single-ray kernel enters a group's
+// whole tree once (FrameOptions::whole_trees) and each hit names its member
+// (rf_tri::inst), the query tile kernel and the CPU reference the re-braided
+// cuts: every field the same bits, scattered rays and rays of one origin.
+TEST(Merge, RayQueriesThroughMergedTreesGiveTheReferencesBits) {
+  const Scene s = shared_transform_scene(6, 12);
+  testing::Rng rng(12);
+  const Aabb b = s.world_bounds();
+  std::vector<float> o, d;
+  for (int i = 0; i < 6000; ++i)
+    for (int k = 0; k < 3; ++k) {
+      o.push_back(i < 3000 ? rng.uniformf(b.lo[k], b.hi[k]) : 0.5f * (b.lo[k] + b.hi[k]));
+      d.push_back(rng.uniformf(-1.0f, 1.0f));
+    }
+  const size_t n = o.size() / 3;
+  RendererOptions opt;
+  opt.backend = Backend::cpu;
+  Renderer cpu(s, opt);
+  ASSERT_TRUE(cpu.scene_data().blas.merged[0]);
+  std::vector<rf_pixel_hit> want(n), got(n);
+  cpu.intersect(o.data(), d.data(), n, 0.0f, INFINITY, false, FrameOptions{}, want.data());
+  const BlasSet& blas = cpu.scene_data().blas;
+  size_t members = 0;
+  for (const rf_pixel_hit& h : want) members += h.instance != RF_INVALID && blas.traced_by[h.instance] != h.instance;
+  EXPECT_GT(members, n / 100) << "too few hits on the groups' later members for the test to mean anything";
+  opt.backend = Backend::opencl;
+  for (const KernelChoice kernel : {KernelChoice::single, KernelChoice::tile}) {
+    opt.kernel = kernel;
+    Renderer cl(s, opt);
+    cl.intersect(o.data(), d.data(), n, 0.0f, INFINITY, false, FrameOptions{}, got.data());
+    size_t differ = 0;
+    for (size_t i = 0; i < n; ++i) differ += std::memcmp(&want[i], &got[i], sizeof(rf_pixel_hit)) != 0;
+    EXPECT_EQ(differ, 0u) << "kernel " << int(kernel);
+  }
 }
 
 // Two copies of one cube at one place, and a third instance between their

@@ -265,7 +265,7 @@ TEST(RayQuery, LeavesTestedEightTrianglesAtATimeEqualTheCpuReference) {
 // about the rounding over the sine of the angle (1e-6 to 6e-5 here), falls
 // before the box's entry for some of them (94 of about 2300 hits), which
 // raises it to the entry of the leaf it was found in (rf_hit_distance). The single-ray
-// kernel walks the 4-wide trees, the CPU reference the binary ones: the
+// kernel walks the 8-wide trees, the CPU reference the binary ones: the
 // same bits only if each hit takes its own leaf's entry, not an ancestor's.
 // Upright triangles above the tilted ones give the nodes above the leaves
 // larger boxes. (Given an ancestor's entry instead, 18 to 43 of these rays
@@ -746,6 +746,38 @@ TEST(RayQuery, ScatteredRaysPastOneChunkKeepTheirAnswers) {
   EXPECT_EQ(differ, 0u) << "first at ray " << first;
 }
 
+// One query whose first chunk of 2^20 rays shares one origin (the tile
+// kernel, through the re-braided frame) and whose second is scattered (the
+// single-ray kernel, through the frame of whole trees), then the first
+// kind again in a second query: each chunk through its own frame.
+TEST(RayQuery, ChunksOfBothKindsInOneQueryKeepTheirAnswers) {
+  Rng rng(9);
+  const Scene scene = testing::random_scene(rng, 3, 10, 200);
+  Renderer cpu(scene, on(Backend::cpu)), cl(scene, on(Backend::opencl));
+  const Rays shared = random_rays(rng, scene, 4096, {4096}), scattered = random_rays(rng, scene, 3000);
+  const std::vector<rf_pixel_hit> want_shared = query(cpu, shared), want_scattered = query(cpu, scattered);
+  const size_t first_chunk = size_t{1} << 20, n = first_chunk + 5000;
+  Rays many;
+  for (size_t i = 0; i < n; ++i) {
+    const Rays& from = i < first_chunk ? shared : scattered;
+    const size_t j = i % from.size();
+    many.o.insert(many.o.end(), from.o.begin() + 3 * j, from.o.begin() + 3 * j + 3);
+    many.d.insert(many.d.end(), from.d.begin() + 3 * j, from.d.begin() + 3 * j + 3);
+  }
+  for (int pass = 0; pass < 2; ++pass) {
+    const std::vector<rf_pixel_hit> got = query(cl, many);
+    size_t differ = 0, first = n;
+    for (size_t i = 0; i < n; ++i) {
+      const rf_pixel_hit& want = i < first_chunk ? want_shared[i % shared.size()] : want_scattered[i % scattered.size()];
+      if (std::memcmp(&got[i], &want, sizeof(rf_pixel_hit)) != 0) {
+        ++differ;
+        first = std::min(first, i);
+      }
+    }
+    EXPECT_EQ(differ, 0u) << "query " << pass << ", first at ray " << first;
+  }
+}
+
 TEST(RayQuery, InstancesBeyondTheFloatRangeAreReported) {
   // Sizes 2^260 apart cannot share a trace space: the small one is not
   // traced, and the answers say so.
@@ -766,6 +798,35 @@ TEST(RayQuery, InstancesBeyondTheFloatRangeAreReported) {
   one.instances.pop_back();
   Renderer fine(one, cpu);
   EXPECT_TRUE(fine.intersect(rays.o.data(), rays.d.data(), 1, 0.0f, INFINITY, false, {}, &h).empty());
+}
+
+// A scene with nothing to trace (its one instance scaled to nothing)
+// answers every ray with a miss through both kernels and the reference,
+// scattered rays and rays of one origin alike (a frame without a top level).
+TEST(RayQuery, ASceneWithNothingToTraceAnswersMisses) {
+  Scene scene;
+  scene.meshes.push_back(testing::closed_cube(1));
+  scene.instances.push_back({0, glm::scale(Xform(1.0), glm::dvec3(0.0)), "flat"});
+  Rng rng(5);
+  Rays scattered, shared;
+  for (int i = 0; i < 3000; ++i)
+    for (int k = 0; k < 3; ++k) {
+      scattered.o.push_back(rng.uniformf(-1, 1));
+      scattered.d.push_back(rng.uniformf(-1, 1));
+      shared.o.push_back(0.5f);
+      shared.d.push_back(rng.uniformf(-1, 1));
+    }
+  for (const Backend backend : {Backend::cpu, Backend::opencl})
+    for (const KernelChoice kernel : {KernelChoice::single, KernelChoice::tile}) {
+      RendererOptions o = on(backend);
+      o.kernel = kernel;
+      Renderer r(scene, o);
+      for (const Rays* rays : {&scattered, &shared})
+        for (const rf_pixel_hit& h : query(r, *rays)) {
+          ASSERT_EQ(h.instance, RF_INVALID);
+          ASSERT_EQ(h.z, INFINITY);
+        }
+    }
 }
 
 TEST(RayQuery, BadRaysNameTheFirst) {

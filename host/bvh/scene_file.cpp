@@ -379,7 +379,12 @@ SceneFile read_scene_file(const char* bytes, size_t size, const std::string& wha
   for (size_t i = 0; i < n; ++i) {
     const uint32_t root = d.blas.instance_roots[i];
     if (root != RF_INVALID && root >= nodes) r.fail("an instance's root lies outside the trees");
-    if (root != RF_INVALID) check_tree(root);
+    if (root != RF_INVALID) {
+      check_tree(root);
+      // Ray queries trace the whole tree (FrameOptions::whole_trees), which
+      // the cuts below need not cover.
+      if (i + uint64_t{binary_inst[root]} >= n) r.fail("an instance's tree has triangles naming instances past the last");
+    }
     if (d.blas.traced_by[i] >= n || d.blas.traced_by[d.blas.traced_by[i]] != d.blas.traced_by[i])
       r.fail("an instance is traced by one that is not traced by itself");
   }

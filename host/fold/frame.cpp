@@ -100,6 +100,7 @@ Frame build_frame(const Scene& scene, const SceneData& data, const std::vector<C
   Frame frame;
   frame.fold = options.fold;
   frame.normals = options.normals;
+  frame.whole_trees = options.whole_trees;
   frame.planar_depth = options.planar_depth;
   frame.exact_depth = options.exact_depth;
   frame.node_base = static_cast<uint32_t>(data.blas.nodes.size());

@@ -98,13 +98,14 @@ struct Frame {
   uint32_t node_base = 0;           // first TLAS node index in the full node array
   uint32_t tlas_root = RF_INVALID;  // RF_INVALID: nothing to trace
   std::vector<rf_node> tlas_nodes;  // to be placed at node_base
-  // A query frame's top level as 8-wide nodes (build_wide8_tlas; the
-  // single-ray query kernel's): empty and RF_INVALID elsewhere, and where
-  // the root is a leaf. query: made by build_query_frame (the query kernel
+  // A whole-tree query frame's top level as 8-wide nodes (build_wide8_tlas;
+  // the single-ray query kernel's): empty and RF_INVALID elsewhere, and
+  // where the root is a leaf. query: made by build_query_frame (the query kernel
   // reads tlas_wide_root only from such a frame). query_wide_roots: per
   // instance, the 8-wide node of its blas_root's children in the query
   // trees build_query_frame was given (RF_INVALID: blas_root is a leaf).
   bool query = false;
+  bool whole_trees = false;  // FrameOptions::whole_trees
   PageAlignedVector<rf_wide8_node> tlas_wide;
   uint32_t tlas_wide_root = RF_INVALID;
   std::vector<uint32_t> query_wide_roots;

@@ -212,6 +212,7 @@ double ClTracer::upload_frame(const Frame& frame) {
                     "instance roots");
     tlas_wide_root_ = frame.tlas_wide_root;
     query_frame_ = frame.query;
+    whole_trees_ = frame.whole_trees;
     depth_instances_ = frame.depth_instances;
     const std::vector<float> scales = frame.depth_scales();
     RF_CHECK(scales.size() <= RF_GROUP_LIMIT, "more views than one pass holds");
@@ -475,6 +476,9 @@ double ClTracer::trace_queries(const QueryRays& rays, bool any_hit, unsigned wri
   RF_CHECK(query_frame_, "ray queries traced in a frame that is not a query frame");
   const std::vector<uint32_t>* tiles = plan && !plan->tiles.empty() ? &plan->tiles : nullptr;
   RF_CHECK(tiles || query_trees_uploaded_, "ray queries traced before the query trees' upload");
+  // The single-ray kernel reads the whole-tree frame's roots; the tile
+  // kernel the re-braided frame's 4-wide ones.
+  RF_CHECK(tiles ? !whole_trees_ : whole_trees_, "ray queries traced through a frame built for the other kernel");
   RF_CHECK(!tiles || (tiles->size() >= 2 && tiles->front() == 0 && tiles->back() == n),
            "query tiles do not cover the rays");
   RF_CHECK(tiles ? rays.origins && rays.directions : rays.records && rays.records->size() == n,

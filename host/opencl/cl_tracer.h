@@ -89,7 +89,8 @@ class ClTracer {
   // Waits for slot's read. The words stay valid until that slot is read into again.
   PackedPlanes wait_packed(int slot);
   // A chunk of ray queries as the kernels read it: for the single-ray
-  // kernel `records`, in trace space (to_trace_space); for tiles the
+  // kernel `records`, in trace space and in the order it traces them
+  // (to_trace_space with QueryTiles::scattered); for tiles the
   // caller's world-space arrays, which the tile kernel takes to trace space
   // itself by 2^exponent (rf_query_arrays), with tmin and tmax for all.
   struct QueryRays {
@@ -105,10 +106,11 @@ class ClTracer {
   // With tiles (plan_query_tiles: rays of one origin, traced ray k being
   // ray order[k] and answering out[order[k]] when the order is not empty),
   // the query tile kernel answers them from the arrays, closest hits only:
-  // an any-hit query's answer, hit or not, is the same. Without, the
-  // single-ray kernel takes the records in plan->scattered's order
-  // (rays/ray_order.h), answering into a staging buffer in that order, put
-  // back into `out` here.
+  // an any-hit query's answer, hit or not, is the same; the frame must be
+  // the re-braided one. Without, the single-ray kernel traces the records
+  // (in plan->scattered's order, rays/ray_order.h) through a frame of whole
+  // trees, answering into a staging buffer in that order, put back into
+  // `out` here.
   double trace_queries(const QueryRays& rays, bool any_hit, unsigned write_flags, rf_pixel_hit* out,
                        const QueryTiles* tiles = nullptr);
   // The bottom levels as the single-ray query kernel walks them
@@ -170,6 +172,7 @@ class ClTracer {
   bool query_trees_uploaded_ = false;
   uint32_t tlas_wide_root_ = RF_INVALID;
   bool query_frame_ = false;  // the uploaded frame is a query frame (trace_queries)
+  bool whole_trees_ = false;  // ... of whole trees, the single-ray kernel's (Frame::whole_trees)
   uint32_t depth_instances_ = 0;
   // One uploaded ray list and its tile table. Slot 0's rays buffer is made
   // with the scene (its size is checked against the device's memory); the

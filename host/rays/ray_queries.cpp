@@ -113,7 +113,7 @@ Frame build_query_frame(const Scene& scene, const SceneData& data, float origin_
   options.whole_trees = query_trees != nullptr;
   Frame frame = build_frame(scene, data, camera, make_ray_list(camera.params, FoldMode::none), options);
   frame.query = true;
-  if (frame.tlas_root != RF_INVALID) {
+  if (query_trees && frame.tlas_root != RF_INVALID) {
     // rf_trace_query_tlas_wide answers group 0 alone, which a frame of one
     // view and no mirrors is.
     for (const rf_instance& inst : frame.instances) RF_CHECK(inst.group == 0, "a query frame with mirrored copies");

@@ -59,9 +59,9 @@ struct QueryTiles {
   // The order the rays are traced in: `order` with tiles, the input order
   // without (the single-ray kernel then takes them in `scattered`'s order).
   const std::vector<uint32_t>& traced_order() const;
-  // Without tiles, the order the single-ray kernel takes the rays in, the
-  // rays and answers staying in the input order (rays/ray_order.h; empty:
-  // the input order).
+  // Without tiles, the order the single-ray kernel takes the rays in
+  // (rays/ray_order.h; empty: the input order): to_trace_space writes the
+  // records in it, and the answers are put back in the input order.
   std::vector<uint32_t> scattered;
   // The image order `order` holds (rows x row_length, 0: none) and its
   // tiles' first rays, kept for the next plan of the same size; the size
