@@ -223,8 +223,11 @@ class Builder {
       uint8_t order[kSweepNode];
       const Split split = sweep_split(first, count, nodes[ni].bounds, order);
       const float leaf_cost = opt_.intersection_cost * static_cast<float>(split.weight);
-      if (split.cost >= leaf_cost && split.weight <= opt_.max_leaf_size) return false;
-      mid = apply_sweep(first, count, split, order, lbox, rbox, lcentres, rcentres);
+      // No boundary priced (areas that are not numbers): `order` is unwritten,
+      // and the median split below takes the node.
+      const bool sah_prefers_leaf = split.axis < 0 || split.cost >= leaf_cost;
+      if (sah_prefers_leaf && split.weight <= opt_.max_leaf_size) return false;
+      if (split.axis >= 0) mid = apply_sweep(first, count, split, order, lbox, rbox, lcentres, rcentres);
     } else {
       const Binner binner(cb, count <= kFewBinsNode ? std::min(opt_.bins, kFewBins) : opt_.bins);
       const Split split = find_split(first, count, binner, nodes[ni].bounds, threads);
