@@ -604,7 +604,8 @@ TEST(Bvh, MeshesWithinEightPowersOfTwoShareOneTreeSpace) {
 // price no sweep boundary: the node is split at the object median as when
 // no bin separates anything, and every primitive still sits in one leaf
 // once. (The sweep's order was left unwritten and its primitives read from
-// wherever it pointed: found by the fuzzer through a ray query.)
+// wherever it pointed; and their centres, infinity minus infinity, ranked
+// two records alike: found by the fuzzer through a ray query.)
 TEST(Bvh, BoxesOfNoAreaAreSplitAtTheMedianKeepingEveryPrimitive) {
   for (size_t n : {size_t{2}, size_t{3}, size_t{4}, size_t{9}, size_t{40}}) {
     std::vector<Aabb> boxes(n);

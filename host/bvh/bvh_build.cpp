@@ -291,7 +291,10 @@ class Builder {
     uint32_t total = 0;
     for (uint32_t k = 0; k < count; ++k) {
       const v4f c = r[k].centre();
-      for (int axis = 0; axis < 3; ++axis) key[axis][k] = c[axis];
+      // A centre that is not a number (a box of infinite extent both ways)
+      // ranks last: the ranks below need a total order, or two records
+      // take one rank and the order reads a slot it never wrote.
+      for (int axis = 0; axis < 3; ++axis) key[axis][k] = c[axis] == c[axis] ? c[axis] : INFINITY;
       index[k] = r[k].index();
       weight[k] = r[k].weight();
       total += weight[k];

@@ -5,6 +5,8 @@
 // invariants, and a broken one aborts with what differed:
 //  - folded (xy) = unfolded, on the CPU reference;
 //  - the OpenCL single-ray and tile kernels = the CPU reference, folded too;
+//  - ray queries from anywhere (the single-ray query kernel through the
+//    8-wide whole trees) = the CPU reference's, every field;
 //  - the scene and camera scaled by a power of two 2^k (k from the input's
 //    hash, in -100..100, kept inside the float range) give the same ids,
 //    barycentrics and normals, and depths times 2^k (where the unscaled
@@ -23,6 +25,7 @@
 
 #include "fold/ray_list.h"
 #include "opencl/cl_tracer.h"
+#include "rays/ray_queries.h"
 #include "renderer.h"
 #include "scene/gltf_loader.h"
 #include "util/errors.h"
@@ -113,6 +116,48 @@ void check_opencl(const Scene& scene, const SceneData& data, const Camera& camer
                 std::vector<rf_pixel_hit>(hits.begin() + v * pixels, hits.begin() + (v + 1) * pixels));
 }
 
+// Rays from the bounds' corners, its centre and the eye toward points of
+// the bounds (a step of 5/7 of it per ray, wrapping), through the
+// single-ray query kernel as Renderer::intersect drives it, against the
+// CPU reference's answers.
+void check_queries(const Scene& scene, Renderer& reference, const CameraSpec& spec, uint64_t seed) {
+  const Aabb b = scene.world_bounds();
+  if (b.empty()) return;
+  std::vector<float> o, d;
+  for (int i = 0; i < 48; ++i) {
+    glm::vec3 from = i < 8 ? glm::vec3(i & 1 ? b.hi.x : b.lo.x, i & 2 ? b.hi.y : b.lo.y, i & 4 ? b.hi.z : b.lo.z)
+                           : i < 16 ? 0.5f * (b.lo + b.hi)
+                                    : glm::vec3(spec.eye);
+    const float f = static_cast<float>((seed + 5u * i) % 7u) / 7.0f, g = static_cast<float>((seed + 3u * i) % 11u) / 11.0f;
+    const glm::vec3 to = b.lo + glm::vec3(f, g, 1.0f - f) * (b.hi - b.lo);
+    glm::vec3 dir = to - from;
+    if (!(glm::length(dir) > 0.0f)) dir = glm::vec3(0.3f, -1.0f, 0.2f);
+    o.insert(o.end(), {from.x, from.y, from.z});
+    d.insert(d.end(), {dir.x, dir.y, dir.z});
+  }
+  const size_t n = o.size() / 3;
+  std::vector<rf_pixel_hit> want(n), got(n);
+  try {
+    reference.intersect(o.data(), d.data(), n, 0.0f, INFINITY, false, FrameOptions{}, want.data());
+  } catch (const InputError&) {
+    return;  // rays beyond the supported range
+  }
+  const SceneData& data = reference.scene_data();
+  tracer().upload_scene(data, max_tlas_nodes(data), max_tlas_items(data), 1, 1);
+  const Wide8Trees trees = build_query_trees(data);
+  tracer().upload_query_trees(trees);
+  const Frame frame =
+      build_query_frame(scene, data, check_query_rays(o.data(), d.data(), n, 0.0f, INFINITY), FrameOptions{}, &trees);
+  tracer().upload_frame(frame);
+  std::vector<rf_query_ray> records;
+  to_trace_space(o.data(), d.data(), 0, n, 0.0f, INFINITY, frame, records);
+  ClTracer::QueryRays rays;
+  rays.records = &records;
+  rays.count = n;
+  tracer().trace_queries(rays, false, 0, got.data());
+  expect_same("OpenCL ray queries differ from the CPU reference", want, got);
+}
+
 // The largest magnitude among the scene's world bounds and the eye; 0 when
 // empty.
 double world_magnitude(const Scene& scene, const CameraSpec& spec) {
@@ -182,6 +227,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     const RenderResult xy = renderer.render(camera, 1, FrameOptions{FoldMode::xy});
     expect_same("folded render differs from unfolded", none.hits, xy.hits);
     check_opencl(scene, renderer.scene_data(), camera, none.hits);
+    check_queries(scene, renderer, spec, hash(data, size));
     // A power of two that keeps every world coordinate a normal float with
     // room to spare (the supported range, docs/exactness.md).
     // The file's animations posed at a time from the input's hash: loading
