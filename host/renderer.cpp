@@ -382,8 +382,8 @@ std::vector<std::string> Renderer::intersect(const float* origins, const float* 
   // Two frames can serve a query: the re-braided one, for the tile kernel
   // and the CPU reference, and one of whole trees for the single-ray kernel
   // (FrameOptions::whole_trees), its 8-wide trees made at the renderer's
-  // first query (most renderers never answer one).
-  // Each is built where a chunk first needs it.
+  // first query (most renderers never answer one). Each is built where a
+  // chunk first needs it.
   std::optional<Frame> frames[2];
   int uploaded = -1;
   if (tracer_) ensure_capacity(1, RF_MIRRORS);
@@ -408,7 +408,6 @@ std::vector<std::string> Renderer::intersect(const float* origins, const float* 
   if (!tracer_) in = host_inputs(frame_for(false));
   const size_t chunk_rays = query_chunk_rays(row_length);
   std::vector<rf_query_ray>& chunk = query_rays_;  // kept: fresh pages per query cost as much as the copy
-  unsigned flags = 0;
   for (size_t begin = 0; begin < n; begin += chunk_rays) {
     const size_t end = std::min(n, begin + chunk_rays);
     // Rays that share an origin (a camera's, a sensor's, a light's) go in
@@ -425,7 +424,7 @@ std::vector<std::string> Renderer::intersect(const float* origins, const float* 
       scattered_ray_order(origins + 3 * begin, directions + 3 * begin, end - begin, tiles.scattered,
                           options_.threads);
     const Frame& frame = frame_for(tracer_ && tiles.tiles.empty());
-    flags = frame.normals ? 0u : RF_WRITE_NO_NORMALS;
+    const unsigned flags = frame.normals ? 0u : RF_WRITE_NO_NORMALS;
     ClTracer::QueryRays rays;
     rays.count = end - begin;
     if (!tiles.tiles.empty()) {  // the tile kernel reads the arrays themselves
