@@ -79,6 +79,21 @@ ClTracer::Programs& ClTracer::programs_for(int groups) {
 
 void ClTracer::prepare_groups(int groups) { programs_for(groups); }
 
+// A CPU device reads the scene's arrays (triangles, wide nodes, query trees)
+// where the host holds them (read-only, page-aligned: util/page_aligned.h,
+// and kept by their owner for as long as these buffers); any other device
+// gets its own copy, in a buffer of `bytes` (at least one element).
+template <class Array>
+cl::Buffer ClTracer::host_array_buffer(const Array& v, size_t bytes) {
+  using T = typename Array::value_type;
+  cl::Context& ctx = device_.context();
+  if (device_.info().is_cpu && !v.empty())
+    return cl::Buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_USE_HOST_PTR, v.size() * sizeof(T), const_cast<T*>(v.data()));
+  cl::Buffer b(ctx, CL_MEM_READ_ONLY, bytes);
+  if (!v.empty()) device_.queue().enqueueWriteBuffer(b, CL_FALSE, 0, v.size() * sizeof(T), v.data());
+  return b;
+}
+
 void ClTracer::upload_scene(const SceneData& data, size_t max_tlas_nodes, size_t max_instances, size_t max_rays,
                             size_t pixel_count) {
   const BlasSet& blas = data.blas;
@@ -123,20 +138,7 @@ void ClTracer::upload_scene(const SceneData& data, size_t max_tlas_nodes, size_t
     cl::Context& ctx = device_.context();
     cl::CommandQueue& q = device_.queue();
     nodes_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, buffer_info_[0].bytes);
-    // A CPU device reads the scene's triangles and wide nodes where the
-    // host holds them (read-only, page-aligned: util/page_aligned.h, and
-    // kept by the renderer for as long as these buffers); any other device
-    // gets its own copy.
-    const bool in_place = info.is_cpu;
-    auto scene_array = [&](const auto& v, size_t bytes) {
-      using T = typename std::decay_t<decltype(v)>::value_type;
-      if (in_place && !v.empty())
-        return cl::Buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_USE_HOST_PTR, v.size() * sizeof(T), const_cast<T*>(v.data()));
-      cl::Buffer b(ctx, CL_MEM_READ_ONLY, bytes);
-      if (!v.empty()) q.enqueueWriteBuffer(b, CL_FALSE, 0, v.size() * sizeof(T), v.data());
-      return b;
-    };
-    tris_ = scene_array(blas.tris, buffer_info_[1].bytes);
+    tris_ = host_array_buffer(blas.tris, buffer_info_[1].bytes);
     instances_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, buffer_info_[2].bytes);
     normal_xforms_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, buffer_info_[3].bytes);
     depth_scales_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, RF_GROUP_LIMIT * sizeof(float));
@@ -144,7 +146,7 @@ void ClTracer::upload_scene(const SceneData& data, size_t max_tlas_nodes, size_t
     slots_[0].rays = cl::Buffer(ctx, CL_MEM_READ_ONLY, buffer_info_[4].bytes);
     slots_[0].rays_capacity = at_least_one(max_rays);
     hits_ = cl::Buffer(ctx, CL_MEM_WRITE_ONLY, buffer_info_[5].bytes);
-    wide_nodes_ = scene_array(data.wide_nodes, buffer_info_[6].bytes);
+    wide_nodes_ = host_array_buffer(data.wide_nodes, buffer_info_[6].bytes);
     depth_xforms_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, buffer_info_[7].bytes);
     depth_xforms_capacity_ = buffer_info_[7].bytes;
     tlas_wide_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, buffer_info_[8].bytes);
@@ -450,16 +452,8 @@ void ClTracer::upload_query_trees(const Wide8Trees& trees) {
     throw RuntimeFailure("the query trees need " + std::to_string(bytes >> 20) +
                          " MiB, more than the largest allocation '" + info.name + "' allows");
   try {
-    cl::Context& ctx = device_.context();
-    if (info.is_cpu && !trees.nodes.empty()) {
-      query_wide_ = cl::Buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_USE_HOST_PTR, trees.nodes.size() * sizeof(rf_wide8_node),
-                               const_cast<rf_wide8_node*>(trees.nodes.data()));
-    } else {
-      query_wide_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, bytes);
-      if (!trees.nodes.empty())
-        device_.queue().enqueueWriteBuffer(query_wide_, CL_TRUE, 0, trees.nodes.size() * sizeof(rf_wide8_node),
-                                           trees.nodes.data());
-    }
+    query_wide_ = host_array_buffer(trees.nodes, bytes);
+    device_.queue().finish();
   } catch (const cl::Error& e) {
     throw RuntimeFailure("cannot upload the query trees to '" + info.name + "': " + cl_error_text(e));
   }

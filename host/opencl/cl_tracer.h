@@ -155,6 +155,9 @@ class ClTracer {
     cl::Kernel single, tile, queries, query_tiles, pack;
   };
   Programs& programs_for(int groups);
+  // A read-only buffer over a scene array (cl_tracer.cpp says where it lives).
+  template <class Array>
+  cl::Buffer host_array_buffer(const Array& v, size_t bytes);
 
   ClDevice& device_;
   KernelPrecision precision_;
