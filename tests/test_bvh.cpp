@@ -733,6 +733,82 @@ TEST(Bvh, EightWideTreesKeepTheBinaryLeavesBelowEveryEntry) {
   expect_wide_trees_keep_the_binary_leaves(build_wide8_trees);
 }
 
+// The 8-wide trees are the collapse of least summed surface area over the
+// binary nodes that become wide nodes (a scattered ray steps into a node
+// with a chance that goes with its area), each holding at most eight
+// slots and every entry one of its own: against a brute force over every
+// set of binary nodes on small trees, with and without an entry inside.
+TEST(Bvh, EightWideTreesHaveTheLeastSummedAreaOfAnyCollapse) {
+  Rng rng(97);
+  auto half_area = [](const float lo[3], const float hi[3]) {
+    const float dx = hi[0] - lo[0], dy = hi[1] - lo[1], dz = hi[2] - lo[2];
+    return dx * dy + dy * dz + dz * dx;
+  };
+  int trees = 0, opened_below_top = 0;
+  for (int attempt = 0; attempt < 400 && trees < 60; ++attempt) {
+    const std::vector<Aabb> boxes = clustered_boxes(rng, 9 + static_cast<int>(rng.below(40)));
+    std::vector<rf_node> nodes;
+    const uint32_t root = flatten_bvh(build_sah(boxes), 0, nullptr, 0, nodes);
+    std::vector<uint32_t> interior;
+    for (std::vector<uint32_t> todo = {root}; !todo.empty();) {
+      const uint32_t x = todo.back();
+      todo.pop_back();
+      if (nodes[x].meta & RF_NODE_COUNT_MASK) continue;
+      interior.push_back(x);
+      todo.insert(todo.end(), {nodes[x].first, nodes[x].first + 1});
+    }
+    if (interior.size() < 9 || interior.size() > 17) continue;  // more than eight leaves, few enough to enumerate
+    ++trees;
+    std::vector<uint32_t> entries = {root};
+    if (trees % 2 == 0) entries.push_back(interior[1 + rng.below(interior.size() - 1)]);  // an entry inside
+    // Brute force: every set of interior nodes that holds the entries.
+    double best = INFINITY;
+    for (uint32_t mask = 0; mask < (1u << (interior.size() - 1)); ++mask) {
+      std::vector<bool> wide(nodes.size(), false);
+      wide[root] = true;
+      for (size_t i = 1; i < interior.size(); ++i) wide[interior[i]] = (mask >> (i - 1)) & 1u;
+      bool ok = true;
+      for (uint32_t e : entries) ok = ok && wide[e];
+      double area = 0.0;
+      for (uint32_t w : interior) {
+        if (!ok || !wide[w]) continue;
+        int slots = 0;
+        for (std::vector<uint32_t> todo = {nodes[w].first, nodes[w].first + 1}; !todo.empty();) {
+          const uint32_t y = todo.back();
+          todo.pop_back();
+          if ((nodes[y].meta & RF_NODE_COUNT_MASK) || wide[y])
+            ++slots;
+          else
+            todo.insert(todo.end(), {nodes[y].first, nodes[y].first + 1});
+        }
+        ok = slots <= 8;
+        area += half_area(nodes[w].bmin, nodes[w].bmax);
+      }
+      if (ok) best = std::min(best, area);
+    }
+    const Wide8Trees wide = build_wide8_trees(nodes.data(), nodes.size(), entries);
+    double got = 0.0;
+    for (const rf_wide8_node& w : wide.nodes) {
+      float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+      for (int k = 0; k < 8 && w.count[k] != RF_INVALID; ++k) {
+        lo[0] = std::min(lo[0], w.lo_x[k]);
+        lo[1] = std::min(lo[1], w.lo_y[k]);
+        lo[2] = std::min(lo[2], w.lo_z[k]);
+        hi[0] = std::max(hi[0], w.hi_x[k]);
+        hi[1] = std::max(hi[1], w.hi_y[k]);
+        hi[2] = std::max(hi[2], w.hi_z[k]);
+      }
+      got += half_area(lo, hi);
+    }
+    EXPECT_NEAR(got, best, 1e-5 * best) << "tree " << trees << ": " << boxes.size() << " boxes, " << interior.size()
+                                        << " interior nodes, " << entries.size() << " entries, " << wide.nodes.size()
+                                        << " wide nodes";
+    opened_below_top += wide.nodes.size() > entries.size();
+  }
+  EXPECT_GE(trees, 40) << "too few small trees for the test to mean anything";
+  EXPECT_GT(opened_below_top, trees / 4) << "too few trees with wide nodes below their entries";
+}
+
 // A mesh of dense_triangles or more is built with the dense leaf cost:
 // fewer nodes, fuller leaves (BuildOptions); the meshes beside it keep
 // theirs. Its tile and single-ray renders still give the CPU reference's
