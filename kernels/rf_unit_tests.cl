@@ -162,3 +162,12 @@ __kernel void ut_tile_triangle(__global const rf_tri* tris, __global const float
     o[3] = hit ? ((const float*)h.v)[l] : 0.0f;
   }
 }
+
+/* One mask of eight lanes per case (bit k: lane k true); out: rf_lane_bits8
+ * of the comparison whose result it is. */
+__kernel void ut_lane_bits8(__global const uint* masks, __global uint* out) {
+  const uint i = get_global_id(0);
+  const int8 lanes = (int8)(0, 1, 2, 3, 4, 5, 6, 7);
+  const int8 set = (((int8)((int)masks[i]) >> lanes) & (int8)(1)) != (int8)(0);
+  out[i] = rf_lane_bits8(set);
+}

@@ -94,6 +94,33 @@ void expect_bits_equal(const std::vector<float>& host, const std::vector<float>&
   EXPECT_EQ(bad, 0u) << what;
 }
 
+// A comparison's lanes as bits, every mask of eight lanes, on both of
+// rf_lane_bits8's paths: the OR tree any device compiles, and clang's
+// sign-bit instruction where the host says clang compiles for a CPU
+// (RF_CLANG_BUILTINS, as ClTracer does on PoCL).
+TEST_F(KernelUnits, LaneBitsOfEveryMaskOfEightLanes) {
+  std::vector<uint32_t> masks(256);
+  for (uint32_t m = 0; m < 256; ++m) masks[m] = m;
+  std::vector<std::string> builds = {""};
+  const ClDevice& device = testing::test_device();
+  if (device.info().is_cpu && device.info().platform.find("Portable Computing Language") != std::string::npos)
+    builds.push_back("-DRF_CLANG_BUILTINS");
+  for (const std::string& defines : builds) {
+    const cl::Program program =
+        defines.empty() ? *program_ : testing::test_device().build(unit_test_program_source(), KernelPrecision::exact, defines);
+    cl::Kernel k(program, "ut_lane_bits8");
+    const cl::Buffer lanes = in(masks), bits = out(masks.size());
+    k.setArg(0, lanes);
+    k.setArg(1, bits);
+    cl::CommandQueue& q = testing::test_device().queue();
+    q.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(masks.size()));
+    std::vector<uint32_t> got(masks.size());
+    q.enqueueReadBuffer(bits, CL_TRUE, 0, got.size() * sizeof(uint32_t), got.data());
+    for (uint32_t m = 0; m < 256; ++m) EXPECT_EQ(got[m], m) << "mask " << m << " built with '" << defines << "'";
+  }
+  if (builds.size() == 1) std::printf("(the sign-bit path is PoCL's alone; this device ran the OR tree only)\n");
+}
+
 TEST_F(KernelUnits, RayInit) {
   Rng rng(1);
   const size_t n = 4096;
