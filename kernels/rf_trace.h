@@ -206,12 +206,14 @@ RF_INLINE float8 rf_intersect_box8(const RF_GLOBAL rf_wide8_node* n, const rf_ra
 
 /* The single-ray walk's stack: children (rf_wide8_node's child and count)
  * to visit and the distance the ray enters them at. Each 8-wide node pushes
- * at most eight and pops one, and descends at least one binary level. */
+ * at most eight and pops one, and descends at least one binary level. Its
+ * size is the walk's own local (passed to the steps by address): in the
+ * struct it stayed in memory, stored and loaded again at every push and
+ * pop (1M scattered rays 1.005x to 1.03x faster on all seven scenes). */
 #define RF_WIDE_RAY_STACK (7 * RF_STACK_SIZE + 1)
 typedef struct {
   rf_u32 child[RF_WIDE_RAY_STACK], count[RF_WIDE_RAY_STACK];
   float t[RF_WIDE_RAY_STACK];
-  int size;
 } rf_wide_stack;
 
 /* One step into 8-wide node n: the children the ray enters at or before
@@ -223,7 +225,7 @@ typedef struct {
  * (A separate path for two children, the nearer taken and the other
  * pushed without the loop, measured 0.97x to 1.03x: left out.) */
 RF_INLINE_ALWAYS int rf_wide_step(const RF_GLOBAL rf_wide8_node* n, const rf_ray* r, float tmax, rf_wide_stack* s,
-                                  rf_u32* child, rf_u32* count, float* t) {
+                                  int* size, rf_u32* child, rf_u32* count, float* t) {
   const float8 tv = rf_intersect_box8(n, r, tmax);
   /* The entered children as bits: a branch per child on whether the ray
    * enters it held a quarter of the 4-wide walk's samples (perf), most of
@@ -238,11 +240,11 @@ RF_INLINE_ALWAYS int rf_wide_step(const RF_GLOBAL rf_wide8_node* n, const rf_ray
     *t = t8[k];
     return 1;
   }
-  const int base = s->size;
+  const int base = *size;
   for (; mask != 0u; mask &= mask - 1u) {
     const rf_u32 k = RF_CTZ(mask);
     const float tk = t8[k];
-    int i = s->size++;
+    int i = (*size)++;
     for (; i > base && s->t[i - 1] < tk; --i) {
       s->t[i] = s->t[i - 1];
       s->child[i] = s->child[i - 1];
@@ -257,13 +259,13 @@ RF_INLINE_ALWAYS int rf_wide_step(const RF_GLOBAL rf_wide8_node* n, const rf_ray
 
 /* The next entry the ray may still improve on (entered at or before bound)
  * into *child, *count and *t; 0 when none is left. */
-RF_INLINE int rf_wide_pop(rf_wide_stack* s, float bound, rf_u32* child, rf_u32* count, float* t) {
-  while (s->size > 0) {
-    --s->size;
-    if (s->t[s->size] > bound) continue;
-    *child = s->child[s->size];
-    *count = s->count[s->size];
-    *t = s->t[s->size];
+RF_INLINE int rf_wide_pop(const rf_wide_stack* s, int* size, float bound, rf_u32* child, rf_u32* count, float* t) {
+  while (*size > 0) {
+    const int i = --*size;
+    if (s->t[i] > bound) continue;
+    *child = s->child[i];
+    *count = s->count[i];
+    *t = s->t[i];
     return 1;
   }
   return 0;
@@ -290,15 +292,15 @@ RF_INLINE void rf_trace_blas_wide(const RF_GLOBAL rf_node* nodes, const RF_GLOBA
     count = rn->meta & RF_NODE_COUNT_MASK;
   }
   rf_wide_stack s;
-  s.size = 0;
+  int size = 0;
   for (;;) {
     if (count == 0u) {
       RF_STAT(blas_nodes);
-      if (rf_wide_step(&wide[child], r, best->t, &s, &child, &count, &t)) continue;
+      if (rf_wide_step(&wide[child], r, best->t, &s, &size, &child, &count, &t)) continue;
     } else if (rf_trace_leaf_wide(tris, child, count, r, instance_id, tmin, t, any_hit, best)) {
       return;
     }
-    if (!rf_wide_pop(&s, best->t, &child, &count, &t)) return;
+    if (!rf_wide_pop(&s, &size, best->t, &child, &count, &t)) return;
   }
 }
 #endif
@@ -470,16 +472,16 @@ RF_INLINE void rf_trace_query_tlas_wide(const RF_GLOBAL rf_node* nodes, const RF
   rf_ray_cache_reset(&cache);
   rf_u32 child = tlas_wide_root, count = 0;
   rf_wide_stack s;
-  s.size = 0;
+  int size = 0;
   for (;;) {
     if (count == 0u) {
       RF_STAT(tlas_nodes);
-      if (rf_wide_step(&tlas_wide[child], &r, hit->t, &s, &child, &count, &t)) continue;
+      if (rf_wide_step(&tlas_wide[child], &r, hit->t, &s, &size, &child, &count, &t)) continue;
     } else if (rf_trace_instances(nodes, wide, wide_roots, tris, instances, child, count, RF_ORIGIN_ANY, ox, oy, oz,
                                   dx, dy, dz, tmin, any_hit, 1u, &cache, hit)) {
       return;
     }
-    if (!rf_wide_pop(&s, hit->t, &child, &count, &t)) return;
+    if (!rf_wide_pop(&s, &size, hit->t, &child, &count, &t)) return;
   }
 }
 #endif
