@@ -171,3 +171,12 @@ __kernel void ut_lane_bits8(__global const uint* masks, __global uint* out) {
   const int8 set = (((int8)((int)masks[i]) >> lanes) & (int8)(1)) != (int8)(0);
   out[i] = rf_lane_bits8(set);
 }
+
+/* out[0]: 1 where rf_lane_bits8 takes clang's sign-bit instruction. */
+__kernel void ut_lane_bits_path(__global uint* out) {
+#if defined(RF_CLANG_BUILTINS) && defined(__AVX__)
+  out[0] = 1u;
+#else
+  out[0] = 0u;
+#endif
+}

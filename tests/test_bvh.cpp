@@ -737,7 +737,9 @@ TEST(Bvh, EightWideTreesKeepTheBinaryLeavesBelowEveryEntry) {
 // binary nodes that become wide nodes (a scattered ray steps into a node
 // with a chance that goes with its area), each holding at most eight
 // slots and every entry one of its own: against a brute force over every
-// set of binary nodes on small trees, with and without an entry inside.
+// set of binary nodes on small trees, with and without entries inside
+// (listed before and after the root: the costs are made children first
+// whatever the entries' order).
 TEST(Bvh, EightWideTreesHaveTheLeastSummedAreaOfAnyCollapse) {
   Rng rng(97);
   auto half_area = [](const float lo[3], const float hi[3]) {
@@ -757,10 +759,17 @@ TEST(Bvh, EightWideTreesHaveTheLeastSummedAreaOfAnyCollapse) {
       interior.push_back(x);
       todo.insert(todo.end(), {nodes[x].first, nodes[x].first + 1});
     }
-    if (interior.size() < 9 || interior.size() > 17) continue;  // more than eight leaves, few enough to enumerate
+    // Ten leaves or more (a root that cannot hold them all), few enough to
+    // enumerate.
+    if (interior.size() < 9 || interior.size() > 17) continue;
     ++trees;
+    // Entries inside the root's tree, listed after it, before it, or two
+    // of them (one may lie inside the other).
     std::vector<uint32_t> entries = {root};
-    if (trees % 2 == 0) entries.push_back(interior[1 + rng.below(interior.size() - 1)]);  // an entry inside
+    const auto inner = [&] { return interior[1 + rng.below(interior.size() - 1)]; };
+    if (trees % 4 == 1) entries.push_back(inner());
+    if (trees % 4 == 2) entries.insert(entries.begin(), inner());
+    if (trees % 4 == 3) entries = {inner(), root, inner()};
     // Brute force: every set of interior nodes that holds the entries.
     double best = INFINITY;
     for (uint32_t mask = 0; mask < (1u << (interior.size() - 1)); ++mask) {

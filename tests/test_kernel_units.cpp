@@ -96,29 +96,41 @@ void expect_bits_equal(const std::vector<float>& host, const std::vector<float>&
 
 // A comparison's lanes as bits, every mask of eight lanes, on both of
 // rf_lane_bits8's paths: the OR tree any device compiles, and clang's
-// sign-bit instruction where the host says clang compiles for a CPU
-// (RF_CLANG_BUILTINS, as ClTracer does on PoCL).
+// sign-bit instruction where the kernels compile with clang's builtins
+// (PoCL) for a CPU with AVX, which that build must then take.
 TEST_F(KernelUnits, LaneBitsOfEveryMaskOfEightLanes) {
   std::vector<uint32_t> masks(256);
   for (uint32_t m = 0; m < 256; ++m) masks[m] = m;
   std::vector<std::string> builds = {""};
-  const ClDevice& device = testing::test_device();
-  if (device.info().is_cpu && device.info().platform.find("Portable Computing Language") != std::string::npos)
-    builds.push_back("-DRF_CLANG_BUILTINS");
+  if (compiles_with_clang_builtins(testing::test_device().info())) builds.push_back("-DRF_CLANG_BUILTINS");
+  cl::CommandQueue& q = testing::test_device().queue();
   for (const std::string& defines : builds) {
     const cl::Program program =
-        defines.empty() ? *program_ : testing::test_device().build(unit_test_program_source(), KernelPrecision::exact, defines);
+        defines.empty() ? *program_
+                        : testing::test_device().build(unit_test_program_source(), KernelPrecision::exact, defines);
     cl::Kernel k(program, "ut_lane_bits8");
     const cl::Buffer lanes = in(masks), bits = out(masks.size());
     k.setArg(0, lanes);
     k.setArg(1, bits);
-    cl::CommandQueue& q = testing::test_device().queue();
     q.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(masks.size()));
     std::vector<uint32_t> got(masks.size());
     q.enqueueReadBuffer(bits, CL_TRUE, 0, got.size() * sizeof(uint32_t), got.data());
     for (uint32_t m = 0; m < 256; ++m) EXPECT_EQ(got[m], m) << "mask " << m << " built with '" << defines << "'";
+    cl::Kernel probe(program, "ut_lane_bits_path");
+    const cl::Buffer path = out(1);
+    probe.setArg(0, path);
+    q.enqueueNDRangeKernel(probe, cl::NullRange, cl::NDRange(1));
+    uint32_t sign_bits = 2;
+    q.enqueueReadBuffer(path, CL_TRUE, 0, sizeof sign_bits, &sign_bits);
+#if defined(__x86_64__) || defined(__i386__)
+    const bool avx = __builtin_cpu_supports("avx");
+#else
+    const bool avx = false;
+#endif
+    EXPECT_EQ(sign_bits, defines.empty() ? 0u : (avx ? 1u : 0u))
+        << "the path rf_lane_bits8 took, built with '" << defines << "' (1: the sign-bit instruction)";
   }
-  if (builds.size() == 1) std::printf("(the sign-bit path is PoCL's alone; this device ran the OR tree only)\n");
+  if (builds.size() == 1) std::printf("(the sign-bit path needs PoCL; this device ran the OR tree only)\n");
 }
 
 TEST_F(KernelUnits, RayInit) {

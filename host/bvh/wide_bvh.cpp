@@ -2,8 +2,11 @@
 
 #include <array>
 #include <cmath>
+#include <memory>
 #include <optional>
+#include <string>
 #include <unordered_map>
+#include <utility>
 
 #include "util/errors.h"
 
@@ -24,48 +27,43 @@ float half_area(const rf_node& n) {
 // slots a node and every entry a wide node of its own. By dynamic
 // programming over the binary tree, children before parents: cost(n, k),
 // the least area of the wide nodes at and below n's place in its parent
-// when n and what it opens take at most k slots (k = 1: n a wide node of
-// its own). The choices are made again from the children's costs where
-// the nodes are laid out (slots), so only the costs are kept: 32 bytes a
-// node. Against opening the largest child first, the 8-wide trees of the
-// shared scenes have 26% to 40% fewer nodes and 3% to 11% less summed area.
+// when n and what it opens take at most k slots (k = 1: n whole, a wide
+// node of its own if it is interior). The choices are made again from the
+// children's costs where the nodes are laid out (slots), so only the costs
+// are kept. Against opening the largest child first, the 8-wide trees of
+// the shared scenes have 26% to 40% fewer nodes and 3% to 11% less summed
+// area.
 class OptimalCollapse {
  public:
   static constexpr int kMaxWidth = 8;
 
   OptimalCollapse(const rf_node* nodes, size_t node_count, const std::vector<uint32_t>& entries,
                   const std::vector<bool>& is_entry, int width)
-      : nodes_(nodes), is_entry_(is_entry), width_(width), cost_(node_count) {
+      : nodes_(nodes), is_entry_(is_entry), width_(width), cost_(new Costs[node_count]) {
     RF_CHECK(width >= 2 && width <= kMaxWidth, "wide nodes of 2 to 8 slots");
-    // Every node below the entries once, parents before children; then
-    // taken the other way round.
-    std::vector<uint32_t> order, stack(entries.begin(), entries.end());
+    // Every node below the entries once, each after both its children (a
+    // node is marked when first reached and costed when reached again with
+    // its subtree done): entries may lie inside other entries' trees, and a
+    // shared subtree is costed on the first path that reaches it.
     std::vector<bool> seen(node_count, false);
+    std::vector<std::pair<uint32_t, bool>> stack;  // (node, its children costed)
+    for (uint32_t e : entries) stack.emplace_back(e, false);
     while (!stack.empty()) {
-      const uint32_t x = stack.back();
+      const auto [x, children_done] = stack.back();
       stack.pop_back();
-      if (seen[x]) continue;
-      seen[x] = true;
-      order.push_back(x);
-      if (!is_leaf(nodes[x])) {
-        RF_CHECK(nodes[x].first + 1 < node_count, "a wide tree's binary child outside the node array");
-        stack.push_back(nodes[x].first);
-        stack.push_back(nodes[x].first + 1);
-      }
-    }
-    for (auto it = order.rbegin(); it != order.rend(); ++it) {
-      const uint32_t x = *it;
-      Costs& c = cost_[x];
-      if (is_leaf(nodes[x])) {
-        c.fill(0.0f);
+      if (children_done) {
+        cost(x, width);
         continue;
       }
-      int unused;
-      c[0] = half_area(nodes[x]) + opened(x, width, &unused);
-      for (int k = 2; k <= width; ++k) {
-        const float o = opened(x, k, &unused);
-        c[k - 1] = keeps_whole(x, o) ? c[0] : o;
-      }
+      if (seen[x]) continue;
+      seen[x] = true;
+      stack.emplace_back(x, true);
+      if (is_leaf(nodes[x])) continue;
+      RF_CHECK(size_t{nodes[x].first} + 1 < node_count,
+               "binary node " + std::to_string(x) + "'s children " + std::to_string(nodes[x].first) +
+                   " and the next lie outside the " + std::to_string(node_count) + " nodes");
+      stack.emplace_back(nodes[x].first, false);
+      stack.emplace_back(nodes[x].first + 1, false);
     }
   }
 
@@ -82,7 +80,8 @@ class OptimalCollapse {
   using Costs = std::array<float, kMaxWidth>;  // [k - 1]: cost(n, k)
 
   // The least cost of x's two children in at most k slots, *left of them
-  // the first child's (the fewest where several tie).
+  // the first child's (the fewest where several tie: one rule, so that
+  // slots() re-makes the constructor's choice).
   float opened(uint32_t x, int k, int* left) const {
     const Costs& l = cost_[nodes_[x].first];
     const Costs& r = cost_[nodes_[x].first + 1];
@@ -95,8 +94,24 @@ class OptimalCollapse {
     return best;
   }
 
+  // cost(x, 1 .. width), its children's costs already made.
+  void cost(uint32_t x, int width) {
+    Costs& c = cost_[x];
+    if (is_leaf(nodes_[x])) {
+      c.fill(0.0f);  // a leaf's share is the same wherever it sits
+      return;
+    }
+    int unused;
+    c[0] = half_area(nodes_[x]) + opened(x, width, &unused);
+    for (int k = 2; k <= width; ++k) {
+      const float o = opened(x, k, &unused);
+      c[k - 1] = keeps_whole(x, o) ? c[0] : o;
+    }
+  }
+
   // Interior node x stays one slot, its own wide node, rather than opened
-  // at cost `open`: an entry always; a tie too.
+  // at cost `open`: an entry always (other walks start there); on a tie too,
+  // for the fewer slots and the same decision wherever it is made.
   bool keeps_whole(uint32_t x, float open) const { return is_entry_[x] || !(open < cost_[x][0]); }
 
   // Node n and what it opens into at most k slots.
@@ -113,7 +128,9 @@ class OptimalCollapse {
   const rf_node* nodes_;
   const std::vector<bool>& is_entry_;
   int width_;
-  PageAlignedVector<Costs> cost_;  // per node below an entry; the others unwritten
+  // Per node below an entry, the others unwritten; plain heap memory, given
+  // back when the collapse ends (32 bytes a node while it runs).
+  std::unique_ptr<Costs[]> cost_;
 };
 
 template <class WideNode>

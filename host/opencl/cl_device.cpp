@@ -153,6 +153,10 @@ OpenClPreload::OpenClPreload() {
 
 OpenClPreload::~OpenClPreload() { wait_for_preload(); }
 
+bool compiles_with_clang_builtins(const DeviceInfo& info) {
+  return info.is_cpu && info.platform.find("Portable Computing Language") != std::string::npos;
+}
+
 std::vector<DeviceInfo> list_devices() {
   std::vector<DeviceInfo> out;
   for (const Candidate& c : all_devices()) out.push_back(describe(c));

@@ -27,6 +27,11 @@ struct DeviceInfo {
   unsigned native_float_width = 1;  // CL_DEVICE_NATIVE_VECTOR_WIDTH_FLOAT: 8 with AVX2, 16 with AVX-512
 };
 
+// Whether the kernels compile with clang for a CPU (PoCL's CPU devices), so
+// that clang's builtins exist there: prefetch, vector reductions, x86
+// instructions where the target has them (RF_CLANG_BUILTINS, kernels/).
+bool compiles_with_clang_builtins(const DeviceInfo& info);
+
 // OpenCL drivers keep worker threads (PoCL's pthread device) and driver
 // state that a fork does not carry into the child, where the first command
 // then waits forever. A child forked after this process (or its parent)

@@ -59,10 +59,7 @@ ClTracer::Programs& ClTracer::programs_for(int groups) {
   std::string defines =
       "-DRF_LANES=" + std::to_string(tile_lanes(device_.info())) + " -DRF_MAX_GROUPS=" + std::to_string(size);
   if (tile_stats_) defines += " -DRF_TILE_STATS";
-  // PoCL's CPU devices compile with clang: its prefetch and vector
-  // reductions exist there (kernels/rf_common.h, rf_lanes.h).
-  if (device_.info().is_cpu && device_.info().platform.find("Portable Computing Language") != std::string::npos)
-    defines += " -DRF_CLANG_BUILTINS";
+  if (compiles_with_clang_builtins(device_.info())) defines += " -DRF_CLANG_BUILTINS";
   Programs p;
   p.groups = size;
   const auto start = Clock::now();
