@@ -23,21 +23,29 @@ typedef float16 rf_vf;
 typedef int16 rf_vi;
 typedef uint16 rf_vu;
 #define rf_lanes_load_u vload16 /* RF_LANES consecutive rf_u32 as rf_vu */
+#define rf_lanes_load_i vload16 /* RF_LANES consecutive ints as rf_vi */
 #elif RF_LANES == 8
 typedef float8 rf_vf;
 typedef int8 rf_vi;
 typedef uint8 rf_vu;
 #define rf_lanes_load_u vload8
+#define rf_lanes_load_i vload8
 #else
 #error "RF_LANES must be 8 or 16"
 #endif
 
-/* Any lane set (a lane of a comparison mask is -1 or 0). PoCL compiles the
- * built-in any() on wide vectors to a chain of shuffles and branches; clang's
- * reduction lets LLVM test the comparison's mask register directly (one
- * kortest with AVX-512), else an OR tree by hand. */
+/* Any lane set (a lane of a comparison mask is -1 or 0): any lane's sign
+ * bit. PoCL compiles the built-in any() on wide vectors to a chain of
+ * shuffles and branches; clang's reduction lets LLVM test the comparison's
+ * mask register directly (one kortest with AVX-512), else an OR tree by
+ * hand. Eight lanes with AVX (PoCL's AVX2 devices): the sign bits in one
+ * instruction (movmskps), where LLVM made the reduction a pack, a shift and
+ * a byte mask on the path from each test to its branch (random views 1.03x
+ * to 1.05x faster on all seven scenes). */
 RF_INLINE int rf_lanes_any(rf_vi m) {
-#ifdef RF_CLANG_BUILTINS
+#if defined(RF_CLANG_BUILTINS) && defined(__AVX__) && RF_LANES == 8
+  return __builtin_ia32_movmskps256(as_float8(m)) != 0;
+#elif defined(RF_CLANG_BUILTINS)
   return __builtin_reduce_or(m) < 0;
 #else
 #if RF_LANES == 16

@@ -180,3 +180,22 @@ __kernel void ut_lane_bits_path(__global uint* out) {
   out[0] = 0u;
 #endif
 }
+
+/* RF_LANES ints per case (a lane vector, any values); out: rf_lanes_any of it. */
+__kernel void ut_lanes_any(__global const int* lanes, __global uint* out) {
+  const uint i = get_global_id(0);
+  out[i] = (uint)rf_lanes_any(rf_lanes_load_i(i, lanes));
+}
+
+/* out[0]: the path rf_lanes_any takes in this build (2: the sign bits in
+ * one instruction, 1: clang's reduction, 0: the OR tree); out[1]: RF_LANES. */
+__kernel void ut_lanes_any_path(__global uint* out) {
+#if defined(RF_CLANG_BUILTINS) && defined(__AVX__) && RF_LANES == 8
+  out[0] = 2u;
+#elif defined(RF_CLANG_BUILTINS)
+  out[0] = 1u;
+#else
+  out[0] = 0u;
+#endif
+  out[1] = RF_LANES;
+}

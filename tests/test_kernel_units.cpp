@@ -133,6 +133,71 @@ TEST_F(KernelUnits, LaneBitsOfEveryMaskOfEightLanes) {
   if (builds.size() == 1) std::printf("(the sign-bit path needs PoCL; this device ran the OR tree only)\n");
 }
 
+// rf_lanes_any on every path it has (eight and sixteen lanes, with clang's
+// builtins where the device is PoCL's and without): any lane whose sign bit
+// is set, whatever its other bits. Eight lanes: every pattern of sign bits;
+// sixteen: each lane alone and random patterns. The low bits are random, so
+// a path that tested a lane's value other than by its sign fails.
+TEST_F(KernelUnits, LanesAnyOnEveryPath) {
+  Rng rng(11);
+  cl::CommandQueue& q = testing::test_device().queue();
+  const bool builtins = compiles_with_clang_builtins(testing::test_device().info());
+#if defined(__x86_64__) || defined(__i386__)
+  const bool avx = __builtin_cpu_supports("avx");
+#else
+  const bool avx = false;
+#endif
+  for (int lanes : {8, 16}) {
+    const size_t cases = 256 + 16 + 256;
+    std::vector<int32_t> values(cases * lanes);
+    std::vector<uint32_t> expected(cases);
+    for (size_t c = 0; c < cases; ++c) {
+      uint32_t signs;
+      if (c < 256)
+        signs = lanes == 8 ? static_cast<uint32_t>(c) : static_cast<uint32_t>(c) << (c % 2 ? 8 : 0);
+      else if (c < 256 + 16)
+        signs = 1u << (c - 256);
+      else
+        signs = static_cast<uint32_t>(rng.next()) & ((1u << lanes) - 1u) & (rng.below(2) ? 0xFFFFFFFFu : 0x11u);
+      signs &= (1u << lanes) - 1u;
+      for (int l = 0; l < lanes; ++l) {
+        const uint32_t low = static_cast<uint32_t>(rng.next()) & 0x7FFFFFFFu;
+        const uint32_t bits = ((signs >> l) & 1u) ? 0x80000000u | low : low;
+        std::memcpy(&values[c * lanes + l], &bits, sizeof bits);
+      }
+      expected[c] = signs != 0;
+    }
+    std::vector<std::string> builds = {"-DRF_LANES=" + std::to_string(lanes)};
+    if (builtins) builds.push_back(builds[0] + " -DRF_CLANG_BUILTINS");
+    for (const std::string& defines : builds) {
+      const cl::Program program =
+          testing::test_device().build(unit_test_program_source(), KernelPrecision::exact, defines);
+      cl::Kernel k(program, "ut_lanes_any");
+      const cl::Buffer input = in(values), answers = out(cases);
+      k.setArg(0, input);
+      k.setArg(1, answers);
+      q.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(cases));
+      std::vector<uint32_t> got(cases);
+      q.enqueueReadBuffer(answers, CL_TRUE, 0, got.size() * sizeof(uint32_t), got.data());
+      for (size_t c = 0; c < cases; ++c)
+        ASSERT_EQ(got[c], expected[c]) << "case " << c << ", lane values from " << values[c * lanes] << ", built with '"
+                                       << defines << "'";
+      cl::Kernel probe(program, "ut_lanes_any_path");
+      const cl::Buffer path = out(2);
+      probe.setArg(0, path);
+      q.enqueueNDRangeKernel(probe, cl::NullRange, cl::NDRange(1));
+      uint32_t taken[2] = {9, 0};
+      q.enqueueReadBuffer(path, CL_TRUE, 0, sizeof taken, taken);
+      const bool with_builtins = defines.find("RF_CLANG_BUILTINS") != std::string::npos;
+      EXPECT_EQ(taken[1], static_cast<uint32_t>(lanes)) << "built with '" << defines << "'";
+      EXPECT_EQ(taken[0], !with_builtins ? 0u : (avx && lanes == 8 ? 2u : 1u))
+          << "the path rf_lanes_any took, built with '" << defines
+          << "' (2: the sign bits in one instruction, 1: clang's reduction, 0: the OR tree)";
+    }
+  }
+  if (!builtins) std::printf("(the builtin paths need PoCL; this device ran the OR tree only)\n");
+}
+
 TEST_F(KernelUnits, RayInit) {
   Rng rng(1);
   const size_t n = 4096;
