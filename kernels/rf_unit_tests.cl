@@ -187,8 +187,8 @@ __kernel void ut_lanes_any(__global const int* lanes, __global uint* out) {
   out[i] = (uint)rf_lanes_any(rf_lanes_load_i(i, lanes));
 }
 
-/* out[0]: the path rf_lanes_any takes in this build (2: the sign bits in
- * one instruction, 1: clang's reduction, 0: the OR tree); out[1]: RF_LANES. */
+/* out[0]: the path rf_lanes_any takes in this build (2: the sign bits
+ * tested in one instruction, 1: clang's reduction, 0: the OR tree); out[1]: RF_LANES. */
 __kernel void ut_lanes_any_path(__global uint* out) {
 #if defined(RF_CLANG_BUILTINS) && defined(__AVX__) && RF_LANES == 8
   out[0] = 2u;

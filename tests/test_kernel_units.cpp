@@ -192,7 +192,7 @@ TEST_F(KernelUnits, LanesAnyOnEveryPath) {
       EXPECT_EQ(taken[1], static_cast<uint32_t>(lanes)) << "built with '" << defines << "'";
       EXPECT_EQ(taken[0], !with_builtins ? 0u : (avx && lanes == 8 ? 2u : 1u))
           << "the path rf_lanes_any took, built with '" << defines
-          << "' (2: the sign bits in one instruction, 1: clang's reduction, 0: the OR tree)";
+          << "' (2: the sign bits tested in one instruction, 1: clang's reduction, 0: the OR tree)";
     }
   }
   if (!builtins) std::printf("(the builtin paths need PoCL; this device ran the OR tree only)\n");
