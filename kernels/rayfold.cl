@@ -99,6 +99,14 @@ __kernel void rf_trace_query_tiles(__global const rf_node* nodes, __global const
   for (int k = 0; k < RF_TILE_STAT_COUNT; ++k) stats[k] = 0u;
 #endif
   const uint begin = tiles[t];
+  /* The next tile's directions, a quad row of four rays at a time, asked
+   * for while this one traces: read in the tile's order through the
+   * caller's rows, they were cache misses one after another. */
+  if (t + 1 < tile_count) {
+    const uint next = tiles[t + 1], next_count = tiles[t + 2] - next;
+    for (uint l = 0; l < next_count; l += 4)
+      RF_PREFETCH_LINE(directions + 3 * (size_t)(ordered ? order[next + l] : next + l));
+  }
   const rf_query_arrays rays = {origins, directions, tmin, tmax, exponent};
   rf_trace_query_tile(&rays, begin, tiles[t + 1] - begin, nodes, wide, tris, instances, normal_xforms, tlas_root,
                       write_flags, ordered ? order : 0, out RF_TSTAT_ARG);
