@@ -377,7 +377,8 @@ std::vector<std::string> Renderer::intersect(const float* origins, const float* 
   // hit, or crashed, where the exact build answers).
   if (tracer_ && options_.precision == KernelPrecision::fast)
     throw InputError("", "ray queries run on the exact build only; this renderer was made with the fast one");
-  const float origin_bound = check_query_rays(origins, directions, n, tmin, tmax);
+  bool one_origin = false;
+  const float origin_bound = check_query_rays(origins, directions, n, tmin, tmax, &one_origin);
   if (n == 0) return {};
   // Two frames can serve a query: the re-braided one, for the tile kernel
   // and the CPU reference, and one of whole trees for the single-ray kernel
@@ -416,8 +417,11 @@ std::vector<std::string> Renderer::intersect(const float* origins, const float* 
     QueryTiles& tiles = query_plan_;
     tiles.tiles.clear();
     tiles.scattered.clear();
+    // (One origin for all is one for each chunk; a chunk's may be one
+    // where all are not.)
     if (tracer_ && kernel_ == KernelKind::tile)
-      plan_query_tiles(origins + 3 * begin, end - begin, row_length, kMinQueryTileRays, tiles);
+      plan_query_tiles(origins + 3 * begin, end - begin, row_length, kMinQueryTileRays, tiles,
+                       one_origin ? std::optional<bool>(true) : std::nullopt);
     // The others one by one, neighbours in space and direction one after
     // the other.
     if (tiles.tiles.empty())

@@ -859,5 +859,42 @@ TEST(RayQuery, BadRaysNameTheFirst) {
   EXPECT_EQ(error(Rays{}), "") << "no rays: no answers, no error";
 }
 
+// check_query_rays says whether every origin is ray 0's, bit for bit (the
+// plan then takes a camera's blocks as its tiles without looking again):
+// one bit of one coordinate of one ray anywhere, in any chunk of its pass,
+// and a negative zero for a zero, make it false.
+TEST(RayQuery, TheCheckSeesWhetherEveryOriginIsTheFirst) {
+  const size_t n = 200000;  // past three of the check's chunks of 2^16 rays
+  Rays rays;
+  for (size_t i = 0; i < n; ++i) {
+    rays.o.insert(rays.o.end(), {1.5f, 0.0f, -3.0f});
+    rays.d.insert(rays.d.end(), {0.1f, static_cast<float>(i % 7) - 3.0f, -1.0f});
+  }
+  const size_t width = 400;  // as an image of 500 rows: the plan takes blocks
+  bool one = false;
+  check_query_rays(rays.o.data(), rays.d.data(), n, 0.0f, INFINITY, &one);
+  EXPECT_TRUE(one);
+  QueryTiles hinted;
+  plan_query_tiles(rays.o.data(), n, width, 128, hinted, one);
+  EXPECT_EQ(hinted.tiles, plan_query_tiles(rays.o.data(), n, width, 128).tiles) << "one origin, told so";
+  for (size_t ray : {size_t{1}, size_t{65535}, size_t{65536}, size_t{131073}, n - 1})
+    for (int k = 0; k < 3; ++k) {
+      Rays moved = rays;
+      float& c = moved.o[3 * ray + k];
+      c = k == 1 ? -0.0f : std::nextafter(c, INFINITY);
+      one = true;
+      check_query_rays(moved.o.data(), moved.d.data(), n, 0.0f, INFINITY, &one);
+      EXPECT_FALSE(one) << "ray " << ray << ", coordinate " << k << " moved to " << c;
+      // The plan told so finds the same: the ray breaks its tile off.
+      const QueryTiles told = plan_query_tiles(moved.o.data(), n, width, 128);
+      plan_query_tiles(moved.o.data(), n, width, 128, hinted, one);
+      EXPECT_EQ(hinted.tiles, told.tiles) << "ray " << ray << ", coordinate " << k;
+      EXPECT_GT(told.tiles.size(), n / RF_TILE_RAYS + 2) << "the moved ray breaks its block's tile";
+    }
+  one = false;
+  check_query_rays(rays.o.data(), rays.d.data(), 0, 0.0f, INFINITY, &one);
+  EXPECT_TRUE(one) << "no rays: every one of them has the first origin";
+}
+
 }  // namespace
 }  // namespace rayfold::core

@@ -24,7 +24,8 @@ std::string ray_text(const char* what, size_t i, const float* v) {
 
 }  // namespace
 
-float check_query_rays(const float* origins, const float* directions, size_t n, float tmin, float tmax) {
+float check_query_rays(const float* origins, const float* directions, size_t n, float tmin, float tmax,
+                       bool* one_origin) {
   if (!(tmin >= 0.0f) || !std::isfinite(tmin) || !(tmax >= tmin))
     throw InputError("", "tmin and tmax must satisfy 0 <= tmin <= tmax (tmax may be inf), not tmin " +
                              std::to_string(tmin) + ", tmax " + std::to_string(tmax));
@@ -38,32 +39,45 @@ float check_query_rays(const float* origins, const float* directions, size_t n, 
   uint32_t limit_bits;
   const float limit = static_cast<float>(kMaxWorldCoordinate);
   std::memcpy(&limit_bits, &limit, sizeof limit);
-  uint32_t bad = 0, largest = 0;
-  const auto bits = [](const float* p, size_t i) {
+  uint32_t bad = 0, largest = 0, moved = 0;
+  const auto word = [](const float* p, size_t i) {
     uint32_t w;
     std::memcpy(&w, p + i, sizeof w);
-    return w & kAbs;
+    return w;
   };
-  // On both threads, in chunks of whole rays.
+  const auto bits = [&](const float* p, size_t i) { return word(p, i) & kAbs; };
+  uint32_t first[3] = {0, 0, 0};
+  if (n != 0)
+    for (int k = 0; k < 3; ++k) first[k] = word(origins, k);
+  // On both threads, in chunks of whole rays. Whether every origin is ray
+  // 0's comes with the pass (plan_query_tiles asks; a pass of its own over
+  // the origins, on one thread, was 4% of a camera's rays as arrays).
   constexpr size_t kChunk = size_t{1} << 16;
-  std::vector<uint32_t> chunk_bad((n + kChunk - 1) / kChunk), chunk_largest(chunk_bad.size());
+  std::vector<uint32_t> chunk_bad((n + kChunk - 1) / kChunk), chunk_largest(chunk_bad.size()),
+      chunk_moved(chunk_bad.size());
   parallel_for(n, 0, kChunk, [&](size_t lo, size_t hi) {
-    uint32_t b = 0, l = 0;
+    uint32_t b = 0, l = 0, m = 0;
     for (size_t i = 3 * lo; i < 3 * hi; ++i) {  // flat over the coordinates: this loop vectorises
       const uint32_t ao = bits(origins, i), ad = bits(directions, i);
       l = std::max(l, ao);
       b |= static_cast<uint32_t>(ao > limit_bits) | static_cast<uint32_t>(ad >= kInf);
     }
-    for (size_t i = lo; i < hi; ++i)
+    for (size_t i = lo; i < hi; ++i) {
       b |= static_cast<uint32_t>(
           (bits(directions, 3 * i) | bits(directions, 3 * i + 1) | bits(directions, 3 * i + 2)) == 0);
+      m |= (word(origins, 3 * i) ^ first[0]) | (word(origins, 3 * i + 1) ^ first[1]) |
+           (word(origins, 3 * i + 2) ^ first[2]);
+    }
     chunk_bad[lo / kChunk] = b;
     chunk_largest[lo / kChunk] = l;
+    chunk_moved[lo / kChunk] = m;
   });
   for (size_t c = 0; c < chunk_bad.size(); ++c) {
     bad |= chunk_bad[c];
     largest = std::max(largest, chunk_largest[c]);
+    moved |= chunk_moved[c];
   }
+  if (one_origin) *one_origin = moved == 0;
   if (bad == 0) {
     float out;
     std::memcpy(&out, &largest, sizeof out);
@@ -220,7 +234,8 @@ bool one_origin(const float* origins, size_t n) {
 
 }  // namespace
 
-void plan_query_tiles(const float* origins, size_t n, size_t row_length, size_t min_rays, QueryTiles& plan) {
+void plan_query_tiles(const float* origins, size_t n, size_t row_length, size_t min_rays, QueryTiles& plan,
+                      std::optional<bool> same_origin) {
   plan.tiles.clear();
   if (n == 0) return;
   // An image's rays in RF_TILE_SIDE-square tiles; the order is kept for the
@@ -242,7 +257,7 @@ void plan_query_tiles(const float* origins, size_t n, size_t row_length, size_t 
     }
   }
   const std::vector<uint32_t>& block_starts = plan.image_tiles;
-  if (blocks && one_origin(origins, n)) {  // a camera's: the blocks are the tiles
+  if (blocks && (same_origin ? *same_origin : one_origin(origins, n))) {  // a camera's: the blocks are the tiles
     plan.tiles = block_starts;
     plan.tiles.push_back(static_cast<uint32_t>(n));
     return;

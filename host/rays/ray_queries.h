@@ -6,6 +6,7 @@
 #pragma once
 
 #include <cstddef>
+#include <optional>
 #include <vector>
 
 #include "bvh/wide_bvh.h"
@@ -19,8 +20,10 @@ namespace rayfold::core {
 // coordinate not finite, a zero direction, or an origin beyond world
 // coordinates of 2^126; or tmin, tmax not 0 <= tmin <= tmax (tmax may be
 // +inf).
-// Returns the largest |coordinate| of any origin.
-float check_query_rays(const float* origins, const float* directions, size_t n, float tmin, float tmax);
+// Returns the largest |coordinate| of any origin; *one_origin (unless null):
+// whether every ray has ray 0's origin, bit for bit.
+float check_query_rays(const float* origins, const float* directions, size_t n, float tmin, float tmax,
+                       bool* one_origin = nullptr);
 
 // The camera whose trace space queries use: at the world's origin, looking
 // down -z, so that its trace space is world space scaled by 2^-e.
@@ -75,7 +78,10 @@ struct QueryTiles {
 QueryTiles plan_query_tiles(const float* origins, size_t n, size_t row_length, size_t min_rays);
 // The same into `plan`, reusing the image order it holds when the image
 // size is the one it was made for (3 ms a 720p query otherwise).
-void plan_query_tiles(const float* origins, size_t n, size_t row_length, size_t min_rays, QueryTiles& plan);
+// same_origin: whether every ray has ray 0's origin where the caller knows
+// (check_query_rays), else looked at here.
+void plan_query_tiles(const float* origins, size_t n, size_t row_length, size_t min_rays, QueryTiles& plan,
+                      std::optional<bool> same_origin = std::nullopt);
 // Rays per chunk of a query (memory stays bounded): 2^20, in whole bands
 // of RF_TILE_SIDE rows of row_length where that is given.
 size_t query_chunk_rays(size_t row_length);
