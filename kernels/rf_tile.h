@@ -114,6 +114,9 @@ typedef struct {
  * maxima (their NaN rule), and one chain of 32 waited on each one before
  * (5% of the dragon's leaf time). The lanes hold no NaN, so the value is
  * the same (a zero's sign aside, which no comparison with it sees). */
+#if RF_LANE_GROUPS % 4 != 0
+#error "rf_tile_update_tmax takes the lane groups four at a time"
+#endif
 RF_INLINE void rf_tile_update_tmax(rf_tile_hits* h) {
   rf_vf m0 = h->t[0], m1 = h->t[1], m2 = h->t[2], m3 = h->t[3];
   for (int j = 4; j < RF_LANE_GROUPS; j += 4) {

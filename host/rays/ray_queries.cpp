@@ -50,8 +50,9 @@ float check_query_rays(const float* origins, const float* directions, size_t n, 
   if (n != 0)
     for (int k = 0; k < 3; ++k) first[k] = word(origins, k);
   // On both threads, in chunks of whole rays. Whether every origin is ray
-  // 0's comes with the pass (plan_query_tiles asks; a pass of its own over
-  // the origins, on one thread, was 4% of a camera's rays as arrays).
+  // 0's comes with the pass (the renderer hands it to plan_query_tiles,
+  // whose own pass over the origins, on one thread, was 4% of a camera's
+  // rays as arrays).
   constexpr size_t kChunk = size_t{1} << 16;
   std::vector<uint32_t> chunk_bad((n + kChunk - 1) / kChunk), chunk_largest(chunk_bad.size()),
       chunk_moved(chunk_bad.size());
