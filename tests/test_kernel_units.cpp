@@ -16,6 +16,16 @@ namespace {
 
 using testing::Rng;
 
+// Whether this CPU has AVX: where PoCL (whose device is this CPU) compiles
+// the kernels' sign-bit instructions.
+bool host_has_avx() {
+#if defined(__x86_64__) || defined(__i386__)
+  return __builtin_cpu_supports("avx");
+#else
+  return false;
+#endif
+}
+
 class KernelUnits : public ::testing::Test {
  protected:
   // A program that does not build fails every test, saying why (thrown
@@ -122,11 +132,7 @@ TEST_F(KernelUnits, LaneBitsOfEveryMaskOfEightLanes) {
     q.enqueueNDRangeKernel(probe, cl::NullRange, cl::NDRange(1));
     uint32_t sign_bits = 2;
     q.enqueueReadBuffer(path, CL_TRUE, 0, sizeof sign_bits, &sign_bits);
-#if defined(__x86_64__) || defined(__i386__)
-    const bool avx = __builtin_cpu_supports("avx");
-#else
-    const bool avx = false;
-#endif
+    const bool avx = host_has_avx();
     EXPECT_EQ(sign_bits, defines.empty() ? 0u : (avx ? 1u : 0u))
         << "the path rf_lane_bits8 took, built with '" << defines << "' (1: the sign-bit instruction)";
   }
@@ -142,11 +148,7 @@ TEST_F(KernelUnits, LanesAnyOnEveryPath) {
   Rng rng(11);
   cl::CommandQueue& q = testing::test_device().queue();
   const bool builtins = compiles_with_clang_builtins(testing::test_device().info());
-#if defined(__x86_64__) || defined(__i386__)
-  const bool avx = __builtin_cpu_supports("avx");
-#else
-  const bool avx = false;
-#endif
+  const bool avx = host_has_avx();
   for (int lanes : {8, 16}) {
     const size_t cases = 256 + 16 + 256;
     std::vector<int32_t> values(cases * lanes);
