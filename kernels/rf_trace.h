@@ -272,6 +272,32 @@ RF_INLINE int rf_wide_pop(const rf_wide_stack* s, int* size, float bound, rf_u32
   return 0;
 }
 
+/* The children a step pushed below the nearest (stack entries from .. to -
+ * 1), their nodes' or triangles' cache lines asked for while the nearest
+ * is walked: the first load of a node's boxes is the walk's hottest
+ * instruction in perf, a cache miss on the dense meshes, whose trees and
+ * triangles are far larger than the cache. 1M scattered rays 1.06x faster
+ * on the armadillo, 1.11x on the dragon, 1.01x to 1.02x on the interiors,
+ * the car 0.99x. The nearest child is read at once, too soon for a hint. */
+RF_INLINE void rf_wide_prefetch_pushed(const rf_wide_stack* s, int from, int to, const RF_GLOBAL rf_wide8_node* wide,
+                                       const RF_GLOBAL rf_tri* tris) {
+  for (int i = from; i < to; ++i) {
+    const rf_u32 c = s->child[i], count = s->count[i];
+    if (count == 0u) {
+      const RF_GLOBAL char* p = (const RF_GLOBAL char*)&wide[c];
+      RF_PREFETCH_LINE(p);
+      RF_PREFETCH_LINE(p + 64);
+      RF_PREFETCH_LINE(p + 128);
+      RF_PREFETCH_LINE(p + 192);
+    } else {
+      const RF_GLOBAL char* p = (const RF_GLOBAL char*)&tris[c];
+      const RF_GLOBAL char* end = (const RF_GLOBAL char*)&tris[c + count];
+      for (; p < end; p += 64) RF_PREFETCH_LINE(p);
+      RF_PREFETCH_LINE(end - 1);
+    }
+  }
+}
+
 /* rf_trace_blas through the 8-wide tree of the same leaves (binary root
  * `root`, its children in 8-wide node `wide_root`; rf_types.h,
  * rf_wide8_node): the same hits, bit for bit. A leaf is entered where its
@@ -297,7 +323,9 @@ RF_INLINE void rf_trace_blas_wide(const RF_GLOBAL rf_node* nodes, const RF_GLOBA
   for (;;) {
     if (count == 0u) {
       RF_STAT(blas_nodes);
+      const int before = size;
       if (rf_wide_step(&wide[child], r, best->t, &s, &size, &child, &count, &t)) continue;
+      rf_wide_prefetch_pushed(&s, before, size - 1, wide, tris);
     } else if (rf_trace_leaf_wide(tris, child, count, r, instance_id, tmin, t, any_hit, best)) {
       return;
     }
