@@ -85,6 +85,13 @@ extern thread_local rf_traversal_stats rf_stats;
 #define RF_PREFETCH_LINE(p) ((void)0)
 #endif
 
+/* The hint for every cache line of the bytes [first, end), end > first:
+ * the lines a leaf's triangles or a node span, wherever they start. */
+RF_INLINE void rf_prefetch_bytes(const RF_GLOBAL char* first, const RF_GLOBAL char* end) {
+  for (const RF_GLOBAL char* line = first; line < end; line += 64) RF_PREFETCH_LINE(line);
+  RF_PREFETCH_LINE(end - 1);
+}
+
 /* "Nothing hit yet" and "box missed" inside the traversal: the largest
  * finite float, not +inf, because the fast build (-cl-fast-relaxed-math)
  * assumes finite math and may fold comparisons with infinity away. Only the

@@ -463,10 +463,7 @@ RF_INLINE int rf_tile_push_wide(const RF_GLOBAL rf_wide_node* wide, rf_u32 w, co
     if (count != 0u) {
       /* Every line of the leaf's triangles: dense meshes' leaves hold 4
        * to 8 (their leaf cost), 4 to 7 lines of 56-byte triangles. */
-      const RF_GLOBAL char* first = (const RF_GLOBAL char*)&tris[child];
-      const RF_GLOBAL char* end = (const RF_GLOBAL char*)&tris[child + count];
-      for (const RF_GLOBAL char* line = first; line < end; line += 64) RF_PREFETCH_LINE(line);
-      RF_PREFETCH_LINE(end - 1);
+      rf_prefetch_bytes((const RF_GLOBAL char*)&tris[child], (const RF_GLOBAL char*)&tris[child + count]);
     } else {
       RF_PREFETCH_LINE(&wide[child]);
       RF_PREFETCH_LINE(&wide[child].child[0]);

@@ -283,18 +283,10 @@ RF_INLINE void rf_wide_prefetch_pushed(const rf_wide_stack* s, int from, int to,
                                        const RF_GLOBAL rf_tri* tris) {
   for (int i = from; i < to; ++i) {
     const rf_u32 c = s->child[i], count = s->count[i];
-    if (count == 0u) {
-      const RF_GLOBAL char* p = (const RF_GLOBAL char*)&wide[c];
-      RF_PREFETCH_LINE(p);
-      RF_PREFETCH_LINE(p + 64);
-      RF_PREFETCH_LINE(p + 128);
-      RF_PREFETCH_LINE(p + 192);
-    } else {
-      const RF_GLOBAL char* p = (const RF_GLOBAL char*)&tris[c];
-      const RF_GLOBAL char* end = (const RF_GLOBAL char*)&tris[c + count];
-      for (; p < end; p += 64) RF_PREFETCH_LINE(p);
-      RF_PREFETCH_LINE(end - 1);
-    }
+    if (count == 0u)
+      rf_prefetch_bytes((const RF_GLOBAL char*)&wide[c], (const RF_GLOBAL char*)&wide[c + 1]);
+    else
+      rf_prefetch_bytes((const RF_GLOBAL char*)&tris[c], (const RF_GLOBAL char*)&tris[c + count]);
   }
 }
 
