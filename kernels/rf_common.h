@@ -85,8 +85,9 @@ extern thread_local rf_traversal_stats rf_stats;
 #define RF_PREFETCH_LINE(p) ((void)0)
 #endif
 
-/* The hint for every cache line of the bytes [first, end), end > first:
- * the lines a leaf's triangles or a node span, wherever they start. */
+/* The hint for every cache line of the bytes [first, end), end > first.
+ * end - 1 too: a range that starts inside a line (56-byte triangles) can
+ * end in a line the 64-byte steps pass over. */
 RF_INLINE void rf_prefetch_bytes(const RF_GLOBAL char* first, const RF_GLOBAL char* end) {
   for (const RF_GLOBAL char* line = first; line < end; line += 64) RF_PREFETCH_LINE(line);
   RF_PREFETCH_LINE(end - 1);

@@ -272,13 +272,14 @@ RF_INLINE int rf_wide_pop(const rf_wide_stack* s, int* size, float bound, rf_u32
   return 0;
 }
 
-/* The children a step pushed below the nearest (stack entries from .. to -
- * 1), their nodes' or triangles' cache lines asked for while the nearest
- * is walked: the first load of a node's boxes is the walk's hottest
+/* The children a step pushed below the nearest (stack entries [from, to)),
+ * their nodes' or triangles' cache lines asked for while the nearest is
+ * walked: the first load of a node's boxes is the walk's hottest
  * instruction in perf, a cache miss on the dense meshes, whose trees and
  * triangles are far larger than the cache. 1M scattered rays 1.06x faster
- * on the armadillo, 1.11x on the dragon, 1.01x to 1.02x on the interiors,
- * the car 0.99x. The nearest child is read at once, too soon for a hint. */
+ * on the armadillo, 1.11x on the dragon; Sponza and Lost Empire 1.02x, the
+ * conference room and the car 0.98x to 1.01x. The nearest child is read at
+ * once, too soon for a hint. */
 RF_INLINE void rf_wide_prefetch_pushed(const rf_wide_stack* s, int from, int to, const RF_GLOBAL rf_wide8_node* wide,
                                        const RF_GLOBAL rf_tri* tris) {
   for (int i = from; i < to; ++i) {
