@@ -45,10 +45,10 @@ std::future<Renderer::OpenedDevice> Renderer::open_device(const RendererOptions&
     none.set_value({});
     return none.get_future();
   }
-  return std::async(when, [hint = options.device_hint, precision = options.precision] {
+  return std::async(when, [hint = options.device_hint, precision = options.precision, tuning = options.tuning] {
     OpenedDevice d;
     d.device = std::make_unique<ClDevice>(hint);
-    d.tracer = std::make_unique<ClTracer>(*d.device, precision);
+    d.tracer = std::make_unique<ClTracer>(*d.device, precision, false, tuning);
     return d;
   });
 }
@@ -100,6 +100,8 @@ std::string Renderer::device_name() const {
   const unsigned threads = resolve_threads(options_.threads);
   return "CPU reference (" + std::to_string(threads) + " threads)";
 }
+
+unsigned Renderer::tile_lanes() const { return tracer_ ? tracer_->tile_lanes() : 0u; }
 
 std::string Renderer::kernel_label() const { return tracer_ ? kernel_name(kernel_) : "cpu reference"; }
 

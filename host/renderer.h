@@ -56,6 +56,7 @@ struct RendererOptions {
   unsigned threads = 0;     // CPU backend and BLAS builds; 0 = all cores
   BraidOptions braid;       // how the top level opens the bottom-level trees
   MergeOptions merge;       // which instances share a bottom-level tree (bvh/blas.h)
+  KernelTuning tuning;      // benchmarks' A/B of kernel builds (opencl/cl_tracer.h); default: the device's
 };
 
 // Per-frame phase times in ms (medians when several frames are rendered).
@@ -169,6 +170,8 @@ class Renderer {
   KernelKind kernel() const { return kernel_; }
   // "tile" or "single" (OpenCL), "cpu reference" (CPU backend).
   std::string kernel_label() const;
+  // Rays per vector of the tile kernel (8 or 16); 0 for the CPU backend.
+  unsigned tile_lanes() const;
   // Why that kernel: "chosen", "CPU device", "measured on the first frame"
   // with the times, or, before that frame, "to be measured".
   const std::string& kernel_reason() const { return kernel_reason_; }

@@ -38,8 +38,10 @@ TEST(Peers, EveryVariantIsMeasured) {
   const PeerOptions opt = small_run(96, 54);
   const PeerReport r = run_peers(opt);
   // Five rayfold variants in four fold modes, then Embree instanced, flat and
-  // flat at high build quality, single rays and packets.
-  ASSERT_EQ(r.rows.size(), EmbreePeer::available() ? 26u : 20u);
+  // flat at high build quality, single rays and packets; on an AVX-512 CPU
+  // Embree's flat scene forced to AVX2 too.
+  const size_t avx2_rows = r.embree_isa == "AVX-512" ? 2u : 0u;
+  ASSERT_EQ(r.rows.size(), EmbreePeer::available() ? 26u + avx2_rows : 20u);
   if (!EmbreePeer::available()) {
     EXPECT_FALSE(r.embree_note.empty());
   }
@@ -116,7 +118,7 @@ TEST(Peers, ChosenVariantsOnRandomViews) {
   opt.seed = 3;
   opt.variants = {"tile"};
   const PeerReport r = run_peers(opt);
-  ASSERT_EQ(r.rows.size(), EmbreePeer::available() ? 10u : 4u);
+  ASSERT_EQ(r.rows.size(), EmbreePeer::available() ? 10u + (r.embree_isa == "AVX-512" ? 2u : 0u) : 4u);
   for (size_t i = 0; i < 4; ++i) {
     EXPECT_EQ(r.rows[i].variant, "OpenCL tile");
     EXPECT_TRUE(r.rows[i].exact);
@@ -127,6 +129,96 @@ TEST(Peers, ChosenVariantsOnRandomViews) {
   EXPECT_NE(peers_markdown(r).find("Views: 2 random"), std::string::npos);
   ASSERT_EQ(r.cameras.size(), 2u);
   EXPECT_GT(r.rayfold_build_ms, 0.0);
+}
+
+// The report names its machine: the CPU and its ISA as /proc/cpuinfo says,
+// the OpenCL device with the tile kernel's lanes, Embree's ISA; and on an
+// AVX-512 CPU, Embree forced to AVX2 answers as the flat scene does.
+TEST(Peers, TheReportNamesItsMachine) {
+  PeerOptions opt = small_run(64, 36);
+  opt.variants = {"tile"};
+  const PeerReport r = run_peers(opt);
+  const MachineInfo host = read_machine_info();
+  EXPECT_EQ(r.machine.cpu_model, host.cpu_model);
+  EXPECT_EQ(r.machine.isa, host.isa);
+  EXPECT_TRUE(r.tile_lanes == 8 || r.tile_lanes == 16) << r.tile_lanes;
+  const std::string md = peers_markdown(r);
+  EXPECT_NE(md.find("Machine: " + machine_label(host) + "; rayfold device: " + r.device + ", tile kernel " +
+                    std::to_string(r.tile_lanes) + " lanes"),
+            std::string::npos)
+      << md;
+  const nlohmann::json j = nlohmann::json::parse(peers_json(r));
+  EXPECT_EQ(j["machine"]["cpu"], host.cpu_model);
+  EXPECT_EQ(j["machine"]["tile_lanes"], r.tile_lanes);
+  if (!EmbreePeer::available()) return;
+  // Embree never traces wider than the host allows.
+  if (host.isa != "AVX-512") {
+    EXPECT_NE(r.embree_isa, "AVX-512");
+  }
+  EXPECT_NE(md.find("; Embree " + r.embree_isa + "."), std::string::npos) << md;
+  if (r.embree_isa != "AVX-512") {
+    EXPECT_TRUE(r.embree_avx2_note.empty());
+    return;
+  }
+  EXPECT_NE(r.embree_avx2_note.find("it traces with AVX2"), std::string::npos) << r.embree_avx2_note;
+  const PeerRow *flat16 = nullptr, *avx2_16 = nullptr;
+  for (const PeerRow& row : r.rows) {
+    if (row.variant == "Embree flat rtcIntersect16") flat16 = &row;
+    if (row.variant == "Embree flat AVX2 rtcIntersect16") avx2_16 = &row;
+  }
+  ASSERT_NE(flat16, nullptr);
+  ASSERT_NE(avx2_16, nullptr);
+  EXPECT_GT(avx2_16->ms, 0.0);
+  // The same build algorithm at another width may pick another triangle on a
+  // tie or an edge, never many.
+  EXPECT_NEAR(avx2_16->accuracy.same_hit, flat16->accuracy.same_hit, 0.002);
+}
+
+// tile8 and tile16 build the tile kernel at that width, tile-ab with the
+// A/B defines: each is validated bit for bit like the default tile rows.
+TEST(Peers, LaneWidthsAndABDefinesAreExactRows) {
+  PeerOptions opt = small_run(64, 36);
+  opt.variants = {"tile8", "tile16", "tile-ab"};
+  opt.ab_defines = "-DRF_KEEP_EACH_GROUP=0";  // every group narrowed from its ends only: other visits, same bits
+  const PeerReport r = run_peers(opt);
+  EXPECT_TRUE(r.valid());
+  const char* names[] = {"OpenCL tile 8 lanes", "OpenCL tile 16 lanes", "OpenCL tile with the A/B defines"};
+  for (int v = 0; v < 3; ++v)
+    for (int f = 0; f < 4; ++f) {
+      const PeerRow& row = r.rows[static_cast<size_t>(4 * v + f)];
+      EXPECT_EQ(row.variant, names[v]);
+      EXPECT_TRUE(row.exact);
+      EXPECT_EQ(row.mismatched_pixels, 0u) << row.variant << " " << row.fold;
+    }
+  // tile-ab runs at the device's width, which the report names.
+  EXPECT_TRUE(r.tile_lanes == 8u || r.tile_lanes == 16u) << r.tile_lanes;
+  EXPECT_EQ(run_peers([&] {
+              PeerOptions forced = opt;
+              forced.variants = {"tile8"};
+              return forced;
+            }())
+                .tile_lanes,
+            0u);  // forced widths only: the device's own is not what was timed
+}
+
+TEST(MachineInfo, ParsesTheFirstProcessor) {
+  const std::string two =
+      "processor\t: 0\nvendor_id\t: AuthenticAMD\nmodel name\t: AMD EPYC 9B14 96-Core Processor\n"
+      "flags\t\t: fpu sse4_2 avx avx2 avx512f avx512vl\n\n"
+      "processor\t: 1\nmodel name\t: Other\nflags\t\t: fpu\n";
+  const MachineInfo m = parse_cpuinfo(two);
+  EXPECT_EQ(m.cpu_model, "AMD EPYC 9B14 96-Core Processor");
+  EXPECT_EQ(m.isa, "AVX-512");
+  EXPECT_EQ(machine_label(m), "AMD EPYC 9B14 96-Core Processor (AVX-512)");
+  EXPECT_EQ(parse_cpuinfo("model name : Zen 2\nflags : sse4_2 avx avx2\n").isa, "AVX2");
+  EXPECT_EQ(parse_cpuinfo("model name : Old\nflags : sse4_2 avx\n").isa, "AVX");
+  // A word that merely contains a flag's name is not that flag.
+  EXPECT_EQ(parse_cpuinfo("flags : sse4_2 avx512_vnni\n").isa, "SSE4.2");
+  const MachineInfo none = parse_cpuinfo("");
+  EXPECT_EQ(none.cpu_model, "unknown CPU");
+  EXPECT_EQ(none.isa, "unknown ISA");
+  // "model name" is the key, not "model".
+  EXPECT_EQ(parse_cpuinfo("model\t\t: 106\nmodel name\t: X\n").cpu_model, "X");
 }
 
 TEST(Peers, AMismatchInvalidatesTheReport) {

@@ -190,6 +190,32 @@ def peer_ids(world, rows):
 PEER_CLASSES = {"mitsuba": Mitsuba, "open3d": Open3D}
 
 
+def machine_info(renderer):
+    """The machine the figures are from, as rayfold-peers names it (tools/machine_info.h): the CPU's model and
+    widest vector ISA from /proc/cpuinfo, rayfold's OpenCL device and tile lanes, the peers' versions."""
+    cpu, flags = "unknown CPU", set()
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                key, _, value = line.partition(":")
+                if key.strip() == "model name" and cpu == "unknown CPU":
+                    cpu = value.strip()
+                elif key.strip() == "flags" and not flags:
+                    flags = set(value.split())
+    except OSError:
+        pass
+    isa = next((name for flag, name in (("avx512f", "AVX-512"), ("avx2", "AVX2"), ("avx", "AVX"),
+                                        ("sse4_2", "SSE4.2")) if flag in flags), "unknown ISA")
+    peers = {}
+    for module in ("mitsuba", "open3d"):
+        try:
+            peers[module] = __import__(module).__version__
+        except Exception:  # a peer that cannot be imported is reported as skipped elsewhere
+            pass
+    return {"cpu": cpu, "isa": isa, "opencl_device": renderer.device_name, "tile_lanes": renderer.tile_lanes,
+            "peers": peers}
+
+
 def first_gbuffer_child(args, who, width, height):
     """One fresh process's first G-buffer of the first view, printed as JSON
     (ms): rayfold's load, renderer and first frame, or a peer's scene build
@@ -331,8 +357,11 @@ def main():
                      "median_depth_difference": worst_err, **over_views(accuracies[p.name])})
 
     name = os.path.splitext(os.path.basename(args.scene))[0]
+    machine = machine_info(renderer)
     lines = [f"Scene `{name}`: {len(tris)} triangles; {width}x{height}, {len(cams)} views from {args.cameras}, "
              f"median of {args.frames} frames after {args.warmup}, {args.threads} threads, wall clock from Python.",
+             f"Machine: {machine['cpu']} ({machine['isa']}); rayfold device: {machine['opencl_device']}, tile kernel "
+             f"{machine['tile_lanes']} lanes; " + "; ".join(f"{k} {v}" for k, v in machine["peers"].items()) + ".",
              "", "| variant | ms/frame | Mpixels/s | rayfold's fastest fold against it: G-buffer | depth only |",
              "|---|---|---|---|---|"]
     for r in rows:
@@ -365,7 +394,8 @@ def main():
             f.write(md)
     if args.json:
         with open(args.json, "w") as f:
-            json.dump({"scene": name, "width": width, "height": height, "views": len(cams), "frames": args.frames,
+            json.dump({"scene": name, "machine": machine, "width": width, "height": height, "views": len(cams),
+                       "frames": args.frames,
                        "threads": args.threads, "fastest_fold": best_fold, "rows": rows, "first_gbuffer_ms": first,
                        "skipped": skipped, "failed": failed}, f, indent=1)
     return 3 if failed else 0

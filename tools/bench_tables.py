@@ -102,7 +102,11 @@ def peers_tables(paths, file_paths=()):
     by_file = {r["name"].replace("-file", ""): r for r in load_peers(file_paths)}
     r0 = reports[0]
     print(f"{r0['width']}x{r0['height']}, {r0['views']} views per scene (kind and seed in the views column), "
-          f"median of {r0['frames']} frames, {r0['threads']} threads; rayfold device: {r0['device']}.\n")
+          f"median of {r0['frames']} frames, {r0['threads']} threads; rayfold device: {r0['device']}.")
+    m = r0.get("machine", {})
+    print(f"Machine: {m.get('cpu', 'not recorded')} ({m.get('isa', '?')}); tile kernel {m.get('tile_lanes', '?')} "
+          f"lanes; Embree {m.get('embree_isa') or 'not run'}"
+          + ("; the AVX2 rows are Embree forced to isa=avx2" if m.get("embree_isa") == "AVX-512" else "") + ".\n")
     print("Pixels answered per second (millions). rayfold: its fastest exact OpenCL mode (ray list + trace + "
           "readback per frame, every image checked bit for bit against the CPU reference first); Embree: the "
           "trace, flat world-space scene, `rtcIntersect16` packets, default (MEDIUM) and HIGH build quality; the "

@@ -33,10 +33,18 @@ struct EmbreePeer::Impl {
   // orientation: 1, or -1 under a mirroring world_from_object.
   std::vector<float> normal_sign;
 
-  Impl(const Scene& s, const SceneData& d, unsigned t) : scene(s), data(d), threads(t) {
-    const std::string config = "threads=" + std::to_string(threads);
+  Impl(const Scene& s, const SceneData& d, unsigned t, const std::string& isa, bool flat_only)
+      : scene(s), data(d), threads(t) {
+    std::string config = "threads=" + std::to_string(threads);
+    if (!isa.empty()) config += ",isa=" + isa;
     device = rtcNewDevice(config.c_str());
-    if (!device) throw RuntimeFailure("Embree: rtcNewDevice failed");
+    if (!device) throw RuntimeFailure("Embree: rtcNewDevice(\"" + config + "\") failed");
+    for (const Instance& inst : scene.instances)
+      normal_sign.push_back(linear_determinant(inst.world_from_object) < 0.0 ? -1.0f : 1.0f);
+    if (flat_only) {
+      flat = make_flat(RTC_BUILD_QUALITY_MEDIUM, &flat_build_ms, &flat_peak_bytes);
+      return;
+    }
     for (const Mesh& m : scene.meshes) {
       RTCScene ms = rtcNewScene(device);
       RTCGeometry g = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
@@ -54,8 +62,6 @@ struct EmbreePeer::Impl {
       rtcCommitScene(ms);
       meshes.push_back(ms);
     }
-    for (const Instance& inst : scene.instances)
-      normal_sign.push_back(linear_determinant(inst.world_from_object) < 0.0 ? -1.0f : 1.0f);
     top = rtcNewScene(device);
     instances.assign(scene.instances.size(), nullptr);
     for (size_t i = 0; i < scene.instances.size(); ++i) {
@@ -124,7 +130,7 @@ struct EmbreePeer::Impl {
       rtcSetGeometryTransform(instances[i], 0, RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR, xfm);
       rtcCommitGeometry(instances[i]);
     }
-    rtcCommitScene(top);
+    if (top) rtcCommitScene(top);
     for (int r = 0; r < 3; ++r) {
       eye[r] = static_cast<float>(cam.world_from_camera[3][r]);
       for (int c = 0; c < 3; ++c) world_dir[r][c] = static_cast<float>(cam.world_from_camera[c][r]);
@@ -188,7 +194,9 @@ struct EmbreePeer::Impl {
   }
 
   RTCScene traced(EmbreeScene which) const {
-    return which == EmbreeScene::instanced ? top : which == EmbreeScene::flat ? flat : flat_high;
+    RTCScene s = which == EmbreeScene::instanced ? top : which == EmbreeScene::flat ? flat : flat_high;
+    RF_CHECK(s != nullptr, "this Embree peer was built with its flat default-quality scene only");
+    return s;
   }
 
   template <class Tile>
@@ -239,9 +247,20 @@ void set_lane(RTCRayHit16& rh, int l, const float o[3], const float d[3]) {
 
 bool EmbreePeer::available() { return true; }
 
-EmbreePeer::EmbreePeer(const Scene& scene, const SceneData& data, unsigned threads)
-    : impl_(std::make_unique<Impl>(scene, data, threads)) {}
+EmbreePeer::EmbreePeer(const Scene& scene, const SceneData& data, unsigned threads, const std::string& isa,
+                       bool flat_only)
+    : impl_(std::make_unique<Impl>(scene, data, threads, isa, flat_only)) {}
 EmbreePeer::~EmbreePeer() = default;
+
+std::string EmbreePeer::isa(const std::string& host_isa) const {
+  // Embree traces with the widest ISA both its build and its device allow;
+  // the native packet width tells that ISA apart but for AVX from AVX2.
+  RTCDevice d = impl_->device;
+  if (rtcGetDeviceProperty(d, RTC_DEVICE_PROPERTY_NATIVE_RAY16_SUPPORTED)) return "AVX-512";
+  if (rtcGetDeviceProperty(d, RTC_DEVICE_PROPERTY_NATIVE_RAY8_SUPPORTED))
+    return host_isa == "AVX" ? "AVX" : "AVX2";
+  return "SSE";
+}
 
 void EmbreePeer::set_camera(const Camera& camera) { impl_->set_camera(camera); }
 size_t EmbreePeer::build_peak_bytes(EmbreeScene which) const {
@@ -391,10 +410,11 @@ namespace rayfold::core {
 
 struct EmbreePeer::Impl {};
 bool EmbreePeer::available() { return false; }
-EmbreePeer::EmbreePeer(const Scene&, const SceneData&, unsigned) {
+EmbreePeer::EmbreePeer(const Scene&, const SceneData&, unsigned, const std::string&, bool) {
   throw RuntimeFailure("rayfold was built without Embree (install libembree-dev and rebuild)");
 }
 EmbreePeer::~EmbreePeer() = default;
+std::string EmbreePeer::isa(const std::string&) const { return "none"; }
 void EmbreePeer::set_camera(const Camera&) {}
 double EmbreePeer::build_ms(EmbreeScene) const { return 0.0; }
 double EmbreePeer::rebuild_ms(EmbreeScene) { return 0.0; }

@@ -28,8 +28,17 @@ class EmbreePeer {
   // False when rayfold was built without Embree; the peer then says so.
   static bool available();
 
-  EmbreePeer(const Scene& scene, const SceneData& data, unsigned threads);
+  // isa: Embree's `isa=` configuration ("avx2": the AVX2 kernels on an
+  // AVX-512 CPU, which tells what the ISA buys Embree from what the core
+  // does); empty: Embree's own choice. flat_only: the flat default-quality
+  // scene alone (traced as EmbreeScene::flat), for such an extra row.
+  EmbreePeer(const Scene& scene, const SceneData& data, unsigned threads, const std::string& isa = "",
+             bool flat_only = false);
   ~EmbreePeer();
+
+  // The vector ISA Embree's device traces with, from its native packet
+  // widths and the host's ISA: "AVX-512", "AVX2", "AVX" or "SSE".
+  std::string isa(const std::string& host_isa) const;
 
   // Moves the instances to this camera's space and rebuilds the top level.
   void set_camera(const Camera& camera);

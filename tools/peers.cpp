@@ -72,13 +72,20 @@ PeerReport run_peers(const PeerOptions& opt) {
     KernelChoice kernel;
     KernelPrecision precision;
     bool exact_depth;  // FrameOptions::exact_depth
+    unsigned lanes;    // KernelTuning::tile_lanes (0: the device's)
+    bool ab;           // built with PeerOptions::ab_defines as well
   };
   const Ours all_ours[] = {
-      {"tile", "OpenCL tile", Backend::opencl, KernelChoice::tile, KernelPrecision::exact, false},
-      {"single", "OpenCL single", Backend::opencl, KernelChoice::single, KernelPrecision::exact, false},
-      {"fast", "OpenCL tile fast", Backend::opencl, KernelChoice::tile, KernelPrecision::fast, false},
-      {"exact-depth", "OpenCL tile exact depth", Backend::opencl, KernelChoice::tile, KernelPrecision::exact, true},
-      {"cpu", "CPU reference", Backend::cpu, KernelChoice::automatic, KernelPrecision::exact, false}};
+      {"tile", "OpenCL tile", Backend::opencl, KernelChoice::tile, KernelPrecision::exact, false, 0, false},
+      {"tile8", "OpenCL tile 8 lanes", Backend::opencl, KernelChoice::tile, KernelPrecision::exact, false, 8, false},
+      {"tile16", "OpenCL tile 16 lanes", Backend::opencl, KernelChoice::tile, KernelPrecision::exact, false, 16, false},
+      {"tile-ab", "OpenCL tile with the A/B defines", Backend::opencl, KernelChoice::tile, KernelPrecision::exact,
+       false, 0, true},
+      {"single", "OpenCL single", Backend::opencl, KernelChoice::single, KernelPrecision::exact, false, 0, false},
+      {"fast", "OpenCL tile fast", Backend::opencl, KernelChoice::tile, KernelPrecision::fast, false, 0, false},
+      {"exact-depth", "OpenCL tile exact depth", Backend::opencl, KernelChoice::tile, KernelPrecision::exact, true, 0,
+       false},
+      {"cpu", "CPU reference", Backend::cpu, KernelChoice::automatic, KernelPrecision::exact, false, 0, false}};
   // The CPU reference renderer always exists (it validates every exact row);
   // its rows are timed only when asked for.
   std::vector<Ours> ours;
@@ -97,6 +104,8 @@ PeerReport run_peers(const PeerOptions& opt) {
     ro.threads = opt.threads;
     ro.device_hint = opt.device_hint;
     ro.merge.enabled = opt.merge;
+    ro.tuning.tile_lanes = o.lanes;
+    if (o.ab) ro.tuning.defines = opt.ab_defines;
     const auto start = Clock::now();
     const size_t cache_hits = kernel_cache_hits();
     renderers.push_back(std::make_unique<Renderer>(scene, ro));
@@ -111,6 +120,9 @@ PeerReport run_peers(const PeerOptions& opt) {
   PeerReport rep;
   rep.scene = opt.scene;
   rep.device = renderers[0]->device_name();
+  rep.machine = read_machine_info();
+  for (size_t r = 0; r < renderers.size() && rep.tile_lanes == 0; ++r)
+    if (ours[r].kernel == KernelChoice::tile && ours[r].lanes == 0) rep.tile_lanes = renderers[r]->tile_lanes();
   rep.width = opt.width;
   rep.height = opt.height;
   rep.views = opt.views;
@@ -136,10 +148,16 @@ PeerReport run_peers(const PeerOptions& opt) {
     rep.rayfold_build_bytes = static_cast<double>(memory.peak_bytes()) / triangles;
   }
 
-  std::unique_ptr<EmbreePeer> embree;
+  std::unique_ptr<EmbreePeer> embree, embree_avx2;
   std::vector<double> embree_builds, embree_high_builds;
   if (EmbreePeer::available()) {
     embree = std::make_unique<EmbreePeer>(scene, data, opt.threads);
+    rep.embree_isa = embree->isa(rep.machine.isa);
+    if (rep.embree_isa == "AVX-512") {
+      embree_avx2 = std::make_unique<EmbreePeer>(scene, data, opt.threads, "avx2", true);
+      rep.embree_avx2_note = "Embree flat AVX2: the default-quality flat scene on a device made with isa=avx2 (it "
+                             "traces with " + embree_avx2->isa(rep.machine.isa) + ")";
+    }
     embree_builds.push_back(embree->build_ms(EmbreeScene::flat));
     embree_high_builds.push_back(embree->build_ms(EmbreeScene::flat_high));
     rep.embree_build_bytes = static_cast<double>(embree->build_peak_bytes(EmbreeScene::flat)) / triangles;
@@ -194,6 +212,10 @@ PeerReport run_peers(const PeerOptions& opt) {
       acc.emplace_back(make_row(std::string(name) + " rtcIntersect1", "-"));
       acc.emplace_back(make_row(std::string(name) + " rtcIntersect16", "-"));
     }
+  if (embree_avx2) {
+    acc.emplace_back(make_row("Embree flat AVX2 rtcIntersect1", "-"));
+    acc.emplace_back(make_row("Embree flat AVX2 rtcIntersect16", "-"));
+  }
 
   for (int v = 0; v < opt.views; ++v) {
     const Camera cam = make_camera(path[v], opt.width, opt.height);
@@ -209,6 +231,7 @@ PeerReport run_peers(const PeerOptions& opt) {
         exact_depth = renderers.back()->render(cam, 1, fo).hits;
       }
     if (embree) embree->set_camera(cam);
+    if (embree_avx2) embree_avx2->set_camera(cam);
     // Every variant once to warm up, then all take turns frame by frame, so
     // that the drift of a noisy machine affects them alike.
     const size_t rayfold_rows = timed_renderers * std::size(folds);
@@ -235,6 +258,14 @@ PeerReport run_peers(const PeerOptions& opt) {
             if (f >= 0) ms[a].push_back(t);
             ++a;
           }
+      if (embree_avx2)
+        for (int packets = 0; packets < 2; ++packets) {
+          std::vector<rf_pixel_hit>& hits = embree_hits[a - rayfold_rows];
+          const double t = packets ? embree_avx2->trace16(hits, EmbreeScene::flat)
+                                   : embree_avx2->trace1(hits, EmbreeScene::flat);
+          if (f >= 0) ms[a].push_back(t);
+          ++a;
+        }
     }
     size_t a = 0;
     for (size_t r = 0; r < timed_renderers; ++r)
@@ -289,7 +320,12 @@ std::string peers_markdown(const PeerReport& r) {
   std::ostringstream s;
   s << "Scene `" << r.scene << "`: " << r.instances << " instances, " << r.triangles << " triangles; " << r.width << "x"
     << r.height << ", " << r.views << " views, median of " << r.frames << " frames; " << r.threads
-    << " threads. rayfold device: " << r.device << ".\n";
+    << " threads.\n";
+  s << "Machine: " << machine_label(r.machine) << "; rayfold device: " << r.device;
+  if (r.tile_lanes) s << ", tile kernel " << r.tile_lanes << " lanes";
+  if (!r.embree_isa.empty()) s << "; Embree " << r.embree_isa;
+  s << ".\n";
+  if (!r.embree_avx2_note.empty()) s << r.embree_avx2_note << ".\n";
   if (!r.views_note.empty()) s << "Views: " << r.views_note << ".\n";
   if (!r.embree_note.empty()) s << r.embree_note << "\n";
   auto bytes = [](double b) { return b > 0.0 ? ", peak " + fmt("%.0f", b) + " B/scene triangle" : std::string(); };
@@ -374,6 +410,11 @@ std::string peers_json(const PeerReport& r) {
                           {"total_ms", f.total()},
                           {"kernels_cached", f.kernels_cached}};
   };
+  j["machine"] = {{"cpu", r.machine.cpu_model},
+                  {"isa", r.machine.isa},
+                  {"opencl_device", r.device},
+                  {"tile_lanes", r.tile_lanes},
+                  {"embree_isa", r.embree_isa}};
   j["rayfold_first_gbuffer"] = first(r.rayfold_first_gbuffer);
   j["embree_first_gbuffer"] = first(r.embree_first_gbuffer);
   j["embree_high_build_ms"] = r.embree_high_build_ms;

@@ -13,6 +13,7 @@
 #include <glm/vec3.hpp>
 
 #include "bench.h"
+#include "machine_info.h"
 #include "reference/accuracy.h"
 
 namespace rayfold::core {
@@ -23,7 +24,10 @@ struct PeerOptions : ViewPath {
   // rayfold's rows: tile, single (the single-ray kernel), fast (the tile
   // kernel's fast build), cpu (the CPU reference, timed; it validates every
   // exact row whether timed or not).
+  // tile8, tile16: the tile kernel with that many lanes; tile-ab: built with
+  // ab_defines too, to measure a kernel change against the tree's in one run.
   std::set<std::string> variants{"tile", "single", "fast", "exact-depth", "cpu"};
+  std::string ab_defines;
   bool merge = true;  // static instances of one transform share a tree (MergeOptions)
   // Bottom-level builds timed: rayfold's and Embree's flat default and high
   // quality builds alternated this many times, medians reported.
@@ -53,6 +57,12 @@ struct FirstGbuffer {
 
 struct PeerReport {
   std::string scene, device, embree_note, views_note;
+  MachineInfo machine;     // the CPU the figures are from
+  unsigned tile_lanes = 0;  // the first timed tile variant's rays per vector (0: none timed)
+  std::string embree_isa;   // Embree's own choice; empty without Embree
+  // On an AVX-512 CPU, Embree forced to AVX2 ("Embree flat AVX2" rows): what
+  // the ISA buys Embree apart from what the core does. Empty elsewhere.
+  std::string embree_avx2_note;
   std::vector<CameraSpec> cameras;  // the views traced
   int width = 0, height = 0, views = 0, frames = 0;
   unsigned threads = 0;

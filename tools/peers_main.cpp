@@ -31,7 +31,8 @@ int main(int argc, char** argv) {
             "usage: rayfold-peers [SCENE] [--size WxH] [--views K] [--frames N] [--warmup N] [--threads N]\n"
             "                     [--eye X,Y,Z --look-at X,Y,Z | --random-views K [--seed S]\n"
             "                     [--view-kind auto|interior|object]]\n"
-            "                     [--variants tile,single,fast,exact-depth,cpu]\n"
+            "                     [--variants tile,tile8,tile16,tile-ab,single,fast,exact-depth,cpu]\n"
+            "                     [--ab-defines OPTIONS]\n"
             "                     [--device NAME] [--rays N] [--build-rounds N] [--no-merge] [--json F] [--md F]\n"
             "Speed against accuracy: rayfold's OpenCL tile and single-ray kernels, the fast build, the\n"
             "tile kernel with the exact depth and the CPU reference in every fold mode, and Embree's rtcIntersect1 and rtcIntersect16 over an\n"
@@ -40,7 +41,10 @@ int main(int argc, char** argv) {
             "first (exit code 3 when one differs). --rays N adds ray queries (Renderer::intersect) against\n"
             "Embree's rtcIntersect1 and rtcIntersect16 on the same rays: N incoherent rays and every view's\n"
             "pixel rays as an array, checked bit for bit against the CPU reference too. --build-rounds N\n"
-            "(default 5): bottom-level builds, rayfold's and Embree's alternated, medians reported.");
+            "(default 5): bottom-level builds, rayfold's and Embree's alternated, medians reported.\n"
+            "tile8 and tile16 force the tile kernel's lanes per vector; tile-ab builds it with\n"
+            "--ab-defines' options as well (for example -DRF_KEEP_EACH_GROUP=8), to time a kernel\n"
+            "change against the tree's in one process.");
         return 0;
       } else if (parse_view_path_option(a, args, opt, &have_scene)) {
       } else if (a == "--threads") {
@@ -52,10 +56,15 @@ int main(int argc, char** argv) {
       } else if (a == "--variants") {
         opt.variants.clear();
         for (const std::string& v : cli::split_list(a, args.value(a))) {
-          if (v != "tile" && v != "single" && v != "fast" && v != "exact-depth" && v != "cpu")
-            throw UsageError("--variants: expected a list of tile, single, fast, exact-depth, cpu; got '" + v + "'");
+          if (v != "tile" && v != "tile8" && v != "tile16" && v != "tile-ab" && v != "single" && v != "fast" &&
+              v != "exact-depth" && v != "cpu")
+            throw UsageError(
+                "--variants: expected a list of tile, tile8, tile16, tile-ab, single, fast, exact-depth, cpu; got '" +
+                v + "'");
           opt.variants.insert(v);
         }
+      } else if (a == "--ab-defines") {
+        opt.ab_defines = args.value(a);
       } else if (a == "--device") {
         opt.device_hint = args.value(a);
       } else if (a == "--rays") {
@@ -69,6 +78,8 @@ int main(int argc, char** argv) {
       }
     }
     check_view_path(opt);
+    if (opt.variants.count("tile-ab") != (opt.ab_defines.empty() ? 0u : 1u))
+      throw UsageError("--ab-defines and the variant tile-ab go together: each needs the other");
     for (const std::string* out : {&json, &md})
       if (!out->empty()) check_writable(*out);
     const PeerReport report = run_peers(opt);

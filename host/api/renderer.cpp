@@ -434,5 +434,6 @@ void Renderer::render_views(const std::vector<Camera>& cameras, const std::funct
 
 std::string Renderer::device_name() const { return impl_->core->device_name(); }
 std::string Renderer::kernel() const { return impl_->core->kernel_label(); }
+unsigned Renderer::tile_lanes() const { return impl_->core->tile_lanes(); }
 
 }  // namespace rayfold

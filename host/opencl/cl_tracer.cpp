@@ -4,6 +4,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <sstream>
+#include <utility>
 
 #include "opencl/kernel_sources.h"
 #include "util/errors.h"
@@ -26,15 +27,16 @@ void sync_host_buffer(cl::CommandQueue& q, const cl::Buffer& buf, void* host, si
 
 }  // namespace
 
-unsigned tile_lanes(const DeviceInfo& info) {
+unsigned tile_lanes(const DeviceInfo& info, unsigned requested) {
+  if (requested == 8 || requested == 16) return requested;
   if (const char* env = std::getenv("RAYFOLD_TILE_LANES")) return std::atoi(env) == 8 ? 8 : 16;
   return info.native_float_width >= 16 ? 16 : 8;
 }
 
 const char* kernel_name(KernelKind k) { return k == KernelKind::tile ? "tile" : "single"; }
 
-ClTracer::ClTracer(ClDevice& device, KernelPrecision precision, bool tile_stats)
-    : device_(device), precision_(precision), tile_stats_(tile_stats) {
+ClTracer::ClTracer(ClDevice& device, KernelPrecision precision, bool tile_stats, KernelTuning tuning)
+    : device_(device), precision_(precision), tile_stats_(tile_stats), tuning_(std::move(tuning)) {
   programs_for(RF_MIRRORS);
 }
 
@@ -57,8 +59,10 @@ ClTracer::Programs& ClTracer::programs_for(int groups) {
   for (Programs& p : programs_)
     if (p.groups == size) return p;
   std::string defines =
-      "-DRF_LANES=" + std::to_string(tile_lanes(device_.info())) + " -DRF_MAX_GROUPS=" + std::to_string(size);
+      "-DRF_LANES=" + std::to_string(tile_lanes()) +
+      " -DRF_MAX_GROUPS=" + std::to_string(size);
   if (tile_stats_) defines += " -DRF_TILE_STATS";
+  if (!tuning_.defines.empty()) defines += " " + tuning_.defines;
   if (compiles_with_clang_builtins(device_.info())) defines += " -DRF_CLANG_BUILTINS";
   Programs p;
   p.groups = size;

@@ -25,9 +25,17 @@ enum class KernelKind {
 };
 const char* kernel_name(KernelKind k);
 
-// Rays per vector in the tile kernel: the device's native float vector
-// width, 8 (AVX2) or 16 (AVX-512).
-unsigned tile_lanes(const DeviceInfo& info);
+// How the kernels are built beyond precision: for measuring one build
+// against another in one process (rayfold-peers), never for correctness.
+struct KernelTuning {
+  unsigned tile_lanes = 0;  // rays per tile-kernel vector, 8 or 16; 0: the device's (tile_lanes)
+  std::string defines;      // more build options, such as "-DRF_KEEP_EACH_GROUP=8"
+};
+
+// Rays per vector in the tile kernel: `requested` when it is 8 or 16, else
+// RAYFOLD_TILE_LANES when set, else the device's native float vector width,
+// 8 (AVX2) or 16 (AVX-512).
+unsigned tile_lanes(const DeviceInfo& info, unsigned requested = 0);
 
 struct TraceTimes {
   double upload_ms = 0.0;
@@ -39,9 +47,12 @@ class ClTracer {
  public:
   // tile_stats: build the tile kernel with its traversal counters
   // (kernels/rf_tile.h), a diagnostic for rayfold-stats; slower.
-  ClTracer(ClDevice& device, KernelPrecision precision = KernelPrecision::exact, bool tile_stats = false);
+  ClTracer(ClDevice& device, KernelPrecision precision = KernelPrecision::exact, bool tile_stats = false,
+           KernelTuning tuning = {});
   ~ClTracer();
   ClTracer(const ClTracer&) = delete;
+  // Rays per vector of the tile kernel this tracer builds.
+  unsigned tile_lanes() const { return rayfold::core::tile_lanes(device_.info(), tuning_.tile_lanes); }
   ClTracer& operator=(const ClTracer&) = delete;
 
   // Allocates every buffer for this scene and image size, checking the
@@ -188,6 +199,7 @@ class ClTracer {
   RaySlot slots_[kRaySlots];
   int slot_ = 0;
   bool tile_stats_ = false;
+  KernelTuning tuning_;
   cl::Buffer stats_;
   cl::Buffer query_rays_, query_hits_, query_tiles_, query_order_;  // grown as queries need
   cl::Buffer query_origins_, query_directions_;                     // a tiled query's arrays

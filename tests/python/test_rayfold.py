@@ -184,6 +184,8 @@ def test_channels_fill_only_the_planes_asked_for(atrium):
     np.testing.assert_array_equal(bits(g.uv), bits(full.uv))
     r = rayfold.Renderer(atrium)
     assert r.render(camera, channels="normal").depth is None
+    # The tile kernel's width is named for benchmark reports; the CPU backend has none.
+    assert r.tile_lanes in (8, 16) and rayfold.Renderer(atrium, backend="cpu").tile_lanes == 0
     g = atrium.render(camera, channels="Z,InstanceID")  # the EXR names work too
     assert g.normal is None and g.depth is not None and g.instance_id is not None
     with pytest.raises(rayfold.InputError, match="unknown channel 'colour'"):
