@@ -192,6 +192,8 @@ __kernel void ut_lanes_any(__global const int* lanes, __global uint* out) {
 __kernel void ut_lanes_any_path(__global uint* out) {
 #if defined(RF_CLANG_BUILTINS) && defined(__AVX__) && RF_LANES == 8
   out[0] = 2u;
+#elif defined(RF_CLANG_BUILTINS) && defined(__AVX512DQ__) && RF_LANES == 16
+  out[0] = 2u;
 #elif defined(RF_CLANG_BUILTINS)
   out[0] = 1u;
 #else
