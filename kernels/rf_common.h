@@ -78,8 +78,9 @@ extern thread_local rf_traversal_stats rf_stats;
  * guesses, and their cache misses were a fifth of the tile kernel's time on
  * dense meshes. RF_CLANG_BUILTINS: the host says the kernels are compiled by
  * clang for a CPU (PoCL, whose OpenCL prefetch() does nothing), so clang's
- * builtins exist. A hint changes no result. */
-#if defined(RF_CLANG_BUILTINS) && defined(__OPENCL_C_VERSION__)
+ * builtins exist. A hint changes no result. RF_NO_PREFETCH (rayfold-peers
+ * --ab-defines) turns the hints off, to measure what they buy on a machine. */
+#if defined(RF_CLANG_BUILTINS) && defined(__OPENCL_C_VERSION__) && !defined(RF_NO_PREFETCH)
 #define RF_PREFETCH_LINE(p) __builtin_prefetch(p)
 #else
 #define RF_PREFETCH_LINE(p) ((void)0)

@@ -36,9 +36,8 @@ typedef uint8 rf_vu;
 
 /* Any lane set (a lane of a comparison mask is -1 or 0): any lane's sign
  * bit. PoCL compiles the built-in any() on wide vectors to a chain of
- * shuffles and branches; clang's reduction lets LLVM test the comparison's
- * mask register directly (one kortest with AVX-512), else an OR tree by
- * hand. Eight lanes with AVX (PoCL's AVX2 devices): the sign bits tested
+ * shuffles and branches; clang's reduction (where no instruction below
+ * applies) is shorter, else an OR tree by hand. Eight lanes with AVX (PoCL's AVX2 devices): the sign bits tested
  * in one instruction (vtestps), where LLVM made the reduction a pack, a
  * shift and a byte mask on the path from each test to its branch (random
  * views 1.03x to 1.05x faster on all seven scenes with movmskps, for which

@@ -17,6 +17,8 @@
 #include "../tools/ray_peers.h"
 #include "reference/cpu_tracer.h"
 #include "renderer.h"
+#include "scene/gltf_loader.h"
+#include "util/errors.h"
 #include "test_util.h"
 
 namespace rayfold::core {
@@ -168,6 +170,8 @@ TEST(Peers, TheReportNamesItsMachine) {
   }
   ASSERT_NE(flat16, nullptr);
   ASSERT_NE(avx2_16, nullptr);
+  EXPECT_TRUE(avx2_16->measurement_only);
+  EXPECT_FALSE(peer_ratios(r).fastest_embree->measurement_only);
   EXPECT_GT(avx2_16->ms, 0.0);
   // The same build algorithm at another width may pick another triangle on a
   // tie or an edge, never many.
@@ -190,6 +194,11 @@ TEST(Peers, LaneWidthsAndABDefinesAreExactRows) {
       EXPECT_TRUE(row.exact);
       EXPECT_EQ(row.mismatched_pixels, 0u) << row.variant << " " << row.fold;
     }
+  // The A/B build is compared with, never the headline's rayfold.
+  for (int f = 0; f < 4; ++f) EXPECT_TRUE(r.rows[static_cast<size_t>(8 + f)].measurement_only);
+  const PeerRatios q = peer_ratios(r);
+  ASSERT_NE(q.fastest_rayfold, nullptr);
+  EXPECT_FALSE(q.fastest_rayfold->measurement_only) << q.fastest_rayfold->variant;
   // tile-ab runs at the device's width, which the report names.
   EXPECT_TRUE(r.tile_lanes == 8u || r.tile_lanes == 16u) << r.tile_lanes;
   EXPECT_EQ(run_peers([&] {
@@ -199,6 +208,24 @@ TEST(Peers, LaneWidthsAndABDefinesAreExactRows) {
             }())
                 .tile_lanes,
             0u);  // forced widths only: the device's own is not what was timed
+}
+
+// What the A/B rows rest on: a forced width and extra defines reach the
+// kernels' build (a define that cannot build fails the renderer), so a row
+// named for them is not the default kernel again.
+TEST(Peers, KernelTuningReachesTheKernelsBuild) {
+  const Scene scene = load_gltf(std::string(RAYFOLD_SOURCE_DIR) + "/scenes/atrium.glb");
+  for (unsigned lanes : {8u, 16u}) {
+    RendererOptions ro;
+    ro.tuning.tile_lanes = lanes;
+    EXPECT_EQ(Renderer(scene, ro).tile_lanes(), lanes);
+  }
+  RendererOptions cpu;
+  cpu.backend = Backend::cpu;
+  EXPECT_EQ(Renderer(scene, cpu).tile_lanes(), 0u);
+  RendererOptions bad;
+  bad.tuning.defines = "-DRF_LANES=3";  // rf_lanes.h's #error
+  EXPECT_THROW(Renderer(scene, bad), RuntimeFailure);
 }
 
 TEST(MachineInfo, ParsesTheFirstProcessor) {

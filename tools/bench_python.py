@@ -361,7 +361,7 @@ def main():
     lines = [f"Scene `{name}`: {len(tris)} triangles; {width}x{height}, {len(cams)} views from {args.cameras}, "
              f"median of {args.frames} frames after {args.warmup}, {args.threads} threads, wall clock from Python.",
              f"Machine: {machine['cpu']} ({machine['isa']}); rayfold device: {machine['opencl_device']}, tile kernel "
-             f"{machine['tile_lanes']} lanes; " + "; ".join(f"{k} {v}" for k, v in machine["peers"].items()) + ".",
+             f"{machine['tile_lanes']} lanes" + "".join(f"; {k} {v}" for k, v in machine["peers"].items()) + ".",
              "", "| variant | ms/frame | Mpixels/s | rayfold's fastest fold against it: G-buffer | depth only |",
              "|---|---|---|---|---|"]
     for r in rows:

@@ -89,6 +89,7 @@ def fastest(r, embree, exact_depth=False):
     """The fastest exact OpenCL row (embree False; exact_depth: of the
     variants with the exact depth, else of the others) or Embree row (True)."""
     rows = [x for x in r["rows"] if x["variant"].startswith("Embree") == embree and x["ms"] > 0 and
+            not x.get("measurement_only") and
             (embree or (x["exact"] and x["variant"].startswith("OpenCL") and
                         x["variant"].endswith(EXACT_DEPTH) == exact_depth))]
     return max(rows, key=lambda x: x["mpixels_per_s"]) if rows else None
@@ -104,6 +105,10 @@ def peers_tables(paths, file_paths=()):
     print(f"{r0['width']}x{r0['height']}, {r0['views']} views per scene (kind and seed in the views column), "
           f"median of {r0['frames']} frames, {r0['threads']} threads; rayfold device: {r0['device']}.")
     m = r0.get("machine", {})
+    others = sorted({r.get("machine", {}).get("cpu", "not recorded") for r in reports} - {m.get("cpu", "not recorded")})
+    if others:
+        print(f"**The reports come from more than one machine** (also {', '.join(others)}): the ratios below do "
+              "not compare.")
     print(f"Machine: {m.get('cpu', 'not recorded')} ({m.get('isa', '?')}); tile kernel {m.get('tile_lanes', '?')} "
           f"lanes; Embree {m.get('embree_isa') or 'not run'}"
           + ("; the AVX2 rows are Embree forced to isa=avx2" if m.get("embree_isa") == "AVX-512" else "") + ".\n")

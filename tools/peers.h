@@ -43,6 +43,9 @@ struct PeerRow {
   Accuracy accuracy;    // same_hit, hit_miss: mean over views; depth: median of medians, max of p99s and maxima
   bool exact = false;   // promised bit for bit equal to the CPU reference
   size_t mismatched_pixels = 0;  // exact rows: pixels that differ from it, over all views (must be 0)
+  // A row to compare with, not a mode the headline ratios count: the tile
+  // kernel with the A/B defines, Embree forced to AVX2.
+  bool measurement_only = false;
 };
 
 // Time from nothing to one G-buffer: the file's load, the trees (rayfold:
@@ -58,7 +61,7 @@ struct FirstGbuffer {
 struct PeerReport {
   std::string scene, device, embree_note, views_note;
   MachineInfo machine;     // the CPU the figures are from
-  unsigned tile_lanes = 0;  // the first timed tile variant's rays per vector (0: none timed)
+  unsigned tile_lanes = 0;  // the device's width, from the first tile variant built at it (0: only tile8/tile16 ran)
   std::string embree_isa;   // Embree's own choice; empty without Embree
   // On an AVX-512 CPU, Embree forced to AVX2 ("Embree flat AVX2" rows): what
   // the ISA buys Embree apart from what the core does. Empty elsewhere.

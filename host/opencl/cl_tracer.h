@@ -51,9 +51,10 @@ class ClTracer {
            KernelTuning tuning = {});
   ~ClTracer();
   ClTracer(const ClTracer&) = delete;
+  ClTracer& operator=(const ClTracer&) = delete;
+
   // Rays per vector of the tile kernel this tracer builds.
   unsigned tile_lanes() const { return rayfold::core::tile_lanes(device_.info(), tuning_.tile_lanes); }
-  ClTracer& operator=(const ClTracer&) = delete;
 
   // Allocates every buffer for this scene and image size, checking the
   // device's memory first (RuntimeFailure when it would not fit).
