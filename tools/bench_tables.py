@@ -55,12 +55,13 @@ def table2(reports):
     return "\n".join(out)
 
 
-# The targets (DEVELOPERS.md, issue 18), on random views: rayfold's fastest
-# exact mode against Embree's fastest mode, median over every scene and
-# lowest on any scene.
+# The targets (DEVELOPERS.md; issue 50 raised every scene's from 1x to
+# 1.3x), on random views, on AVX2 and AVX-512 machines alike: rayfold's
+# fastest exact mode against Embree's fastest mode, median over every scene
+# and lowest on any scene.
 TARGET_MEDIAN = 2.0
 BAR_MEDIAN = 1.5
-TARGET_EVERY_SCENE = 1.0
+TARGET_EVERY_SCENE = 1.3
 TARGET_PYTHON_VS_MITSUBA = 1.5  # Python scene.render against Mitsuba 3 on every scene
 FOLDS = ["none", "y", "x", "xy"]
 
