@@ -16,23 +16,21 @@ namespace {
 
 using testing::Rng;
 
-// Whether this CPU has AVX: where PoCL (whose device is this CPU) compiles
-// the kernels' sign-bit instructions.
-bool host_has_avx() {
+// What this CPU has of the ISAs where PoCL (whose device is this CPU)
+// compiles the kernels' sign-bit instructions: AVX (vtestps, movmskps on
+// 8 lanes), AVX-512 DQ (vpmovd2m on 16).
+struct HostIsa {
+  bool avx = false, avx512dq = false;
+};
+HostIsa host_isa() {
+  HostIsa h;
 #if defined(__x86_64__) || defined(__i386__)
-  return __builtin_cpu_supports("avx");
-#else
-  return false;
+  h.avx = __builtin_cpu_supports("avx");
+  h.avx512dq = __builtin_cpu_supports("avx512dq");
 #endif
+  return h;
 }
-// The same for AVX-512's sign bits into a mask register (vpmovd2m).
-bool host_has_avx512dq() {
-#if defined(__x86_64__) || defined(__i386__)
-  return __builtin_cpu_supports("avx512dq");
-#else
-  return false;
-#endif
-}
+bool host_has_avx() { return host_isa().avx; }
 
 class KernelUnits : public ::testing::Test {
  protected:
@@ -157,7 +155,8 @@ TEST_F(KernelUnits, LanesAnyOnEveryPath) {
   Rng rng(11);
   cl::CommandQueue& q = testing::test_device().queue();
   const bool builtins = compiles_with_clang_builtins(testing::test_device().info());
-  const bool avx = host_has_avx(), avx512dq = host_has_avx512dq();
+  const HostIsa isa = host_isa();
+  const bool avx = isa.avx, avx512dq = isa.avx512dq;
   for (int lanes : {8, 16}) {
     const size_t cases = 256 + 16 + 256;
     std::vector<int32_t> values(cases * lanes);
