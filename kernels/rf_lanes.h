@@ -24,12 +24,18 @@ typedef int16 rf_vi;
 typedef uint16 rf_vu;
 #define rf_lanes_load_u vload16 /* RF_LANES consecutive rf_u32 as rf_vu */
 #define rf_lanes_load_i vload16 /* RF_LANES consecutive ints as rf_vi */
+#define rf_lanes_store_u vstore16
+#define rf_lanes_as_vi as_int16
+#define rf_lanes_to_vf convert_float16 /* each int to the nearest float, as (float) does */
 #elif RF_LANES == 8
 typedef float8 rf_vf;
 typedef int8 rf_vi;
 typedef uint8 rf_vu;
 #define rf_lanes_load_u vload8
 #define rf_lanes_load_i vload8
+#define rf_lanes_store_u vstore8
+#define rf_lanes_as_vi as_int8
+#define rf_lanes_to_vf convert_float8
 #else
 #error "RF_LANES must be 8 or 16"
 #endif
@@ -66,6 +72,18 @@ RF_INLINE int rf_lanes_any(rf_vi m) {
   const int2 c = b.lo | b.hi;
   return (c.x | c.y) < 0;
 #endif
+}
+
+/* The OR of every lane (reductions of bit sets only). */
+RF_INLINE rf_u32 rf_lanes_or(rf_vu v) {
+#if RF_LANES == 16
+  const uint8 a = v.lo | v.hi;
+  const uint4 b = a.lo | a.hi;
+#else
+  const uint4 b = v.lo | v.hi;
+#endif
+  const uint2 c = b.lo | b.hi;
+  return c.x | c.y;
 }
 
 /* rf_minf and rf_maxf lane by lane, with the same NaN rule (b wins). */
