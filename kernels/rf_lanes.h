@@ -26,6 +26,7 @@ typedef uint16 rf_vu;
 #define rf_lanes_load_i vload16 /* RF_LANES consecutive ints as rf_vi */
 #define rf_lanes_store_u vstore16
 #define rf_lanes_as_vi as_int16
+#define rf_lanes_as_vu as_uint16
 #define rf_lanes_to_vf convert_float16 /* each int to the nearest float, as (float) does */
 #elif RF_LANES == 8
 typedef float8 rf_vf;
@@ -35,16 +36,30 @@ typedef uint8 rf_vu;
 #define rf_lanes_load_i vload8
 #define rf_lanes_store_u vstore8
 #define rf_lanes_as_vi as_int8
+#define rf_lanes_as_vu as_uint8
 #define rf_lanes_to_vf convert_float8
 #else
 #error "RF_LANES must be 8 or 16"
 #endif
 
+/* The OR of every lane (reductions of bit sets only). */
+RF_INLINE rf_u32 rf_lanes_or(rf_vu v) {
+#if RF_LANES == 16
+  const uint8 a = v.lo | v.hi;
+  const uint4 b = a.lo | a.hi;
+#else
+  const uint4 b = v.lo | v.hi;
+#endif
+  const uint2 c = b.lo | b.hi;
+  return c.x | c.y;
+}
+
 /* Any lane set (a lane of a comparison mask is -1 or 0): any lane's sign
  * bit. PoCL compiles the built-in any() on wide vectors to a chain of
  * shuffles and branches; clang's reduction (where no instruction below
- * applies) is shorter, else an OR tree by hand. Eight lanes with AVX (PoCL's AVX2 devices): the sign bits tested
- * in one instruction (vtestps), where LLVM made the reduction a pack, a
+ * applies) is shorter, else an OR tree by hand. Eight lanes with AVX
+ * (PoCL's AVX2 devices): the sign bits tested in one instruction (vtestps),
+ * where LLVM made the reduction a pack, a
  * shift and a byte mask on the path from each test to its branch (random
  * views 1.03x to 1.05x faster on all seven scenes with movmskps, for which
  * LLVM still narrowed the masks of the triangle test first; vtestps
@@ -63,27 +78,8 @@ RF_INLINE int rf_lanes_any(rf_vi m) {
 #elif defined(RF_CLANG_BUILTINS)
   return __builtin_reduce_or(m) < 0;
 #else
-#if RF_LANES == 16
-  const int8 a = m.lo | m.hi;
-  const int4 b = a.lo | a.hi;
-#else
-  const int4 b = m.lo | m.hi;
+  return (rf_lanes_or(rf_lanes_as_vu(m)) >> 31) != 0u;
 #endif
-  const int2 c = b.lo | b.hi;
-  return (c.x | c.y) < 0;
-#endif
-}
-
-/* The OR of every lane (reductions of bit sets only). */
-RF_INLINE rf_u32 rf_lanes_or(rf_vu v) {
-#if RF_LANES == 16
-  const uint8 a = v.lo | v.hi;
-  const uint4 b = a.lo | a.hi;
-#else
-  const uint4 b = v.lo | v.hi;
-#endif
-  const uint2 c = b.lo | b.hi;
-  return c.x | c.y;
 }
 
 /* rf_minf and rf_maxf lane by lane, with the same NaN rule (b wins). */

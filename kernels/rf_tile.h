@@ -927,14 +927,11 @@ RF_INLINE void rf_tile_put(const rf_answers* out, size_t i, uint8 w) {
     r7 = (uint8)(u3_.hi, u7_.hi);                                                                         \
   } while (0)
 
-/* Half b (lanes 8b .. 8b + 7) of a lane vector as a uint8 of its bits;
- * a lane vector's bits as rf_vu. */
+/* Half b (lanes 8b .. 8b + 7) of a lane vector as a uint8 of its bits. */
 #if RF_LANES == 8
 #define RF_EIGHT(v, b) as_uint8(v)
-#define RF_AS_VU(v) as_uint8(v)
 #else
 #define RF_EIGHT(v, b) ((b) ? as_uint8((v).hi) : as_uint8((v).lo))
-#define RF_AS_VU(v) as_uint16(v)
 #endif
 
 /* Writes the answers of lane group j to group g when its lanes are one whole
@@ -963,8 +960,8 @@ RF_INLINE_ALWAYS int rf_tile_write_block(const RF_GLOBAL rf_u32* rays, rf_u32 be
   const int flip_x = (mirror & 1u) != 0u;
   const rf_i32 px0 = flip_x ? cam->xpair - (rf_i32)x0 - 3 : (rf_i32)x0;
   const rf_vi hit = h->instance[j] != (rf_vu)(RF_INVALID);
-  const rf_vu u = select((rf_vu)(0u), RF_AS_VU(h->u[j]), hit); /* 0.0f's bits on a miss */
-  const rf_vu v = select((rf_vu)(0u), RF_AS_VU(h->v[j]), hit);
+  const rf_vu u = select((rf_vu)(0u), rf_lanes_as_vu(h->u[j]), hit); /* 0.0f's bits on a miss */
+  const rf_vu v = select((rf_vu)(0u), rf_lanes_as_vu(h->v[j]), hit);
   const rf_vu prim = select((rf_vu)(RF_INVALID), h->prim[j], hit);
   /* The pixel index of lane c (0 .. 3) of row r. */
 #define RF_PIXEL(r, c)                                                                          \
