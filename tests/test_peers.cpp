@@ -18,8 +18,8 @@
 #include "reference/cpu_tracer.h"
 #include "renderer.h"
 #include "scene/gltf_loader.h"
-#include "util/errors.h"
 #include "test_util.h"
+#include "util/errors.h"
 
 namespace rayfold::core {
 namespace {

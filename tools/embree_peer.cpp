@@ -257,8 +257,7 @@ std::string EmbreePeer::isa(const std::string& host_isa) const {
   // the native packet width tells that ISA apart but for AVX from AVX2.
   RTCDevice d = impl_->device;
   if (rtcGetDeviceProperty(d, RTC_DEVICE_PROPERTY_NATIVE_RAY16_SUPPORTED)) return "AVX-512";
-  if (rtcGetDeviceProperty(d, RTC_DEVICE_PROPERTY_NATIVE_RAY8_SUPPORTED))
-    return host_isa == "AVX" ? "AVX" : "AVX2";
+  if (rtcGetDeviceProperty(d, RTC_DEVICE_PROPERTY_NATIVE_RAY8_SUPPORTED)) return host_isa == "AVX" ? "AVX" : "AVX2";
   return "SSE";
 }
 

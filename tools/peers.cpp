@@ -157,8 +157,10 @@ PeerReport run_peers(const PeerOptions& opt) {
     if (rep.embree_isa == "AVX-512") {
       try {
         embree_avx2 = std::make_unique<EmbreePeer>(scene, data, opt.threads, "avx2", true);
-        rep.embree_avx2_note = "Embree flat AVX2: the default-quality flat scene on a device made with isa=avx2 "
-                               "(it traces with " + embree_avx2->isa(rep.machine.isa) + ")";
+        rep.embree_avx2_note =
+            "Embree flat AVX2: the default-quality flat scene on a device made with isa=avx2 "
+            "(it traces with " +
+            embree_avx2->isa(rep.machine.isa) + ")";
       } catch (const RuntimeFailure& e) {
         rep.embree_avx2_note = std::string("Embree forced to AVX2 is not timed: ") + e.what();
       }
@@ -270,8 +272,8 @@ PeerReport run_peers(const PeerOptions& opt) {
       if (embree_avx2)
         for (int packets = 0; packets < 2; ++packets) {
           std::vector<rf_pixel_hit>& hits = embree_hits[a - rayfold_rows];
-          const double t = packets ? embree_avx2->trace16(hits, EmbreeScene::flat)
-                                   : embree_avx2->trace1(hits, EmbreeScene::flat);
+          const double t =
+              packets ? embree_avx2->trace16(hits, EmbreeScene::flat) : embree_avx2->trace1(hits, EmbreeScene::flat);
           if (f >= 0) ms[a].push_back(t);
           ++a;
         }
@@ -328,8 +330,7 @@ PeerRatios peer_ratios(const PeerReport& rep) {
 std::string peers_markdown(const PeerReport& r) {
   std::ostringstream s;
   s << "Scene `" << r.scene << "`: " << r.instances << " instances, " << r.triangles << " triangles; " << r.width << "x"
-    << r.height << ", " << r.views << " views, median of " << r.frames << " frames; " << r.threads
-    << " threads.\n";
+    << r.height << ", " << r.views << " views, median of " << r.frames << " frames; " << r.threads << " threads.\n";
   s << "Machine: " << machine_label(r.machine) << "; rayfold device: " << r.device;
   if (r.tile_lanes) s << ", tile kernel " << r.tile_lanes << " lanes";
   if (!r.embree_isa.empty()) s << "; Embree " << r.embree_isa;

@@ -60,7 +60,7 @@ struct FirstGbuffer {
 
 struct PeerReport {
   std::string scene, device, embree_note, views_note;
-  MachineInfo machine;     // the CPU the figures are from
+  MachineInfo machine;      // the CPU the figures are from
   unsigned tile_lanes = 0;  // the device's width, from the first tile variant built at it (0: only tile8/tile16 ran)
   std::string embree_isa;   // Embree's own choice; empty without Embree
   // On an AVX-512 CPU, Embree forced to AVX2 ("Embree flat AVX2" rows): what

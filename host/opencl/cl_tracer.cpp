@@ -58,9 +58,7 @@ ClTracer::Programs& ClTracer::programs_for(int groups) {
   while (size < groups) size *= 2;
   for (Programs& p : programs_)
     if (p.groups == size) return p;
-  std::string defines =
-      "-DRF_LANES=" + std::to_string(tile_lanes()) +
-      " -DRF_MAX_GROUPS=" + std::to_string(size);
+  std::string defines = "-DRF_LANES=" + std::to_string(tile_lanes()) + " -DRF_MAX_GROUPS=" + std::to_string(size);
   if (tile_stats_) defines += " -DRF_TILE_STATS";
   if (!tuning_.defines.empty()) defines += " " + tuning_.defines;
   if (compiles_with_clang_builtins(device_.info())) defines += " -DRF_CLANG_BUILTINS";

@@ -833,6 +833,7 @@ NB_MODULE(_core, m) {
           "camera"_a, "fold"_a = "none", "channels"_a = nb::none(), "channels as in Scene.render.")
       .def_prop_ro("device_name", [](PyRenderer& r) { return r.renderer->device_name(); })
       .def_prop_ro("kernel", [](PyRenderer& r) { return r.renderer->kernel(); })
-      .def_prop_ro("tile_lanes", [](PyRenderer& r) { return r.renderer->tile_lanes(); },
-                   "Rays per vector of the tile kernel (8 or 16); 0 for the CPU backend.");
+      .def_prop_ro(
+          "tile_lanes", [](PyRenderer& r) { return r.renderer->tile_lanes(); },
+          "Rays per vector of the tile kernel (8 or 16); 0 for the CPU backend.");
 }
