@@ -134,6 +134,8 @@ BenchReport run_bench(const BenchOptions& opt, const std::function<void(size_t, 
   BenchReport rep;
   rep.scene = opt.scene;
   rep.device = renderer.device_name();
+  rep.machine = read_machine_info();
+  rep.tile_lanes = renderer.tile_lanes();
   rep.width = opt.width;
   rep.height = opt.height;
   rep.views = opt.views;
@@ -208,7 +210,10 @@ std::string bench_markdown(const BenchReport& r) {
     << " triangles; " << r.width << "x" << r.height << ", " << r.views << " views, median of " << r.frames
     << " frames after " << r.warmup << " warm-up" << (r.animate ? ", animated" : "") << ".\n";
   if (!r.views_note.empty()) s << "Views: " << r.views_note << ".\n";
-  s << "Device: " << r.device << ", " << r.kernel << " kernel (" << r.threads << " host threads). Folded output "
+  s << "Machine: " << machine_label(r.machine) << ".\n";
+  s << "Device: " << r.device << ", " << r.kernel << " kernel";
+  if (r.kernel == "tile" && r.tile_lanes) s << ", " << r.tile_lanes << " lanes";
+  s << " (" << r.threads << " host threads). Folded output "
     << (r.exact() ? "equals the unfolded output bit for bit in every view."
                   : "DIFFERS from the unfolded output (see mismatched pixels).")
     << "\n\n";
@@ -240,6 +245,7 @@ std::string bench_json(const BenchReport& r) {
   nlohmann::json j;
   j["scene"] = r.scene;
   j["device"] = r.device;
+  j["machine"] = {{"cpu", r.machine.cpu_model}, {"isa", r.machine.isa}, {"tile_lanes", r.tile_lanes}};
   j["kernel"] = r.kernel;
   j["threads"] = r.threads;
   j["width"] = r.width;

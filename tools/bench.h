@@ -12,6 +12,7 @@
 #include <glm/vec3.hpp>
 
 #include "cli_args.h"
+#include "machine_info.h"
 #include "random_views.h"
 #include "renderer.h"
 
@@ -56,6 +57,8 @@ struct BenchRow {
 
 struct BenchReport {
   std::string scene, device, kernel;  // kernel: which one traced (Renderer::kernel_label)
+  MachineInfo machine;                // the CPU the figures are from
+  unsigned tile_lanes = 0;            // the tile kernel's rays per vector (0: the CPU backend)
   std::string views_note;             // ViewPath::views_note: which random views, if any
   int width = 0, height = 0, views = 0, frames = 0, warmup = 0;
   unsigned threads = 0;

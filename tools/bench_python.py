@@ -190,9 +190,10 @@ def peer_ids(world, rows):
 PEER_CLASSES = {"mitsuba": Mitsuba, "open3d": Open3D}
 
 
-def machine_info(renderer):
+def machine_info(renderer=None):
     """The machine the figures are from, as rayfold-peers names it (tools/machine_info.h): the CPU's model and
-    widest vector ISA from /proc/cpuinfo, rayfold's OpenCL device and tile lanes, the peers' versions."""
+    widest vector ISA from /proc/cpuinfo, rayfold's OpenCL device and tile lanes (with a renderer), the peers'
+    versions."""
     cpu, flags = "unknown CPU", set()
     try:
         with open("/proc/cpuinfo") as f:
@@ -212,8 +213,10 @@ def machine_info(renderer):
             peers[module] = __import__(module).__version__
         except Exception:  # a peer that cannot be imported is reported as skipped elsewhere
             pass
-    return {"cpu": cpu, "isa": isa, "opencl_device": renderer.device_name, "tile_lanes": renderer.tile_lanes,
-            "peers": peers}
+    out = {"cpu": cpu, "isa": isa, "peers": peers}
+    if renderer is not None:
+        out.update(opencl_device=renderer.device_name, tile_lanes=renderer.tile_lanes)
+    return out
 
 
 def first_gbuffer_child(args, who, width, height):

@@ -28,7 +28,8 @@ import sys
 import numpy as np
 
 import rayfold
-from bench_python import MAX_MEDIAN_DEPTH_ERROR, MIN_HIT_AGREEMENT, Mitsuba, Open3D, agreement, cameras_from, timed
+from bench_python import (MAX_MEDIAN_DEPTH_ERROR, MIN_HIT_AGREEMENT, Mitsuba, Open3D, agreement, cameras_from,
+                          machine_info, timed)
 
 
 def incoherent_rays(scene, n, seed):
@@ -102,9 +103,12 @@ def main():
 
     scene_name = os.path.splitext(os.path.basename(args.scene))[0]
     names = [p.name for p in peers]
+    machine = machine_info()
     print(f"Scene `{scene_name}`: {len(tris)} triangles; rayfold scene.intersect ({args.backend}), "
           f"{args.threads} threads, median of {args.frames} after {args.warmup}, wall clock from Python. "
-          "Ratio: the peer's time over rayfold's, every field (as the peers return them); then t alone.\n")
+          "Ratio: the peer's time over rayfold's, every field (as the peers return them); then t alone.")
+    print(f"Machine: {machine['cpu']} ({machine['isa']})" +
+          "".join(f"; {k} {v}" for k, v in machine["peers"].items()) + ".\n")
     print("| workload | rays | hits | rayfold ms (Mrays/s) | t only ms | " +
           " | ".join(f"{n} ms (ratio; t only)" for n in names) + " |")
     print("|---|---|---|---|---|" + "---|" * len(names))
@@ -117,8 +121,8 @@ def main():
         print(f"\n{note}")
     if args.json:
         with open(args.json, "w") as f:
-            json.dump({"scene": scene_name, "backend": args.backend, "threads": args.threads, "frames": args.frames,
-                       "rows": rows, "notes": notes, "failed": failed}, f, indent=1)
+            json.dump({"scene": scene_name, "machine": machine, "backend": args.backend, "threads": args.threads,
+                       "frames": args.frames, "rows": rows, "notes": notes, "failed": failed}, f, indent=1)
     return 3 if failed else 0
 
 
