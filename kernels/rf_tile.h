@@ -1094,42 +1094,38 @@ RF_INLINE void rf_trace_tile(const RF_GLOBAL rf_u32* rays, rf_u32 begin, rf_u32 
   rf_tile_hits hits[RF_MAX_GROUPS];
   rf_tile_ray ro[RF_TILE_SETUPS];
   for (int s = 0; s < RF_TILE_SETUPS; ++s) ro[s].valid = 0;
-  /* The groups of each lane's ray, by its entry's two mirror bits (a table:
-   * the entries' decoding costs as much as a traversal step otherwise);
-   * the traversal masks out the groups no ray of the tile answers. */
-  rf_u32 by_mirrors[4];
-  for (rf_u32 k = 0; k < 4u; ++k) by_mirrors[k] = rf_entry_groups(k << 30, cam);
+  /* The groups of each lane's ray by its entry's two mirror bits, the four
+   * answers made once (the entries' decoding costs as much as a traversal
+   * step otherwise); the traversal masks out the groups no ray of the tile
+   * answers. Then rf_decode_entry_groups a lane group at a time, each lane's
+   * operations the scalar code's: LLVM made the loop of one ray at a time,
+   * with the index clamped to count and the table indexed by each entry, two
+   * gathers a vector (a tenth of an interior's frame, the conference room's). */
+  const rf_vu g0 = (rf_vu)(rf_entry_groups(0u, cam)), g1 = (rf_vu)(rf_entry_groups(RF_RAY_MIRROR_X, cam));
+  const rf_vu g2 = (rf_vu)(rf_entry_groups(RF_RAY_MIRROR_Y, cam));
+  const rf_vu g3 = (rf_vu)(rf_entry_groups(RF_RAY_MIRROR_X | RF_RAY_MIRROR_Y, cam));
   rf_u32 lane_groups[RF_TILE_RAYS];
-  rf_u32 tile_groups = 0u;
-  /* rf_decode_entry_groups a lane group at a time, each lane's operations
-   * the scalar code's: LLVM made the loop of one ray at a time, with the
-   * index clamped to count and the table indexed by each entry, two gathers
-   * a vector (a tenth of an interior's frame, the conference room's). */
-  {
-    const rf_vu g0 = (rf_vu)(by_mirrors[0]), g1 = (rf_vu)(by_mirrors[1]);
-    const rf_vu g2 = (rf_vu)(by_mirrors[2]), g3 = (rf_vu)(by_mirrors[3]);
-    rf_vu all_groups = (rf_vu)(0u);
-    for (int j = 0; j < RF_LANE_GROUPS; ++j) {
-      const rf_u32 l0 = (rf_u32)j * RF_LANES;
-      rf_vu e;
-      if (l0 + RF_LANES <= count) {
-        e = rf_lanes_load_u(0, rays + begin + l0);
-      } else { /* lanes past count repeat the tile's last ray */
-        rf_u32 last[RF_LANES];
-        for (rf_u32 l = 0; l < RF_LANES; ++l) last[l] = rays[begin + min(l0 + l, count - 1u)];
-        e = rf_lanes_load_u(0, last);
-      }
-      const rf_vi odd = (e & RF_RAY_MIRROR_X) != (rf_vu)(0u), high = (e & RF_RAY_MIRROR_Y) != (rf_vu)(0u);
-      const rf_vu groups = select(select(g0, g1, odd), select(g2, g3, odd), high);
-      rf_lanes_store_u(groups, 0, lane_groups + l0);
-      all_groups |= groups;
-      const rf_vi x = rf_lanes_as_vi(e & RF_RAY_COORD_MASK);
-      const rf_vi y = rf_lanes_as_vi((e >> RF_RAY_COORD_BITS) & RF_RAY_COORD_MASK);
-      tc.dx[j] = cam->scale_x * (rf_lanes_to_vf(2 * x + cam->kx0) + cam->frac_x);
-      tc.dy[j] = cam->scale_y * (rf_lanes_to_vf(cam->ky0 - 2 * y) + cam->frac_y);
+  rf_vu all_groups = (rf_vu)(0u);
+  for (int j = 0; j < RF_LANE_GROUPS; ++j) {
+    const rf_u32 l0 = (rf_u32)j * RF_LANES;
+    rf_vu e;
+    if (l0 + RF_LANES <= count) {
+      e = rf_lanes_load_u(0, rays + begin + l0);
+    } else { /* lanes past count repeat the tile's last ray */
+      rf_u32 last[RF_LANES];
+      for (rf_u32 l = 0; l < RF_LANES; ++l) last[l] = rays[begin + min(l0 + l, count - 1u)];
+      e = rf_lanes_load_u(0, last);
     }
-    tile_groups = rf_lanes_or(all_groups);
+    const rf_vi odd = (e & RF_RAY_MIRROR_X) != (rf_vu)(0u), high = (e & RF_RAY_MIRROR_Y) != (rf_vu)(0u);
+    const rf_vu groups = select(select(g0, g1, odd), select(g2, g3, odd), high);
+    rf_lanes_store_u(groups, 0, lane_groups + l0);
+    all_groups |= groups;
+    const rf_vi x = rf_lanes_as_vi(e & RF_RAY_COORD_MASK);
+    const rf_vi y = rf_lanes_as_vi((e >> RF_RAY_COORD_BITS) & RF_RAY_COORD_MASK);
+    tc.dx[j] = cam->scale_x * (rf_lanes_to_vf(2 * x + cam->kx0) + cam->frac_x);
+    tc.dy[j] = cam->scale_y * (rf_lanes_to_vf(cam->ky0 - 2 * y) + cam->frac_y);
   }
+  const rf_u32 tile_groups = rf_lanes_or(all_groups);
   rf_vf lo0 = (rf_vf)(RF_FAR), lo1 = lo0, hi0 = (rf_vf)(-RF_FAR), hi1 = hi0;
   for (int j = 0; j < RF_LANE_GROUPS; ++j) {
     tc.ix[j] = rf_lanes_reciprocal(tc.dx[j]);
