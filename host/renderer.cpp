@@ -11,6 +11,7 @@
 #include "util/errors.h"
 #include "util/timer.h"
 
+#include "bvh/bvh_build.h"
 #include "fold/ray_list.h"
 #include "rays/ray_order.h"
 #include "rays/ray_queries.h"
@@ -26,7 +27,7 @@ double median(std::vector<double> values) {
 }
 
 Renderer::Renderer(const Scene& scene, const RendererOptions& options)
-    : Renderer(scene, options, open_device(options, std::launch::async)) {}
+    : Renderer(scene, options, open_device(scene, options, std::launch::async)) {}
 
 // The device opens while prepare_scene runs. Should the build throw, the
 // future's destructor waits for the device first, and the build's error is
@@ -37,15 +38,32 @@ Renderer::Renderer(const Scene& scene, const RendererOptions& options, std::futu
                std::move(device)) {}
 
 Renderer::Renderer(const Scene& scene, const RendererOptions& options, std::shared_ptr<const SceneData> prebuilt)
-    : Renderer(scene, options, std::move(prebuilt), open_device(options, std::launch::deferred)) {}
+    : Renderer(scene, options, std::move(prebuilt), open_device(scene, options, std::launch::deferred)) {}
 
-std::future<Renderer::OpenedDevice> Renderer::open_device(const RendererOptions& options, std::launch when) {
+namespace {
+
+// Whether an instance renders a mesh of at least BuildOptions::
+// dense_triangles: one whose tree the builder makes as dense (a merged
+// tree counts its largest member), whatever the merging.
+bool renders_dense_mesh(const Scene& scene) {
+  const size_t dense = BuildOptions{}.dense_triangles;
+  for (const Instance& i : scene.instances)
+    if (i.mesh < scene.meshes.size() && scene.meshes[i.mesh].triangle_count() >= dense) return true;
+  return false;
+}
+
+}  // namespace
+
+std::future<Renderer::OpenedDevice> Renderer::open_device(const Scene& scene, const RendererOptions& options,
+                                                          std::launch when) {
   if (options.backend != Backend::opencl) {
     std::promise<OpenedDevice> none;
     none.set_value({});
     return none.get_future();
   }
-  return std::async(when, [hint = options.device_hint, precision = options.precision, tuning = options.tuning] {
+  KernelTuning tuning = options.tuning;
+  tuning.dense_scene = renders_dense_mesh(scene);
+  return std::async(when, [hint = options.device_hint, precision = options.precision, tuning] {
     OpenedDevice d;
     d.device = std::make_unique<ClDevice>(hint);
     d.tracer = std::make_unique<ClTracer>(*d.device, precision, false, tuning);

@@ -204,7 +204,7 @@ class Renderer {
   };
   // async beside a build; deferred (on the caller's thread, when taken)
   // where there is none to overlap.
-  static std::future<OpenedDevice> open_device(const RendererOptions& options, std::launch when);
+  static std::future<OpenedDevice> open_device(const Scene& scene, const RendererOptions& options, std::launch when);
   Renderer(const Scene& scene, const RendererOptions& options, std::future<OpenedDevice> device);
   Renderer(const Scene& scene, const RendererOptions& options, std::shared_ptr<const SceneData> prebuilt,
            std::future<OpenedDevice> device);

@@ -4,7 +4,9 @@
 // sizes, shifted windows, animated frames and the real scenes.
 #include <gtest/gtest.h>
 
+#include <cstdlib>
 #include <cstring>
+#include <string>
 
 #include <glm/geometric.hpp>
 
@@ -300,6 +302,76 @@ TEST(TileKernel, LaneGroupsOnOneTriangleOfTwoInstancesTakeEachItsOwnNormal) {
   EXPECT_EQ(r.differences(cam), "");
 }
 
+// A unit sphere of kU x kV quads as two triangles each, every triangle
+// written `copies` times (the same vertices, consecutive primitive ids).
+Scene sphere_scene(int ku, int kv, int copies) {
+  Mesh sphere;
+  for (int v = 0; v <= kv; ++v)
+    for (int u = 0; u <= ku; ++u) {
+      const double th = M_PI * v / kv, ph = 2.0 * M_PI * u / ku;
+      sphere.positions.push_back(
+          glm::vec3(glm::dvec3(std::sin(th) * std::cos(ph), std::cos(th), std::sin(th) * std::sin(ph))));
+    }
+  for (int v = 0; v < kv; ++v)
+    for (int u = 0; u < ku; ++u) {
+      const uint32_t a = static_cast<uint32_t>(v * (ku + 1) + u), b = a + 1, c = a + ku + 1, d = c + 1;
+      for (const std::array<uint32_t, 3>& t : {std::array<uint32_t, 3>{a, c, b}, std::array<uint32_t, 3>{b, c, d}})
+        for (int copy = 0; copy < copies; ++copy) sphere.indices.insert(sphere.indices.end(), t.begin(), t.end());
+    }
+  Scene scene;
+  scene.meshes.push_back(sphere);
+  scene.instances.push_back({0, Xform(1.0), "sphere"});
+  return scene;
+}
+
+TEST(TileKernel, DenseScenesTraceWithEightLanesUnlessAsked) {
+  DeviceInfo avx512, avx2;
+  avx512.native_float_width = 16;
+  avx2.native_float_width = 8;
+  const char* env = std::getenv("RAYFOLD_TILE_LANES");
+  const std::string saved = env ? env : "";
+  unsetenv("RAYFOLD_TILE_LANES");
+  EXPECT_EQ(tile_lanes(avx512, 0, false), 16u);
+  EXPECT_EQ(tile_lanes(avx512, 0, true), 8u);
+  EXPECT_EQ(tile_lanes(avx2, 0, false), 8u);
+  EXPECT_EQ(tile_lanes(avx2, 0, true), 8u);
+  EXPECT_EQ(tile_lanes(avx512, 16, true), 16u);  // asked for: kept
+  setenv("RAYFOLD_TILE_LANES", "16", 1);
+  EXPECT_EQ(tile_lanes(avx512, 0, true), 16u);  // the environment's word beats the default
+  if (env)
+    setenv("RAYFOLD_TILE_LANES", saved.c_str(), 1);
+  else
+    unsetenv("RAYFOLD_TILE_LANES");
+
+  // A dense mesh (one of dense_triangles) and a sparse one: the renderer's
+  // width follows, and a dense scene forced to 16 lanes gives the bits of
+  // its default 8.
+  const Scene dense = sphere_scene(256, 256, 1);
+  ASSERT_GE(dense.meshes[0].triangle_count(), BuildOptions{}.dense_triangles);
+  const Scene sparse = sphere_scene(64, 32, 1);
+  const DeviceInfo& info = testing::test_device().info();
+  RendererOptions o;
+  o.kernel = KernelChoice::tile;
+  Renderer dense_default(dense, o);
+  EXPECT_EQ(dense_default.tile_lanes(), tile_lanes(info, 0, true));
+  EXPECT_EQ(Renderer(sparse, o).tile_lanes(), tile_lanes(info, 0, false));
+  o.tuning.tile_lanes = 16;
+  Renderer dense_16(dense, o);
+  EXPECT_EQ(dense_16.tile_lanes(), 16u);
+  CameraSpec spec;
+  spec.eye = glm::dvec3(2, 1.5, 1.2);
+  spec.look_at = glm::dvec3(0.0);
+  spec.vfov_degrees = 45.0;
+  const Camera cam = make_camera(spec, 96, 64);
+  for (FoldMode fold : {FoldMode::none, FoldMode::xy}) {
+    FrameOptions f;
+    f.fold = fold;
+    const HitBuffer a = dense_default.render(cam, 1, f).hits, b = dense_16.render(cam, 1, f).hits;
+    ASSERT_EQ(a.size(), b.size());
+    EXPECT_EQ(std::memcmp(a.data(), b.data(), a.size() * sizeof(rf_pixel_hit)), 0);
+  }
+}
+
 TEST(TileKernel, DuplicatedTrianglesOfADenseMeshTakeTheLowerPrimitive) {
   // A sphere of about 150k triangles, each written twice (the same
   // vertices, two primitive ids), so that it is built as a dense mesh
@@ -307,25 +379,14 @@ TEST(TileKernel, DuplicatedTrianglesOfADenseMeshTakeTheLowerPrimitive) {
   // images. Every hit meets both copies at the same t, so the tie rule (the
   // lower primitive) decides every pixel: a lane that takes the higher copy
   // differs from the CPU reference. No other test ties every pixel.
-  constexpr int kU = 240, kV = 160;
-  Mesh sphere;
-  for (int v = 0; v <= kV; ++v)
-    for (int u = 0; u <= kU; ++u) {
-      const double th = M_PI * v / kV, ph = 2.0 * M_PI * u / kU;
-      sphere.positions.push_back(
-          glm::vec3(glm::dvec3(std::sin(th) * std::cos(ph), std::cos(th), std::sin(th) * std::sin(ph))));
-    }
-  for (int v = 0; v < kV; ++v)
-    for (int u = 0; u < kU; ++u) {
-      const uint32_t a = static_cast<uint32_t>(v * (kU + 1) + u), b = a + 1, c = a + kU + 1, d = c + 1;
-      for (const std::array<uint32_t, 3>& t : {std::array<uint32_t, 3>{a, c, b}, std::array<uint32_t, 3>{b, c, d}})
-        for (int copy = 0; copy < 2; ++copy) sphere.indices.insert(sphere.indices.end(), t.begin(), t.end());
-    }
-  ASSERT_GE(sphere.triangle_count(), BuildOptions{}.dense_triangles);
-  Scene scene;
-  scene.meshes.push_back(sphere);
-  scene.instances.push_back({0, Xform(1.0), "sphere"});
+  const Scene scene = sphere_scene(240, 160, 2);
+  ASSERT_GE(scene.meshes[0].triangle_count(), BuildOptions{}.dense_triangles);
   ThreeWays r(scene);
+  // A dense scene's tile kernel defaults to 8 lanes: the 16-lane build too.
+  RendererOptions wide;
+  wide.kernel = KernelChoice::tile;
+  wide.tuning.tile_lanes = 16;
+  Renderer tile16(scene, wide);
   for (const glm::dvec3 eye : {glm::dvec3(0, 0, 3), glm::dvec3(2, 1.5, 1.2)}) {
     CameraSpec spec;
     spec.eye = eye;
@@ -343,6 +404,15 @@ TEST(TileKernel, DuplicatedTrianglesOfADenseMeshTakeTheLowerPrimitive) {
       EXPECT_GT(hits, static_cast<size_t>(w * h) / 4);
       EXPECT_EQ(odd, 0u);
       EXPECT_EQ(r.differences(cam), "") << w << "x" << h;
+      const HitBuffer ref = r.reference(cam);
+      for (FoldMode fold : {FoldMode::none, FoldMode::y, FoldMode::x, FoldMode::xy}) {
+        FrameOptions f;
+        f.fold = fold;
+        const HitBuffer b = tile16.render(cam, 1, f).hits;
+        ASSERT_EQ(b.size(), ref.size());
+        EXPECT_EQ(std::memcmp(b.data(), ref.data(), b.size() * sizeof(rf_pixel_hit)), 0)
+            << "16 lanes, fold " << static_cast<int>(fold) << ", " << w << "x" << h;
+      }
     }
   }
 }

@@ -27,10 +27,10 @@ void sync_host_buffer(cl::CommandQueue& q, const cl::Buffer& buf, void* host, si
 
 }  // namespace
 
-unsigned tile_lanes(const DeviceInfo& info, unsigned requested) {
+unsigned tile_lanes(const DeviceInfo& info, unsigned requested, bool dense_scene) {
   if (requested == 8 || requested == 16) return requested;
   if (const char* env = std::getenv("RAYFOLD_TILE_LANES")) return std::atoi(env) == 8 ? 8 : 16;
-  return info.native_float_width >= 16 ? 16 : 8;
+  return info.native_float_width >= 16 && !dense_scene ? 16 : 8;
 }
 
 const char* kernel_name(KernelKind k) { return k == KernelKind::tile ? "tile" : "single"; }

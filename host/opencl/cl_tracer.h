@@ -30,12 +30,19 @@ const char* kernel_name(KernelKind k);
 struct KernelTuning {
   unsigned tile_lanes = 0;  // rays per tile-kernel vector, 8 or 16; 0: the device's (tile_lanes)
   std::string defines;      // more build options, such as "-DRF_KEEP_EACH_GROUP=8"
+  // The scene renders a mesh the builder treats as dense (BuildOptions::
+  // dense_triangles): its tile vectors default to 8 lanes (tile_lanes).
+  bool dense_scene = false;
 };
 
 // Rays per vector in the tile kernel: `requested` when it is 8 or 16, else
-// RAYFOLD_TILE_LANES when set, else the device's native float vector width,
-// 8 (AVX2) or 16 (AVX-512).
-unsigned tile_lanes(const DeviceInfo& info, unsigned requested = 0);
+// RAYFOLD_TILE_LANES when set, else 8 for a dense scene, else the device's
+// native float vector width, 8 (AVX2) or 16 (AVX-512). Dense meshes hold
+// about a triangle a pixel, and a leaf meets few rays of a 4x4 block: on
+// an AVX-512 Xeon, random views of the dragon traced 1.07x faster with 8
+// lanes (4x2 blocks), the armadillo 1.03x to 1.04x, where 16 lanes are as
+// fast or faster on every other scene (docs/results.md).
+unsigned tile_lanes(const DeviceInfo& info, unsigned requested = 0, bool dense_scene = false);
 
 struct TraceTimes {
   double upload_ms = 0.0;
@@ -54,7 +61,9 @@ class ClTracer {
   ClTracer& operator=(const ClTracer&) = delete;
 
   // Rays per vector of the tile kernel this tracer builds.
-  unsigned tile_lanes() const { return rayfold::core::tile_lanes(device_.info(), tuning_.tile_lanes); }
+  unsigned tile_lanes() const {
+    return rayfold::core::tile_lanes(device_.info(), tuning_.tile_lanes, tuning_.dense_scene);
+  }
 
   // Allocates every buffer for this scene and image size, checking the
   // device's memory first (RuntimeFailure when it would not fit).

@@ -132,7 +132,7 @@ class Renderer {
 
   std::string device_name() const;  // "cpu reference" for the CPU backend
   std::string kernel() const;       // "tile", "single" or "cpu reference"
-  unsigned tile_lanes() const;      // rays per vector of the tile kernel, 8 or 16; 0 for the CPU backend
+  unsigned tile_lanes() const;      // rays per vector of the tile kernel, 8 or 16 (8 for dense meshes); 0 for the CPU backend
 
  private:
   struct Impl;
