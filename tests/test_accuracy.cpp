@@ -6,7 +6,7 @@
 #include "../tools/scene_gen.h"
 #include "reference/accuracy.h"
 #include "reference/double_reference.h"
-#include "renderer.h"
+#include "pipeline/pipeline.h"
 #include "scene/gltf_loader.h"
 #include "test_util.h"
 
@@ -70,11 +70,11 @@ TEST(DoubleReference, LargeTrianglesNearTheEyeKeepTheirDepth) {
   spec.vfov_degrees = 75.0;
   const Camera cam = make_camera(spec, 96, 64);
   for (int variant = 0; variant < 3; ++variant) {
-    RendererOptions opt;
+    PipelineOptions opt;
     opt.backend = variant == 0 ? Backend::cpu : Backend::opencl;
     opt.kernel = variant == 1 ? KernelChoice::tile : KernelChoice::single;
     const char* name = variant == 0 ? "CPU reference" : variant == 1 ? "tile kernel" : "single-ray kernel";
-    Renderer r(scene, opt);
+    Pipeline r(scene, opt);
     const auto ref = trace_double_reference(scene, r.scene_data(), cam);
     const Accuracy a = measure_accuracy(ref, r.render(cam).hits);
     std::printf("%s: relative depth error p99 %.2e, max %.2e\n", name, a.depth_p99, a.depth_max);
@@ -99,7 +99,7 @@ TEST(DoubleReference, FloatTracersAgainstReference) {
   for (const auto& [path, spec] : scenes) {
     const Scene scene = load_gltf(path);
     const Camera cam = make_camera(spec, 320, 180);
-    Renderer r(scene, RendererOptions{});
+    Pipeline r(scene, PipelineOptions{});
     const auto ref = trace_double_reference(scene, r.scene_data(), cam);
     const Accuracy a = measure_accuracy(ref, r.render(cam).hits);
     std::printf(

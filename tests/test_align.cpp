@@ -10,7 +10,7 @@
 
 #include "fold/frame.h"
 #include "fold/ray_list.h"
-#include "renderer.h"
+#include "pipeline/pipeline.h"
 #include "scene/animation.h"
 #include "test_util.h"
 
@@ -32,7 +32,7 @@ std::string aligned_differences(testing::ThreeWays& r, const std::vector<Camera>
     o.fold = f;
     o.animate_frame = animate_frame;
     for (auto [name, renderer] :
-         {std::pair<const char*, Renderer*>{"cpu", r.cpu.get()}, {"single", r.single.get()}, {"tile", r.tile.get()}}) {
+         {std::pair<const char*, Pipeline*>{"cpu", r.cpu.get()}, {"single", r.single.get()}, {"tile", r.tile.get()}}) {
       RenderResult res;
       renderer->render_views_into(res, views, 1, o);
       if (res.hits.size() != pixels * views.size()) return std::string(name) + ": wrong hit count";
@@ -274,7 +274,7 @@ TEST(Align, AutomaticChoicesPredictEveryCandidateAndRenderTheSameBits) {
   const double size = p.size;
   const std::vector<Camera> views = cameras(orbit(b, 4, 0.3 * size, 0.1 * size), 64, 40);
   testing::ThreeWays r(scene);
-  for (Renderer* renderer : {r.cpu.get(), r.tile.get()}) {
+  for (Pipeline* renderer : {r.cpu.get(), r.tile.get()}) {
     const AutoChoice c = choose_fastest(*renderer, views, {FoldMode::none, FoldMode::xy},
                                         {KernelKind::tile, KernelKind::single}, {1, RF_GROUP_LIMIT});
     // The kernels are probed first; one predicted more than twice as slow

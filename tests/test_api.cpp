@@ -892,9 +892,9 @@ TEST(Api, PackedReadbackGivesTheHostLayoutsBitsInEveryChannelSet) {
     {
       ReadbackEnv env("packed");
       packed = std::make_unique<Renderer>(scene, o);
-      core::RendererOptions co;
+      core::PipelineOptions co;
       co.kernel = kernel == Kernel::tile ? core::KernelChoice::tile : core::KernelChoice::single;
-      core::Renderer probe(scene.state()->scene, co, scene.state()->trees);
+      core::Pipeline probe(scene.state()->scene, co, scene.state()->trees);
       ASSERT_TRUE(probe.packs_planes());
       core::FrameOptions fo;
       fo.planes = true;
@@ -949,9 +949,9 @@ TEST(Api, PlanesWrittenInPlaceHaveTheHitPathsBits) {
   const Camera ortho = Camera::orthographic(persp.eye(), {0.0, 2.0, 0.0}, {0.0, 1.0, 0.0}, 6.0, 29, 19);
   {
     const Renderer builds_the_trees(scene);
-    core::RendererOptions co;
+    core::PipelineOptions co;
     co.device_hint = "cpu";  // the path is a CPU device's; a GPU, found first by default, packs its planes
-    core::Renderer probe(scene.state()->scene, co, scene.state()->trees);
+    core::Pipeline probe(scene.state()->scene, co, scene.state()->trees);
     ASSERT_FALSE(probe.packs_planes()) << "not a CPU device: the in-place path is not what this test checks";
     std::vector<float> z(37 * 23, NAN);
     std::vector<uint32_t> inst(37 * 23, 7u);

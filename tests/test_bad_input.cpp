@@ -9,7 +9,7 @@
 #include "../tools/gltf_writer.h"
 #include "../tools/scene_gen.h"
 #include "gltf_fixture.h"
-#include "renderer.h"
+#include "pipeline/pipeline.h"
 #include "scene/gltf/loader.h"
 #include "scene/gltf_loader.h"
 #include "test_util.h"
@@ -406,9 +406,9 @@ TEST(OddInput, RendersWithWarnings) {
     spec.eye = {0.3, 0.4, 5};
     spec.look_at = {0.3, 0.4, 0};
     const Camera cam = make_camera(spec, 33, 17);
-    RendererOptions cpu;
+    PipelineOptions cpu;
     cpu.backend = Backend::cpu;
-    Renderer a(scene, cpu), b(scene, RendererOptions{});
+    Pipeline a(scene, cpu), b(scene, PipelineOptions{});
     const RenderResult ra = a.render(cam, 1, FrameOptions{FoldMode::xy});
     const RenderResult rb = b.render(cam, 1, FrameOptions{FoldMode::xy});
     EXPECT_EQ(testing::compare_hits(ra.hits, rb.hits, cam.width), "");

@@ -17,7 +17,7 @@
 #include "bvh/wide_bvh.h"
 #include "fold/ray_list.h"
 #include "reference/cpu_tracer.h"
-#include "renderer.h"
+#include "pipeline/pipeline.h"
 #include "rf_trace.h"
 #include "test_util.h"
 #include "util/large_pages.h"
@@ -414,9 +414,9 @@ TEST(Bvh, TwoLevelTraversalEqualsBruteForce) {
   int views = 0;
   for (int s = 0; s < 6; ++s) {
     const Scene scene = testing::random_scene(rng, 1 + rng.below(4), 1 + rng.below(12), 20 + rng.below(200));
-    RendererOptions opt;
+    PipelineOptions opt;
     opt.backend = Backend::cpu;
-    Renderer renderer(scene, opt);
+    Pipeline renderer(scene, opt);
     for (int v = 0; v < 10; ++v, ++views) {
       const Camera cam = make_camera(testing::random_camera(rng, scene.world_bounds()), 48, 32);
       const RenderResult culled = renderer.render(cam);
@@ -435,9 +435,9 @@ TEST(Bvh, SomethingIsHitInRandomViews) {
   // Guards the test above against passing on empty images.
   Rng rng(5);
   const Scene scene = testing::random_scene(rng, 2, 10, 300);
-  RendererOptions opt;
+  PipelineOptions opt;
   opt.backend = Backend::cpu;
-  Renderer renderer(scene, opt);
+  Pipeline renderer(scene, opt);
   CameraSpec spec;
   spec.eye = glm::dvec3(0, 0, 20);
   spec.look_at = glm::dvec3(0, 0, 0);
@@ -456,9 +456,9 @@ TEST(Bvh, MirroredInstanceKeepsFrontNormal) {
   scene.instances.push_back({0, glm::translate(Xform(1.0), glm::dvec3(-2, 0, 0)), "plain"});
   scene.instances.push_back(
       {0, glm::scale(glm::translate(Xform(1.0), glm::dvec3(2, 0, 0)), glm::dvec3(-1, 1, 1)), "mirrored"});
-  RendererOptions opt;
+  PipelineOptions opt;
   opt.backend = Backend::cpu;
-  Renderer renderer(scene, opt);
+  Pipeline renderer(scene, opt);
   CameraSpec spec;
   spec.eye = glm::dvec3(0, 0, 10);
   spec.look_at = glm::dvec3(0, 0, 0);
@@ -486,9 +486,9 @@ TEST(Bvh, DistanceAndBarycentricsByHand) {
   tri.indices = {0, 1, 2};
   scene.meshes.push_back(tri);
   scene.instances.push_back({0, Xform(1.0), "t"});
-  RendererOptions opt;
+  PipelineOptions opt;
   opt.backend = Backend::cpu;
-  Renderer renderer(scene, opt);
+  Pipeline renderer(scene, opt);
   CameraSpec spec;  // eye at the origin looking down -z
   const Camera cam = make_camera(spec, 3, 3);
   const RenderResult r = renderer.render(cam);
@@ -513,9 +513,9 @@ TEST(Bvh, TieRulePicksLowerInstanceThenPrimitive) {
   scene.meshes.push_back(quad);
   scene.instances.push_back({0, Xform(1.0), "a"});
   scene.instances.push_back({0, Xform(1.0), "b"});
-  RendererOptions opt;
+  PipelineOptions opt;
   opt.backend = Backend::cpu;
-  Renderer renderer(scene, opt);
+  Pipeline renderer(scene, opt);
   const Camera cam = make_camera(CameraSpec{}, 33, 33);
   const RenderResult r = renderer.render(cam);
   size_t hits = 0;
@@ -569,12 +569,12 @@ TEST(Bvh, LooseNodesOpenPastTheBudget) {
   testing::Rng rng(5);
   for (int v = 0; v < 4; ++v) {
     const Camera cam = make_camera(testing::random_camera(rng, s.world_bounds()), 48, 32);
-    RendererOptions a, b;
+    PipelineOptions a, b;
     a.backend = b.backend = Backend::cpu;
     a.braid = budget_only;
     b.braid = loose;
     a.merge = b.merge = apart;
-    EXPECT_EQ(testing::compare_hits(Renderer(s, a).render(cam).hits, Renderer(s, b).render(cam).hits, 48), "")
+    EXPECT_EQ(testing::compare_hits(Pipeline(s, a).render(cam).hits, Pipeline(s, b).render(cam).hits, 48), "")
         << "view " << v;
   }
 }
@@ -863,15 +863,15 @@ TEST(Bvh, DenseMeshesGetFullerLeaves) {
       << nodes(dense, last) << " against " << nodes(sparse, last);
   for (size_t m = 0; m < last; ++m) EXPECT_EQ(nodes(dense, m), nodes(sparse, m)) << "mesh " << m;
   const Camera cam = make_camera(testing::random_camera(rng, scene.world_bounds()), 64, 40);
-  RendererOptions opt;
+  PipelineOptions opt;
   opt.backend = Backend::cpu;
-  Renderer cpu(scene, opt);
+  Pipeline cpu(scene, opt);
   const HitBuffer want = cpu.render(cam).hits;
   EXPECT_EQ(testing::compare_hits(testing::brute_force(scene, cpu.scene_data(), cam), want, cam.width), "");
   for (KernelChoice k : {KernelChoice::tile, KernelChoice::single}) {
     opt.backend = Backend::opencl;
     opt.kernel = k;
-    Renderer cl(scene, opt);
+    Pipeline cl(scene, opt);
     EXPECT_EQ(testing::compare_hits(want, cl.render(cam).hits, cam.width), "") << "kernel " << int(k);
   }
 }

@@ -11,7 +11,7 @@
 
 #include "gltf_fixture.h"
 #include "reference/cpu_tracer.h"
-#include "renderer.h"
+#include "pipeline/pipeline.h"
 #include "test_util.h"
 
 namespace rayfold::core {
@@ -227,9 +227,9 @@ std::multiset<std::vector<double>> world_triangles(const Scene& s) {
 // pixels whose hit or miss agrees, and the largest relative depth difference
 // over pixels both hit.
 void compare_renders(const Scene& a, const Scene& b, double* agree, double* worst) {
-  RendererOptions o;
+  PipelineOptions o;
   o.backend = Backend::cpu;
-  Renderer ra(a, o), rb(b, o);
+  Pipeline ra(a, o), rb(b, o);
   CameraSpec view;
   view.eye = glm::dvec3(-17.5, 3.0, 0.5);
   view.look_at = glm::dvec3(10.0, 2.0, -1.0);

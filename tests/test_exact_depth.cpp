@@ -9,7 +9,7 @@
 #include <cstring>
 
 #include "reference/double_reference.h"
-#include "renderer.h"
+#include "pipeline/pipeline.h"
 #include "scene/gltf_loader.h"
 #include "test_util.h"
 #include "util/span.h"
@@ -147,9 +147,9 @@ TEST(ExactDepth, EqualsBruteForceInObjectSpace) {
   Rng rng(91);
   for (int s = 0; s < 3; ++s) {
     const Scene scene = testing::random_scene(rng, 2, 10, 120);
-    RendererOptions cpu;
+    PipelineOptions cpu;
     cpu.backend = Backend::cpu;
-    Renderer r(scene, cpu);
+    Pipeline r(scene, cpu);
     for (int v = 0; v < 4; ++v) {
       const Camera cam =
           make_camera(testing::random_camera(rng, scene.world_bounds()), 31 + v, 22 + v, v % 2 ? 0.3 : 0.0, 0.0);
@@ -172,9 +172,9 @@ TEST(ExactDepth, WithinOneRoundingOfTheDoubleReference) {
   size_t pixels = 0;
   for (int s = 0; s < 2; ++s) {
     const Scene scene = testing::generated_atrium(900 + s, 60, 20000);
-    RendererOptions o;
+    PipelineOptions o;
     o.kernel = KernelChoice::tile;
-    Renderer r(scene, o);
+    Pipeline r(scene, o);
     for (int v = 0; v < 4; ++v) {
       CameraSpec spec = testing::random_camera(rng, scene.world_bounds());
       if (v % 2 == 0) testing::move_eye_inside_an_instance(rng, scene, spec);
@@ -194,9 +194,9 @@ TEST(ExactDepth, PlanarIsTheDistanceTimesTheAxisCosine) {
   // On the bundled atrium: planar = distance * cos(angle to the axis), each
   // exact to one rounding, so they agree to two.
   const Scene scene = load_gltf(std::string(RAYFOLD_SOURCE_DIR) + "/scenes/atrium.glb");
-  RendererOptions cpu;
+  PipelineOptions cpu;
   cpu.backend = Backend::cpu;
-  Renderer r(scene, cpu);
+  Pipeline r(scene, cpu);
   const Camera cam = make_camera(*scene.camera, 90, 50, 0.2, -0.1);
   FrameOptions planar = exact();
   planar.planar_depth = true;

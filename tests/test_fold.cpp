@@ -11,7 +11,7 @@
 #include "fold/ray_list.h"
 #include "fold/view_passes.h"
 #include "reference/hit_compare.h"
-#include "renderer.h"
+#include "pipeline/pipeline.h"
 #include "scene/gltf_loader.h"
 #include "test_util.h"
 
@@ -20,8 +20,8 @@ namespace {
 
 const FoldMode kFolds[] = {FoldMode::y, FoldMode::x, FoldMode::xy};
 
-RendererOptions backend(Backend b) {
-  RendererOptions o;
+PipelineOptions backend(Backend b) {
+  PipelineOptions o;
   o.backend = b;
   return o;
 }
@@ -35,7 +35,7 @@ FrameOptions with_fold(FoldMode f, bool cull = true) {
 
 // Renders `cam` unfolded and in every fold mode on one renderer; returns ""
 // when all agree bit for bit, else the first difference.
-std::string fold_differences(Renderer& r, const Camera& cam) {
+std::string fold_differences(Pipeline& r, const Camera& cam) {
   const HitBuffer none = r.render(cam, 1, with_fold(FoldMode::none)).hits;
   std::string out;
   for (FoldMode f : kFolds) {
@@ -172,7 +172,7 @@ TEST(Fold, HandBuiltSymmetricCase) {
   tri.indices = {0, 1, 2};
   scene.meshes.push_back(tri);
   scene.instances.push_back({0, Xform(1.0), "left"});
-  Renderer r(scene, backend(Backend::cpu));
+  Pipeline r(scene, backend(Backend::cpu));
   const Camera cam = make_camera(CameraSpec{}, 64, 32);
   const RenderResult folded = r.render(cam, 1, with_fold(FoldMode::y));
   size_t left = 0, right = 0;
@@ -189,15 +189,15 @@ TEST(Fold, DefaultSceneFullSizeCpuAndOpenCl) {
   const Scene scene = load_gltf(std::string(RAYFOLD_SOURCE_DIR) + "/scenes/atrium.glb");
   const Camera cam = make_camera(*scene.camera, 1280, 720);
   for (Backend b : {Backend::cpu, Backend::opencl}) {
-    Renderer r(scene, backend(b));
+    Pipeline r(scene, backend(b));
     EXPECT_EQ(fold_differences(r, cam), "") << (b == Backend::cpu ? "cpu" : "opencl");
   }
 }
 
 TEST(Fold, OddAndTinySizes) {
   const Scene scene = load_gltf(std::string(RAYFOLD_SOURCE_DIR) + "/scenes/atrium.glb");
-  Renderer cpu(scene, backend(Backend::cpu));
-  Renderer cl(scene, backend(Backend::opencl));
+  Pipeline cpu(scene, backend(Backend::cpu));
+  Pipeline cl(scene, backend(Backend::opencl));
   for (auto [w, h] : std::vector<std::pair<int, int>>{{1, 1}, {2, 1}, {1, 2}, {3, 3}, {2, 2}, {5, 4}, {1279, 719}}) {
     const Camera cam = make_camera(*scene.camera, w, h);
     EXPECT_EQ(fold_differences(cpu, cam), "") << w << "x" << h << " cpu";
@@ -210,15 +210,15 @@ TEST(Fold, RandomCamerasOverGeneratedScenes) {
   int cameras = 0;
   for (int s = 0; s < 4; ++s) {
     const Scene scene = testing::generated_atrium(500 + s, 20 + 70 * s, 15000);
-    Renderer cpu(scene, backend(Backend::cpu));
-    Renderer cl(scene, backend(Backend::opencl));
+    Pipeline cpu(scene, backend(Backend::cpu));
+    Pipeline cl(scene, backend(Backend::opencl));
     for (int v = 0; v < 26; ++v, ++cameras) {
       CameraSpec spec = testing::random_camera(rng, scene.world_bounds());
       if (v % 5 == 0) testing::move_eye_inside_an_instance(rng, scene, spec);
       const int w = 1 + rng.below(90), h = 1 + rng.below(70);
       const double sx = v % 3 == 0 ? rng.uniform(-0.8, 0.8) : 0.0, sy = v % 4 == 0 ? rng.uniform(-0.8, 0.8) : 0.0;
       const Camera cam = make_camera(spec, w, h, sx, sy);
-      Renderer& r = v % 2 ? cpu : cl;
+      Pipeline& r = v % 2 ? cpu : cl;
       EXPECT_EQ(fold_differences(r, cam), "") << "scene " << s << " camera " << v << " " << w << "x" << h;
     }
   }
@@ -226,7 +226,7 @@ TEST(Fold, RandomCamerasOverGeneratedScenes) {
 }
 
 // A frame's hit buffer is neither cleared when it is made nor between
-// frames (Renderer::begin_views): each kernel, the CPU reference and every
+// frames (Pipeline::begin_views): each kernel, the CPU reference and every
 // fold, one view or two in a pass, perspective or orthographic, with each
 // of the depth and normal options, must write every pixel, misses
 // included. Rendered into buffers filled with two different bytes, the
@@ -252,7 +252,7 @@ TEST(Fold, EveryPixelIsWrittenIntoAnUnclearedBuffer) {
       cams.push_back(make_camera(right, w, h));
     }
     const size_t pixels = static_cast<size_t>(w) * h * cams.size();
-    for (Renderer* renderer : {r.cpu.get(), r.single.get(), r.tile.get()})
+    for (Pipeline* renderer : {r.cpu.get(), r.single.get(), r.tile.get()})
       for (FoldMode f : testing::kAllFolds) {
         if (static_cast<int>(cams.size()) > max_pass_views(f)) continue;
         FrameOptions options = with_fold(f);
@@ -285,7 +285,7 @@ TEST(Fold, RandomMirroredSoupsAgainstBruteForce) {
   testing::Rng rng(77);
   for (int s = 0; s < 4; ++s) {
     const Scene scene = testing::random_scene(rng, 2, 12, 150);
-    Renderer r(scene, backend(Backend::cpu));
+    Pipeline r(scene, backend(Backend::cpu));
     for (int v = 0; v < 6; ++v) {
       const Camera cam =
           make_camera(testing::random_camera(rng, scene.world_bounds()), 33 + v, 24 + v, v % 2 ? 0.3 : 0.0, 0.0);
@@ -299,7 +299,7 @@ TEST(Fold, RandomMirroredSoupsAgainstBruteForce) {
 
 TEST(Fold, CullingPerGroupIsConservative) {
   const Scene scene = load_gltf(std::string(RAYFOLD_SOURCE_DIR) + "/scenes/atrium.glb");
-  Renderer r(scene, backend(Backend::cpu));
+  Pipeline r(scene, backend(Backend::cpu));
   testing::Rng rng(4);
   for (int v = 0; v < 8; ++v) {
     const Camera cam = make_camera(testing::random_camera(rng, scene.world_bounds()), 80, 45);
@@ -314,8 +314,8 @@ TEST(Fold, CullingPerGroupIsConservative) {
 
 TEST(Fold, AnimatedFramesStayLossless) {
   const Scene scene = load_gltf(std::string(RAYFOLD_SOURCE_DIR) + "/scenes/atrium.glb");
-  Renderer cpu(scene, backend(Backend::cpu));
-  Renderer cl(scene, backend(Backend::opencl));
+  Pipeline cpu(scene, backend(Backend::cpu));
+  Pipeline cl(scene, backend(Backend::opencl));
   const Camera cam = make_camera(*scene.camera, 160, 90);
   for (int frame : {0, 3, 17}) {
     FrameOptions none = with_fold(FoldMode::none);
@@ -338,7 +338,7 @@ TEST(Fold, SharedScenes) {
   if (testing::shared_scenes_dir().empty())
     GTEST_SKIP() << "../shared/scenes not found (set RAYFOLD_SCENES_DIR); real scenes not tested";
   const int rendered = testing::for_each_shared_scene([](const testing::SharedView& v, const Scene& scene) {
-    Renderer cl(scene, backend(Backend::opencl));
+    Pipeline cl(scene, backend(Backend::opencl));
     EXPECT_EQ(fold_differences(cl, make_camera(v.camera(), 121, 67)), "") << v.file;
   });
   EXPECT_GT(rendered, 0);

@@ -14,7 +14,7 @@
 #include <thread>
 
 #include "opencl/kernel_cache.h"
-#include "renderer.h"
+#include "pipeline/pipeline.h"
 #include "test_util.h"
 
 namespace rayfold::core {
@@ -69,9 +69,9 @@ Views views() {
   testing::Rng rng(1234);
   Views v;
   v.scene = testing::random_scene(rng, 2, 6, 150);
-  RendererOptions cpu;
+  PipelineOptions cpu;
   cpu.backend = Backend::cpu;
-  Renderer ref(v.scene, cpu);
+  Pipeline ref(v.scene, cpu);
   for (int i = 0; i < 3; ++i) {
     v.cams.push_back(make_camera(testing::random_camera(rng, v.scene.world_bounds()), 48, 32));
     v.want.push_back(ref.render(v.cams.back()).hits);
@@ -82,9 +82,9 @@ Views views() {
 // A renderer of this kernel made now (its program built or loaded) traces
 // the reference's bits.
 void expect_reference_bits(const Views& v, KernelChoice kernel, const std::string& what) {
-  RendererOptions o;
+  PipelineOptions o;
   o.kernel = kernel;
-  Renderer r(v.scene, o);
+  Pipeline r(v.scene, o);
   for (size_t i = 0; i < v.cams.size(); ++i)
     EXPECT_EQ(testing::compare_hits(v.want[i], r.render(v.cams[i]).hits, v.cams[i].width), "")
         << what << ", kernel " << int(kernel) << ", view " << i;
@@ -110,9 +110,9 @@ TEST(KernelCache, SecondRendererLoadsItsProgramAndTracesTheSameBits) {
   EXPECT_EQ(files_in(dir), stored);
   EXPECT_EQ(fs::last_write_time(stored[0]), written) << "a loaded program was stored again";
   // Another precision is another program: a file of its own, not a hit.
-  RendererOptions fast;
+  PipelineOptions fast;
   fast.precision = KernelPrecision::fast;
-  Renderer f(v.scene, fast);
+  Pipeline f(v.scene, fast);
   f.render(v.cams[0]);
   EXPECT_EQ(kernel_cache_hits(), before + 2);
   EXPECT_EQ(files_in(dir).size(), 2u);

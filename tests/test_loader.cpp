@@ -15,7 +15,7 @@
 #include "../tools/gltf_writer.h"
 #include "../tools/scene_gen.h"
 #include "gltf_fixture.h"
-#include "renderer.h"
+#include "pipeline/pipeline.h"
 #include "scene/gltf/loader.h"
 #include "scene/gltf_loader.h"
 #include "test_util.h"
@@ -386,9 +386,9 @@ TEST(Loader, GpuInstancesEqualTheSameInstancesWrittenAsNodes) {
   spec.eye = {0, 0, 6};
   spec.look_at = {0, 0, -4};
   const Camera cam = make_camera(spec, 48, 32);
-  RendererOptions cpu;
+  PipelineOptions cpu;
   cpu.backend = Backend::cpu;
-  const auto ha = Renderer(a, cpu).render(cam).hits, hb = Renderer(b, cpu).render(cam).hits;
+  const auto ha = Pipeline(a, cpu).render(cam).hits, hb = Pipeline(b, cpu).render(cam).hits;
   EXPECT_EQ(testing::compare_hits(ha, hb, 48), "");
   std::set<uint32_t> seen;
   for (const rf_pixel_hit& h : ha)
@@ -443,10 +443,10 @@ TEST(Loader, SkinnedMeshesAtTheDefaultPose) {
   spec.eye = {0, 0.5, -1};
   spec.look_at = {0, 0.5, -3};
   const Camera cam = make_camera(spec, 40, 30);
-  RendererOptions cpu;
+  PipelineOptions cpu;
   cpu.backend = Backend::cpu;
-  const auto a = Renderer(load_gltf(g.write("skinned_one_joint")), cpu).render(cam).hits;
-  const auto b = Renderer(load_gltf(plain.write("skinned_one_joint_plain")), cpu).render(cam).hits;
+  const auto a = Pipeline(load_gltf(g.write("skinned_one_joint")), cpu).render(cam).hits;
+  const auto b = Pipeline(load_gltf(plain.write("skinned_one_joint_plain")), cpu).render(cam).hits;
   size_t same = 0, hits = 0;
   for (size_t i = 0; i < a.size(); ++i) {
     hits += b[i].instance != RF_INVALID;

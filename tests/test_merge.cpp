@@ -11,7 +11,7 @@
 
 #include "bvh/scene_data.h"
 #include "bvh/scene_file.h"
-#include "renderer.h"
+#include "pipeline/pipeline.h"
 #include "scene/animation.h"
 #include "test_util.h"
 
@@ -120,12 +120,12 @@ TEST(Merge, SceneFilesKeepMergedTreesAndTheirBits) {
   EXPECT_EQ(back.data.blas.merged, data.blas.merged);
   testing::Rng rng(3);
   const Camera cam = make_camera(testing::random_camera(rng, s.world_bounds()), 41, 27);
-  RendererOptions o;
+  PipelineOptions o;
   o.backend = Backend::cpu;
-  const HitBuffer want = Renderer(s, o).render(cam).hits;
+  const HitBuffer want = Pipeline(s, o).render(cam).hits;
   o.backend = Backend::opencl;
   o.kernel = KernelChoice::tile;
-  Renderer loaded(back.scene, o, std::make_shared<const SceneData>(back.data));
+  Pipeline loaded(back.scene, o, std::make_shared<const SceneData>(back.data));
   EXPECT_EQ(testing::compare_hits(want, loaded.render(cam).hits, 41), "");
 }
 
@@ -144,9 +144,9 @@ TEST(Merge, RayQueriesThroughMergedTreesGiveTheReferencesBits) {
       d.push_back(rng.uniformf(-1.0f, 1.0f));
     }
   const size_t n = o.size() / 3;
-  RendererOptions opt;
+  PipelineOptions opt;
   opt.backend = Backend::cpu;
-  Renderer cpu(s, opt);
+  Pipeline cpu(s, opt);
   ASSERT_TRUE(cpu.scene_data().blas.merged[0]);
   std::vector<rf_pixel_hit> want(n), got(n);
   cpu.intersect(o.data(), d.data(), n, 0.0f, INFINITY, false, FrameOptions{}, want.data());
@@ -157,7 +157,7 @@ TEST(Merge, RayQueriesThroughMergedTreesGiveTheReferencesBits) {
   opt.backend = Backend::opencl;
   for (const KernelChoice kernel : {KernelChoice::single, KernelChoice::tile}) {
     opt.kernel = kernel;
-    Renderer cl(s, opt);
+    Pipeline cl(s, opt);
     cl.intersect(o.data(), d.data(), n, 0.0f, INFINITY, false, FrameOptions{}, got.data());
     size_t differ = 0;
     for (size_t i = 0; i < n; ++i) differ += std::memcmp(&want[i], &got[i], sizeof(rf_pixel_hit)) != 0;
@@ -201,10 +201,10 @@ TEST(Merge, CoincidentCopiesResolveToTheLowerInstance) {
 // of the CPU reference.
 TEST(Merge, AnimatedInstancesAreBuiltApart) {
   const Scene s = shared_transform_scene(8, 12);
-  RendererOptions o;
+  PipelineOptions o;
   o.backend = Backend::cpu;
   o.merge.dynamic = animated_instances(s.instances.size());
-  Renderer cpu(s, o);
+  Pipeline cpu(s, o);
   const BlasSet& blas = cpu.scene_data().blas;
   for (size_t i = 0; i < s.instances.size(); ++i)
     if (is_animated(i)) {
@@ -213,7 +213,7 @@ TEST(Merge, AnimatedInstancesAreBuiltApart) {
   EXPECT_TRUE(blas.merged[0] && blas.merged[4]);
   o.backend = Backend::opencl;
   o.kernel = KernelChoice::tile;
-  Renderer tile(s, o);
+  Pipeline tile(s, o);
   testing::Rng rng(2);
   const Camera cam = make_camera(testing::random_camera(rng, s.world_bounds()), 40, 28);
   for (int frame = 0; frame < 3; ++frame) {

@@ -7,7 +7,7 @@
 #include <cmath>
 
 #include "gltf_fixture.h"
-#include "renderer.h"
+#include "pipeline/pipeline.h"
 #include "test_util.h"
 
 namespace rayfold::core {
@@ -29,10 +29,10 @@ TEST(Ortho, EveryTracerEqualsTheBruteForceInEveryFold) {
     for (Backend backend : {Backend::cpu, Backend::opencl})
       for (KernelChoice kernel : {KernelChoice::tile, KernelChoice::single}) {
         if (backend == Backend::cpu && kernel == KernelChoice::single) continue;
-        RendererOptions o;
+        PipelineOptions o;
         o.backend = backend;
         o.kernel = kernel;
-        Renderer r(scene, o);
+        Pipeline r(scene, o);
         for (FoldMode f : {FoldMode::none, FoldMode::y, FoldMode::x, FoldMode::xy}) {
           FrameOptions fo;
           fo.fold = f;
@@ -48,9 +48,9 @@ TEST(Ortho, APowerOfTwoScaleMovesOnlyTheDepth) {
   testing::Rng rng(3);
   const Scene base = testing::random_scene(rng, 2, 5, 40);
   const CameraSpec view = testing::random_ortho_camera(rng, base.world_bounds());
-  RendererOptions o;
+  PipelineOptions o;
   o.backend = Backend::opencl;
-  Renderer r0(base, o);
+  Pipeline r0(base, o);
   FrameOptions fo;
   fo.fold = FoldMode::xy;
   const auto ref = r0.render(make_camera(view, 40, 30), 1, fo).hits;
@@ -61,7 +61,7 @@ TEST(Ortho, APowerOfTwoScaleMovesOnlyTheDepth) {
     v.eye = std::ldexp(1.0, k) * v.eye;
     v.look_at = std::ldexp(1.0, k) * v.look_at;
     v.ymag = std::ldexp(v.ymag, k);
-    Renderer r(s, o);
+    Pipeline r(s, o);
     const auto got = r.render(make_camera(v, 40, 30), 1, fo).hits;
     for (size_t i = 0; i < ref.size(); ++i) {
       ASSERT_EQ(got[i].instance, ref[i].instance) << "k " << k << " pixel " << i;
@@ -91,7 +91,7 @@ TEST(Ortho, AFilesOrthographicCameraRendersWhatItFrames) {
   EXPECT_TRUE(scene.camera->orthographic);
   EXPECT_EQ(scene.camera->ymag, 2.0);
   const Camera cam = make_camera(*scene.camera, 64, 64);
-  Renderer r(scene, {});
+  Pipeline r(scene, {});
   const auto hits = r.render(cam).hits;
   size_t n = 0;
   for (const rf_pixel_hit& h : hits)

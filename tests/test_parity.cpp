@@ -6,15 +6,15 @@
 #include <filesystem>
 
 #include "../tools/scene_gen.h"
-#include "renderer.h"
+#include "pipeline/pipeline.h"
 #include "scene/gltf_loader.h"
 #include "test_util.h"
 
 namespace rayfold::core {
 namespace {
 
-RendererOptions cpu_options() {
-  RendererOptions o;
+PipelineOptions cpu_options() {
+  PipelineOptions o;
   o.backend = Backend::cpu;
   return o;
 }
@@ -24,8 +24,8 @@ TEST(Parity, DefaultSceneFullSize) {
   const Scene scene = load_gltf(path);
   ASSERT_TRUE(scene.camera.has_value());
   const Camera cam = make_camera(*scene.camera, 1280, 720);
-  Renderer cpu(scene, cpu_options());
-  Renderer cl(scene, RendererOptions{});
+  Pipeline cpu(scene, cpu_options());
+  Pipeline cl(scene, PipelineOptions{});
   const RenderResult a = cpu.render(cam);
   const RenderResult b = cl.render(cam);
   EXPECT_EQ(testing::compare_hits(a.hits, b.hits, cam.width), "");
@@ -39,8 +39,8 @@ TEST(Parity, RandomCamerasOverGeneratedScenes) {
   int cameras = 0;
   for (int s = 0; s < 3; ++s) {
     const Scene scene = testing::generated_atrium(1000 + s, 30 + 60 * s, 20000);
-    Renderer cpu(scene, cpu_options());
-    Renderer cl(scene, RendererOptions{});
+    Pipeline cpu(scene, cpu_options());
+    Pipeline cl(scene, PipelineOptions{});
     for (int v = 0; v < 20; ++v, ++cameras) {
       const int w = 40 + rng.below(120), h = 30 + rng.below(90);
       const Camera cam = make_camera(testing::random_camera(rng, scene.world_bounds()), w, h);
@@ -56,8 +56,8 @@ TEST(Parity, RandomTriangleSoupsWithMirrors) {
   testing::Rng rng(123);
   for (int s = 0; s < 4; ++s) {
     const Scene scene = testing::random_scene(rng, 3, 15, 400);
-    Renderer cpu(scene, cpu_options());
-    Renderer cl(scene, RendererOptions{});
+    Pipeline cpu(scene, cpu_options());
+    Pipeline cl(scene, PipelineOptions{});
     for (int v = 0; v < 5; ++v) {
       const Camera cam = make_camera(testing::random_camera(rng, scene.world_bounds()), 96, 64);
       EXPECT_EQ(testing::compare_hits(cpu.render(cam).hits, cl.render(cam).hits, 96), "") << s << "/" << v;
@@ -76,8 +76,8 @@ TEST(Parity, SharedScenesSuggestedViews) {
     GTEST_SKIP() << "../shared/scenes not found (set RAYFOLD_SCENES_DIR); real scenes not tested";
   const int rendered = testing::for_each_shared_scene([](const testing::SharedView& v, const Scene& scene) {
     const Camera cam = make_camera(v.camera(), 160, 90);
-    Renderer cpu(scene, cpu_options());
-    Renderer cl(scene, RendererOptions{});
+    Pipeline cpu(scene, cpu_options());
+    Pipeline cl(scene, PipelineOptions{});
     const RenderResult a = cpu.render(cam);
     EXPECT_EQ(testing::compare_hits(a.hits, cl.render(cam).hits, cam.width), "") << v.file;
     size_t hits = 0;

@@ -16,7 +16,7 @@
 #include "../tools/peers.h"
 #include "../tools/ray_peers.h"
 #include "reference/cpu_tracer.h"
-#include "renderer.h"
+#include "pipeline/pipeline.h"
 #include "scene/gltf_loader.h"
 #include "test_util.h"
 #include "util/errors.h"
@@ -216,16 +216,16 @@ TEST(Peers, LaneWidthsAndABDefinesAreExactRows) {
 TEST(Peers, KernelTuningReachesTheKernelsBuild) {
   const Scene scene = load_gltf(std::string(RAYFOLD_SOURCE_DIR) + "/scenes/atrium.glb");
   for (unsigned lanes : {8u, 16u}) {
-    RendererOptions ro;
+    PipelineOptions ro;
     ro.tuning.tile_lanes = lanes;
-    EXPECT_EQ(Renderer(scene, ro).tile_lanes(), lanes);
+    EXPECT_EQ(Pipeline(scene, ro).tile_lanes(), lanes);
   }
-  RendererOptions cpu;
+  PipelineOptions cpu;
   cpu.backend = Backend::cpu;
-  EXPECT_EQ(Renderer(scene, cpu).tile_lanes(), 0u);
-  RendererOptions bad;
+  EXPECT_EQ(Pipeline(scene, cpu).tile_lanes(), 0u);
+  PipelineOptions bad;
   bad.tuning.defines = "-DRF_LANES=3";  // rf_lanes.h's #error
-  EXPECT_THROW(Renderer(scene, bad), RuntimeFailure);
+  EXPECT_THROW(Pipeline(scene, bad), RuntimeFailure);
 }
 
 TEST(MachineInfo, ParsesTheFirstProcessor) {
@@ -324,9 +324,9 @@ TEST(Peers, EmbreeWritesRayfoldsGBuffer) {
   if (!EmbreePeer::available()) GTEST_SKIP() << "rayfold was built without Embree";
   testing::Rng rng(7);
   const Scene scene = testing::random_scene(rng, 3, 12, 200);
-  RendererOptions opt;
+  PipelineOptions opt;
   opt.backend = Backend::cpu;
-  Renderer cpu(scene, opt);
+  Pipeline cpu(scene, opt);
   EmbreePeer embree(scene, cpu.scene_data(), 2);
   size_t compared = 0;
   for (int v = 0; v < 3; ++v) {

@@ -35,10 +35,10 @@ Scene box_scene(bool inward, const Xform& world_from_object = Xform(1.0)) {
   return s;
 }
 
-std::unique_ptr<Renderer> cpu_renderer(const Scene& s) {
-  RendererOptions ro;
+std::unique_ptr<Pipeline> cpu_renderer(const Scene& s) {
+  PipelineOptions ro;
   ro.backend = Backend::cpu;
-  return std::make_unique<Renderer>(s, ro);
+  return std::make_unique<Pipeline>(s, ro);
 }
 
 bool same_bits(const glm::dvec3& a, const glm::dvec3& b) { return std::memcmp(&a, &b, sizeof a) == 0; }

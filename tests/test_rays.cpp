@@ -1,4 +1,4 @@
-// Ray queries (Renderer::intersect): rays from anywhere against brute force
+// Ray queries (Pipeline::intersect): rays from anywhere against brute force
 // in floats (the same test and tie rule, bit for bit) and in doubles, the
 // OpenCL kernel against the CPU reference, the interval and occlusion
 // rules, scaling by powers of two, and bad rays.
@@ -70,13 +70,13 @@ Rays random_rays(Rng& rng, const Scene& scene, size_t n, const std::vector<size_
 }
 
 // Default options on `backend`.
-RendererOptions on(Backend backend) {
-  RendererOptions opt;
+PipelineOptions on(Backend backend) {
+  PipelineOptions opt;
   opt.backend = backend;
   return opt;
 }
 
-std::vector<rf_pixel_hit> query(Renderer& r, const Rays& rays, float tmin = 0.0f, float tmax = INFINITY,
+std::vector<rf_pixel_hit> query(Pipeline& r, const Rays& rays, float tmin = 0.0f, float tmax = INFINITY,
                                 bool any_hit = false) {
   std::vector<rf_pixel_hit> out(rays.size());
   r.intersect(rays.o.data(), rays.d.data(), rays.size(), tmin, tmax, any_hit, FrameOptions{}, out.data());
@@ -106,9 +106,9 @@ TEST(RayQuery, EqualsBruteForceBitForBitOnRandomScenes) {
   size_t hits = 0, rays_total = 0;
   for (int s = 0; s < 6; ++s) {
     const Scene scene = testing::random_scene(rng, 1 + rng.below(4), 1 + rng.below(12), 20 + rng.below(200));
-    RendererOptions opt;
+    PipelineOptions opt;
     opt.backend = Backend::cpu;
-    Renderer renderer(scene, opt);
+    Pipeline renderer(scene, opt);
     const Rays rays = random_rays(rng, scene, 3000);
     const std::vector<rf_pixel_hit> got = query(renderer, rays);
     const std::vector<rf_pixel_hit> expected = testing::brute_force_rays(scene, renderer.scene_data(), rays.o.data(),
@@ -125,7 +125,7 @@ TEST(RayQuery, EqualsBruteForceBitForBitOnRandomScenes) {
 // the same answers (the kernel walks the 8-wide trees and stops at its
 // first hit, another than the reference's first), at two tmax, and some
 // rays occluded and some not.
-void expect_kernel_equals_reference(Renderer& cpu, Renderer& cl, const Rays& rays, const std::string& what) {
+void expect_kernel_equals_reference(Pipeline& cpu, Pipeline& cl, const Rays& rays, const std::string& what) {
   EXPECT_EQ(differences(query(cpu, rays), query(cl, rays)), "") << what;
   for (const float tmax : {INFINITY, 0.5f}) {
     const std::vector<rf_pixel_hit> want = query(cpu, rays, 0.0f, tmax, true), got = query(cl, rays, 0.0f, tmax, true);
@@ -144,7 +144,7 @@ TEST(RayQuery, OpenClKernelEqualsTheCpuReference) {
   Rng rng(99);
   for (int s = 0; s < 4; ++s) {
     const Scene scene = testing::random_scene(rng, 1 + rng.below(4), 1 + rng.below(12), 20 + rng.below(300));
-    Renderer cpu(scene, on(Backend::cpu)), cl(scene, on(Backend::opencl));
+    Pipeline cpu(scene, on(Backend::cpu)), cl(scene, on(Backend::opencl));
     expect_kernel_equals_reference(cpu, cl, random_rays(rng, scene, 5000), "scene " + std::to_string(s));
   }
 }
@@ -155,7 +155,7 @@ TEST(RayQuery, OpenClKernelEqualsTheCpuReference) {
 TEST(RayQuery, QueriesAfterALargerRenderEqualTheCpuReference) {
   Rng rng(123);
   const Scene scene = testing::random_scene(rng, 2, 6, 200);
-  Renderer cpu(scene, on(Backend::cpu)), cl(scene, on(Backend::opencl));
+  Pipeline cpu(scene, on(Backend::cpu)), cl(scene, on(Backend::opencl));
   const Rays rays = random_rays(rng, scene, 3000);
   expect_kernel_equals_reference(cpu, cl, rays, "before the render");
   auto hits_bytes = [&] {
@@ -184,7 +184,7 @@ TEST(RayQuery, ATopLevelOfOneLeafTracesEveryInstanceInIt) {
   scene.instances[0].world_from_object = Xform(1.0);
   scene.instances[1].world_from_object = glm::scale(Xform(1.0), glm::dvec3(-1.0, 1.0, 1.0));
   scene.instances[2].world_from_object = glm::rotate(Xform(1.0), 1.5707963267948966, glm::dvec3(0.0, 1.0, 0.0));
-  Renderer cpu(scene, on(Backend::cpu)), cl(scene, on(Backend::opencl));
+  Pipeline cpu(scene, on(Backend::cpu)), cl(scene, on(Backend::opencl));
   const Rays rays = random_rays(rng, scene, 5000);
   const SceneData& data = cl.scene_data();
   const Wide8Trees trees = build_query_trees(data);
@@ -202,7 +202,7 @@ TEST(RayQuery, ATopLevelOfOneLeafTracesEveryInstanceInIt) {
 TEST(RayQuery, ManyInstancesThroughTheWideTopLevelEqualTheCpuReference) {
   Rng rng(7);
   const Scene scene = testing::random_scene(rng, 3, 300, 40);
-  Renderer cpu(scene, on(Backend::cpu)), cl(scene, on(Backend::opencl));
+  Pipeline cpu(scene, on(Backend::cpu)), cl(scene, on(Backend::opencl));
   const Rays rays = random_rays(rng, scene, 6000);
   const SceneData& data = cl.scene_data();
   const float bound = check_query_rays(rays.o.data(), rays.d.data(), rays.size(), 0.0f, INFINITY);
@@ -248,7 +248,7 @@ TEST(RayQuery, LeavesTestedEightTrianglesAtATimeEqualTheCpuReference) {
   scene.meshes.push_back(mesh);
   scene.instances.emplace_back();
   scene.instances[0].mesh = 0;
-  Renderer cpu(scene, on(Backend::cpu)), cl(scene, on(Backend::opencl));
+  Pipeline cpu(scene, on(Backend::cpu)), cl(scene, on(Backend::opencl));
   size_t sizes[9] = {};
   for (const rf_node& n : cl.scene_data().blas.nodes) {
     const uint32_t count = n.meta & RF_NODE_COUNT_MASK;
@@ -309,7 +309,7 @@ TEST(RayQuery, GrazingHitsTakeTheirOwnLeafsEntryThroughTheWideTrees) {
     rays.o.insert(rays.o.end(), {o.x, o.y, o.z});
     rays.d.insert(rays.d.end(), {d.x, d.y, d.z});
   }
-  Renderer cpu(scene, on(Backend::cpu)), cl(scene, on(Backend::opencl));
+  Pipeline cpu(scene, on(Backend::cpu)), cl(scene, on(Backend::opencl));
   const std::vector<rf_pixel_hit> expected = query(cpu, rays), got = query(cl, rays);
   EXPECT_EQ(differences(expected, got), "");
   size_t hits = 0;
@@ -343,14 +343,14 @@ TEST(RayQuery, SharedOriginTilesEqualTheCpuReference) {
     // Runs of 1000, 700, 3000 (eleven tiles and a part) and 300 rays from
     // one origin each.
     const Rays rays = random_rays(rng, scene, 5000, {1000, 700, 3000, 300});
-    RendererOptions opt;
+    PipelineOptions opt;
     opt.backend = Backend::cpu;
-    Renderer cpu(scene, opt);
+    Pipeline cpu(scene, opt);
     opt.backend = Backend::opencl;
     opt.kernel = KernelChoice::tile;
-    Renderer tiles(scene, opt);
+    Pipeline tiles(scene, opt);
     opt.kernel = KernelChoice::single;
-    Renderer single(scene, opt);
+    Pipeline single(scene, opt);
     ASSERT_EQ(plan_query_tiles(rays.o.data(), rays.size(), 0, 128).tiles.size(), 1 + 4 + 3 + 12 + 2)
         << "the runs as tiles";
     const float tmin = 0.0f, tmax = INFINITY;
@@ -410,11 +410,11 @@ TEST(RayQuery, TilesTakeTheCallersArraysToTraceSpaceAsTheReferenceDoes) {
       Rays rays = *unscaled;
       for (float& c : rays.o) c = std::ldexp(c, k);
       for (float& c : rays.d) c = std::ldexp(c, k);
-      RendererOptions opt = on(Backend::cpu);
-      Renderer cpu(scene, opt);
+      PipelineOptions opt = on(Backend::cpu);
+      Pipeline cpu(scene, opt);
       opt.backend = Backend::opencl;
       opt.kernel = KernelChoice::tile;
-      Renderer tiles(scene, opt);
+      Pipeline tiles(scene, opt);
       ASSERT_FALSE(plan_query_tiles(rays.o.data(), rays.size(), row_length, 128).tiles.empty())
           << "2^" << k << ": not tiled";
       const int e = -build_query_frame(scene, cpu.scene_data(),
@@ -537,12 +537,12 @@ TEST(RayQuery, ImageRaysInBlocksEqualTheCpuReference) {
     EXPECT_EQ(kept.tiles, fresh.tiles) << rows << " rows";
     EXPECT_EQ(kept.traced_order(), fresh.order) << rows << " rows";
   }
-  RendererOptions opt;
+  PipelineOptions opt;
   opt.backend = Backend::cpu;
-  Renderer cpu(scene, opt);
+  Pipeline cpu(scene, opt);
   opt.backend = Backend::opencl;
   opt.kernel = KernelChoice::tile;
-  Renderer tiles(scene, opt);
+  Pipeline tiles(scene, opt);
   const std::vector<rf_pixel_hit> want = query(cpu, rays);
   size_t hits = 0;
   for (const rf_pixel_hit& h : want) hits += h.instance != RF_INVALID;
@@ -571,9 +571,9 @@ TEST(RayQuery, ImageRaysInBlocksEqualTheCpuReference) {
 TEST(RayQuery, AgreesWithADoubleReference) {
   Rng rng(321);
   const Scene scene = testing::random_scene(rng, 3, 8, 200);
-  RendererOptions opt;
+  PipelineOptions opt;
   opt.backend = Backend::cpu;
-  Renderer renderer(scene, opt);
+  Pipeline renderer(scene, opt);
   const Rays rays = random_rays(rng, scene, 4000);
   const std::vector<rf_pixel_hit> got = query(renderer, rays);
   size_t both = 0, same = 0, close = 0;
@@ -629,9 +629,9 @@ Scene square_at_minus_five() {
 TEST(RayQuery, IntervalAndOcclusionRules) {
   const Scene scene = square_at_minus_five();
   for (Backend b : {Backend::cpu, Backend::opencl}) {
-    RendererOptions opt;
+    PipelineOptions opt;
     opt.backend = b;
-    Renderer r(scene, opt);
+    Pipeline r(scene, opt);
     const Rays unit{{0.25f, 0.125f, 0.0f}, {0.0f, 0.0f, -1.0f}};
     const Rays twice{{0.25f, 0.125f, 0.0f}, {0.0f, 0.0f, -2.0f}};
     EXPECT_EQ(query(r, unit)[0].z, 5.0f);
@@ -660,10 +660,10 @@ TEST(RayQuery, TheFastBuildRefusesQueries) {
   // Its finite-math assumptions do not hold for query bounds and
   // axis-aligned rays: it missed this hit with tmax = inf and crashed on
   // others. A clear error instead.
-  RendererOptions opt;
+  PipelineOptions opt;
   opt.backend = Backend::opencl;
   opt.precision = KernelPrecision::fast;
-  Renderer r(square_at_minus_five(), opt);
+  Pipeline r(square_at_minus_five(), opt);
   const Rays unit{{0.25f, 0.125f, 0.0f}, {0.0f, 0.0f, -1.0f}};
   try {
     query(r, unit);
@@ -677,9 +677,9 @@ TEST(RayQuery, ScalingSceneAndRaysByPowersOfTwoKeepsEveryBit) {
   Rng rng(17);
   const Scene scene = testing::random_scene(rng, 2, 6, 150);
   const Rays rays = random_rays(rng, scene, 2000);
-  RendererOptions opt;
+  PipelineOptions opt;
   opt.backend = Backend::cpu;
-  Renderer base(scene, opt);
+  Pipeline base(scene, opt);
   const std::vector<rf_pixel_hit> expected = query(base, rays);
   for (int k : {-40, -3, 5, 60}) {
     Scene scaled = scene;
@@ -687,7 +687,7 @@ TEST(RayQuery, ScalingSceneAndRaysByPowersOfTwoKeepsEveryBit) {
     Rays r = rays;
     for (float& c : r.o) c = std::ldexp(c, k);
     for (float& c : r.d) c = std::ldexp(c, k);
-    Renderer renderer(scaled, opt);
+    Pipeline renderer(scaled, opt);
     EXPECT_EQ(differences(expected, query(renderer, r)), "") << "2^" << k;
   }
 }
@@ -695,9 +695,9 @@ TEST(RayQuery, ScalingSceneAndRaysByPowersOfTwoKeepsEveryBit) {
 TEST(RayQuery, AnswersDoNotDependOnOrderOrBatching) {
   Rng rng(5);
   const Scene scene = testing::random_scene(rng, 3, 10, 200);
-  RendererOptions opt;
+  PipelineOptions opt;
   opt.backend = Backend::opencl;
-  Renderer r(scene, opt);
+  Pipeline r(scene, opt);
   const Rays rays = random_rays(rng, scene, 3000);
   const std::vector<rf_pixel_hit> all = query(r, rays);
   std::vector<size_t> order(rays.size());
@@ -724,7 +724,7 @@ TEST(RayQuery, AnswersDoNotDependOnOrderOrBatching) {
 TEST(RayQuery, ScatteredRaysPastOneChunkKeepTheirAnswers) {
   Rng rng(8);
   const Scene scene = testing::random_scene(rng, 3, 10, 200);
-  Renderer cpu(scene, on(Backend::cpu)), cl(scene, on(Backend::opencl));
+  Pipeline cpu(scene, on(Backend::cpu)), cl(scene, on(Backend::opencl));
   const Rays base = random_rays(rng, scene, 3000);
   const std::vector<rf_pixel_hit> want = query(cpu, base);
   const size_t n = (size_t{1} << 20) + 2500;
@@ -753,7 +753,7 @@ TEST(RayQuery, ScatteredRaysPastOneChunkKeepTheirAnswers) {
 TEST(RayQuery, ChunksOfBothKindsInOneQueryKeepTheirAnswers) {
   Rng rng(9);
   const Scene scene = testing::random_scene(rng, 3, 10, 200);
-  Renderer cpu(scene, on(Backend::cpu)), cl(scene, on(Backend::opencl));
+  Pipeline cpu(scene, on(Backend::cpu)), cl(scene, on(Backend::opencl));
   const Rays shared = random_rays(rng, scene, 4096, {4096}), scattered = random_rays(rng, scene, 3000);
   const std::vector<rf_pixel_hit> want_shared = query(cpu, shared), want_scattered = query(cpu, scattered);
   const size_t first_chunk = size_t{1} << 20, n = first_chunk + 5000;
@@ -785,9 +785,9 @@ TEST(RayQuery, InstancesBeyondTheFloatRangeAreReported) {
   mixed.meshes.push_back(testing::closed_cube(1));
   mixed.instances.push_back({0, uniform_scale(120), "huge"});
   mixed.instances.push_back({0, uniform_scale(-140), "subnormal"});
-  RendererOptions cpu;
+  PipelineOptions cpu;
   cpu.backend = Backend::cpu;
-  Renderer r(mixed, cpu);
+  Pipeline r(mixed, cpu);
   const Rays rays{{0.0f, 0.0f, 0.0f}, {0.0f, 0.0f, -1.0f}};
   rf_pixel_hit h;
   const std::vector<std::string> w = r.intersect(rays.o.data(), rays.d.data(), 1, 0.0f, INFINITY, false, {}, &h);
@@ -796,7 +796,7 @@ TEST(RayQuery, InstancesBeyondTheFloatRangeAreReported) {
   EXPECT_NE(w[0].find("1 instances not traced"), std::string::npos) << w[0];
   Scene one = mixed;
   one.instances.pop_back();
-  Renderer fine(one, cpu);
+  Pipeline fine(one, cpu);
   EXPECT_TRUE(fine.intersect(rays.o.data(), rays.d.data(), 1, 0.0f, INFINITY, false, {}, &h).empty());
 }
 
@@ -818,9 +818,9 @@ TEST(RayQuery, ASceneWithNothingToTraceAnswersMisses) {
     }
   for (const Backend backend : {Backend::cpu, Backend::opencl})
     for (const KernelChoice kernel : {KernelChoice::single, KernelChoice::tile}) {
-      RendererOptions o = on(backend);
+      PipelineOptions o = on(backend);
       o.kernel = kernel;
-      Renderer r(scene, o);
+      Pipeline r(scene, o);
       for (const Rays* rays : {&scattered, &shared})
         for (const rf_pixel_hit& h : query(r, *rays)) {
           ASSERT_EQ(h.instance, RF_INVALID);
@@ -831,9 +831,9 @@ TEST(RayQuery, ASceneWithNothingToTraceAnswersMisses) {
 
 TEST(RayQuery, BadRaysNameTheFirst) {
   const Scene scene = square_at_minus_five();
-  RendererOptions opt;
+  PipelineOptions opt;
   opt.backend = Backend::cpu;
-  Renderer r(scene, opt);
+  Pipeline r(scene, opt);
   auto error = [&](Rays rays, float tmin = 0.0f, float tmax = INFINITY) -> std::string {
     try {
       query(r, rays, tmin, tmax);

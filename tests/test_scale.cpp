@@ -13,7 +13,7 @@
 #include <glm/gtc/matrix_transform.hpp>
 
 #include "fold/ray_list.h"
-#include "renderer.h"
+#include "pipeline/pipeline.h"
 #include "scene/gltf_loader.h"
 #include "test_util.h"
 #include "util/errors.h"
@@ -124,16 +124,16 @@ TEST(Scale, EveryPowerOfTwoFromMinus100To100) {
     const Scene base = soup(seed);
     const CameraSpec spec = soup_camera(seed + 100, base);
     const Camera cam0 = make_camera(spec, 40, 30);
-    RendererOptions cpu;
+    PipelineOptions cpu;
     cpu.backend = Backend::cpu;
-    const HitBuffer ref = Renderer(base, cpu).render(cam0).hits;
+    const HitBuffer ref = Pipeline(base, cpu).render(cam0).hits;
     ASSERT_GT(count_hits(ref), ref.size() / 20) << "seed " << seed << ": the view must see the soup";
     for (Placement where : {Placement::vertices, Placement::nodes})
       for (int k = -100; k <= 100; ++k) {
         const Scene s = scaled(base, k, where);
         const Camera cam = make_camera(scaled(spec, k), 40, 30);
         const char* w = where == Placement::vertices ? "vertices" : "nodes";
-        const HitBuffer hits = Renderer(s, cpu).render(cam).hits;
+        const HitBuffer hits = Pipeline(s, cpu).render(cam).hits;
         EXPECT_EQ(compare_scaled(ref, hits, k, cam.width), "") << "seed " << seed << ", 2^" << k << " in " << w;
         if (seed == 11 || k % 37 == 0 || std::abs(k) == 100) {
           EXPECT_EQ(testing::ThreeWays(s).differences(cam), "") << "seed " << seed << ", 2^" << k << " in " << w;
@@ -148,11 +148,11 @@ TEST(Scale, SubnormalDepthsKeepEveryOtherChannel) {
   // channel stays bit-identical, and nothing is lost.
   const Scene base = soup(61);
   const CameraSpec spec = soup_camera(62, base);
-  RendererOptions cpu;
+  PipelineOptions cpu;
   cpu.backend = Backend::cpu;
   const Camera cam0 = make_camera(scaled(spec, -135), 40, 30);
-  const HitBuffer tiny = Renderer(scaled(base, -135, Placement::nodes), cpu).render(cam0).hits;
-  const HitBuffer ref = Renderer(base, cpu).render(make_camera(spec, 40, 30)).hits;
+  const HitBuffer tiny = Pipeline(scaled(base, -135, Placement::nodes), cpu).render(cam0).hits;
+  const HitBuffer ref = Pipeline(base, cpu).render(make_camera(spec, 40, 30)).hits;
   size_t subnormal = 0;
   for (size_t i = 0; i < ref.size(); ++i) {
     rf_pixel_hit a = ref[i], b = tiny[i];
@@ -171,7 +171,7 @@ TEST(Scale, SubnormalDepthsKeepEveryOtherChannel) {
   // Further down every depth is 0, also found by the fuzz target; the render
   // says so, and the other channels still hold.
   const Camera cam1 = make_camera(scaled(spec, -160), 40, 30);
-  const RenderResult zero = Renderer(scaled(base, -160, Placement::nodes), cpu).render(cam1);
+  const RenderResult zero = Pipeline(scaled(base, -160, Placement::nodes), cpu).render(cam1);
   for (size_t i = 0; i < ref.size(); ++i) {
     rf_pixel_hit a = ref[i], b = zero.hits[i];
     if (a.instance != RF_INVALID) {
@@ -182,7 +182,7 @@ TEST(Scale, SubnormalDepthsKeepEveryOtherChannel) {
   }
   ASSERT_EQ(zero.warnings.size(), 1u);
   EXPECT_NE(zero.warnings[0].find("below 2^-125"), std::string::npos) << zero.warnings[0];
-  EXPECT_TRUE(Renderer(base, cpu).render(make_camera(spec, 40, 30)).warnings.empty());
+  EXPECT_TRUE(Pipeline(base, cpu).render(make_camera(spec, 40, 30)).warnings.empty());
 }
 
 TEST(Scale, VertexAndNodeScalesGiveTheSameBits) {
@@ -190,12 +190,12 @@ TEST(Scale, VertexAndNodeScalesGiveTheSameBits) {
   // the node lands in the same tree space, so even the depths agree.
   const Scene base = soup(21);
   const CameraSpec spec = soup_camera(22, base);
-  RendererOptions cpu;
+  PipelineOptions cpu;
   cpu.backend = Backend::cpu;
   for (int k : {-100, -3, 5, 99}) {
     const Camera cam = make_camera(scaled(spec, k), 40, 30);
-    const auto a = Renderer(scaled(base, k, Placement::vertices), cpu).render(cam).hits;
-    const auto b = Renderer(scaled(base, k, Placement::nodes), cpu).render(cam).hits;
+    const auto a = Pipeline(scaled(base, k, Placement::vertices), cpu).render(cam).hits;
+    const auto b = Pipeline(scaled(base, k, Placement::nodes), cpu).render(cam).hits;
     EXPECT_EQ(testing::compare_hits(a, b, cam.width), "") << "2^" << k;
   }
 }
@@ -206,9 +206,9 @@ TEST(Scale, DecimalScalesKeepTheirHits) {
   // of its hits and one 1e14 or 1e-15 across all of them.
   const Scene base = soup(31);
   const CameraSpec spec = soup_camera(32, base);
-  RendererOptions cpu;
+  PipelineOptions cpu;
   cpu.backend = Backend::cpu;
-  const HitBuffer ref = Renderer(base, cpu).render(make_camera(spec, 64, 48)).hits;
+  const HitBuffer ref = Pipeline(base, cpu).render(make_camera(spec, 64, 48)).hits;
   const size_t ref_hits = count_hits(ref);
   for (int e = -36; e <= 36; e += 3) {
     const double f = std::pow(10.0, e);
@@ -220,7 +220,7 @@ TEST(Scale, DecimalScalesKeepTheirHits) {
     CameraSpec sc = spec;
     sc.eye *= f;
     sc.look_at *= f;
-    const HitBuffer hits = Renderer(s, cpu).render(make_camera(sc, 64, 48)).hits;
+    const HitBuffer hits = Pipeline(s, cpu).render(make_camera(sc, 64, 48)).hits;
     size_t same = 0;
     for (size_t i = 0; i < hits.size(); ++i) same += hits[i].instance == ref[i].instance;
     EXPECT_NEAR(double(count_hits(hits)), double(ref_hits), 0.01 * ref_hits) << "scale 1e" << e;
@@ -233,15 +233,15 @@ TEST(Scale, FramingOfTinyAndHugeScenes) {
   // from exactly 2^k times as far, and sees the same hits.
   const Scene base = soup(41);
   const CameraSpec f0 = frame_bounds(base.world_bounds());
-  RendererOptions cpu;
+  PipelineOptions cpu;
   cpu.backend = Backend::cpu;
-  const HitBuffer ref = Renderer(base, cpu).render(make_camera(f0, 40, 30)).hits;
+  const HitBuffer ref = Pipeline(base, cpu).render(make_camera(f0, 40, 30)).hits;
   for (int k : {-120, -60, -40, 40, 60, 100}) {
     const Scene s = scaled(base, k, Placement::nodes);
     const CameraSpec f = frame_bounds(s.world_bounds());
     EXPECT_EQ(f.eye, f0.eye * std::ldexp(1.0, k)) << "2^" << k;
     EXPECT_EQ(f.look_at, f0.look_at * std::ldexp(1.0, k)) << "2^" << k;
-    EXPECT_EQ(compare_scaled(ref, Renderer(s, cpu).render(make_camera(f, 40, 30)).hits, k, 40), "") << "2^" << k;
+    EXPECT_EQ(compare_scaled(ref, Pipeline(s, cpu).render(make_camera(f, 40, 30)).hits, k, 40), "") << "2^" << k;
   }
   // A scene of one point has nothing to see but still gets a camera.
   Scene point;
@@ -299,9 +299,9 @@ TEST(Scale, BeyondTheFloatRangeIsRefusedOrReported) {
   mixed.instances.push_back({0, uniform_scale(-140), "subnormal"});
   CameraSpec spec;
   spec.eye = {0.0, 0.0, 0.0};
-  RendererOptions cpu;
+  PipelineOptions cpu;
   cpu.backend = Backend::cpu;
-  const RenderResult r = Renderer(mixed, cpu).render(make_camera(spec, 16, 16));
+  const RenderResult r = Pipeline(mixed, cpu).render(make_camera(spec, 16, 16));
   EXPECT_EQ(r.views.at(0).out_of_range, 1u) << "2^260 apart: the small one cannot share a trace space";
   for (const rf_pixel_hit& h : r.hits) EXPECT_EQ(h.instance, 0u);
   ASSERT_EQ(r.warnings.size(), 1u);
@@ -329,18 +329,18 @@ TEST(Scale, TrianglesTooSmallForTheirMeshAreReported) {
   EXPECT_NE(result.warnings[0].find("1 triangles are smaller than 2^-60"), std::string::npos) << result.warnings[0];
   s.meshes[0].positions[1].x = 1e12f;  // 2^-40 apart: resolved, no warning
   s.meshes[0].positions[2].y = 1e12f;
-  RendererOptions cpu;
+  PipelineOptions cpu;
   cpu.backend = Backend::cpu;
-  EXPECT_TRUE(Renderer(s, cpu).render(cam).warnings.empty());
+  EXPECT_TRUE(Pipeline(s, cpu).render(cam).warnings.empty());
 }
 
 TEST(Scale, ViewsFinerThanFloatPositionsAreReported) {
   // Seen from 1e8 times its size through a view that keeps it in frame, an
   // object is lost by every float tracer (rayfold-limits); the render says so.
   const Scene scene = soup(51);
-  RendererOptions cpu;
+  PipelineOptions cpu;
   cpu.backend = Backend::cpu;
-  Renderer renderer(scene, cpu);
+  Pipeline renderer(scene, cpu);
   for (double d : {10.0, 1e3, 1e5, 1e8}) {
     const double vfov = 2.0 * std::asin(1.0 / d) * 180.0 / M_PI;
     const Camera cam = make_camera(frame_bounds(scene.world_bounds(), vfov), 64, 48);

@@ -12,7 +12,7 @@
 
 #include <glm/gtc/matrix_transform.hpp>
 
-#include "renderer.h"
+#include "pipeline/pipeline.h"
 #include "scene/gltf_loader.h"
 #include "test_util.h"
 #include "util/span.h"
@@ -25,9 +25,9 @@ using testing::Rng;
 // Renders on both backends in every fold mode; all must equal the CPU's
 // unfolded render bit for bit and hold no NaN. Returns that render.
 HitBuffer render_everywhere(const Scene& scene, const Camera& cam, const std::string& what) {
-  RendererOptions cpu_opt;
+  PipelineOptions cpu_opt;
   cpu_opt.backend = Backend::cpu;
-  Renderer cpu(scene, cpu_opt), cl(scene, RendererOptions{});
+  Pipeline cpu(scene, cpu_opt), cl(scene, PipelineOptions{});
   const HitBuffer ref = cpu.render(cam, 1, FrameOptions{FoldMode::none}).hits;
   for (const rf_pixel_hit& h : ref) {
     if (std::isnan(h.z) || std::isnan(h.nx) || std::isnan(h.ny) || std::isnan(h.nz) || std::isnan(h.u) ||
@@ -36,7 +36,7 @@ HitBuffer render_everywhere(const Scene& scene, const Camera& cam, const std::st
       break;
     }
   }
-  for (Renderer* r : {&cpu, &cl})
+  for (Pipeline* r : {&cpu, &cl})
     for (FoldMode f : {FoldMode::none, FoldMode::y, FoldMode::x, FoldMode::xy}) {
       if (r == &cpu && f == FoldMode::none) continue;
       EXPECT_EQ(testing::compare_hits(ref, r->render(cam, 1, FrameOptions{f}).hits, cam.width), "")
@@ -157,9 +157,9 @@ TEST(Stress, NonUniformNegativeAndSingularScales) {
   EXPECT_GT(seen[2], 0u);
   EXPECT_EQ(seen[3], 0u) << "a singular instance is hidden";
   EXPECT_EQ(seen[4], 0u) << "a zero-scale instance is hidden";
-  RendererOptions cpu;
+  PipelineOptions cpu;
   cpu.backend = Backend::cpu;
-  Renderer r(scene, cpu);
+  Pipeline r(scene, cpu);
   EXPECT_EQ(testing::compare_hits(testing::brute_force(scene, r.scene_data(), cam), hits, cam.width), "");
 }
 
@@ -277,9 +277,9 @@ TEST(Exactness, FastBuildAgainstExact) {
   for (const auto& [path, spec] : scenes) {
     const Scene scene = load_gltf(path);
     const Camera cam = make_camera(spec, 320, 180);
-    RendererOptions fast;
+    PipelineOptions fast;
     fast.precision = KernelPrecision::fast;
-    Renderer exact_r(scene, RendererOptions{}), fast_r(scene, fast);
+    Pipeline exact_r(scene, PipelineOptions{}), fast_r(scene, fast);
     const auto exact = exact_r.render(cam).hits;
     const auto fast_none = fast_r.render(cam).hits;
     const Agreement a = agreement(exact, fast_none);

@@ -21,7 +21,7 @@
 
 #include "../tools/scene_gen.h"
 #include "bvh/bvh_build.h"
-#include "renderer.h"
+#include "pipeline/pipeline.h"
 #include "rf_trace.h"
 #include "scene/gltf_loader.h"
 #include "test_util.h"
@@ -85,25 +85,25 @@ TEST(TileKernel, IntervalBoundRejectsOnlyWhatEveryLaneRejects) {
 
 TEST(TileKernel, ChosenByDefaultOnCpuDevices) {
   const Scene scene = load_gltf(std::string(RAYFOLD_SOURCE_DIR) + "/scenes/atrium.glb");
-  const Renderer r(scene, RendererOptions{});
+  const Pipeline r(scene, PipelineOptions{});
   const bool cpu_device = testing::test_device().info().is_cpu;
   EXPECT_EQ(r.kernel_label(), cpu_device ? "tile" : "single");
-  RendererOptions o;
+  PipelineOptions o;
   o.kernel = KernelChoice::single;
-  EXPECT_EQ(Renderer(scene, o).kernel_label(), "single");
+  EXPECT_EQ(Pipeline(scene, o).kernel_label(), "single");
 }
 
 TEST(TileKernel, MeasuredChoiceKeepsTheFasterKernelAndTheSameBits) {
   // What auto does on GPUs: the first frame is traced by both kernels, the
   // faster one stays. On PoCL that is the tile kernel by a wide margin.
   const Scene scene = load_gltf(std::string(RAYFOLD_SOURCE_DIR) + "/scenes/atrium.glb");
-  RendererOptions o;
+  PipelineOptions o;
   o.kernel = KernelChoice::measure;
-  Renderer measured(scene, o);
+  Pipeline measured(scene, o);
   EXPECT_EQ(measured.kernel_reason(), "to be measured");
-  RendererOptions cpu;
+  PipelineOptions cpu;
   cpu.backend = Backend::cpu;
-  Renderer reference(scene, cpu);
+  Pipeline reference(scene, cpu);
   const Camera cam = make_camera(*scene.camera, 320, 180);
   FrameOptions xy;
   xy.fold = FoldMode::xy;
@@ -144,7 +144,7 @@ TEST(TileKernel, NormalsOffWriteZeroNormalsAndTheSameRest) {
     with.fold = fold;
     FrameOptions without = with;
     without.normals = false;
-    for (Renderer* renderer : {r.cpu.get(), r.single.get(), r.tile.get()}) {
+    for (Pipeline* renderer : {r.cpu.get(), r.single.get(), r.tile.get()}) {
       const HitBuffer a = renderer->render(cam, 1, with).hits;
       const HitBuffer b = renderer->render(cam, 1, without).hits;
       ASSERT_EQ(a.size(), b.size());
@@ -174,7 +174,7 @@ TEST(TileKernel, PlanarDepthIsTheDistanceAlongTheCameraAxis) {
     FrameOptions planar = distance;
     planar.planar_depth = true;
     const HitBuffer ref = r.cpu->render(cam, 1, planar).hits;
-    for (Renderer* renderer : {r.cpu.get(), r.single.get(), r.tile.get()}) {
+    for (Pipeline* renderer : {r.cpu.get(), r.single.get(), r.tile.get()}) {
       const HitBuffer a = renderer->render(cam, 1, distance).hits;
       const HitBuffer b = renderer->render(cam, 1, planar).hits;
       ASSERT_EQ(std::memcmp(b.data(), ref.data(), b.size() * sizeof(rf_pixel_hit)), 0) << renderer->kernel_label();
@@ -350,13 +350,13 @@ TEST(TileKernel, DenseScenesTraceWithEightLanesUnlessAsked) {
   ASSERT_GE(dense.meshes[0].triangle_count(), BuildOptions{}.dense_triangles);
   const Scene sparse = sphere_scene(64, 32, 1);
   const DeviceInfo& info = testing::test_device().info();
-  RendererOptions o;
+  PipelineOptions o;
   o.kernel = KernelChoice::tile;
-  Renderer dense_default(dense, o);
+  Pipeline dense_default(dense, o);
   EXPECT_EQ(dense_default.tile_lanes(), tile_lanes(info, 0, true));
-  EXPECT_EQ(Renderer(sparse, o).tile_lanes(), tile_lanes(info, 0, false));
+  EXPECT_EQ(Pipeline(sparse, o).tile_lanes(), tile_lanes(info, 0, false));
   o.tuning.tile_lanes = 16;
-  Renderer dense_16(dense, o);
+  Pipeline dense_16(dense, o);
   EXPECT_EQ(dense_16.tile_lanes(), 16u);
   CameraSpec spec;
   spec.eye = glm::dvec3(2, 1.5, 1.2);
@@ -383,10 +383,10 @@ TEST(TileKernel, DuplicatedTrianglesOfADenseMeshTakeTheLowerPrimitive) {
   ASSERT_GE(scene.meshes[0].triangle_count(), BuildOptions{}.dense_triangles);
   ThreeWays r(scene);
   // A dense scene's tile kernel defaults to 8 lanes: the 16-lane build too.
-  RendererOptions wide;
+  PipelineOptions wide;
   wide.kernel = KernelChoice::tile;
   wide.tuning.tile_lanes = 16;
-  Renderer tile16(scene, wide);
+  Pipeline tile16(scene, wide);
   for (const glm::dvec3 eye : {glm::dvec3(0, 0, 3), glm::dvec3(2, 1.5, 1.2)}) {
     CameraSpec spec;
     spec.eye = eye;

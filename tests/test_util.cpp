@@ -242,16 +242,16 @@ Scene random_scene(Rng& rng, int meshes, int instances, int triangles_per_mesh) 
 }
 
 ThreeWays::ThreeWays(const Scene& scene) {
-  RendererOptions o;
+  PipelineOptions o;
   o.backend = Backend::cpu;
   // differences() may animate: the moving instances keep their own trees.
   o.merge.dynamic = animated_instances(scene.instances.size());
-  cpu = std::make_unique<Renderer>(scene, o);
+  cpu = std::make_unique<Pipeline>(scene, o);
   o.backend = Backend::opencl;
   o.kernel = KernelChoice::single;
-  single = std::make_unique<Renderer>(scene, o);
+  single = std::make_unique<Pipeline>(scene, o);
   o.kernel = KernelChoice::tile;
-  tile = std::make_unique<Renderer>(scene, o);
+  tile = std::make_unique<Pipeline>(scene, o);
 }
 
 HitBuffer ThreeWays::reference(const Camera& cam, int animate_frame, const FrameOptions& base) {
@@ -268,7 +268,7 @@ std::string ThreeWays::differences(const Camera& cam, int animate_frame, const F
     FrameOptions o = base;
     o.animate_frame = animate_frame;
     o.fold = f;
-    for (auto [name, r] : {std::pair<const char*, Renderer*>{"single", single.get()}, {"tile", tile.get()}}) {
+    for (auto [name, r] : {std::pair<const char*, Pipeline*>{"single", single.get()}, {"tile", tile.get()}}) {
       const std::string d = compare_hits(ref, r->render(cam, 1, o).hits, cam.width);
       if (!d.empty()) out += std::string(name) + " fold " + fold_name(f) + ": " + d + "\n";
     }

@@ -11,7 +11,7 @@
 #include "device_layout.h"
 #include "fold/frame.h"
 #include "opencl/cl_device.h"
-#include "renderer.h"
+#include "pipeline/pipeline.h"
 #include "scene/camera.h"
 #include "scene/scene.h"
 #include "util/span.h"
@@ -37,7 +37,7 @@ class Rng {
 std::vector<rf_pixel_hit> brute_force(const Scene& scene, const SceneData& data, const Camera& camera,
                                       bool exact_depth = false);
 // The same for ray queries: n world-space rays (origins, directions n x 3),
-// hits with tmin < t <= tmax, z = t (Renderer::intersect's answers).
+// hits with tmin < t <= tmax, z = t (Pipeline::intersect's answers).
 std::vector<rf_pixel_hit> brute_force_rays(const Scene& scene, const SceneData& data, const float* origins,
                                            const float* directions, size_t n, float tmin, float tmax);
 
@@ -85,7 +85,7 @@ struct ThreeWays {
   // frame options besides the fold and animation (the exact depth).
   std::string differences(const Camera& cam, int animate_frame = -1, const FrameOptions& base = {});
 
-  std::unique_ptr<Renderer> cpu, single, tile;
+  std::unique_ptr<Pipeline> cpu, single, tile;
 };
 
 // The process-wide OpenCL device (PoCL on CI machines).

@@ -67,9 +67,9 @@ std::vector<CameraSpec> camera_path(const CameraSpec& base, int views) {
 std::vector<CameraSpec> camera_path(const Scene& scene, const ViewPath& p) {
   if (p.random) {
     if (scene.world_bounds().empty()) throw InputError(p.scene, "--random-views: the scene has no geometry to look at");
-    RendererOptions ro;
+    PipelineOptions ro;
     ro.backend = Backend::cpu;
-    Renderer cpu(scene, ro);
+    Pipeline cpu(scene, ro);
     const RandomViews rv = random_views(scene, cpu, p.views, p.seed, p.kind);
     p.views_note = std::to_string(p.views) + " random " + view_kind_name(rv.kind) + " views, seed " +
                    std::to_string(p.seed) + " (tools/random_views.h; " + std::to_string(rv.redrawn) + " drawn again";
@@ -127,9 +127,9 @@ void check_view_path(const ViewPath& p) {
 BenchReport run_bench(const BenchOptions& opt, const std::function<void(size_t, size_t)>& progress) {
   const Scene scene = load_gltf(opt.scene);
   const std::vector<CameraSpec> path = camera_path(scene, opt);
-  RendererOptions renderer_options = opt.renderer;
+  PipelineOptions renderer_options = opt.renderer;
   if (opt.animate) renderer_options.merge.dynamic = animated_instances(scene.instances.size());
-  Renderer renderer(scene, renderer_options);
+  Pipeline renderer(scene, renderer_options);
 
   BenchReport rep;
   rep.scene = opt.scene;

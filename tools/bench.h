@@ -14,7 +14,7 @@
 #include "cli_args.h"
 #include "machine_info.h"
 #include "random_views.h"
-#include "renderer.h"
+#include "pipeline/pipeline.h"
 
 namespace rayfold::core {
 
@@ -39,7 +39,7 @@ struct ViewPath {
 
 struct BenchOptions : ViewPath {
   bool animate = false;
-  RendererOptions renderer;
+  PipelineOptions renderer;
 };
 
 struct BenchRow {
@@ -56,7 +56,7 @@ struct BenchRow {
 };
 
 struct BenchReport {
-  std::string scene, device, kernel;  // kernel: which one traced (Renderer::kernel_label)
+  std::string scene, device, kernel;  // kernel: which one traced (Pipeline::kernel_label)
   MachineInfo machine;                // the CPU the figures are from
   unsigned tile_lanes = 0;            // the tile kernel's rays per vector (0: the CPU backend)
   std::string views_note;             // ViewPath::views_note: which random views, if any

@@ -25,7 +25,7 @@ struct Measured {
 };
 
 // One frame of every pass; the hits kept when asked (they are large).
-Measured one_frame(Renderer& renderer, const std::vector<Camera>& views, const std::vector<std::vector<size_t>>& passes,
+Measured one_frame(Pipeline& renderer, const std::vector<Camera>& views, const std::vector<std::vector<size_t>>& passes,
                    FoldMode fold, RenderResult& r, bool keep_hits) {
   Measured m;
   if (keep_hits) m.hits.resize(views.size());
@@ -120,13 +120,13 @@ AlignReport run_align_bench(const AlignBenchOptions& opt, const std::function<vo
   // The kernels compared: both OpenCL kernels unless one is asked for.
   struct Way {
     std::string label;
-    std::unique_ptr<Renderer> renderer;
+    std::unique_ptr<Pipeline> renderer;
   };
   std::vector<Way> ways;
   auto add_way = [&](KernelChoice k) {
-    RendererOptions o = opt.renderer;
+    PipelineOptions o = opt.renderer;
     o.kernel = k;
-    auto r = std::make_unique<Renderer>(scene, o);
+    auto r = std::make_unique<Pipeline>(scene, o);
     ways.push_back({r->kernel_label(), std::move(r)});
   };
   if (opt.renderer.backend == Backend::cpu || opt.renderer.kernel == KernelChoice::tile ||

@@ -14,7 +14,7 @@
 namespace rayfold::core {
 
 struct AlignBenchOptions : ViewPath {
-  RendererOptions renderer;
+  PipelineOptions renderer;
   std::vector<int> counts{2, 4, 8, 16};  // path lengths
   std::vector<FoldMode> folds{FoldMode::none, FoldMode::y, FoldMode::x, FoldMode::xy};
   // Stereo baseline in world units; 0: 64 mm for a scene 20 m across,
@@ -42,7 +42,7 @@ struct AlignRow {
   double alone_instances = 0.0, aligned_instances = 0.0;  // top-level items, per view
   TileCounters alone_counts, aligned_counts;              // per view (tile kernel only)
   size_t mismatched_pixels = 0;                           // aligned against alone, over every view
-  // The cost model's prediction (Renderer::predict) of trace + update per
+  // The cost model's prediction (Pipeline::predict) of trace + update per
   // view, made before measuring, against the measured trace + update.
   double alone_predicted_ms = 0.0, aligned_predicted_ms = 0.0;
   double alone_measured_ms = 0.0, aligned_measured_ms = 0.0;

@@ -55,7 +55,7 @@ class EmbreePeer {
   // primitive), so that both frames do the same work. Returns ms.
   double trace1(std::vector<rf_pixel_hit>& hits, EmbreeScene scene);
   double trace16(std::vector<rf_pixel_hit>& hits, EmbreeScene scene);
-  // Ray queries on a flat scene (world space), as Renderer::intersect takes
+  // Ray queries on a flat scene (world space), as Pipeline::intersect takes
   // them (n x 3 origins and directions): each ray's t along its direction
   // (z), normal, barycentrics, instance and primitive, or a miss. rtcIntersect1 ray by ray; or
   // rtcIntersect16 packets: 4x4 blocks of an image's rays (rows of

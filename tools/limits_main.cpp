@@ -18,7 +18,7 @@
 #include "cli_args.h"
 #include "embree_peer.h"
 #include "reference/double_reference.h"
-#include "renderer.h"
+#include "pipeline/pipeline.h"
 #include "scene_gen.h"
 #include "util/atomic_file.h"
 #include "util/errors.h"
@@ -69,9 +69,9 @@ std::vector<rf_pixel_hit> embree_hits(const Scene& scene, const SceneData& data,
 
 Render render_all(const Scene& scene, const Camera& camera) {
   Render r;
-  RendererOptions cpu;
+  PipelineOptions cpu;
   cpu.backend = Backend::cpu;
-  Renderer renderer(scene, cpu);
+  Pipeline renderer(scene, cpu);
   r.rayfold = renderer.render(camera).hits;
   if (EmbreePeer::available()) {
     r.embree_flat = embree_hits(scene, renderer.scene_data(), camera, EmbreeScene::flat);
@@ -198,7 +198,7 @@ int run(int width, int height, const std::string& md) {
     const double vfov = 2.0 * std::asin(1.0 / d) * 180.0 / M_PI;
     const Camera cam = make_camera(frame_bounds(atrium.world_bounds(), vfov), width, height);
     const Render r = render_all(atrium, cam);
-    RendererOptions cpu;
+    PipelineOptions cpu;
     cpu.backend = Backend::cpu;
     const SceneData data = prepare_scene(atrium);
     const std::vector<ReferenceHit> ref = trace_double_reference(atrium, data, cam, 0, false);

@@ -16,7 +16,7 @@
 #include "peak_memory.h"
 #include "reference/double_reference.h"
 #include "reference/hit_compare.h"
-#include "renderer.h"
+#include "pipeline/pipeline.h"
 #include "scene/gltf_loader.h"
 #include "util/errors.h"
 #include "util/large_pages.h"
@@ -94,11 +94,11 @@ PeerReport run_peers(const PeerOptions& opt) {
     if (o.backend == Backend::cpu || opt.variants.count(o.key)) ours.push_back(o);
   const bool time_cpu = opt.variants.count("cpu") != 0;
   const FoldMode folds[] = {FoldMode::none, FoldMode::y, FoldMode::x, FoldMode::xy};
-  std::vector<std::unique_ptr<Renderer>> renderers;
+  std::vector<std::unique_ptr<Pipeline>> renderers;
   double first_renderer_ms = 0.0;
   bool first_kernels_cached = false;
   for (const Ours& o : ours) {
-    RendererOptions ro;
+    PipelineOptions ro;
     ro.backend = o.backend;
     ro.kernel = o.kernel;
     ro.precision = o.precision;
@@ -109,7 +109,7 @@ PeerReport run_peers(const PeerOptions& opt) {
     if (o.ab) ro.tuning.defines = opt.ab_defines;
     const auto start = Clock::now();
     const size_t cache_hits = kernel_cache_hits();
-    renderers.push_back(std::make_unique<Renderer>(scene, ro));
+    renderers.push_back(std::make_unique<Pipeline>(scene, ro));
     if (renderers.size() == 1) {
       first_renderer_ms = ms_since(start);
       first_kernels_cached = kernel_cache_hits() > cache_hits;

@@ -7,7 +7,7 @@
 #include <glm/trigonometric.hpp>
 
 #include "cli_args.h"
-#include "renderer.h"
+#include "pipeline/pipeline.h"
 #include "splitmix.h"
 #include "scene/camera.h"
 #include "util/errors.h"
@@ -30,7 +30,7 @@ struct Probe {
 
 // Traces the view at the probe's size: how much it sees, and how much of it
 // from the front (the world normal against the world ray).
-Probe probe(Renderer& cpu, const CameraSpec& spec, int width, int height) {
+Probe probe(Pipeline& cpu, const CameraSpec& spec, int width, int height) {
   const Camera cam = make_camera(spec, width, height);
   const RenderResult r = cpu.render(cam);
   size_t hits = 0, front = 0;
@@ -76,7 +76,7 @@ ViewKind parse_view_kind(const std::string& flag, const std::string& v) {
   throw UsageError(flag + ": expected auto, interior or object, got '" + v + "'");
 }
 
-ViewKind classify_scene(const Scene& scene, Renderer& cpu) {
+ViewKind classify_scene(const Scene& scene, Pipeline& cpu) {
   const Aabb b = scene.world_bounds();
   if (b.empty()) return ViewKind::object;
   const glm::dvec3 lo = glm::dvec3(b.lo), hi = glm::dvec3(b.hi);
@@ -102,7 +102,7 @@ ViewKind classify_scene(const Scene& scene, Renderer& cpu) {
   return centre >= 0.6 && octants >= 0.5 ? ViewKind::interior : ViewKind::object;
 }
 
-RandomViews random_views(const Scene& scene, Renderer& cpu, int count, uint64_t seed, ViewKind kind) {
+RandomViews random_views(const Scene& scene, Pipeline& cpu, int count, uint64_t seed, ViewKind kind) {
   RandomViews out;
   out.kind = kind == ViewKind::automatic ? classify_scene(scene, cpu) : kind;
   const Aabb b = scene.world_bounds();

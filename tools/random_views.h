@@ -26,7 +26,7 @@
 
 namespace rayfold::core {
 
-class Renderer;
+class Pipeline;
 
 enum class ViewKind { automatic, interior, object };
 
@@ -50,11 +50,11 @@ struct RandomViews {
 // the octants; Lost Empire 0.998 and 0.42 (a walled town in open terrain,
 // which the benchmarks name an interior themselves); the scanned objects
 // 0.22 to 0.25 at the octants.
-ViewKind classify_scene(const Scene& scene, Renderer& cpu);
+ViewKind classify_scene(const Scene& scene, Pipeline& cpu);
 
 // `count` views of the scene from `seed`; kind automatic classifies first.
 // `cpu` must be a CPU-reference renderer of this scene.
-RandomViews random_views(const Scene& scene, Renderer& cpu, int count, uint64_t seed,
+RandomViews random_views(const Scene& scene, Pipeline& cpu, int count, uint64_t seed,
                          ViewKind kind = ViewKind::automatic);
 
 }  // namespace rayfold::core

@@ -9,7 +9,7 @@
 
 #include "bench.h"
 #include "embree_peer.h"
-#include "renderer.h"
+#include "pipeline/pipeline.h"
 #include "scene/gltf_loader.h"
 #include "splitmix.h"
 #include "util/timer.h"
@@ -82,12 +82,12 @@ bool RayPeerReport::valid() const {
 
 RayPeerReport run_ray_peers(const PeerOptions& opt, size_t incoherent_rays) {
   const Scene scene = load_gltf(opt.scene);
-  RendererOptions ro;
+  PipelineOptions ro;
   ro.threads = opt.threads;
   ro.device_hint = opt.device_hint;
-  Renderer ours(scene, ro);
+  Pipeline ours(scene, ro);
   ro.backend = Backend::cpu;
-  Renderer reference(scene, ro, ours.shared_scene_data());
+  Pipeline reference(scene, ro, ours.shared_scene_data());
   RayPeerReport rep;
   std::unique_ptr<EmbreePeer> embree;
   if (EmbreePeer::available())

@@ -2,7 +2,7 @@
 // same rays. Workloads: N incoherent rays (origins uniform in the scene's
 // bounds, directions uniform on the sphere) and every view's pixel rays as
 // an image's array (rows of the width, one origin). rayfold's
-// Renderer::intersect on the OpenCL device (the query tile kernel for the
+// Pipeline::intersect on the OpenCL device (the query tile kernel for the
 // views, the single-ray kernel for the incoherent rays), checked bit for
 // bit against the CPU reference's answers first, against Embree's flat
 // world-space scene (default and high build quality, the faster counting)

@@ -11,7 +11,7 @@
 #include "fold/view_passes.h"
 #include "rayfold/errors.h"
 #include "rays/ray_queries.h"
-#include "renderer.h"
+#include "pipeline/pipeline.h"
 #include "util/errors.h"
 #include "util/parallel.h"
 #include "util/timer.h"
@@ -42,8 +42,8 @@ core::KernelChoice to_core(Kernel k) {
 
 struct Renderer::Impl {
   std::shared_ptr<detail::SceneState> state;
-  core::RendererOptions options;
-  std::unique_ptr<core::Renderer> core;
+  core::PipelineOptions options;
+  std::unique_ptr<core::Pipeline> core;
   uint64_t built_version = 0;  // SceneState::structure_version the trees were built for
   uint64_t built_clock = 0;    // SceneState::clock then: later set_transforms are moves
   core::RenderResult result;   // its hit buffer is reused render to render
@@ -55,10 +55,10 @@ struct Renderer::Impl {
   void build() {
     core.reset();
     if (state->trees && state->trees_version == state->structure_version) {
-      core = std::make_unique<core::Renderer>(state->scene, options, state->trees);
+      core = std::make_unique<core::Pipeline>(state->scene, options, state->trees);
     } else {
       options.merge = state->merge();
-      core = std::make_unique<core::Renderer>(state->scene, options);
+      core = std::make_unique<core::Pipeline>(state->scene, options);
       state->trees = core->shared_scene_data();
       state->trees_version = state->structure_version;
       state->trees_clock = state->clock;
@@ -182,7 +182,7 @@ class PlaneWriter {
 // Answers in chunks: the core's 32-byte hits of one chunk at a time.
 // Returns the warnings, each once.
 template <class Take>
-std::vector<std::string> query_chunks(core::Renderer& r, std::vector<rf_pixel_hit>& hits, const float* origins,
+std::vector<std::string> query_chunks(core::Pipeline& r, std::vector<rf_pixel_hit>& hits, const float* origins,
                                       const float* directions, size_t n, float tmin, float tmax, bool any_hit,
                                       const core::FrameOptions& options, size_t row_length, Take&& take) {
   const size_t kChunk = core::query_chunk_rays(row_length);

@@ -44,7 +44,7 @@ struct FrameOptions {
   bool exact_depth = false;
   // The caller takes the planes `channels` (RF_PLANE_*) names packed
   // (RenderResult::planes) where the renderer reads them back so
-  // (Renderer::packs_planes); otherwise every pixel's hit info (hits).
+  // (Pipeline::packs_planes); otherwise every pixel's hit info (hits).
   bool planes = false;
   unsigned channels = RF_PLANE_ALL;
   // With `planes`, a pass of one view on a device that writes host memory

@@ -210,7 +210,7 @@ ClDevice::ClDevice(const std::string& hint_arg) {
   info_ = describe(*chosen);
   try {
     context_ = cl::Context(device_);
-    // Profiled: a pipelined pass (Renderer::submit_views) takes its trace
+    // Profiled: a pipelined pass (Pipeline::submit_views) takes its trace
     // time from the kernel's event, as no wait brackets it.
     queue_ = cl::CommandQueue(context_, device_, CL_QUEUE_PROFILING_ENABLE);
   } catch (const cl::Error& e) {

@@ -1,4 +1,4 @@
-// Rays from anywhere (Renderer::intersect, scene.intersect): the caller's
+// Rays from anywhere (Pipeline::intersect, scene.intersect): the caller's
 // world-space rays, checked, taken into the trace space of a view from the
 // world's origin (world space in units of a power of two, so t along each
 // ray is unchanged), and the frame they are traced through: every

@@ -26,7 +26,7 @@
 #include "fold/ray_list.h"
 #include "opencl/cl_tracer.h"
 #include "rays/ray_queries.h"
-#include "renderer.h"
+#include "pipeline/pipeline.h"
 #include "scene/gltf_loader.h"
 #include "util/errors.h"
 #include "util/span.h"
@@ -76,7 +76,7 @@ ClTracer& tracer() {
   return t;
 }
 
-// Renders like Renderer does for OpenCL, with both kernels.
+// Renders like Pipeline does for OpenCL, with both kernels.
 void check_opencl(const Scene& scene, const SceneData& data, const Camera& camera,
                   ConstSpan<rf_pixel_hit> reference) {
   const size_t pixels = static_cast<size_t>(camera.width) * camera.height;
@@ -118,9 +118,9 @@ void check_opencl(const Scene& scene, const SceneData& data, const Camera& camer
 
 // Rays from the bounds' corners, its centre and the eye toward points of
 // the bounds (a step of 5/7 of it per ray, wrapping), through the
-// single-ray query kernel as Renderer::intersect drives it, against the
+// single-ray query kernel as Pipeline::intersect drives it, against the
 // CPU reference's answers.
-void check_queries(const Scene& scene, Renderer& reference, const CameraSpec& spec, uint64_t seed) {
+void check_queries(const Scene& scene, Pipeline& reference, const CameraSpec& spec, uint64_t seed) {
   const Aabb b = scene.world_bounds();
   if (b.empty()) return;
   std::vector<float> o, d;
@@ -175,10 +175,10 @@ void check_scaled(const Scene& scene, const CameraSpec& spec, ConstSpan<rf_pixel
   CameraSpec s = spec;
   s.eye = std::ldexp(1.0, k) * spec.eye;
   s.look_at = std::ldexp(1.0, k) * spec.look_at;
-  RendererOptions options;
+  PipelineOptions options;
   options.backend = Backend::cpu;
   options.threads = 1;
-  Renderer renderer(scaled, options);
+  Pipeline renderer(scaled, options);
   const Camera camera = make_camera(s, 9, 7);
   const HitBuffer hits = renderer.render(camera, 1, FrameOptions{FoldMode::none}).hits;
   for (size_t i = 0; i < hits.size(); ++i) {
@@ -217,10 +217,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   try {
     const Scene scene = load_gltf(scratch_path());
     if (scene.triangle_count() > 100000) return 0;  // keep each input fast
-    RendererOptions options;
+    PipelineOptions options;
     options.backend = Backend::cpu;
     options.threads = 1;
-    Renderer renderer(scene, options);
+    Pipeline renderer(scene, options);
     const CameraSpec spec = scene.camera ? *scene.camera : frame_bounds(scene.world_bounds());
     const Camera camera = make_camera(spec, 9, 7);
     const RenderResult none = renderer.render(camera, 1, FrameOptions{FoldMode::none});
@@ -236,7 +236,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     posed.time = static_cast<double>(hash(data, size) % 4000) / 1000.0 - 1.0;
     const Scene animated = load_gltf(scratch_path(), nullptr, posed);
     if (animated.triangle_count() <= 100000) {
-      Renderer r2(animated, options);
+      Pipeline r2(animated, options);
       const Camera c2 = make_camera(animated.camera ? *animated.camera : frame_bounds(animated.world_bounds()), 9, 7);
       expect_same("posed: folded render differs from unfolded", r2.render(c2, 1, FrameOptions{FoldMode::none}).hits,
                   r2.render(c2, 1, FrameOptions{FoldMode::xy}).hits);

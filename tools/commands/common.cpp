@@ -49,7 +49,7 @@ Scene load_scene(const std::string& path, const LoadOptions& options) {
 
 // Options render and bench share: which tracer, which device, how built.
 // Returns false when `a` is none of them.
-bool parse_renderer_option(const std::string& a, cli::Args& args, RendererOptions& r) {
+bool parse_renderer_option(const std::string& a, cli::Args& args, PipelineOptions& r) {
   if (a == "--backend") {
     const std::string b = args.value(a);
     if (b == "opencl")
@@ -87,7 +87,7 @@ bool parse_renderer_option(const std::string& a, cli::Args& args, RendererOption
 }
 
 // After parsing: options that contradict each other.
-void check_renderer_options(const RendererOptions& r) {
+void check_renderer_options(const PipelineOptions& r) {
   if (r.backend == Backend::cpu && r.kernel != KernelChoice::automatic)
     throw UsageError("--kernel: the CPU backend runs the reference tracer, not an OpenCL kernel");
   if (r.backend == Backend::cpu && !r.device_hint.empty())

@@ -7,7 +7,7 @@
 #include <string>
 
 #include "cli_args.h"
-#include "renderer.h"
+#include "pipeline/pipeline.h"
 #include "scene/gltf_loader.h"
 
 namespace rayfold::core::commands {
@@ -24,10 +24,10 @@ Scene load_scene(const std::string& path, const LoadOptions& options = {});
 
 // Options render and bench share: which tracer, which device, how built.
 // Returns false when `a` is none of them.
-bool parse_renderer_option(const std::string& a, cli::Args& args, RendererOptions& r);
+bool parse_renderer_option(const std::string& a, cli::Args& args, PipelineOptions& r);
 
 // After parsing: options that contradict each other (UsageError).
-void check_renderer_options(const RendererOptions& r);
+void check_renderer_options(const PipelineOptions& r);
 
 struct Output {
   const char* option;

@@ -9,7 +9,7 @@
 
 #include "rayfold/gbuffer.h"
 #include "commands/common.h"
-#include "renderer.h"
+#include "pipeline/pipeline.h"
 #include "scene/gltf_loader.h"
 
 namespace rayfold::core::commands {
@@ -29,7 +29,7 @@ struct RenderArgs {
   bool fold_auto = false;        // --fold auto
   bool fold_given = false;       // --fold named at all
   double shift_x = 0.0, shift_y = 0.0;
-  RendererOptions renderer;
+  PipelineOptions renderer;
   FrameOptions frame;
   int frames = 1;
   double fps = 30.0;  // --animate on an animated file: frame f at --time + f / fps

@@ -243,7 +243,7 @@ RenderArgs parse_render(cli::Args& args) {
 // --fold auto and --align auto: the choice the cost model predicts fastest
 // for these views (alignable ones: the first view's intrinsics), applied to
 // r and the renderer and printed. The kernel is chosen too unless named.
-void choose_automatically(RenderArgs& r, Renderer& renderer, const std::vector<Camera>& views, bool quiet) {
+void choose_automatically(RenderArgs& r, Pipeline& renderer, const std::vector<Camera>& views, bool quiet) {
   if (!r.fold_auto && r.align >= 0) return;
   std::vector<Camera> group;
   for (const Camera& c : views)
@@ -274,7 +274,7 @@ void choose_automatically(RenderArgs& r, Renderer& renderer, const std::vector<C
 // A slow program build is a machine's first use (PoCL compiles, then
 // caches); said once so that the wait and the first frame's time (which
 // also holds the compile for the work-group size) are not taken for rayfold's.
-void announce_program_build(const Renderer& renderer, Progress& progress, bool quiet) {
+void announce_program_build(const Pipeline& renderer, Progress& progress, bool quiet) {
   const double ms = renderer.program_build_ms();
   if (quiet || ms < 500.0) return;
   char text[400];
@@ -296,7 +296,7 @@ int render_views(RenderArgs r, const Scene& scene, const std::vector<cli::View>&
     for (auto [option, out] : {std::pair{"-o", &r.exr}, {"--png", &r.png}, {"--stats", &r.stats}})
       if (!out->empty()) check_writable(view_output(option, *out, v, stereo, views.size()));
   progress.stage("building the bottom-level trees and the kernels");
-  Renderer renderer(scene, r.renderer);
+  Pipeline renderer(scene, r.renderer);
   announce_program_build(renderer, progress, r.quiet);
   std::vector<Camera> cameras;
   for (const cli::View& v : views) cameras.push_back(v.camera);
@@ -448,7 +448,7 @@ int run_render(cli::Args& args) {
 
   progress.stage("building the bottom-level trees and the kernels");
   t0 = Clock::now();
-  auto renderer_ptr = std::make_unique<Renderer>(scene, r.renderer);
+  auto renderer_ptr = std::make_unique<Pipeline>(scene, r.renderer);
   std::vector<char> moved_since_build(scene.instances.size(), 0);  // since the renderer's trees were built
   const double setup_ms = ms_since(t0);
   announce_program_build(*renderer_ptr, progress, r.quiet);
@@ -473,7 +473,7 @@ int run_render(cli::Args& args) {
       dynamic[i] = 1;
     }
     if (rebuild) {
-      renderer_ptr = std::make_unique<Renderer>(scene, r.renderer);
+      renderer_ptr = std::make_unique<Pipeline>(scene, r.renderer);
       moved_since_build.assign(scene.instances.size(), 0);
       ++rebuilds;
     }
@@ -494,7 +494,7 @@ int run_render(cli::Args& args) {
   double write_ms = 0.0;  // the EXR and PNG writes (ZIP compression is most of it)
   const ExrMetadata metadata = exr_metadata(camera, scene, r);
   if (!sequence && !play) {
-    Renderer& renderer = *renderer_ptr;
+    Pipeline& renderer = *renderer_ptr;
     result = renderer.render(camera, r.frames, frame_options);
     progress.stage("writing");
     const auto w0 = Clock::now();
@@ -539,7 +539,7 @@ int run_render(cli::Args& args) {
     result.frames = times;
     result.median = median_times(times);
   }
-  Renderer& renderer = *renderer_ptr;
+  Pipeline& renderer = *renderer_ptr;
   if (play && !r.quiet)
     std::fprintf(
         stderr, "playing the file's animation: %d frames from %g s at %g fps (it ends at %g s)%s\n", r.frames,

@@ -54,7 +54,7 @@ void write_ids(const std::string& path, const RenderArgs& args, const Scene& sce
 }
 
 void write_stats(const std::string& path, const RenderArgs& args, const Scene& scene, const Camera& camera,
-                 const Renderer& renderer, const RenderResult& result, double load_ms, std::optional<PassInfo> pass) {
+                 const Pipeline& renderer, const RenderResult& result, double load_ms, std::optional<PassInfo> pass) {
   nlohmann::json j;
   j["rayfold_version"] = RAYFOLD_VERSION;
   j["scene"] = args.scene;

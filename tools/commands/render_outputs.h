@@ -32,7 +32,7 @@ struct PassInfo {
 // --stats: one view's figures. A view of a camera list (`pass` given) was
 // traced with the others of its pass, so its times are the pass's.
 void write_stats(const std::string& path, const RenderArgs& args, const Scene& scene, const Camera& camera,
-                 const Renderer& renderer, const RenderResult& result, double load_ms,
+                 const Pipeline& renderer, const RenderResult& result, double load_ms,
                  std::optional<PassInfo> pass = std::nullopt);
 
 // The folded and unfolded renders of one view side by side.

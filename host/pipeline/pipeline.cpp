@@ -1,4 +1,4 @@
-#include "renderer.h"
+#include "pipeline/pipeline.h"
 
 #include <algorithm>
 #include <cstdio>
@@ -26,19 +26,19 @@ double median(std::vector<double> values) {
   return values[values.size() / 2];
 }
 
-Renderer::Renderer(const Scene& scene, const RendererOptions& options)
-    : Renderer(scene, options, open_device(scene, options, std::launch::async)) {}
+Pipeline::Pipeline(const Scene& scene, const PipelineOptions& options)
+    : Pipeline(scene, options, open_device(scene, options, std::launch::async)) {}
 
 // The device opens while prepare_scene runs. Should the build throw, the
 // future's destructor waits for the device first, and the build's error is
 // the one reported.
-Renderer::Renderer(const Scene& scene, const RendererOptions& options, std::future<OpenedDevice> device)
-    : Renderer(scene, options,
+Pipeline::Pipeline(const Scene& scene, const PipelineOptions& options, std::future<OpenedDevice> device)
+    : Pipeline(scene, options,
                std::make_shared<const SceneData>(prepare_scene(scene, options.threads, options.braid, options.merge)),
                std::move(device)) {}
 
-Renderer::Renderer(const Scene& scene, const RendererOptions& options, std::shared_ptr<const SceneData> prebuilt)
-    : Renderer(scene, options, std::move(prebuilt), open_device(scene, options, std::launch::deferred)) {}
+Pipeline::Pipeline(const Scene& scene, const PipelineOptions& options, std::shared_ptr<const SceneData> prebuilt)
+    : Pipeline(scene, options, std::move(prebuilt), open_device(scene, options, std::launch::deferred)) {}
 
 namespace {
 
@@ -54,7 +54,7 @@ bool renders_dense_mesh(const Scene& scene) {
 
 }  // namespace
 
-std::future<Renderer::OpenedDevice> Renderer::open_device(const Scene& scene, const RendererOptions& options,
+std::future<Pipeline::OpenedDevice> Pipeline::open_device(const Scene& scene, const PipelineOptions& options,
                                                           std::launch when) {
   if (options.backend != Backend::opencl) {
     std::promise<OpenedDevice> none;
@@ -71,7 +71,7 @@ std::future<Renderer::OpenedDevice> Renderer::open_device(const Scene& scene, co
   });
 }
 
-Renderer::Renderer(const Scene& scene, const RendererOptions& options, std::shared_ptr<const SceneData> prebuilt,
+Pipeline::Pipeline(const Scene& scene, const PipelineOptions& options, std::shared_ptr<const SceneData> prebuilt,
                    std::future<OpenedDevice> device)
     : scene_(scene), options_(options), data_(std::move(prebuilt)) {
   kernel_reason_ = "the CPU backend";
@@ -109,9 +109,9 @@ Renderer::Renderer(const Scene& scene, const RendererOptions& options, std::shar
   }
 }
 
-Renderer::~Renderer() = default;
+Pipeline::~Pipeline() = default;
 
-std::string Renderer::device_name() const {
+std::string Pipeline::device_name() const {
   if (device_)
     return device_->info().name + " (" + device_->info().platform + ", " +
            std::to_string(device_->info().compute_units) + " compute units)";
@@ -119,15 +119,15 @@ std::string Renderer::device_name() const {
   return "CPU reference (" + std::to_string(threads) + " threads)";
 }
 
-unsigned Renderer::tile_lanes() const { return tracer_ ? tracer_->tile_lanes() : 0u; }
+unsigned Pipeline::tile_lanes() const { return tracer_ ? tracer_->tile_lanes() : 0u; }
 
-std::string Renderer::kernel_label() const { return tracer_ ? kernel_name(kernel_) : "cpu reference"; }
+std::string Pipeline::kernel_label() const { return tracer_ ? kernel_name(kernel_) : "cpu reference"; }
 
-std::vector<BufferInfo> Renderer::device_buffers() const {
+std::vector<BufferInfo> Pipeline::device_buffers() const {
   return tracer_ ? tracer_->buffers() : std::vector<BufferInfo>{};
 }
 
-void Renderer::ensure_capacity(size_t pixels, int groups) {
+void Pipeline::ensure_capacity(size_t pixels, int groups) {
   if (!tracer_ || (pixels <= pixel_capacity_ && groups <= group_capacity_)) return;
   pixels = std::max(pixels, pixel_capacity_);
   groups = std::max({groups, group_capacity_, RF_MIRRORS});
@@ -137,7 +137,7 @@ void Renderer::ensure_capacity(size_t pixels, int groups) {
   for (CachedRays& r : rays_) r.uploaded = false;  // the new buffers hold no rays yet
 }
 
-const RayList& Renderer::ray_list(const rf_camera& params, FoldMode fold) {
+const RayList& Pipeline::ray_list(const rf_camera& params, FoldMode fold) {
   static_assert(static_cast<int>(FoldMode::xy) < 4 && ClTracer::kRaySlots >= 4, "one slot per fold mode");
   CachedRays& r = rays_[static_cast<int>(fold)];
   // The list is pixel coordinates and fold roles: it depends on the image
@@ -169,17 +169,17 @@ void check_host_memory(size_t pixels) {
   }
 }
 
-RenderResult Renderer::render(const Camera& camera, int frames, const FrameOptions& frame_options) {
+RenderResult Pipeline::render(const Camera& camera, int frames, const FrameOptions& frame_options) {
   RenderResult result;
   render_into(result, camera, frames, frame_options);
   return result;
 }
 
-void Renderer::render_into(RenderResult& result, const Camera& camera, int frames, const FrameOptions& frame_options) {
+void Pipeline::render_into(RenderResult& result, const Camera& camera, int frames, const FrameOptions& frame_options) {
   render_views_into(result, std::vector<Camera>{camera}, frames, frame_options);
 }
 
-void Renderer::render_views_into(RenderResult& result, const std::vector<Camera>& cameras, int frames,
+void Pipeline::render_views_into(RenderResult& result, const std::vector<Camera>& cameras, int frames,
                                  const FrameOptions& frame_options) {
   begin_views(result, cameras, frame_options);
   frames = std::max(frames, 1);
@@ -187,20 +187,20 @@ void Renderer::render_views_into(RenderResult& result, const std::vector<Camera>
   end_views(result, cameras);
 }
 
-void Renderer::submit_views_into(RenderResult& result, const std::vector<Camera>& cameras,
+void Pipeline::submit_views_into(RenderResult& result, const std::vector<Camera>& cameras,
                                  const FrameOptions& frame_options) {
   begin_views(result, cameras, frame_options);
   result.frames.push_back(trace_frame(result, cameras, frame_options, 0, true));
   end_views(result, cameras);
 }
 
-void Renderer::finish_views(RenderResult& result) {
+void Pipeline::finish_views(RenderResult& result) {
   if (result.packed_slot < 0) return;  // rendered whole by submit
   collect_planes(result, result.frames.back());
   result.median = median_times(result.frames);
 }
 
-void Renderer::collect_planes(RenderResult& result, FrameTimes& times) {
+void Pipeline::collect_planes(RenderResult& result, FrameTimes& times) {
   const int slot = result.packed_slot;
   result.packed_slot = -1;  // also when the wait fails: the slot is free again
   const ClTracer::PackedPlanes p = tracer_->wait_packed(slot);
@@ -211,7 +211,7 @@ void Renderer::collect_planes(RenderResult& result, FrameTimes& times) {
   if (result.pipelined) times.trace_ms = p.trace_ms;
 }
 
-void Renderer::begin_views(RenderResult& result, const std::vector<Camera>& cameras,
+void Pipeline::begin_views(RenderResult& result, const std::vector<Camera>& cameras,
                            const FrameOptions& frame_options) {
   RF_CHECK(!cameras.empty(), "nothing to render");
   RF_CHECK(result.packed_slot < 0, "a result still in flight (submit_views_into without finish_views)");
@@ -250,7 +250,7 @@ void Renderer::begin_views(RenderResult& result, const std::vector<Camera>& came
   result.frames.clear();
 }
 
-FrameTimes Renderer::trace_frame(RenderResult& result, const std::vector<Camera>& cameras,
+FrameTimes Pipeline::trace_frame(RenderResult& result, const std::vector<Camera>& cameras,
                                  const FrameOptions& frame_options, int f, bool pipelined) {
   const Camera& camera = cameras[0];
   const size_t view_pixels = static_cast<size_t>(camera.width) * camera.height;
@@ -343,7 +343,7 @@ FrameTimes Renderer::trace_frame(RenderResult& result, const std::vector<Camera>
   return times;
 }
 
-void Renderer::end_views(RenderResult& result, const std::vector<Camera>& cameras) {
+void Pipeline::end_views(RenderResult& result, const std::vector<Camera>& cameras) {
   const Camera& camera = cameras[0];
   result.kernel = kernel_label();
   result.kernel_reason = kernel_reason_;
@@ -374,7 +374,7 @@ void Renderer::end_views(RenderResult& result, const std::vector<Camera>& camera
   result.median = median_times(result.frames);
 }
 
-void Renderer::add_range_warnings(size_t out_of_range, const char* where, std::vector<std::string>& w) const {
+void Pipeline::add_range_warnings(size_t out_of_range, const char* where, std::vector<std::string>& w) const {
   if (out_of_range != 0)
     w.push_back(std::to_string(out_of_range) + " instances not " + where +
                 " their size and the scene's extent are more than the float range apart");
@@ -389,7 +389,7 @@ void Renderer::add_range_warnings(size_t out_of_range, const char* where, std::v
 // outweigh its lanes.
 constexpr size_t kMinQueryTileRays = 128;
 
-std::vector<std::string> Renderer::intersect(const float* origins, const float* directions, size_t n, float tmin,
+std::vector<std::string> Pipeline::intersect(const float* origins, const float* directions, size_t n, float tmin,
                                              float tmax, bool any_hit, const FrameOptions& frame_options,
                                              rf_pixel_hit* out, size_t row_length) {
   // The fast build (-cl-fast-relaxed-math) assumes finite math, which the
@@ -472,7 +472,7 @@ std::vector<std::string> Renderer::intersect(const float* origins, const float* 
   return warnings;
 }
 
-TraceInputs Renderer::host_inputs(const Frame& frame) {
+TraceInputs Pipeline::host_inputs(const Frame& frame) {
   // The bottom level's nodes are copied on the first host trace: an OpenCL
   // renderer that never traces on the host never holds them twice.
   if (nodes_.size() < data_->blas.nodes.size()) nodes_.assign(data_->blas.nodes.begin(), data_->blas.nodes.end());
@@ -536,6 +536,6 @@ FrameTimes median_times(const std::vector<FrameTimes>& frames) {
   return m;
 }
 
-double Renderer::program_build_ms() const { return tracer_ ? tracer_->program_build_ms() : 0.0; }
+double Pipeline::program_build_ms() const { return tracer_ ? tracer_->program_build_ms() : 0.0; }
 
 }  // namespace rayfold::core

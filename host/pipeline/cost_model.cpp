@@ -1,14 +1,16 @@
-// Renderer::predict: the cost model of docs/cost_model.md. A trace of n
+// Pipeline::predict: the cost model of docs/cost_model.md. A trace of n
 // tiles takes T = o + n * c: o the launch (and finish) overhead, measured
 // on a one-ray trace, c the mean cost of a tile under the choice, measured
 // on every stride-th tile at full resolution. Tiles are the kernels' unit of
 // coherence (the tile kernel's work-item, 4 of the single-ray kernel's
 // work-groups), so a sample of whole tiles costs what they cost in the
 // render; a lower-resolution image would not.
+#include "pipeline/cost_model.h"
+
 #include <algorithm>
 
+#include "pipeline/pipeline.h"
 #include "reference/cpu_tracer.h"
-#include "renderer.h"
 #include "util/errors.h"
 #include "util/timer.h"
 
@@ -18,7 +20,7 @@ std::string choice_name(const Choice& c) {
   return std::string(fold_name(c.fold)) + "/" + kernel_name(c.kernel) + "/align " + std::to_string(c.align);
 }
 
-std::vector<Prediction> Renderer::predict(const std::vector<Camera>& views, const std::vector<Choice>& choices,
+std::vector<Prediction> Pipeline::predict(const std::vector<Camera>& views, const std::vector<Choice>& choices,
                                           int stride) {
   RF_CHECK(!views.empty() && stride >= 1, "nothing to predict");
   // Five rounds over every choice, each choice's least time kept: noise on
@@ -104,13 +106,13 @@ std::vector<Prediction> Renderer::predict(const std::vector<Camera>& views, cons
   return out;
 }
 
-void Renderer::set_kernel(KernelKind kernel, const std::string& why) {
+void Pipeline::set_kernel(KernelKind kernel, const std::string& why) {
   kernel_ = kernel;
   kernel_reason_ = why;
   measure_kernel_ = false;
 }
 
-AutoChoice choose_fastest(Renderer& renderer, const std::vector<Camera>& views, const std::vector<FoldMode>& folds,
+AutoChoice choose_fastest(Pipeline& renderer, const std::vector<Camera>& views, const std::vector<FoldMode>& folds,
                           const std::vector<KernelKind>& kernels, const std::vector<int>& aligns) {
   RF_CHECK(!folds.empty() && !kernels.empty() && !aligns.empty(), "no choice to make");
   const auto t0 = Clock::now();

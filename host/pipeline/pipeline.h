@@ -11,6 +11,7 @@
 
 #include "fold/frame.h"
 #include "opencl/cl_tracer.h"
+#include "pipeline/cost_model.h"
 #include "reference/trace_inputs.h"
 #include "scene/camera.h"
 #include "scene/scene.h"
@@ -28,27 +29,7 @@ enum class KernelChoice {
   measure,  // trace the first frame with both, keep the faster
 };
 
-// One way of tracing a list of views: the fold, the OpenCL kernel, and how
-// many views per pass (align 1: each alone).
-struct Choice {
-  FoldMode fold = FoldMode::none;
-  KernelKind kernel = KernelKind::tile;
-  int align = 1;
-};
-std::string choice_name(const Choice& c);  // "xy/tile/align 8"
-
-// A choice's predicted cost per view (docs/cost_model.md): the trace, from
-// a probe over a sample of its tiles, and the update (culling, top-level
-// build, upload) of the probe's frame.
-struct Prediction {
-  Choice choice;
-  double trace_ms = 0.0;   // per view
-  double update_ms = 0.0;  // per view
-  double probe_ms = 0.0;   // what the probe of this choice cost
-  double total_ms() const { return trace_ms + update_ms; }
-};
-
-struct RendererOptions {
+struct PipelineOptions {
   Backend backend = Backend::opencl;
   KernelChoice kernel = KernelChoice::automatic;
   KernelPrecision precision = KernelPrecision::exact;
@@ -93,11 +74,11 @@ struct RenderResult {
   // "view k: " in front.
   std::vector<std::vector<std::string>> view_warnings;
   std::vector<std::string> warnings;
-  // The kernel that traced this render and why (Renderer::kernel_label and
+  // The kernel that traced this render and why (Pipeline::kernel_label and
   // kernel_reason, but an orthographic view's is the single-ray kernel's).
   std::string kernel, kernel_reason;
 
-  // A packed readback (FrameOptions::planes where Renderer::packs_planes):
+  // A packed readback (FrameOptions::planes where Pipeline::packs_planes):
   // `hits` is empty and the planes plane_channels names are here, view
   // after view, plane_words_per_view words each (rf_types.h, RF_PLANE_*),
   // in the renderer's pinned memory: valid until the second pass submitted
@@ -113,16 +94,16 @@ struct RenderResult {
   bool pipelined = false;  // submitted by submit_views_into: trace_ms is the kernel's device time
 };
 
-class Renderer {
+class Pipeline {
  public:
   // Builds the bottom-level trees and, for OpenCL, the kernels. The scene must
   // outlive the renderer.
-  Renderer(const Scene& scene, const RendererOptions& options);
+  Pipeline(const Scene& scene, const PipelineOptions& options);
   // With trees built before (prepare_scene of this scene with options.braid,
   // or read from a scene file), shared with whoever else holds them: builds
   // none.
-  Renderer(const Scene& scene, const RendererOptions& options, std::shared_ptr<const SceneData> prebuilt);
-  ~Renderer();
+  Pipeline(const Scene& scene, const PipelineOptions& options, std::shared_ptr<const SceneData> prebuilt);
+  ~Pipeline();
 
   RenderResult render(const Camera& camera, int frames = 1, const FrameOptions& frame_options = {});
   // The same into `result`, reusing its hit buffer when it already has the
@@ -204,9 +185,9 @@ class Renderer {
   };
   // async beside a build; deferred (on the caller's thread, when taken)
   // where there is none to overlap.
-  static std::future<OpenedDevice> open_device(const Scene& scene, const RendererOptions& options, std::launch when);
-  Renderer(const Scene& scene, const RendererOptions& options, std::future<OpenedDevice> device);
-  Renderer(const Scene& scene, const RendererOptions& options, std::shared_ptr<const SceneData> prebuilt,
+  static std::future<OpenedDevice> open_device(const Scene& scene, const PipelineOptions& options, std::launch when);
+  Pipeline(const Scene& scene, const PipelineOptions& options, std::future<OpenedDevice> device);
+  Pipeline(const Scene& scene, const PipelineOptions& options, std::shared_ptr<const SceneData> prebuilt,
            std::future<OpenedDevice> device);
   // The warnings of instances lost to the float range (`where` says how)
   // and of triangles below what the test resolves.
@@ -231,7 +212,7 @@ class Renderer {
   const RayList& ray_list(const rf_camera& params, FoldMode fold);
 
   const Scene& scene_;
-  RendererOptions options_;
+  PipelineOptions options_;
   std::shared_ptr<const SceneData> data_;  // read-only once built
   std::vector<rf_node> nodes_;  // BLAS nodes, then the current frame's TLAS (host traces only)
   // The single-ray query kernel's trees (intersect), read in place by a
@@ -261,17 +242,6 @@ class Renderer {
 // View v of a pass's result: its hits, trace space and warnings; the times
 // and counters stay the pass's.
 RenderResult view_result(const RenderResult& pass, size_t v);
-
-// The choice of least predicted time (Renderer::predict) among every
-// combination of the folds, kernels and views per pass given, with every
-// prediction, fastest first, for the report.
-struct AutoChoice {
-  Choice best;
-  std::vector<Prediction> predictions;
-  double probe_ms = 0.0;  // what predicting cost, all choices together
-};
-AutoChoice choose_fastest(Renderer& renderer, const std::vector<Camera>& views, const std::vector<FoldMode>& folds,
-                          const std::vector<KernelKind>& kernels, const std::vector<int>& aligns);
 
 // Median of a list of values (the upper median for even counts).
 double median(std::vector<double> values);
