@@ -19,7 +19,7 @@
 
 #include "gltf_fixture.h"
 #include "test_util.h"
-#include "util/image_output.h"
+#include "output/image_output.h"
 
 namespace rayfold::core {
 namespace {

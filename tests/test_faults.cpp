@@ -22,7 +22,7 @@
 #include <thread>
 
 #include "util/atomic_file.h"
-#include "util/image_output.h"
+#include "output/image_output.h"
 
 extern char** environ;
 

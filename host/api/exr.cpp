@@ -7,7 +7,7 @@
 #include "fold/fold.h"
 #include "rayfold/errors.h"
 #include "rayfold/version.h"
-#include "util/image_output.h"
+#include "output/image_output.h"
 
 namespace rayfold {
 namespace {

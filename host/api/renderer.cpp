@@ -285,7 +285,7 @@ void fill_gbuffer(GBuffer& g, const core::RenderResult& r, size_t view, const st
   g.trace_ms = r.median.trace_ms;
   g.warnings = warnings;
   if (r.planes_in_place) {  // written by the kernel (render_into)
-    RF_CHECK(view == 0, "planes in place for more than one view");
+    RF_CHECK_EQ(view, 0u, "planes in place for more than one view");
     const bool by_instance = !g.instance_id.empty();
     RF_CHECK(by_instance || !g.depth.empty(), "planes in place without instance ids or depths to count hits by");
     g.hits = count_pixels(n, threads, [&](size_t i) {
@@ -295,7 +295,7 @@ void fill_gbuffer(GBuffer& g, const core::RenderResult& r, size_t view, const st
   }
   if (r.plane_channels != 0) {
     RF_CHECK(r.plane_channels == channels && r.planes, "packed planes other than those asked for");
-    RF_CHECK(r.packed_slot < 0, "planes of a pass still in flight");
+    RF_CHECK_LT(r.packed_slot, 0, "planes of a pass still in flight");
     const uint32_t* w = r.planes + view * r.plane_words_per_view;
     auto copy = [&](auto& v) {
       if (v.empty()) return;

@@ -183,7 +183,7 @@ class Builder {
   Builder(LargeArray<PrimRef>& refs, const BuildOptions& opt, PrimRef* staging)
       : refs_(refs), opt_(opt), staging_(staging) {
     RF_CHECK(opt_.bins >= 2 && opt_.bins <= kMaxBins, "bin count out of range");
-    RF_CHECK(opt_.sweep_size <= kSweepNode, "sweep size out of range");
+    RF_CHECK_LE(opt_.sweep_size, kSweepNode, "sweep size out of range");
   }
 
   // Builds the subtree under nodes[0] (its range and box already set) into

@@ -24,7 +24,7 @@ size_t flat_node_count(const BuildTree& tree, uint32_t position) {
 uint32_t flatten_bvh_at(const BuildTree& tree, uint32_t item_base, const std::vector<uint32_t>* item_groups,
                         uint32_t position, rf_node* dst, unsigned threads) {
   if (tree.nodes.empty()) return RF_INVALID;
-  RF_CHECK(tree.depth <= RF_STACK_SIZE, "tree deeper than the traversal stack");
+  RF_CHECK_LE(tree.depth, RF_STACK_SIZE, "tree deeper than the traversal stack");
 
   // Group masks bottom-up: children always follow their parent in tree.nodes.
   const bool tlas = item_groups != nullptr;
@@ -62,7 +62,7 @@ uint32_t flatten_bvh_at(const BuildTree& tree, uint32_t item_base, const std::ve
           n.first = (item_base + b.first) | (b.count << RF_TLAS_COUNT_SHIFT);
           n.meta = groups[i];
         } else {
-          RF_CHECK(b.count <= RF_NODE_COUNT_MASK, "leaf too large for the node layout");
+          RF_CHECK_LE(b.count, RF_NODE_COUNT_MASK, "leaf too large for the node layout");
           n.first = item_base + b.first;
           n.meta = b.count;
         }

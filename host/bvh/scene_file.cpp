@@ -11,7 +11,6 @@
 namespace rayfold::core {
 namespace {
 
-constexpr char kMagic[16] = "rayfold-scene\n";  // and two NULs
 constexpr size_t kHeader = 16 + 4 + 4 + 8;
 
 uint32_t layout_signature() {
@@ -118,10 +117,6 @@ class Reader {
 
 }  // namespace
 
-bool is_scene_file(const char* bytes, size_t size) {
-  return size >= sizeof(kMagic) && std::memcmp(bytes, kMagic, sizeof(kMagic)) == 0;
-}
-
 namespace {
 
 void write_payload(Writer& w, const SceneFile& f, const std::string& rayfold_version) {
@@ -188,7 +183,7 @@ std::string scene_file_bytes(const SceneFile& f, const std::string& rayfold_vers
   write_payload(count, f, rayfold_version);
   const size_t length = count.size();
   std::string out(kHeader + length + 8, '\0');
-  std::memcpy(out.data(), kMagic, sizeof(kMagic));
+  std::memcpy(out.data(), kSceneFileMagic, sizeof(kSceneFileMagic));
   const uint32_t format = kSceneFormat, layout = layout_signature();
   const uint64_t length64 = length;
   std::memcpy(out.data() + 16, &format, 4);

@@ -23,6 +23,7 @@
 
 #include "bvh/scene_data.h"
 #include "scene/scene.h"
+#include "scene/scene_file_signature.h"  // is_scene_file: the bytes' first check
 
 namespace rayfold::core {
 
@@ -35,9 +36,6 @@ struct SceneFile {
   std::string source;                 // the file the scene was loaded from ("" when built in memory)
   std::vector<std::string> warnings;  // what loading that file reported
 };
-
-// Whether bytes start as scene bytes do (the magic), to tell them from glTF.
-bool is_scene_file(const char* bytes, size_t size);
 
 std::string scene_file_bytes(const SceneFile& file, const std::string& rayfold_version);
 

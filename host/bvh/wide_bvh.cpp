@@ -214,7 +214,7 @@ class Collapser {
 
 template <class Trees>
 Trees collapse_trees(const rf_node* nodes, size_t node_count, const std::vector<uint32_t>& entries, bool optimal) {
-  for (uint32_t e : entries) RF_CHECK(e < node_count, "wide tree entry outside the node array");
+  for (uint32_t e : entries) RF_CHECK_LT(e, node_count, "wide tree entry outside the node array");
   Collapser<typename decltype(Trees::nodes)::value_type> c(nodes, node_count, entries, optimal);
   Trees trees;
   trees.roots.reserve(entries.size());

@@ -145,7 +145,7 @@ Frame build_frame(const Scene& scene, const SceneData& data, const std::vector<C
   if (!options.moved.empty()) {
     moved.assign(scene.instances.size(), 0);
     for (uint32_t i : options.moved) {
-      RF_CHECK(i < moved.size(), "moved instance index out of range");
+      RF_CHECK_LT(i, moved.size(), "moved instance index out of range");
       moved[i] = 1;
     }
   }

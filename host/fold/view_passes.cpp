@@ -9,7 +9,7 @@ namespace rayfold::core {
 
 std::vector<std::vector<size_t>> plan_passes(const SceneData& data, const std::vector<Camera>& views, int align,
                                              FoldMode fold) {
-  RF_CHECK(align >= 1, "a pass holds at least one view");
+  RF_CHECK_GE(align, 1, "a pass holds at least one view");
   std::vector<std::vector<size_t>> passes;
   std::vector<size_t> open;  // per intrinsics, the pass still filling
   for (size_t i = 0; i < views.size(); ++i) {

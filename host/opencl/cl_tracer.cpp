@@ -166,7 +166,7 @@ void ClTracer::upload_scene(const SceneData& data, size_t max_tlas_nodes, size_t
 }
 
 double ClTracer::upload_frame(const Frame& frame) {
-  RF_CHECK(frame.node_base == blas_node_count_, "frame built for another scene upload");
+  RF_CHECK_EQ(frame.node_base, blas_node_count_, "frame built for another scene upload");
   RF_CHECK(frame.tlas_nodes.size() <= max_tlas_nodes_ && frame.instances.size() <= max_instances_,
            "frame larger than the space reserved for it");
   const auto t0 = Clock::now();
@@ -216,7 +216,7 @@ double ClTracer::upload_frame(const Frame& frame) {
     whole_trees_ = frame.whole_trees;
     depth_instances_ = frame.depth_instances;
     const std::vector<float> scales = frame.depth_scales();
-    RF_CHECK(scales.size() <= RF_GROUP_LIMIT, "more views than one pass holds");
+    RF_CHECK_LE(scales.size(), size_t{RF_GROUP_LIMIT}, "more views than one pass holds");
     q.enqueueWriteBuffer(depth_scales_, CL_FALSE, 0, scales.size() * sizeof(float), scales.data());
     q.finish();
   } catch (const cl::Error& e) {
@@ -227,7 +227,7 @@ double ClTracer::upload_frame(const Frame& frame) {
 }
 
 double ClTracer::upload_rays(const RayList& rays, int slot) {
-  RF_CHECK(rays.entries.size() <= max_rays_, "ray list larger than its buffer");
+  RF_CHECK_LE(rays.entries.size(), max_rays_, "ray list larger than its buffer");
   RF_CHECK(!rays.tiles.empty() && rays.tiles.back() == rays.entries.size(), "tile table does not cover the rays");
   RF_CHECK(slot >= 0 && slot < kRaySlots, "ray list slot out of range");
   const auto t0 = Clock::now();
@@ -288,7 +288,7 @@ double device_ms(const cl::Event& e) {
 }  // namespace
 
 void ClTracer::enqueue_trace(const rf_camera& cam, KernelKind kind) {
-  RF_CHECK(static_cast<size_t>(cam.width) * cam.height * cam.views <= pixel_count_, "image larger than the hit buffer");
+  RF_CHECK_LE(static_cast<size_t>(cam.width) * cam.height * cam.views, pixel_count_, "image larger than the hit buffer");
   last_trace_ = cl::Event();
   const RaySlot& r = slots_[slot_];
   if (r.ray_count == 0) return;
@@ -363,7 +363,7 @@ size_t plane_words(unsigned channels) {
 
 void ClTracer::enqueue_packed_read(size_t view_pixels, unsigned views, unsigned channels, int slot) {
   RF_CHECK(slot >= 0 && slot < kPackSlots, "packed readback slot out of range");
-  RF_CHECK(view_pixels * views <= pixel_count_, "packing more hits than the buffer holds");
+  RF_CHECK_LE(view_pixels * views, pixel_count_, "packing more hits than the buffer holds");
   RF_CHECK(channels != 0u && (channels & ~RF_PLANE_ALL) == 0u, "packed readback of no or unknown planes");
   RF_CHECK(views >= 1 && views <= RF_GROUP_LIMIT, "packed readback of more views than a pass holds");
   PinnedSlot& pin = pinned_[slot];
@@ -674,7 +674,7 @@ double ClTracer::read_planes() {
 }
 
 void ClTracer::bind_output(rf_pixel_hit* out, size_t pixel_count) {
-  RF_CHECK(pixel_count <= pixel_count_, "binding more hits than the buffer holds");
+  RF_CHECK_LE(pixel_count, pixel_count_, "binding more hits than the buffer holds");
   planes_bound_ = false;
   if (host_out_ == out && host_count_ == pixel_count) return;  // the same memory as last frame
   host_out_ = nullptr;
@@ -691,7 +691,7 @@ void ClTracer::bind_output(rf_pixel_hit* out, size_t pixel_count) {
 }
 
 double ClTracer::read_hits(rf_pixel_hit* out, size_t pixel_count) {
-  RF_CHECK(pixel_count <= pixel_count_, "reading more hits than the buffer holds");
+  RF_CHECK_LE(pixel_count, pixel_count_, "reading more hits than the buffer holds");
   const auto t0 = Clock::now();
   try {
     cl::CommandQueue& q = device_.queue();

@@ -214,7 +214,7 @@ void Pipeline::collect_planes(RenderResult& result, FrameTimes& times) {
 void Pipeline::begin_views(RenderResult& result, const std::vector<Camera>& cameras,
                            const FrameOptions& frame_options) {
   RF_CHECK(!cameras.empty(), "nothing to render");
-  RF_CHECK(result.packed_slot < 0, "a result still in flight (submit_views_into without finish_views)");
+  RF_CHECK_LT(result.packed_slot, 0, "a result still in flight (submit_views_into without finish_views)");
   if (tracer_ && frame_options.exact_depth && options_.precision == KernelPrecision::fast)
     throw InputError("", "the exact depth runs on the exact build only; this renderer was made with the fast one, "
                          "whose reordered arithmetic drops the double-float steps");
@@ -223,7 +223,7 @@ void Pipeline::begin_views(RenderResult& result, const std::vector<Camera>& came
   const size_t pixels = view_pixels * cameras.size();
   result.fold = restrict_fold(frame_options.fold, can_fold_columns(camera), can_fold_rows(camera));
   const int groups = pass_groups(static_cast<int>(cameras.size()), result.fold);
-  RF_CHECK(groups <= RF_GROUP_LIMIT, "more views than one pass holds");
+  RF_CHECK_LE(groups, RF_GROUP_LIMIT, "more views than one pass holds");
   check_host_memory(pixels);
   ensure_capacity(pixels, groups);
   if (tracer_) tracer_->prepare_groups(groups);  // a kernel build is not trace time
@@ -496,7 +496,7 @@ TraceInputs Pipeline::host_inputs(const Frame& frame) {
 
 RenderResult view_result(const RenderResult& pass, size_t v) {
   RF_CHECK(v < pass.views.size() && pass.hits.size() % pass.views.size() == 0, "no such view in the pass");
-  RF_CHECK(pass.packed_slot < 0, "view of a pass still in flight");
+  RF_CHECK_LT(pass.packed_slot, 0, "view of a pass still in flight");
   RenderResult out;
   if (pass.plane_channels != 0) {
     out.planes = pass.planes + v * pass.plane_words_per_view;

@@ -22,7 +22,7 @@
 
 #include "plane_pool.h"
 #include "rayfold/rayfold.h"
-#include "util/channels.h"
+#include "output/channels.h"
 
 namespace nb = nanobind;
 using namespace nb::literals;
@@ -146,7 +146,7 @@ rayfold::CameraConvention parse_convention(const std::string& s) {
 }
 
 // channels=: None for all, or the plane names as a list or one
-// comma-separated string (util/channels.h).
+// comma-separated string (output/channels.h).
 unsigned parse_channels(nb::handle channels) {
   if (channels.is_none()) return rayfold::kAllChannels;
   if (nb::isinstance<nb::str>(channels)) return rayfold::core::parse_channels(nb::cast<std::string>(channels));

@@ -50,7 +50,7 @@ void scattered_ray_order(const float* origins, const float* directions, size_t n
                          unsigned threads) {
   order.clear();
   if (n < kMinOrderedRays) return;
-  RF_CHECK(n <= UINT32_MAX, "scattered_ray_order: more rays than 32-bit indices name");
+  RF_CHECK_LE(n, UINT32_MAX, "scattered_ray_order: more rays than 32-bit indices name");
   float lo[3], hi[3];
   for (int a = 0; a < 3; ++a) lo[a] = hi[a] = origins[a];
   for (size_t i = 0; i < n; ++i)

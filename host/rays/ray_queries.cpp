@@ -131,13 +131,13 @@ Frame build_query_frame(const Scene& scene, const SceneData& data, float origin_
   if (query_trees && frame.tlas_root != RF_INVALID) {
     // rf_trace_query_tlas_wide answers group 0 alone, which a frame of one
     // view and no mirrors is.
-    for (const rf_instance& inst : frame.instances) RF_CHECK(inst.group == 0, "a query frame with mirrored copies");
+    for (const rf_instance& inst : frame.instances) RF_CHECK_EQ(inst.group, 0u, "a query frame with mirrored copies");
     Wide8Trees wide = build_wide8_tlas(frame.tlas_nodes, frame.node_base, frame.tlas_root);
     frame.tlas_wide = std::move(wide.nodes);
     frame.tlas_wide_root = wide.roots[0];
   }
   if (query_trees) {
-    RF_CHECK(query_trees->roots.size() == data.blas.instance_roots.size(), "query trees of another scene");
+    RF_CHECK_EQ(query_trees->roots.size(), data.blas.instance_roots.size(), "query trees of another scene");
     frame.query_wide_roots.reserve(frame.instances.size());
     for (const rf_instance& inst : frame.instances) frame.query_wide_roots.push_back(query_trees->roots[inst.instance_id]);
   }

@@ -8,7 +8,7 @@
 namespace rayfold::core {
 
 Accuracy measure_accuracy(const std::vector<ReferenceHit>& ref, ConstSpan<rf_pixel_hit> hits) {
-  RF_CHECK(ref.size() == hits.size(), "accuracy: images of different sizes");
+  RF_CHECK_EQ(ref.size(), hits.size(), "accuracy: images of different sizes");
   Accuracy a;
   if (ref.empty()) return a;
   size_t same = 0, hit_miss = 0;

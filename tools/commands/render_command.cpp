@@ -8,7 +8,7 @@
 #include "camera_list.h"
 #include "commands/common.h"
 #include "commands/render_args.h"
-#include "util/channels.h"
+#include "output/channels.h"
 #include "commands/render_outputs.h"
 #include "fold/view_passes.h"
 #include "opencl/cl_device.h"
@@ -17,7 +17,7 @@
 #include "scene/animation.h"
 #include "util/atomic_file.h"
 #include "util/errors.h"
-#include "util/image_output.h"
+#include "output/image_output.h"
 #include "util/timer.h"
 
 namespace rayfold::core::commands {

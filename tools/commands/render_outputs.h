@@ -9,7 +9,7 @@
 
 #include "camera_list.h"
 #include "commands/render_args.h"
-#include "util/image_output.h"
+#include "output/image_output.h"
 
 namespace rayfold::core::commands {
 

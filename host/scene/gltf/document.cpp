@@ -7,7 +7,7 @@
 #include <memory>
 #include <system_error>
 
-#include "bvh/scene_file.h"
+#include "scene/scene_file_signature.h"
 #include "util/parallel.h"
 
 namespace rayfold::core::gltf {

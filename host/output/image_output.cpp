@@ -1,4 +1,4 @@
-#include "util/image_output.h"
+#include "output/image_output.h"
 
 #include <algorithm>
 #include <cerrno>
@@ -196,7 +196,7 @@ rayfold::ExrCompression parse_exr_compression(const std::string& name) {
 
 void write_exr(const std::string& path, ConstSpan<rf_pixel_hit> hits, int width, int height,
                const ExrMetadata* metadata, unsigned channels, rayfold::ExrCompression compression) {
-  RF_CHECK(hits.size() == static_cast<size_t>(width) * height, "hit buffer does not match the image size");
+  RF_CHECK_EQ(hits.size(), static_cast<size_t>(width) * height, "hit buffer does not match the image size");
   // ZIP compression of a 1280x720 G-buffer takes ten times the trace on one
   // thread; OpenEXR compresses blocks in parallel on its global pool
   // (352 -> 190 ms on 2 cores, same bytes).
@@ -247,7 +247,7 @@ std::vector<rf_pixel_hit> read_exr(const std::string& path, int* width, int* hei
 }
 
 void write_png(const std::string& path, ConstSpan<rf_pixel_hit> hits, int width, int height) {
-  RF_CHECK(hits.size() == static_cast<size_t>(width) * height, "hit buffer does not match the image size");
+  RF_CHECK_EQ(hits.size(), static_cast<size_t>(width) * height, "hit buffer does not match the image size");
   std::vector<uint8_t> rgb(hits.size() * 3, 0);
   auto to_byte = [](float n) {
     const float c = std::round((n * 0.5f + 0.5f) * 255.0f);

@@ -1,4 +1,4 @@
-#include "util/channels.h"
+#include "output/channels.h"
 
 #include <algorithm>
 #include <utility>
