@@ -8,7 +8,7 @@ FUZZ_SECONDS ?= 60
 .PHONY: deps configure build demo test python-env test-asan fuzz bench clean
 
 deps:
-	@tools/install-deps.sh
+	@tools/scripts/install-deps.sh
 
 configure: deps
 	@cmake -S . -B $(BUILD_DIR) -DCMAKE_BUILD_TYPE=Release $(PYTHON_FLAGS) $(CMAKE_FLAGS) >/dev/null
@@ -29,7 +29,7 @@ test: python-env build
 	@cd $(BUILD_DIR) && ctest --output-on-failure -j 2
 
 python-env: deps
-	@tools/python-env.sh $(BUILD_DIR)/venv
+	@tools/scripts/python-env.sh $(BUILD_DIR)/venv
 
 # Fold tables, speed against accuracy with Embree, from Python against
 # Mitsuba 3 and Open3D, and charts for the bundled scene and every scene in
@@ -38,10 +38,10 @@ python-env: deps
 BENCH_ARGS ?=
 bench: PYTHON_FLAGS = -DRAYFOLD_PYTHON=ON -DPython_EXECUTABLE=$(CURDIR)/$(BUILD_DIR)/venv/bin/python
 bench: python-env build
-	@tools/install-deps.sh python3-matplotlib libusb-1.0-0
-	@tools/python-env.sh $(BUILD_DIR)/venv --peers
+	@tools/scripts/install-deps.sh python3-matplotlib libusb-1.0-0
+	@tools/scripts/python-env.sh $(BUILD_DIR)/venv --peers
 	PYTHONPATH=$(CURDIR)/$(BUILD_DIR)/python BENCH_PYTHON=$(CURDIR)/$(BUILD_DIR)/venv/bin/python \
-	    tools/bench_all.sh $(BENCH_ARGS)
+	    tools/bench/bench_all.sh $(BENCH_ARGS)
 
 # The whole suite under AddressSanitizer and UndefinedBehaviorSanitizer.
 # Leaks inside the OpenCL runtime (PoCL, LLVM) are suppressed; ours are not.
@@ -65,7 +65,7 @@ test-asan: deps
 # accepted input (tests/fuzz/fuzz_scene.cpp); findings land in build-fuzz/.
 # Leaks inside the OpenCL runtime are suppressed as in test-asan.
 fuzz:
-	@tools/install-deps.sh clang libclang-rt-14-dev
+	@tools/scripts/install-deps.sh clang libclang-rt-14-dev
 	@CC=clang CXX=clang++ cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=RelWithDebInfo -DRAYFOLD_FUZZ=ON \
 	    -DBUILD_TESTING=OFF >/dev/null
 	@cmake --build build-fuzz --target fuzz_scene -j $(JOBS)

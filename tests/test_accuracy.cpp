@@ -3,7 +3,7 @@
 
 #include <filesystem>
 
-#include "../tools/scene_gen.h"
+#include "fixtures/scene_gen.h"
 #include "reference/accuracy.h"
 #include "reference/double_reference.h"
 #include "pipeline/pipeline.h"

@@ -6,8 +6,8 @@
 #include <cstring>
 #include <fstream>
 
-#include "../tools/gltf_writer.h"
-#include "../tools/scene_gen.h"
+#include "fixtures/gltf_writer.h"
+#include "fixtures/scene_gen.h"
 #include "gltf_fixture.h"
 #include "pipeline/pipeline.h"
 #include "scene/gltf/loader.h"

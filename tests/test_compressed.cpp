@@ -247,7 +247,7 @@ void compare_renders(const Scene& a, const Scene& b, double* agree, double* wors
 
 TEST(Compressed, FilesFromGltfpackAndDracoTranscoderShowTheSameScene) {
   if (!have_tool("gltfpack") || !have_tool("draco_transcoder"))
-    GTEST_SKIP() << "gltfpack or draco_transcoder is not installed (tools/install-deps.sh installs both)";
+    GTEST_SKIP() << "gltfpack or draco_transcoder is not installed (tools/scripts/install-deps.sh installs both)";
   const std::string src = RAYFOLD_SOURCE_DIR "/scenes/atrium.glb";
   const Scene original = load_gltf(src);
   const std::filesystem::path dir = testing::temp_dir();

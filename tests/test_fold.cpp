@@ -7,7 +7,7 @@
 #include <cstring>
 #include <filesystem>
 
-#include "../tools/scene_gen.h"
+#include "fixtures/scene_gen.h"
 #include "fold/ray_list.h"
 #include "fold/view_passes.h"
 #include "reference/hit_compare.h"

@@ -12,8 +12,8 @@
 #include <glm/gtc/matrix_transform.hpp>
 #include <nlohmann/json.hpp>
 
-#include "../tools/gltf_writer.h"
-#include "../tools/scene_gen.h"
+#include "fixtures/gltf_writer.h"
+#include "fixtures/scene_gen.h"
 #include "gltf_fixture.h"
 #include "pipeline/pipeline.h"
 #include "scene/gltf/loader.h"

@@ -5,7 +5,7 @@
 
 #include <filesystem>
 
-#include "../tools/scene_gen.h"
+#include "fixtures/scene_gen.h"
 #include "pipeline/pipeline.h"
 #include "scene/gltf_loader.h"
 #include "test_util.h"

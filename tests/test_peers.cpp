@@ -11,10 +11,10 @@
 
 #include <nlohmann/json.hpp>
 
-#include "../tools/embree_peer.h"
-#include "../tools/peak_memory.h"
-#include "../tools/peers.h"
-#include "../tools/ray_peers.h"
+#include "bench/embree_peer.h"
+#include "bench/peak_memory.h"
+#include "bench/peers.h"
+#include "bench/ray_peers.h"
 #include "reference/cpu_tracer.h"
 #include "pipeline/pipeline.h"
 #include "scene/gltf_loader.h"

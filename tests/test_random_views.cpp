@@ -1,4 +1,4 @@
-// The benchmarks' random views (tools/random_views.h): reproducible from the
+// The benchmarks' random views (tools/fixtures/random_views.h): reproducible from the
 // seed, drawn where the documented rules say, each seeing what its threshold
 // asks, and the scene kind told apart on scenes whose answer is known.
 #include <gtest/gtest.h>
@@ -9,7 +9,7 @@
 #include <glm/geometric.hpp>
 #include <glm/gtc/matrix_transform.hpp>
 
-#include "../tools/random_views.h"
+#include "fixtures/random_views.h"
 #include "test_util.h"
 
 namespace rayfold::core {

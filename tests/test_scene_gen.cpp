@@ -6,8 +6,8 @@
 #include <filesystem>
 #include <fstream>
 
-#include "../tools/gltf_writer.h"
-#include "../tools/scene_gen.h"
+#include "fixtures/gltf_writer.h"
+#include "fixtures/scene_gen.h"
 #include "scene/gltf_loader.h"
 
 namespace rayfold::core {

@@ -19,7 +19,7 @@
 
 #include <glm/gtc/matrix_transform.hpp>
 
-#include "../tools/scene_gen.h"
+#include "fixtures/scene_gen.h"
 #include "bvh/bvh_build.h"
 #include "pipeline/pipeline.h"
 #include "rf_trace.h"

@@ -9,7 +9,7 @@
 
 #include <glm/gtc/matrix_transform.hpp>
 
-#include "../tools/scene_gen.h"
+#include "fixtures/scene_gen.h"
 #include "fold/depth_xform.h"
 #include "rf_trace.h"
 #include "scene/animation.h"

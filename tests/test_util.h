@@ -52,7 +52,7 @@ CameraSpec random_camera(Rng& rng, const Aabb& bounds);
 // behind everything), its half-height a random share of their size.
 CameraSpec random_ortho_camera(Rng& rng, const Aabb& bounds);
 
-// The scene generator's atrium (tools/scene_gen.h) with this seed, object
+// The scene generator's atrium (tools/fixtures/scene_gen.h) with this seed, object
 // count and triangle budget.
 Scene generated_atrium(uint64_t seed, int objects, size_t triangle_budget);
 

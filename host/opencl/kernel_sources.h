@@ -1,4 +1,4 @@
-// The OpenCL sources, embedded at build time (tools/embed_sources.cmake).
+// The OpenCL sources, embedded at build time (tools/cmake/embed_sources.cmake).
 #pragma once
 
 #include <string>

@@ -13,7 +13,7 @@ import pytest
 
 import rayfold
 
-ray = pytest.importorskip("ray", reason="rayfold.batch needs Ray (tools/python-env.sh installs it for make test)")
+ray = pytest.importorskip("ray", reason="rayfold.batch needs Ray (tools/scripts/python-env.sh installs it for make test)")
 import rayfold.batch  # noqa: E402
 
 PLANES = ("depth", "normal", "uv", "instance_id", "primitive_id")
@@ -94,7 +94,7 @@ def test_a_scene_built_in_memory_and_moved_reaches_the_workers_as_trees(tmp_path
 
 
 def test_one_zarr_store_holds_every_views_bits_and_resumes(atrium_path, tmp_path):
-    zarr = pytest.importorskip("zarr", reason="zarr stores need zarr (tools/python-env.sh installs it)")
+    zarr = pytest.importorskip("zarr", reason="zarr stores need zarr (tools/scripts/python-env.sh installs it)")
     scene = rayfold.Scene(atrium_path)
     cameras = camera_list(tmp_path / "c.json", 20, intrinsics_every=4)
     store = tmp_path / "views.zarr"

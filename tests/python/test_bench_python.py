@@ -1,4 +1,4 @@
-"""tools/bench_python.py's inputs are real: the world-space triangles it gives
+"""tools/bench/bench_python.py's inputs are real: the world-space triangles it gives
 the peers are the ones rayfold renders, and its agreement check sees a
 disagreement."""
 import importlib.util
@@ -10,7 +10,7 @@ import pytest
 import rayfold
 from conftest import ROOT
 
-spec = importlib.util.spec_from_file_location("bench_python", ROOT / "tools" / "bench_python.py")
+spec = importlib.util.spec_from_file_location("bench_python", ROOT / "tools" / "bench" / "bench_python.py")
 bench = importlib.util.module_from_spec(spec)
 spec.loader.exec_module(bench)
 
@@ -90,12 +90,12 @@ def test_cameras_come_from_a_peers_report(tmp_path):
 
 
 def test_intersect_on_incoherent_rays_agrees_with_a_float64_brute_force(atrium_path):
-    """tools/bench_rays.py's incoherent rays through scene.intersect against
+    """tools/bench/bench_rays.py's incoherent rays through scene.intersect against
     every triangle in float64: the same hits and misses but for near ties,
     t within a few float roundings."""
     import sys
-    sys.path.insert(0, str(ROOT / "tools"))
-    rays_spec = importlib.util.spec_from_file_location("bench_rays", ROOT / "tools" / "bench_rays.py")
+    sys.path.insert(0, str(ROOT / "tools" / "bench"))
+    rays_spec = importlib.util.spec_from_file_location("bench_rays", ROOT / "tools" / "bench" / "bench_rays.py")
     bench_rays = importlib.util.module_from_spec(rays_spec)
     rays_spec.loader.exec_module(bench_rays)
     scene = rayfold.Scene(atrium_path)
@@ -113,8 +113,8 @@ def test_intersect_on_incoherent_rays_agrees_with_a_float64_brute_force(atrium_p
 
 def _bench_readback():
     import sys
-    sys.path.insert(0, str(ROOT / "tools"))
-    spec = importlib.util.spec_from_file_location("bench_readback", ROOT / "tools" / "bench_readback.py")
+    sys.path.insert(0, str(ROOT / "tools" / "bench"))
+    spec = importlib.util.spec_from_file_location("bench_readback", ROOT / "tools" / "bench" / "bench_readback.py")
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
@@ -199,10 +199,10 @@ def test_accuracy_is_measured_against_the_reference_as_rayfold_peers_does():
 
 
 def test_chart_draws_mitsuba_and_open3d_beside_rayfold_and_embree():
-    """tools/chart_peers.py's points: each C++ variant once, at its fastest
+    """tools/bench/chart_peers.py's points: each C++ variant once, at its fastest
     fold, and from the Python report rayfold's fastest fold of each G-buffer
     kind (not the depth-only renders) and every peer with an accuracy."""
-    spec = importlib.util.spec_from_file_location("chart_peers", ROOT / "tools" / "chart_peers.py")
+    spec = importlib.util.spec_from_file_location("chart_peers", ROOT / "tools" / "bench" / "chart_peers.py")
     chart = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(chart)
     acc = {"depth_error_p99": 1e-6, "depth_error_max": 1e-5, "disagreeing_share": 1e-3}

@@ -1,0 +1,47 @@
+// What the rayfold command's subcommands share: the bundled scene, the
+// options of the tracer, the output checks, and each subcommand's entry.
+#pragma once
+
+#include <cstddef>
+#include <initializer_list>
+#include <string>
+
+#include "cli/cli_args.h"
+#include "pipeline/pipeline.h"
+#include "scene/gltf_loader.h"
+
+namespace rayfold::core::commands {
+
+// The bundled scene: in the source tree for a build, beside the binary
+// (../share/rayfold) once installed.
+std::string default_scene();
+
+// 1234567 -> "1,234,567".
+std::string with_commas(size_t n);
+
+// Loads a glTF file, its warnings printed to stderr; InputError as load_gltf.
+Scene load_scene(const std::string& path, const LoadOptions& options = {});
+
+// Options render and bench share: which tracer, which device, how built.
+// Returns false when `a` is none of them.
+bool parse_renderer_option(const std::string& a, cli::Args& args, PipelineOptions& r);
+
+// After parsing: options that contradict each other (UsageError).
+void check_renderer_options(const PipelineOptions& r);
+
+struct Output {
+  const char* option;
+  const std::string* path;
+  const char* extension;
+};
+
+// The extension decides the format: a mismatch is a UsageError, not a file
+// of one kind under another's name.
+void check_outputs(std::initializer_list<Output> outputs);
+
+// The subcommands, each given the arguments after its name; the exit code.
+int run_render(cli::Args& args);
+int run_info(cli::Args& args);
+int run_bench_command(cli::Args& args);
+
+}  // namespace rayfold::core::commands
