@@ -322,6 +322,29 @@ struct QueryArrays {
 };
 
 QueryArrays query_arrays(nb::handle origins, nb::handle directions) {
+  if (directions.is_none()) {
+    // One (..., 6) array, origin then direction, as Open3D's cast_rays takes
+    // its rays: split here into the two (..., 3) arrays below.
+    nb::object np = nb::module_::import_("numpy");
+    nb::object rays;
+    try {
+      rays = np.attr("asarray")(origins, "dtype"_a = "float32");
+    } catch (nb::python_error&) {
+      throw rayfold::InputError("", "rays is not an array of numbers");
+    }
+    const nb::tuple dims = nb::cast<nb::tuple>(rays.attr("shape"));
+    std::vector<size_t> d(dims.size());
+    for (size_t i = 0; i < d.size(); ++i) d[i] = nb::cast<size_t>(dims[i]);
+    if (d.empty() || d.back() != 6)
+      throw rayfold::InputError("", "rays given alone must have shape (..., 6), each an origin and a direction as "
+                                    "Open3D's cast_rays takes them, not " +
+                                        shape_text(d.size(), d.data()) +
+                                        "; or give origins and directions apart, each (..., 3)");
+    nb::object item = rays.attr("__getitem__");
+    const nb::object o = item(nb::make_tuple(nb::ellipsis(), nb::slice(0, 3)));
+    const nb::object dir = item(nb::make_tuple(nb::ellipsis(), nb::slice(3, 6)));
+    return query_arrays(o, dir);  // each made contiguous there; the arrays keep them alive
+  }
   QueryArrays q{as_array<float>(origins, "float32", "origins"), as_array<float>(directions, "float32", "directions"),
                 {}, 0};
   auto dims = [](const InArray<float>& a) {
@@ -605,10 +628,13 @@ NB_MODULE(_core, m) {
       .def(
           "add_instance",
           [](PyScene& s, uint32_t mesh, nb::handle world_from_object, const std::string& name) {
-            const rayfold::Matrix4 m4 = as_matrix4(world_from_object, "world_from_object");
+            const rayfold::Matrix4 m4 =
+                world_from_object.is_none() ? rayfold::kIdentity : as_matrix4(world_from_object, "world_from_object");
             return locked(s, [&] { return s.scene.add_instance(mesh, m4, name); });
           },
-          "mesh"_a, "world_from_object"_a, "name"_a = "", "Places a mesh (4x4 matrix); returns the instance id.")
+          "mesh"_a, "world_from_object"_a = nb::none(), "name"_a = "",
+          "Places a mesh (a 4x4 matrix; None or left out: where the mesh's own coordinates put it, the identity); "
+          "returns the instance id.")
       .def(
           "set_transform",
           [](PyScene& s, uint32_t instance, nb::handle world_from_object) {
@@ -739,10 +765,11 @@ NB_MODULE(_core, m) {
         put("normal", rayfold::kNormal, h.normal, 3);
         return out;
       },
-      "origins"_a, "directions"_a, "tmin"_a = 0.0f, "tmax"_a = INFINITY, "backend"_a = "opencl", "device"_a = "",
-      "threads"_a = 0, "channels"_a = nb::none(),
+      "origins"_a, "directions"_a = nb::none(), "tmin"_a = 0.0f, "tmax"_a = INFINITY, "backend"_a = "opencl",
+      "device"_a = "", "threads"_a = 0, "channels"_a = nb::none(),
       "The closest hit of each ray with tmin < t <= tmax. origins, directions: (..., 3) world space (float64 is "
-      "rounded once to float32); directions need not be unit length, t is along them. Returns a dict of arrays "
+      "rounded once to float32), or one (..., 6) array of rays, origin then direction, as Open3D's cast_rays "
+      "takes; directions need not be unit length, t is along them. Returns a dict of arrays "
       "of the leading shape: t (inf on a miss), instance_id and primitive_id (MISS on a miss), uv (..., 2), "
       "normal (..., 3), as a G-buffer's; channels names the ones to fill (a list or 't,instance_id'; default all), "
       "the others None, and without 'normal' none is computed. The same bits on every backend. InputError names the first ray whose "
@@ -780,8 +807,8 @@ NB_MODULE(_core, m) {
         nb::object flags = shaped(std::move(hit), q.shape, 1);
         return flags.attr("astype")("bool");
       },
-      "origins"_a, "directions"_a, "tmin"_a = 0.0f, "tmax"_a = INFINITY, "backend"_a = "opencl", "device"_a = "",
-      "threads"_a = 0,
+      "origins"_a, "directions"_a = nb::none(), "tmin"_a = 0.0f, "tmax"_a = INFINITY, "backend"_a = "opencl",
+      "device"_a = "", "threads"_a = 0,
       "Whether each ray has any hit with tmin < t <= tmax (bool array of the leading shape); each ray stops at "
       "the first hit found. Inputs as intersect. Releases the GIL.");
 

@@ -744,6 +744,35 @@ def test_intersect_rules_and_bad_rays():
         s.intersect([[0, 0, 1]], [[0, 0, -1]], tmin=2.0, tmax=1.0)
 
 
+def test_intersect_takes_open3d_style_rays_and_add_instance_defaults_to_where_the_mesh_is():
+    s = triangle_scene()
+    rng = np.random.default_rng(5)
+    o = np.concatenate([rng.uniform(-1, 1, (64, 2)), np.full((64, 1), 3.0)], axis=1)
+    d = np.concatenate([rng.uniform(-0.3, 0.3, (64, 2)), np.full((64, 1), -1.0)], axis=1)
+    apart = s.intersect(o, d, backend="cpu")
+    together = s.intersect(np.concatenate([o, d], axis=1), backend="cpu")  # (N, 6), as Open3D's cast_rays
+    assert (apart["instance_id"] != rayfold.MISS).any()
+    for k in ("t", "instance_id", "primitive_id", "uv", "normal"):
+        assert np.array_equal(apart[k], together[k]), k
+    image = np.concatenate([o, d], axis=1).reshape(8, 8, 6)
+    assert s.intersect(image, backend="cpu")["t"].shape == (8, 8)
+    assert np.array_equal(s.occluded(np.concatenate([o, d], axis=1), backend="cpu"), s.occluded(o, d, backend="cpu"))
+    with pytest.raises(rayfold.InputError, match=r"rays given alone must have shape \(\.\.\., 6\).*not \(64, 3\)"):
+        s.intersect(o)
+    with pytest.raises(rayfold.InputError, match="rays is not an array of numbers"):
+        s.intersect("rays")
+
+    # An instance without a transform stands where its mesh is, as with the identity.
+    a, b = rayfold.Scene(), rayfold.Scene()
+    tri = np.array([[-1, -1, 0], [1, -1, 0], [0, 1, 0]], np.float32)
+    a.add_instance(a.add_mesh(tri, [[0, 1, 2]]), name="tri")
+    b.add_instance(b.add_mesh(tri, [[0, 1, 2]]), np.eye(4), name="tri")
+    assert np.array_equal(a.transform(0), np.eye(4))
+    ray = np.array([[0.1, 0.0, 2.0, 0.0, 0.0, -1.0]])
+    assert np.array_equal(a.intersect(ray, backend="cpu")["t"], b.intersect(ray, backend="cpu")["t"])
+    assert a.intersect(ray, backend="cpu")["t"][0] == 2.0
+
+
 def test_intersect_warns_of_instances_it_cannot_trace():
     s = rayfold.Scene()
     cube = s.add_mesh(np.array([[-1, -1, -1], [1, -1, -1], [0, 1, -1]], np.float32), [[0, 1, 2]])

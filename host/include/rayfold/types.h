@@ -12,6 +12,9 @@ using Vec3 = std::array<double, 3>;
 // 0 0 0 1. Transforms are named destination-from-source: world_from_object
 // takes object-space points to world space.
 using Matrix4 = std::array<double, 16>;
+// The transform that leaves points where they are: an instance placed with
+// it stands where its mesh's own coordinates put it.
+inline constexpr Matrix4 kIdentity = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
 
 // instance_id and primitive_id of a pixel that hits nothing.
 inline constexpr uint32_t kMiss = 0xFFFFFFFFu;
