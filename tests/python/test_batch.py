@@ -295,6 +295,10 @@ def test_bad_input_fails_first_naming_what_is_wrong(atrium_path, tmp_path):
          "is for EXR outputs"),
         ([atrium_path, "--cameras", tmp_path / "c.json", "-o", tmp_path / "v_%d.exr", "--exr-compression", "b44"],
          "invalid choice"),
+        ([atrium_path, "--cameras", tmp_path / "c.json", "-o", tmp_path / "v_%d.exr", "--align", "many"],
+         "expected N or all, not 'many'"),
+        ([atrium_path, "--cameras", tmp_path / "c.json", "-o", tmp_path / "v_%d.exr", "--align", "auto"],
+         "rayfold-batch takes N or all"),
     ]
     for args, what in cases:
         r = subprocess.run([sys.executable, "-m", "rayfold.batch", *map(str, args)], capture_output=True, text=True,
@@ -305,6 +309,33 @@ def test_bad_input_fails_first_naming_what_is_wrong(atrium_path, tmp_path):
     r = batch_cli(atrium_path, "--cameras", tmp_path / "c.json", "-o", tmp_path / "v_%d.exr")
     assert r.returncode == 2 and "cameras[0]: unknown key \"fov\"" in r.stderr, r.stderr
     assert os.listdir(tmp_path) == ["c.json"]
+
+
+def test_the_cli_speaks_the_render_commands_words(atrium_path, tmp_path):
+    # --align all as rayfold render takes it, and a note about the camera file
+    # as one "warning:" line, not a Python UserWarning with a source line.
+    camera_list(tmp_path / "c.json", 2)
+    with open(tmp_path / "c.json") as f:
+        listed = json.load(f)
+    frames = []
+    for c in listed["cameras"]:
+        eye, at = np.array(c["eye"], float), np.array(c["look_at"], float)
+        z = eye - at
+        z /= np.linalg.norm(z)
+        x = np.cross([0.0, 1.0, 0.0], z)
+        x /= np.linalg.norm(x)
+        m = np.eye(4)
+        m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = x, np.cross(z, x), z, eye
+        frames.append({"file_path": f"./train/r_{len(frames)}", "transform_matrix": m.tolist()})
+    with open(tmp_path / "transforms.json", "w") as f:
+        json.dump({"camera_angle_x": 0.8, "w": 32, "h": 24, "aabb_scale": 4, "frames": frames}, f)
+    os.makedirs(tmp_path / "out")
+    r = batch_cli(atrium_path, "--cameras", tmp_path / "transforms.json", "-o", tmp_path / "out" / "v_%d.exr",
+                  "--align", "all", "-q")
+    assert r.returncode == 0, r.stderr
+    assert "2 of 2 views written" in r.stderr, r.stderr
+    assert "warning: " in r.stderr and "ignored aabb_scale" in r.stderr, r.stderr
+    assert "UserWarning" not in r.stderr and ".py:" not in r.stderr, r.stderr
 
 
 def test_memory_stays_flat_from_100_to_10000_views(atrium_path, tmp_path):

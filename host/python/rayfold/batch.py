@@ -28,6 +28,7 @@ import signal
 import socket
 import sys
 import time
+import warnings
 
 from ._core import Camera, InputError, RuntimeFailure, Scene, __version__
 from ._batch_outputs import make_output, sha256_file
@@ -398,9 +399,33 @@ def _unwind_on_signals():
         signal.signal(sig, _raise_stopped)
 
 
+def _align_arg(text):
+    """--align as the CLI spells it: N views a trace (1: each alone) or all
+    (as many as a trace holds; 0, the Python default, means the same)."""
+    if text == "all":
+        return 0
+    if text == "auto":
+        raise argparse.ArgumentTypeError("auto (the cost model's choice) is rayfold render's; rayfold-batch takes N "
+                                         "or all")
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected N or all, not {text!r}")
+    if n < 0:
+        raise argparse.ArgumentTypeError(f"expected N (1 or more) or all, not {text!r}")
+    return n
+
+
+def _print_warning(message, category, filename, lineno, file=None, line=None):
+    """A note to a rayfold-batch user as the CLI gives it: one "warning:"
+    line, without Python's category and source line."""
+    print(f"warning: {message}", file=sys.stderr)
+
+
 def main(argv=None):
     """rayfold-batch: exit 0 when every view is written, 1 when some failed
     (listed), 2 for bad input, 3 when the run could not go on."""
+    warnings.showwarning = _print_warning
     p = argparse.ArgumentParser(prog="rayfold-batch", description=(
         "Renders every view of a camera file to one EXR each on a Ray cluster: this machine's, started for the "
         "job, or a running one (--address). A rerun keeps the views already written and renders the rest."))
@@ -416,7 +441,8 @@ def main(argv=None):
                    help="more actors with one GPU each (OpenCL device 'gpu'; the CPU workers then take 'cpu')")
     p.add_argument("--address", help="a running Ray cluster (auto, or host:port); default: start one here")
     p.add_argument("--fold", default="none", choices=["none", "y", "x", "xy"])
-    p.add_argument("--align", type=int, default=0, help="views traced together (0: as many as a trace holds)")
+    p.add_argument("--align", type=_align_arg, default=0, metavar="N|all",
+                   help="views traced together: N (1: each alone) or all, the default: as many as a trace holds")
     p.add_argument("--channels", help="the planes written, for example depth,instance_id (default all)")
     p.add_argument("--depth", default="distance", choices=["distance", "planar"])
     p.add_argument("--exact-depth", action="store_true",
