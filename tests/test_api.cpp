@@ -114,6 +114,21 @@ std::vector<rf_pixel_hit> brute(const core::Scene& s, const Camera& camera) {
 
 const Fold kFolds[] = {Fold::none, Fold::y, Fold::x, Fold::xy};
 
+// A scene without a camera gets the view `rayfold render` chooses: a hall
+// from inside, looking along it, every pixel a front face.
+TEST(Api, TheDefaultCameraOfARoomIsInside) {
+  core::Scene hall;
+  hall.meshes.push_back(core::testing::wound_box(true, glm::vec3(5.0f, 1.0f, 1.0f)));
+  hall.instances.push_back(core::Instance{});
+  const Scene scene = to_public(hall);
+  const Camera cam = scene.default_camera(32, 18);
+  EXPECT_EQ(cam.eye(), (Vec3{0.0, 0.0, 0.0}));
+  const GBuffer g = Renderer(scene, {Backend::cpu}).render(cam);
+  EXPECT_EQ(g.hits, size_t{32 * 18});
+  const float centre = g.depth[9 * 32 + 16];
+  EXPECT_GT(centre, 4.9f) << "the centre pixel sees no end wall: not looking along the hall";
+}
+
 TEST(Api, InMemorySceneMatchesBruteForceInEveryBackendKernelAndFold) {
   core::testing::Rng rng(7);
   const core::Scene soup = core::testing::random_scene(rng, 3, 7, 40);

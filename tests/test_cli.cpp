@@ -17,6 +17,7 @@
 #include <ImfStringVectorAttribute.h>
 #include <nlohmann/json.hpp>
 
+#include "fixtures/gltf_writer.h"
 #include "gltf_fixture.h"
 #include "test_util.h"
 #include "output/image_output.h"
@@ -861,6 +862,25 @@ TEST(Cli, AutoFramedCameraIsPrintedAndReusable) {
   ASSERT_EQ(rayfold("render " + scene + " --size 20x12 " + line + " -o " + b).code, 0) << line;
   int w = 0, h = 0;
   EXPECT_EQ(testing::compare_hits(read_exr(a, &w, &h), read_exr(b, &w, &h), 20), "") << line;
+}
+
+// A room without a camera was framed from outside: a closed box. Now the
+// view is chosen from inside (pipeline/auto_frame.h), said, and printed as
+// options that give the same view again.
+TEST(Cli, AnAutoFramedInteriorIsSeenFromInside) {
+  Scene hall;
+  hall.meshes.push_back(testing::wound_box(true, glm::vec3(5.0f, 1.0f, 1.0f)));
+  hall.instances.push_back(Instance{});
+  const fs::path d = work_dir();
+  const std::string file = (d / "hall.glb").string(), exr = (d / "hall.exr").string();
+  write_glb(hall, file);
+  const CliRun r = rayfold("render " + file + " --size 32x18 -o " + exr);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("chosen: an interior, seen from inside"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("--eye 0,0,0 "), std::string::npos) << r.out;
+  int w = 0, h = 0;
+  const std::vector<rf_pixel_hit> hits = read_exr(exr, &w, &h);
+  for (size_t i = 0; i < hits.size(); ++i) ASSERT_NE(hits[i].instance, RF_INVALID) << "pixel " << i << " missed";
 }
 
 // Once silent: the stand-in motion for a file without animations is said,

@@ -15,18 +15,9 @@
 namespace rayfold::core {
 namespace {
 
-using testing::closed_cube;
-
-// The lattice cube with every triangle wound to face outwards (or inwards):
-// a solid object, or a closed room seen from inside.
+// A solid object, or a closed room seen from inside.
 Scene box_scene(bool inward, const Xform& world_from_object = Xform(1.0)) {
-  Mesh m = closed_cube(4);
-  for (size_t t = 0; t < m.triangle_count(); ++t) {
-    uint32_t* i = &m.indices[3 * t];
-    const glm::vec3 a = m.positions[i[0]], b = m.positions[i[1]], c = m.positions[i[2]];
-    const float facing = glm::dot(glm::cross(b - a, c - a), a + b + c);
-    if ((facing < 0.0f) != inward) std::swap(i[1], i[2]);
-  }
+  const Mesh m = testing::wound_box(inward);
   Scene s;
   s.meshes.push_back(m);
   Instance inst;

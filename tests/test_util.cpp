@@ -7,6 +7,7 @@
 #include <sstream>
 #include <tuple>
 
+#include <glm/geometric.hpp>
 #include <glm/gtc/matrix_transform.hpp>
 
 #include "fixtures/scene_gen.h"
@@ -364,6 +365,18 @@ Mesh closed_cube(int n) {
           else
             m.indices.insert(m.indices.end(), {v00, v10, v01, v10, v11, v01});
         }
+  return m;
+}
+
+Mesh wound_box(bool inward, const glm::vec3& size) {
+  Mesh m = closed_cube(4);
+  for (glm::vec3& p : m.positions) p *= size;
+  for (size_t t = 0; t < m.triangle_count(); ++t) {
+    uint32_t* i = &m.indices[3 * t];
+    const glm::vec3 a = m.positions[i[0]], b = m.positions[i[1]], c = m.positions[i[2]];
+    const float facing = glm::dot(glm::cross(b - a, c - a), a + b + c);
+    if ((facing < 0.0f) != inward) std::swap(i[1], i[2]);
+  }
   return m;
 }
 

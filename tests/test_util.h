@@ -72,6 +72,10 @@ Mesh unit_triangle();
 // alternate so that edges meet at every angle.
 Mesh closed_cube(int n);
 
+// closed_cube(4) scaled by `size` about the origin, every triangle wound to
+// face outwards (a solid) or inwards (a room seen from inside).
+Mesh wound_box(bool inward, const glm::vec3& size = glm::vec3(1.0f));
+
 inline constexpr FoldMode kAllFolds[] = {FoldMode::none, FoldMode::y, FoldMode::x, FoldMode::xy};
 
 // One scene, rendered three ways: the CPU reference, the single-ray kernel

@@ -7,6 +7,8 @@
 #include "api/convert.h"
 #include "api/scene_state.h"
 #include "bvh/scene_file.h"
+#include "pipeline/auto_frame.h"
+#include "pipeline/pipeline.h"
 #include "rayfold/errors.h"
 #include "rayfold/version.h"
 #include "scene/camera.h"
@@ -230,8 +232,19 @@ std::vector<std::string> Scene::camera_names() const {
 }
 
 Camera Scene::default_camera(int width, int height) const {
-  const core::Scene& s = state_->scene;
-  const core::CameraSpec spec = s.camera ? *s.camera : core::frame_bounds(s.world_bounds());
+  detail::SceneState& state = *state_;
+  const core::Scene& s = state.scene;
+  if (!s.camera) {
+    const std::shared_ptr<const core::SceneData> trees = detail::current_trees(state);
+    if (state.framed_on != trees) {
+      core::PipelineOptions cpu_options;
+      cpu_options.backend = core::Backend::cpu;
+      core::Pipeline cpu(s, cpu_options, trees);
+      state.framed = core::auto_frame(s, cpu).spec;
+      state.framed_on = trees;
+    }
+  }
+  const core::CameraSpec spec = s.camera ? *s.camera : state.framed;
   if (spec.orthographic)
     return Camera::orthographic({spec.eye.x, spec.eye.y, spec.eye.z}, {spec.look_at.x, spec.look_at.y, spec.look_at.z},
                                 {spec.up.x, spec.up.y, spec.up.z}, spec.ymag, width, height);

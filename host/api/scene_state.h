@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "bvh/scene_data.h"
+#include "scene/camera.h"
 #include "scene/gltf_loader.h"
 #include "scene/scene.h"
 
@@ -29,6 +30,10 @@ struct SceneState {
   // moved since.
   std::shared_ptr<const core::SceneData> trees;
   uint64_t trees_version = 0, trees_clock = 0;
+  // The view Scene::default_camera chose over those trees (a file without a
+  // camera), for the trees it was chosen on.
+  std::shared_ptr<const core::SceneData> framed_on;
+  core::CameraSpec framed;
 
   // Which instances trees built now keep apart (bvh/blas.h): those
   // set_transform or set_time has moved; the others may share a tree.

@@ -679,7 +679,8 @@ NB_MODULE(_core, m) {
           "bounds", [](PyScene& s) { return s.scene.bounds(); }, "(min x, y, z, max x, y, z) at rest")
       .def(
           "default_camera", [](PyScene& s, int width, int height) { return s.scene.default_camera(width, height); },
-          "width"_a, "height"_a, "The file's camera at this size, or a view of the whole scene.")
+          "width"_a, "height"_a, "The file's camera at this size, or a chosen view: an object whole from outside, a room from inside, "
+          "looking along it (as `rayfold render` chooses).")
       .def(
           "render",
           [](PyScene& s, const rayfold::Camera& camera, const std::string& fold, const std::string& backend,

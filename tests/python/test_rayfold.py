@@ -453,6 +453,36 @@ def triangle_scene():
     return s
 
 
+def hall_scene(length=5.0):
+    """A closed box 2 * length long in x and 2 wide and high, every face wound
+    to face inwards: a room seen from inside."""
+    s = rayfold.Scene()
+    corners = np.array([[x, y, z] for x in (-length, length) for y in (-1, 1) for z in (-1, 1)], np.float32)
+    faces = []
+    for axis in range(3):
+        for side in (0, 1):
+            quad = [i for i in range(8) if ((i >> (2 - axis)) & 1) == side]
+            a, b, d, c = quad  # corners in a cycle: a b c d
+            for tri in ([a, b, c], [a, c, d]):
+                p = corners[tri]
+                if np.dot(np.cross(p[1] - p[0], p[2] - p[0]), p.sum(axis=0)) > 0:
+                    tri = [tri[0], tri[2], tri[1]]
+                faces.append(tri)
+    s.add_instance(s.add_mesh(corners, faces, name="hall"))
+    return s
+
+
+def test_the_default_camera_of_a_room_is_inside_looking_along_it():
+    """Framed from outside, a room was a closed box; its default view is now
+    from its centre along its length, as `rayfold render` chooses it."""
+    hall = hall_scene()
+    camera = hall.default_camera(32, 18)
+    np.testing.assert_array_equal(camera.eye, (0.0, 0.0, 0.0))
+    g = hall.render(camera)
+    assert g.hits == 32 * 18
+    assert g.depth[9, 16] > 4.9, "the centre pixel sees no end wall: not looking along the hall"
+
+
 def test_moving_an_instance_equals_a_scene_built_with_it_there():
     camera = rayfold.Camera.look_at((0.3, 0.2, 5.0), (0, 0, 0), (0, 1, 0), 45, 50, 40)
     moving = triangle_scene()

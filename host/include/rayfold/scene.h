@@ -94,7 +94,11 @@ class Scene {
   // indexes them; perspective and orthographic alike).
   std::vector<std::string> camera_names() const;
   // The chosen file camera (LoadOptions::camera) at this image size, or, for a
-  // file without one and a scene built in memory, a view of the whole scene.
+  // file without one and a scene built in memory, a view chosen from the
+  // scene: an object whole from outside, an interior from inside, looking
+  // along it (as `rayfold render` frames it). Choosing traces small probe
+  // images on the CPU over the scene's trees, built here if no renderer has
+  // built them yet (renderers then share them): Sponza about 40 ms.
   Camera default_camera(int width, int height) const;
   // World-space bounds of the instances at rest: min x, y, z and max x, y, z.
   std::array<double, 6> bounds() const;

@@ -123,7 +123,11 @@ class _Worker:
         # Trees (unless they came built) and kernels now, so that a worker is
         # ready when it says so: the time to its first view is the start's.
         warm = {o: v for o, v in render_options.items() if o not in ("align", "channels")}
-        self.scene.render(self.scene.default_camera(1, 1), **warm)
+        # Any view will do: the default one would probe a camera-less file for its view first.
+        lo, hi = self.scene.bounds[:3], self.scene.bounds[3:]
+        centre = [(a + b) / 2 for a, b in zip(lo, hi)]
+        eye = (centre[0], centre[1], centre[2] + 1.0 + sum(b - a for a, b in zip(lo, hi)))
+        self.scene.render(Camera.look_at(eye, centre, (0, 1, 0), 60, 1, 1), **warm)
         os.makedirs(manifest_dir, exist_ok=True)
         self.part_path = os.path.join(manifest_dir, f"{socket.gethostname()}-{os.getpid()}.jsonl")
         self.part = open(self.part_path, "a", encoding="utf-8")

@@ -8,10 +8,11 @@
 #include "cli/camera_list.h"
 #include "cli/commands/common.h"
 #include "cli/commands/render_args.h"
-#include "output/channels.h"
 #include "cli/commands/render_outputs.h"
+#include "output/channels.h"
 #include "fold/view_passes.h"
 #include "opencl/cl_device.h"
+#include "pipeline/auto_frame.h"
 #include "cli/progress.h"
 #include "reference/hit_compare.h"
 #include "scene/animation.h"
@@ -28,8 +29,8 @@ const char* kRenderUsage =
     "\n"
     "  --size WxH             image size (default 1280x720)\n"
     "  --eye X,Y,Z            camera position         } without these, the file's\n"
-    "  --look-at X,Y,Z        point looked at         } camera, else a view that\n"
-    "  --up X,Y,Z             up direction (0,1,0)    } frames the whole scene\n"
+    "  --look-at X,Y,Z        point looked at         } camera, else a chosen view:\n"
+    "  --up X,Y,Z             up direction (0,1,0)    } an object whole, a room from inside\n"
     "                         (--up alone turns the file's camera)\n"
     "  --vfov DEG             vertical field of view (default: the file's, else 60); a\n"
     "                         perspective view also where the file's camera is orthographic\n"
@@ -289,15 +290,15 @@ void announce_program_build(const Pipeline& renderer, Progress& progress, bool q
 
 // --cameras and --stereo: the views traced in passes of aligned views, each
 // view's outputs written.
-int render_views(RenderArgs r, const Scene& scene, const std::vector<cli::View>& views, Progress& progress,
-                 double load_ms) {
-  const bool stereo = r.stereo.has_value();
+void check_view_outputs(const RenderArgs& r, const std::vector<cli::View>& views) {
   for (const cli::View& v : views)
     for (auto [option, out] : {std::pair{"-o", &r.exr}, {"--png", &r.png}, {"--stats", &r.stats}})
-      if (!out->empty()) check_writable(view_output(option, *out, v, stereo, views.size()));
-  progress.stage("building the bottom-level trees and the kernels");
-  Pipeline renderer(scene, r.renderer);
-  announce_program_build(renderer, progress, r.quiet);
+      if (!out->empty()) check_writable(view_output(option, *out, v, r.stereo.has_value(), views.size()));
+}
+
+int render_views(RenderArgs r, const Scene& scene, Pipeline& renderer, const std::vector<cli::View>& views,
+                 Progress& progress, double load_ms) {
+  const bool stereo = r.stereo.has_value();
   std::vector<Camera> cameras;
   for (const cli::View& v : views) cameras.push_back(v.camera);
   const bool align_auto = r.align < 0;
@@ -411,14 +412,55 @@ int run_render(cli::Args& args) {
   if (r.frame.animate_frame >= 0 && !play) r.renderer.merge.dynamic = animated_instances(scene.instances.size());
   const double start_time = std::isnan(r.load.time) ? 0.0 : r.load.time;
 
-  // Auto-framing of an animated file frames the pose at its start (time 0)
-  // whenever a time is asked for, so that --time T and frame k of
-  // --animate at the same time see the same camera.
+  // A list of views from a file: its outputs are checked before any
+  // expensive work, as the single view's are above.
+  const bool listed = !r.cameras.empty() || !r.colmap.empty();
+  std::vector<cli::View> views;
+  if (listed) {
+    std::string note;
+    views = !r.cameras.empty() ? cli::read_cameras_file(r.cameras, r.size_given ? r.width : 0,
+                                                        r.size_given ? r.height : 0, &note)
+                               : cli::read_colmap_dir(r.colmap);
+    if (!note.empty() && !r.quiet) progress.print(stderr, "note: " + note + "\n");
+    check_view_outputs(r, views);
+  }
+
+  progress.stage("building the bottom-level trees and the kernels");
+  t0 = Clock::now();
+  auto renderer_ptr = std::make_unique<Pipeline>(scene, r.renderer);
+  std::vector<char> moved_since_build(scene.instances.size(), 0);  // since the renderer's trees were built
+  const double setup_ms = ms_since(t0);
+  announce_program_build(*renderer_ptr, progress, r.quiet);
+  if (listed) return render_views(r, scene, *renderer_ptr, views, progress, load_ms);
+
+  // Without a camera in the file or on the command line, the view is chosen
+  // from the scene's trees (pipeline/auto_frame.h): an interior from inside.
+  // An animated file is framed at its start (time 0) whenever a time is
+  // asked for, so that --time T and frame k of --animate at the same time
+  // see the same camera.
   const bool timed = !std::isnan(r.load.time) || r.frame.animate_frame >= 0;
-  CameraSpec spec = scene.camera               ? *scene.camera
-                    : timed && file.animated() ? frame_bounds(file.scene_at(0.0).world_bounds())
-                                               : frame_bounds(scene.world_bounds());
   const bool auto_framed = !scene.camera && !r.eye;
+  CameraSpec spec;
+  ViewKind framed_kind = ViewKind::object;
+  if (scene.camera) {
+    spec = *scene.camera;
+  } else if (auto_framed) {
+    progress.stage("choosing a view");
+    PipelineOptions cpu_options;
+    cpu_options.backend = Backend::cpu;
+    cpu_options.threads = r.renderer.threads;
+    AutoFrame framed;
+    if (timed && file.animated()) {
+      const Scene start = file.scene_at(0.0);
+      Pipeline cpu(start, cpu_options);
+      framed = auto_frame(start, cpu);
+    } else {
+      Pipeline cpu(scene, cpu_options, renderer_ptr->shared_scene_data());
+      framed = auto_frame(scene, cpu);
+    }
+    spec = framed.spec;
+    framed_kind = framed.kind;
+  }
   if (r.eye) {
     // A camera given on the command line is given whole: +Y up unless --up.
     spec.eye = *r.eye;
@@ -434,24 +476,13 @@ int run_render(cli::Args& args) {
     spec.orthographic = true;
     spec.ymag = *r.ortho;
   }
-  if (!r.cameras.empty() || !r.colmap.empty() || r.stereo) {
-    std::string note;
-    std::vector<cli::View> views =
-        !r.cameras.empty()  ? cli::read_cameras_file(r.cameras, r.size_given ? r.width : 0,
-                                                     r.size_given ? r.height : 0, &note)
-        : !r.colmap.empty() ? cli::read_colmap_dir(r.colmap)
-                            : cli::stereo_pair(spec, *r.stereo, r.width, r.height);
-    if (!note.empty() && !r.quiet) progress.print(stderr, "note: " + note + "\n");
-    return render_views(r, scene, views, progress, load_ms);
+  if (r.stereo) {
+    views = cli::stereo_pair(spec, *r.stereo, r.width, r.height);
+    check_view_outputs(r, views);
+    return render_views(r, scene, *renderer_ptr, views, progress, load_ms);
   }
   const Camera camera = make_camera(spec, r.width, r.height, r.shift_x, r.shift_y);
 
-  progress.stage("building the bottom-level trees and the kernels");
-  t0 = Clock::now();
-  auto renderer_ptr = std::make_unique<Pipeline>(scene, r.renderer);
-  std::vector<char> moved_since_build(scene.instances.size(), 0);  // since the renderer's trees were built
-  const double setup_ms = ms_since(t0);
-  announce_program_build(*renderer_ptr, progress, r.quiet);
   if (r.fold_auto) {
     progress.clear();
     choose_automatically(r, *renderer_ptr, {camera}, r.quiet);
@@ -568,10 +599,15 @@ int run_render(cli::Args& args) {
     std::printf("  %-12s %9.2f ms   (median of %zu frames)\n", "trace", m.trace_ms, result.frames.size());
     std::printf("  %-12s %9.2f   (%zu rays for %zu pixels: %.2f Mpixels/s)\n", "Mrays/s", mrays, result.rays,
                 result.hits.size(), result.hits.size() / (m.trace_ms * 1e3));
-    if (auto_framed)
-      std::printf("  %-12s --eye %.17g,%.17g,%.17g --look-at %.17g,%.17g,%.17g --up 0,1,0 %s %.17g\n", "auto-framed",
-                  spec.eye.x, spec.eye.y, spec.eye.z, spec.look_at.x, spec.look_at.y, spec.look_at.z,
-                  spec.orthographic ? "--ortho" : "--vfov", spec.orthographic ? spec.ymag : spec.vfov_degrees);
+    if (auto_framed) {
+      std::printf("  %-12s %s\n", "view", framed_kind == ViewKind::interior
+                                              ? "chosen: an interior, seen from inside along its length"
+                                              : "chosen: the whole scene from outside");
+      std::printf("  %-12s --eye %.17g,%.17g,%.17g --look-at %.17g,%.17g,%.17g --up %.17g,%.17g,%.17g %s %.17g\n",
+                  "auto-framed", spec.eye.x, spec.eye.y, spec.eye.z, spec.look_at.x, spec.look_at.y, spec.look_at.z,
+                  spec.up.x, spec.up.y, spec.up.z, spec.orthographic ? "--ortho" : "--vfov",
+                  spec.orthographic ? spec.ymag : spec.vfov_degrees);
+    }
     if (unfolded) print_comparison(*unfolded, result, r.frame.fold);
     if (r.verbose) {
       std::printf("  %-12s load %.2f ms, trees and kernels %.2f ms (BLAS %.2f ms, kernels %.2f ms), writing %.2f ms\n",
