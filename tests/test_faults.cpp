@@ -258,14 +258,15 @@ TEST(Faults, SignalsAtRandomPointsLeaveNothing) {
   EXPECT_GE(handled, 3) << "too few signals met the handlers (start-up " << startup_s << " s)";
 }
 
-// Read-only and missing folders fail before any work, with exit 2, naming
-// the path. Root writes through permission bits, so the read-only folder
-// is a read-only mount where one can be made.
-TEST(Faults, ReadOnlyAndMissingFoldersFailFirst) {
+// Read-only folders and a file where a folder should be fail before any
+// work, with exit 2, naming the path. Root writes through permission bits,
+// so the read-only folder is a read-only mount where one can be made.
+TEST(Faults, ReadOnlyFoldersAndFilesInThePathFailFirst) {
   const fs::path d = fresh_dir("readonly");
-  Outcome r = shell(kRender + " --size 32x18 -o " + (d / "no/such/dir/x.exr").string(), d);
+  std::ofstream(d / "file.txt") << "not a folder";
+  Outcome r = shell(kRender + " --size 32x18 -o " + (d / "file.txt/x.exr").string(), d);
   EXPECT_EQ(r.code, 2) << r.err;
-  EXPECT_NE(r.err.find("no/such/dir/x.exr: cannot write here"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("file.txt/x.exr: cannot write here: Not a directory"), std::string::npos) << r.err;
   const fs::path mount = d / "ro";
   fs::create_directories(mount);
   if (private_mount().empty()) GTEST_SKIP() << "cannot make a private mount here (unshare -rm or -m)";
@@ -275,6 +276,27 @@ TEST(Faults, ReadOnlyAndMissingFoldersFailFirst) {
   if (r.code == 99) GTEST_SKIP() << "cannot mount a read-only tmpfs here";
   EXPECT_EQ(r.code, 2) << r.err;
   EXPECT_NE(r.err.find("x.exr: cannot write here: Read-only file system"), std::string::npos) << r.err;
+}
+
+// Missing output folders are made as mkdir -p makes them, also where a
+// frame field names the folder; a run that fails removes the folders it
+// made, and only those.
+TEST(Faults, MissingFoldersAreMadeAndRemovedWhenTheRunFails) {
+  const fs::path d = fresh_dir("folders");
+  Outcome r = shell(kRender + " --size 32x18 --frames 2 -o " + (d / "a/b/x.exr").string() + " --png " +
+                        (d / "seq/%02d/y.png").string(),
+                    d);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_TRUE(fs::is_regular_file(d / "a/b/x.exr"));
+  EXPECT_TRUE(fs::is_regular_file(d / "seq/00/y.png"));
+  EXPECT_TRUE(fs::is_regular_file(d / "seq/01/y.png"));
+  fs::create_directories(d / "kept");
+  r = shell(kRender + " " + (d / "missing.glb").string() + " -o " + (d / "new/deeper/x.exr").string() + " --png " +
+                (d / "kept/y.png").string(),
+            d);
+  EXPECT_EQ(r.code, 2) << r.err;
+  EXPECT_FALSE(fs::exists(d / "new")) << "a failed run left the folder it made";
+  EXPECT_TRUE(fs::is_directory(d / "kept")) << "a failed run removed a folder it did not make";
 }
 
 // Two renders of different views into the same file at once: both succeed,

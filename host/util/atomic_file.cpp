@@ -5,6 +5,7 @@
 
 #include <dirent.h>
 #include <signal.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <atomic>
@@ -14,6 +15,7 @@
 #include <cstring>
 #include <mutex>
 #include <set>
+#include <vector>
 
 #include "util/errors.h"
 #include "util/output_transaction.h"
@@ -115,6 +117,23 @@ void check_writable(const std::string& path) {
   const std::string folder = split_path(path).first;
   const std::lock_guard<std::mutex> lock(mutex);
   if (scanned.insert(folder).second) remove_stale_temporaries(folder.empty() ? "." : folder, path);
+}
+
+void make_output_folders(const std::string& path) {
+  // Each missing level, deepest first ("a/b/" -> "a/b", "a"); made from the
+  // top down, so that a failed run can remove them deepest first.
+  auto parent = [](std::string f) {
+    while (!f.empty() && f.back() == '/') f.pop_back();
+    const size_t slash = f.find_last_of('/');
+    return slash == std::string::npos ? std::string() : f.substr(0, slash);
+  };
+  std::vector<std::string> missing;
+  for (std::string f = parent(path); !f.empty() && ::access(f.c_str(), F_OK) != 0; f = parent(f)) missing.push_back(f);
+  for (auto f = missing.rbegin(); f != missing.rend(); ++f) {
+    if (::mkdir(f->c_str(), 0777) != 0 && errno != EEXIST)
+      throw InputError(path, "cannot make its folder " + *f + ": " + errno_text());
+    OutputTransaction::adopt_folder(*f);
+  }
 }
 
 size_t remove_stale_temporaries(const std::string& folder, const std::string& target) {

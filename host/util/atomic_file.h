@@ -50,6 +50,12 @@ void write_text_file(const std::string& path, const std::string& text);
 // folder's stale temporaries (remove_stale_temporaries).
 void check_writable(const std::string& path);
 
+// Makes the folders a path's file goes in that do not exist yet, as mkdir -p
+// does (the command-line tools' outputs; a library call refuses a missing
+// folder, as Python's open does). Within an OutputTransaction a failed run
+// removes them again. InputError naming the path when one cannot be made.
+void make_output_folders(const std::string& path);
+
 // Removes rayfold's temporary files in `folder` whose process has ended (an
 // earlier run killed mid-write), and the older "<name>.tmp-<pid>" ones of
 // `target`. Returns how many were removed.

@@ -35,6 +35,7 @@ struct Staged {
 std::mutex g_mutex;  // guards g_open and g_staged
 bool g_open = false;
 std::vector<Staged> g_staged;
+std::vector<std::string> g_created_folders;  // in the order made, parents first
 
 void remove_live_temporaries() {
   for (Entry* e = g_head.load(); e; e = e->next)
@@ -92,7 +93,18 @@ OutputTransaction::~OutputTransaction() {
     release_temporary(s.entry);
   }
   g_staged.clear();
+  // Folders the run made for its outputs go too, deepest first, when the
+  // run left nothing else in them (rmdir refuses a folder that is not empty).
+  for (auto f = g_created_folders.rbegin(); f != g_created_folders.rend(); ++f) ::rmdir(f->c_str());
+  g_created_folders.clear();
   g_open = false;
+}
+
+bool OutputTransaction::adopt_folder(const std::string& folder) {
+  const std::lock_guard<std::mutex> lock(g_mutex);
+  if (!g_open) return false;
+  g_created_folders.push_back(folder);
+  return true;
 }
 
 bool OutputTransaction::adopt(const std::string& temp, const std::string& path, void* entry) {
@@ -121,6 +133,7 @@ void OutputTransaction::commit() {
   if (failure.empty() && !sig) {
     for (const Staged& s : g_staged) release_temporary(s.entry);
     g_staged.clear();
+    g_created_folders.clear();
     return;
   }
   // Undone: the renamed files go, the rest are removed by the destructor.

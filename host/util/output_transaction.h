@@ -23,6 +23,9 @@ class OutputTransaction {
 
   // Called by AtomicFile::commit(); false when no transaction is open.
   static bool adopt(const std::string& temp, const std::string& path, void* entry);
+  // A folder made for the run's outputs (make_output_folders): a run that
+  // fails removes it again if it is empty. False when no transaction is open.
+  static bool adopt_folder(const std::string& folder);
 };
 
 // The list of temporary files a signal removes. An entry's memory stays

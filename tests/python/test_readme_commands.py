@@ -54,9 +54,9 @@ def bin_dir(cli):
 @pytest.fixture(scope="module")
 def scenes(tmp_path_factory, bin_dir):
     """scene.glb is the bundled scene; scene.gltf the same written as .gltf;
-    sparse/0 a COLMAP text model of two small views of it; out/ a folder."""
+    sparse/0 a COLMAP text model of two small views of it. out/ is not
+    made: the commands make their output folders."""
     d = tmp_path_factory.mktemp("readme")
-    (d / "out").mkdir()  # the README makes it (mkdir -p out)
     (d / "sparse" / "0").mkdir(parents=True)
     (d / "sparse" / "0" / "cameras.txt").write_text("1 PINHOLE 96 54 60 60 48 27\n")
     (d / "sparse" / "0" / "images.txt").write_text("1 0 1 0 0 0 2 14 1 a.jpg\n\n2 0 1 0 0 1 2 14 1 b.jpg\n\n")

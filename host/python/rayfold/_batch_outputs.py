@@ -42,6 +42,16 @@ def make_output(out, count, exr_compression=None):
     return ExrOutput(out, count, exr_compression or "zip")
 
 
+def make_folder(folder):
+    """The output folder and its missing parents, as mkdir -p and `rayfold
+    render` make them; InputError naming the folder when one cannot be made
+    (a file in the way, no permission)."""
+    try:
+        os.makedirs(folder, exist_ok=True)
+    except OSError as e:
+        raise InputError(f"{folder}: cannot make the output folder: {e.strerror}") from e
+
+
 class ExrOutput:
     """out % index: one EXR per view, all in one folder (with the manifest)."""
 
@@ -71,8 +81,7 @@ class ExrOutput:
         return os.path.basename(self.path(i))
 
     def prepare(self, cameras, scene, options):
-        if not os.path.isdir(self.folder):
-            raise InputError(f"{self.folder}: the output folder does not exist")
+        make_folder(self.folder)
 
     def open(self):
         pass
@@ -164,8 +173,7 @@ class ZarrOutput:
     def prepare(self, cameras, scene, options):
         """Makes the store, or checks the one there holds these views."""
         zarr = self._zarr()
-        if not os.path.isdir(self.folder):
-            raise InputError(f"{self.folder}: the output folder does not exist")
+        make_folder(self.folder)
         sizes = {(c.width, c.height) for c in cameras if c is not None}
         if len(sizes) != 1:
             raise InputError(f"{self.store}: a zarr store holds views of one size; these have "

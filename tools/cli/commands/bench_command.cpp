@@ -93,7 +93,7 @@ int run_bench_command(cli::Args& args) {
   check_renderer_options(opt.renderer);
   check_outputs({{"--json", &json, ".json"}, {"--md", &md, ".md"}});
   for (const std::string* out : {&json, &md})
-    if (!out->empty()) check_writable(*out);
+    if (!out->empty()) prepare_output(*out);
   if (align && opt.animate) throw UsageError("--align measures still views; --animate does not combine with it");
   Progress progress(true);
   bool started = false;

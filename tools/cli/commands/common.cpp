@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <filesystem>
 
+#include "util/atomic_file.h"
 #include "util/errors.h"
 
 #ifndef RAYFOLD_DEFAULT_SCENE
@@ -107,6 +108,11 @@ void check_outputs(std::initializer_list<Output> outputs) {
       throw UsageError(std::string(o.option) + ": '" + *o.path + "' must end in " + o.extension +
                        " (-o writes OpenEXR, --png a PNG preview, --stats JSON)");
   }
+}
+
+void prepare_output(const std::string& path) {
+  make_output_folders(path);
+  check_writable(path);
 }
 
 }  // namespace rayfold::core::commands

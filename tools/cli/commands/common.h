@@ -39,6 +39,11 @@ struct Output {
 // of one kind under another's name.
 void check_outputs(std::initializer_list<Output> outputs);
 
+// Before any expensive work: the output's missing folders made (mkdir -p;
+// removed again if the run fails) and a file created there as a test
+// (check_writable); InputError naming the path otherwise.
+void prepare_output(const std::string& path);
+
 // The subcommands, each given the arguments after its name; the exit code.
 int run_render(cli::Args& args);
 int run_info(cli::Args& args);

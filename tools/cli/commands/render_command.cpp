@@ -293,7 +293,7 @@ void announce_program_build(const Pipeline& renderer, Progress& progress, bool q
 void check_view_outputs(const RenderArgs& r, const std::vector<cli::View>& views) {
   for (const cli::View& v : views)
     for (auto [option, out] : {std::pair{"-o", &r.exr}, {"--png", &r.png}, {"--stats", &r.stats}})
-      if (!out->empty()) check_writable(view_output(option, *out, v, r.stereo.has_value(), views.size()));
+      if (!out->empty()) prepare_output(view_output(option, *out, v, r.stereo.has_value(), views.size()));
 }
 
 int render_views(RenderArgs r, const Scene& scene, Pipeline& renderer, const std::vector<cli::View>& views,
@@ -381,7 +381,7 @@ int run_render(cli::Args& args) {
   if (sequence && r.compare) throw UsageError("--compare: compares one frame; write a sequence without it");
   // Fail on unwritable outputs before any expensive work.
   for (const std::string* out : {&r.exr, &r.png, &r.stats, &r.ids})
-    if (!out->empty()) check_writable(frame_name("output", *out, 0, nullptr));
+    if (!out->empty()) prepare_output(frame_name("output", *out, 0, nullptr));
 
   // The OpenCL drivers load while the scene is read: the whole process 0.91x
   // to 0.97x the time on the shared scenes (docs/results.md).
@@ -547,6 +547,9 @@ int run_render(cli::Args& args) {
       const bool last = f + 1 == r.frames;
       if (sequence || last) {
         const auto w0 = Clock::now();
+        // A frame field may name the folder too (out/%04d/z.exr).
+        for (const std::string* out : {&r.exr, &r.png})
+          if (!out->empty() && f > 0) make_output_folders(frame_name("output", *out, f, nullptr));
         if (!r.exr.empty())
           write_exr(frame_name("output", r.exr, f, nullptr), result.hits, r.width, r.height, &metadata, r.channels,
                     r.exr_compression);
