@@ -207,11 +207,16 @@ TEST(Cli, BadFilesExitTwoNamingTheFile) {
   EXPECT_NE(r.err.find(garbage), std::string::npos) << r.err;
 }
 
+// A file where the output's folder should be: missing folders are made,
+// but not through a file.
 TEST(Cli, UnwritableOutputFailsBeforeTracingAndLeavesNothing) {
-  const CliRun r = rayfold("render --size 16x16 -o /nonexistent-dir/x.exr");
+  const fs::path d = work_dir();
+  std::ofstream(d / "a_file") << "in the way";
+  const std::string out = (d / "a_file" / "sub" / "x.exr").string();
+  const CliRun r = rayfold("render --size 16x16 -o " + out);
   EXPECT_EQ(r.code, 2);
-  EXPECT_NE(r.err.find("/nonexistent-dir/x.exr"), std::string::npos) << r.err;
-  EXPECT_FALSE(fs::exists("/nonexistent-dir"));
+  EXPECT_NE(r.err.find(out + ": cannot make its folder"), std::string::npos) << r.err;
+  EXPECT_TRUE(fs::is_regular_file(d / "a_file"));
 }
 
 TEST(Cli, TooLargeForMemoryFailsBeforeAllocatingAndWritesNothing) {
@@ -750,7 +755,7 @@ TEST(Cli, CameraListsAndStereoPairsRenderEachViewAsAloneBitForBit) {
                                                                    {"eye": [0, 3, 2], "look_at": [0, 2, 0]}]})";
   r = rayfold("render --cameras " + list + " -o " + (d / "plain.exr").string());
   EXPECT_EQ(r.code, 2);
-  EXPECT_NE(r.err.find("needs a view field such as %04d for 2 views"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("needs a view field such as %04d (the view's index) or %s (its name) for 2 views"), std::string::npos) << r.err;
 
   // A stereo pair: the eyes 0.5 apart along the camera's right vector.
   r = rayfold("render --size 40x30 --eye 0,3,12 --look-at 0,2,0 --stereo 0.5 -o " + (d / "eye.exr").string());
@@ -862,6 +867,35 @@ TEST(Cli, AutoFramedCameraIsPrintedAndReusable) {
   ASSERT_EQ(rayfold("render " + scene + " --size 20x12 " + line + " -o " + b).code, 0) << line;
   int w = 0, h = 0;
   EXPECT_EQ(testing::compare_hits(read_exr(a, &w, &h), read_exr(b, &w, &h), 20), "") << line;
+}
+
+// A dataset names its frames: -o out/%s.exr writes each view under its
+// name (a COLMAP image's, a transforms.json's file_path, less folders and
+// extension), the bits of the view written by index; two names that end
+// alike are refused naming both views, and nothing is left behind.
+TEST(Cli, DatasetViewsAreWrittenUnderTheirNames) {
+  const fs::path d = work_dir() / "named";
+  fs::create_directories(d / "model");
+  std::ofstream(d / "model" / "cameras.txt") << "1 PINHOLE 40 30 35 35 20 15\n";
+  std::ofstream(d / "model" / "images.txt") << "1 0 1 0 0 0 2 14 1 imgs/left.jpg\n\n"
+                                               "2 0 1 0 0 1 2 14 1 right.png\n\n";
+  const std::string model = (d / "model").string();
+  CliRun r = rayfold("render --colmap " + model + " -o " + (d / "named" / "%s.exr").string());
+  ASSERT_EQ(r.code, 0) << r.err;
+  r = rayfold("render --colmap " + model + " -o " + (d / "indexed" / "%d.exr").string());
+  ASSERT_EQ(r.code, 0) << r.err;
+  int w = 0, h = 0;
+  for (auto [name, index] : {std::pair{"left", "0"}, {"right", "1"}})
+    EXPECT_EQ(testing::compare_hits(read_exr((d / "named" / (std::string(name) + ".exr")).string(), &w, &h),
+                                    read_exr((d / "indexed" / (std::string(index) + ".exr")).string(), &w, &h), w),
+              "")
+        << name;
+  std::ofstream(d / "model" / "images.txt") << "1 0 1 0 0 0 2 14 1 a/same.jpg\n\n"
+                                               "2 0 1 0 0 1 2 14 1 b/same.png\n\n";
+  r = rayfold("render --colmap " + model + " -o " + (d / "clash" / "%s.exr").string());
+  EXPECT_EQ(r.code, 2) << r.err;
+  EXPECT_NE(r.err.find("views 0 ('a/same.jpg') and 1 ('b/same.png') would both write"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(d / "clash"));
 }
 
 // A room without a camera was framed from outside: a closed box. Now the

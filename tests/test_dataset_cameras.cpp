@@ -217,5 +217,17 @@ TEST(DatasetCameras, LenientReadersListTheBadViewsAndKeepTheRest) {
   EXPECT_THROW(read_colmap_cameras(d.string(), &colmap), InputError);
 }
 
+// The file name a view's name gives under %s: the last component, less its
+// extension; nothing for names that have none.
+TEST(DatasetCameras, ViewFileStemsKeepTheLastNameWithoutItsExtension) {
+  EXPECT_EQ(view_file_stem("./train/r_0"), "r_0");
+  EXPECT_EQ(view_file_stem("images/frame.0001.png"), "frame.0001");
+  EXPECT_EQ(view_file_stem("a.jpg"), "a");
+  EXPECT_EQ(view_file_stem("dir/"), "dir");
+  EXPECT_EQ(view_file_stem(".hidden"), ".hidden");
+  EXPECT_EQ(view_file_stem("7"), "7");
+  for (const char* none : {"", "./", "..", "a/.."}) EXPECT_EQ(view_file_stem(none), "") << none;
+}
+
 }  // namespace
 }  // namespace rayfold::core

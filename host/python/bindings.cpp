@@ -23,6 +23,7 @@
 #include "plane_pool.h"
 #include "rayfold/rayfold.h"
 #include "output/channels.h"
+#include "scene/dataset_cameras.h"
 
 namespace nb = nanobind;
 using namespace nb::literals;
@@ -836,6 +837,8 @@ NB_MODULE(_core, m) {
       "The planes of an EXR rayfold wrote (GBuffer.write_exr, rayfold render -o), bit for bit, as a dict with the "
       "GBuffer's plane names and shapes (depth, normal, uv, instance_id, primitive_id), holding the planes the "
       "file has. InputError naming the file otherwise.");
+  m.def("_view_file_stem", &rayfold::core::view_file_stem, "name"_a,
+        "The file name a view's name gives under %s: its last component less its extension; '' when none.");
   m.def(
       "_check_exr_compression", [](const std::string& name) { rayfold::exr_compression(name); }, "name"_a,
       "InputError unless name is an EXR compression GBuffer.write_exr takes.");

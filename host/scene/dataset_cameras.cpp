@@ -248,4 +248,15 @@ std::vector<DatasetView> read_colmap_cameras(const std::string& dir, SkippedView
   return views;
 }
 
+std::string view_file_stem(const std::string& name) {
+  std::string base = name;
+  while (!base.empty() && base.back() == '/') base.pop_back();
+  const size_t slash = base.find_last_of('/');
+  if (slash != std::string::npos) base = base.substr(slash + 1);
+  if (base == "." || base == "..") return "";
+  const size_t dot = base.rfind('.');
+  if (dot != std::string::npos && dot > 0) base.resize(dot);
+  return base;
+}
+
 }  // namespace rayfold::core

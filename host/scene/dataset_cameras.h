@@ -50,6 +50,12 @@ std::vector<DatasetView> read_nerf_cameras(const nlohmann::json& top, const std:
 // A view's index is its image's position in images.txt.
 std::vector<DatasetView> read_colmap_cameras(const std::string& dir, SkippedViews* skipped = nullptr);
 
+// What a view's name gives an output file's name (`%s` in -o): its last
+// path component without its extension ("./train/r_0" -> "r_0", "a.jpg" ->
+// "a"), so that every view of a dataset lands in the one output folder.
+// Empty where nothing is left ("", "./", "..").
+std::string view_file_stem(const std::string& name);
+
 // "file: message" of an InputError, for SkippedViews.
 std::string skip_reason(const InputError& e);
 

@@ -312,9 +312,11 @@ def test_bad_input_fails_first_naming_what_is_wrong(atrium_path, tmp_path):
     assert os.listdir(tmp_path) == ["c.json"]
 
 
-def test_the_cli_speaks_the_render_commands_words(atrium_path, tmp_path):
+def test_the_cli_speaks_the_render_commands_words(atrium_path, tmp_path, cli):
     # --align all as rayfold render takes it, and a note about the camera file
-    # as one "warning:" line, not a Python UserWarning with a source line.
+    # as one "warning:" line, not a Python UserWarning with a source line;
+    # output folders made as rayfold render makes them, and views named by
+    # their file_path under %s as rayfold render names them.
     camera_list(tmp_path / "c.json", 2)
     with open(tmp_path / "c.json") as f:
         listed = json.load(f)
@@ -337,6 +339,23 @@ def test_the_cli_speaks_the_render_commands_words(atrium_path, tmp_path):
     assert "2 of 2 views written" in r.stderr, r.stderr
     assert "warning: " in r.stderr and "ignored aabb_scale" in r.stderr, r.stderr
     assert "UserWarning" not in r.stderr and ".py:" not in r.stderr, r.stderr
+    r = batch_cli(atrium_path, "--cameras", tmp_path / "transforms.json", "-o", tmp_path / "new" / "named" / "%s.exr",
+                  "-q")
+    assert r.returncode == 0, r.stderr
+    subprocess.run([cli, "render", atrium_path, "-q", "--cameras", tmp_path / "transforms.json", "-o",
+                    tmp_path / "render" / "%s.exr"], check=True)
+    for i in range(2):
+        got = rayfold.read_exr(tmp_path / "new" / "named" / f"r_{i}.exr")
+        for want in (rayfold.read_exr(tmp_path / "out" / f"v_{i}.exr"),
+                     rayfold.read_exr(tmp_path / "render" / f"r_{i}.exr")):
+            for p in PLANES:
+                assert got[p].tobytes() == want[p].tobytes(), f"view {i}, plane {p}"
+    frames[1]["file_path"] = "./test/r_0.png"
+    with open(tmp_path / "clash.json", "w") as f:
+        json.dump({"camera_angle_x": 0.8, "w": 32, "h": 24, "frames": frames}, f)
+    r = batch_cli(atrium_path, "--cameras", tmp_path / "clash.json", "-o", tmp_path / "clash" / "%s.exr", "-q")
+    assert r.returncode == 2, r.stderr
+    assert "views 0 ('./train/r_0') and 1 ('./test/r_0.png') would both write" in r.stderr, r.stderr
 
 
 def test_memory_stays_flat_from_100_to_10000_views(atrium_path, tmp_path):

@@ -11,7 +11,8 @@ std::vector<View> read_cameras_file(const std::string& path, int width, int heig
   std::vector<std::string> ignored;
   std::vector<View> views;
   size_t i = 0;
-  for (DatasetView& v : read_cameras_any(path, width, height, &ignored, "--size")) views.push_back({v.camera, std::to_string(i++)});
+  for (DatasetView& v : read_cameras_any(path, width, height, &ignored, "--size"))
+    views.push_back({v.camera, std::to_string(i++), v.name});
   if (note && !ignored.empty()) {
     std::string keys;
     for (const std::string& k : ignored) keys += (keys.empty() ? "" : ", ") + k;
@@ -24,7 +25,7 @@ std::vector<View> read_cameras_file(const std::string& path, int width, int heig
 std::vector<View> read_colmap_dir(const std::string& dir) {
   std::vector<View> views;
   size_t i = 0;
-  for (DatasetView& v : read_colmap_cameras(dir)) views.push_back({v.camera, std::to_string(i++)});
+  for (DatasetView& v : read_colmap_cameras(dir)) views.push_back({v.camera, std::to_string(i++), v.name});
   return views;
 }
 

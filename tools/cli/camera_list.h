@@ -11,6 +11,7 @@ namespace rayfold::core::cli {
 struct View {
   Camera camera;
   std::string label;  // "0", "1", ... for a camera list; "left", "right" for a stereo pair
+  std::string name;   // the dataset's name of the view (DatasetView::name); empty for a stereo pair
 };
 
 // --cameras FILE: a camera list (scene/camera_list.h), or a NeRF / instant-ngp

@@ -1,4 +1,5 @@
-"""Where rayfold.batch writes views: one EXR per view (a %d pattern) or one
+"""Where rayfold.batch writes views: one EXR per view (a %d pattern: its
+index; %s: its name in the camera file) or one
 zarr store (a path ending in .zarr). Each output is made by the driver,
 sent to the workers (it pickles as its paths), and answers for a view: its
 record name in the manifest, whether a record still matches, and writing it
@@ -10,7 +11,7 @@ import os
 
 import numpy as np
 
-from ._core import MISS, InputError, __version__, _check_exr_compression
+from ._core import MISS, InputError, __version__, _check_exr_compression, _view_file_stem
 
 # A plane's trailing shape, dtype and the value of a view not yet written.
 PLANES = {
@@ -30,16 +31,17 @@ def sha256_file(path):
     return h.hexdigest()
 
 
-def make_output(out, count, exr_compression=None):
+def make_output(out, count, exr_compression=None, names=None):
     """The output `out` names for `count` views, EXRs compressed with
-    exr_compression (GBuffer.write_exr; None: its default); InputError for
-    one that cannot hold them, or an EXR compression for a zarr store."""
+    exr_compression (GBuffer.write_exr; None: its default), named by the
+    views' names (the camera file's; None for none) under %s; InputError
+    for one that cannot hold them, or an EXR compression for a zarr store."""
     out = os.fspath(out)
     if out.rstrip("/").endswith(".zarr"):
         if exr_compression is not None:
             raise InputError(f"exr_compression {exr_compression!r} is for EXR outputs; {out} is a zarr store")
         return ZarrOutput(out)
-    return ExrOutput(out, count, exr_compression or "zip")
+    return ExrOutput(out, count, exr_compression or "zip", names)
 
 
 def make_folder(folder):
@@ -55,10 +57,15 @@ def make_folder(folder):
 class ExrOutput:
     """out % index: one EXR per view, all in one folder (with the manifest)."""
 
-    def __init__(self, pattern, count, compression="zip"):
+    def __init__(self, pattern, count, compression="zip", names=None):
         _check_exr_compression(compression)  # InputError for a name OpenEXR has not, or a lossy one
         self.compression = compression
-        message = f"output pattern {pattern!r} must hold one integer field such as %06d (the view's index)"
+        self.stems = None
+        if "%s" in pattern:
+            self._name_views(pattern, names)
+            return
+        message = (f"output pattern {pattern!r} must hold one integer field such as %06d (the view's index) or %s "
+                   "(its name)")
         try:
             first = [pattern % i for i in range(min(count, 2))]
         except (TypeError, ValueError):
@@ -74,7 +81,40 @@ class ExrOutput:
                              "folder holds a job's views and its manifest)")
         self.folder = os.path.dirname(self.pattern % 0)
 
+    def _name_views(self, pattern, names):
+        """%s: each view's file named by its name in the camera file, as
+        `rayfold render -o out/%s.exr` names it (the last component, less its
+        extension); two views whose names end alike are refused by name."""
+        if pattern.count("%") != 1:
+            raise InputError(f"output pattern {pattern!r} may hold one field, %s (the view's name) or %06d (its "
+                             "index)")
+        if not pattern.endswith(".exr"):
+            raise InputError(f"output pattern {pattern!r}: rayfold-batch writes EXR files (end it in .exr) or one "
+                             "zarr store (end it in .zarr)")
+        if "%s" in os.path.dirname(pattern):
+            raise InputError(f"output pattern {pattern!r}: the name goes in the file's name, not its folder (one "
+                             "folder holds a job's views and its manifest)")
+        if names is None:
+            raise InputError(f"output pattern {pattern!r}: %s names each view by its camera file's names, and "
+                             "these cameras come without a file; use an integer field such as %06d")
+        self.pattern = os.path.abspath(pattern)
+        self.folder = os.path.dirname(self.pattern)
+        self.stems, seen = [], {}
+        for i, name in enumerate(names):
+            stem = None if name is None else _view_file_stem(name)
+            if stem == "":
+                raise InputError(f"output pattern {pattern!r}: view {i}'s name {name!r} leaves no file name for %s; "
+                                 "name the views by index (%06d)")
+            if stem is not None and stem in seen:
+                j = seen[stem]
+                raise InputError(f"output pattern {pattern!r}: views {j} ({names[j]!r}) and {i} ({name!r}) would both "
+                                 f"write {self.pattern.replace('%s', stem)}; name the views by index (%06d)")
+            seen[stem] = i
+            self.stems.append(stem)
+
     def path(self, i):
+        if self.stems is not None:
+            return self.pattern.replace("%s", self.stems[i])
         return self.pattern % i
 
     def record_name(self, i):

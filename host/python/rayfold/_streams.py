@@ -119,19 +119,21 @@ def from_file(path, width=0, height=0):
 def read_views_lenient(path, width=0, height=0):
     """For a batch: the views of a camera file or COLMAP folder as
     (cameras by index in the file, None where a view's own entry is bad;
-    skipped as (index, reason)). The file's structure still raises."""
+    skipped as (index, reason); the views' names by index, None where
+    skipped). The file's structure still raises."""
     if _is_colmap_dir(path, width, height):
         views, skipped = Camera._read_colmap(os.fspath(path), True)
     else:
         views, ignored, skipped = Camera._read_file(os.fspath(path), width, height, True)
         _warn_ignored(path, ignored)
     cameras = [None] * (len(views) + len(skipped))
+    names = [None] * len(cameras)
     bad = {i for i, _ in skipped}
     good = iter(views)
     for i in range(len(cameras)):
         if i not in bad:
-            cameras[i] = next(good)[1]
-    return cameras, skipped
+            names[i], cameras[i] = next(good)
+    return cameras, skipped, names
 
 
 def from_colmap(model_dir):

@@ -168,14 +168,14 @@ class _Worker:
 
 def _read_cameras(cameras, width, height):
     """(cameras by index, None for a view whose entry is bad; those as
-    (index, reason))."""
+    (index, reason); the views' names from a camera file, else None)."""
     if isinstance(cameras, (str, os.PathLike)):
         return read_views_lenient(cameras, width, height)
     cameras = list(cameras)
     for i, c in enumerate(cameras):
         if not isinstance(c, Camera):
             raise TypeError(f"rayfold.batch: camera {i} is a {type(c).__name__}, not a rayfold.Camera")
-    return cameras, []
+    return cameras, [], None
 
 
 def _batches(cameras, todo, batch_views):
@@ -257,14 +257,14 @@ def render(scene, cameras, out, *, workers=1, address=None, fold="none", align=0
     else:
         raise TypeError(f"rayfold.batch.render: scene is a rayfold.Scene or a file's path, not a "
                         f"{type(scene).__name__}")
-    cameras, skipped = _read_cameras(cameras, width, height)
+    cameras, skipped, names = _read_cameras(cameras, width, height)
     if not cameras:
         raise InputError("rayfold.batch.render: no cameras")
     if workers < 0 or gpu_workers < 0 or workers + gpu_workers < 1 or batch_views < 1 or retries < 0:
         raise InputError(f"rayfold.batch.render: workers ({workers}) and gpu_workers ({gpu_workers}) must be at "
                          f"least 0 and together at least 1, batch_views ({batch_views}) at least 1, retries "
                          f"({retries}) at least 0")
-    output = make_output(out, len(cameras), exr_compression)
+    output = make_output(out, len(cameras), exr_compression, names)
     manifest_dir = os.path.join(output.folder, MANIFEST_DIR)
     options = dict(fold=fold, align=align, backend=backend, device=device, kernel=kernel, channels=channels,
                    depth=depth, exact_depth=bool(exact_depth))
@@ -438,8 +438,10 @@ def main(argv=None):
     views.add_argument("--cameras", metavar="FILE", help="a rayfold camera list or a NeRF transforms.json")
     views.add_argument("--colmap", metavar="DIR", help="a COLMAP text model (cameras.txt, images.txt)")
     p.add_argument("-o", "--output", required=True, metavar="PATTERN",
-                   help="an EXR per view, with the view's index as an integer field (out/view_%%06d.exr), or one "
-                        "zarr store (out/views.zarr: per plane an array of views, one chunk per view)")
+                   help="an EXR per view, with the view's index as an integer field (out/view_%%06d.exr) or its "
+                        "name in the camera file as %%s (out/%%s.exr: a file_path or COLMAP image name less folders "
+                        "and extension), or one zarr store (out/views.zarr: per plane an array of views, one chunk "
+                        "per view); missing folders are made")
     p.add_argument("--workers", type=int, default=1, help="Ray actors, each with its share of the cores (1)")
     p.add_argument("--gpu-workers", type=int, default=0,
                    help="more actors with one GPU each (OpenCL device 'gpu'; the CPU workers then take 'cpu')")

@@ -2,6 +2,7 @@
 // pair, traced and written.
 #include <cmath>
 #include <cstdio>
+#include <map>
 #include <memory>
 #include <optional>
 
@@ -85,7 +86,9 @@ const char* kRenderUsage =
     "  --stats F.json         the camera, options, hit and miss counts, phase times, device buffers\n"
     "  --ids F.json           the id manifest: InstanceID -> the file's node name and mesh\n"
     "  --cameras F.json       render every view of a camera list, one output per view\n"
-    "                         (-o out/view_%04d.exr); see the README for the format; a\n"
+    "                         (-o out/view_%04d.exr by index, or out/%s.exr by the view's\n"
+    "                         name: a transforms.json's file_path, a COLMAP image's name,\n"
+    "                         less folders and extension); see the README for the format; a\n"
     "                         NeRF / instant-ngp transforms.json (--size for one without w, h)\n"
     "  --colmap DIR           render every image of a COLMAP text model (DIR/cameras.txt,\n"
     "                         DIR/images.txt; PINHOLE and SIMPLE_PINHOLE cameras)\n"
@@ -290,10 +293,22 @@ void announce_program_build(const Pipeline& renderer, Progress& progress, bool q
 
 // --cameras and --stereo: the views traced in passes of aligned views, each
 // view's outputs written.
+// Every view's outputs made ready (prepare_output); two views that would
+// write one file (their names end alike under %s) are a UsageError naming both.
 void check_view_outputs(const RenderArgs& r, const std::vector<cli::View>& views) {
-  for (const cli::View& v : views)
-    for (auto [option, out] : {std::pair{"-o", &r.exr}, {"--png", &r.png}, {"--stats", &r.stats}})
-      if (!out->empty()) prepare_output(view_output(option, *out, v, r.stereo.has_value(), views.size()));
+  for (auto [option, out] : {std::pair{"-o", &r.exr}, {"--png", &r.png}, {"--stats", &r.stats}}) {
+    if (out->empty()) continue;
+    std::map<std::string, const cli::View*> written;
+    for (const cli::View& v : views) {
+      const std::string path = view_output(option, *out, v, r.stereo.has_value(), views.size());
+      const auto [at, fresh] = written.emplace(path, &v);
+      if (!fresh)
+        throw UsageError(std::string(option) + ": views " + at->second->label + " ('" + at->second->name +
+                         "') and " + v.label + " ('" + v.name + "') would both write " + path +
+                         "; name the views by index (%04d)");
+      prepare_output(path);
+    }
+  }
 }
 
 int render_views(RenderArgs r, const Scene& scene, Pipeline& renderer, const std::vector<cli::View>& views,
@@ -372,16 +387,20 @@ int run_render(cli::Args& args) {
   RenderArgs r = parse_render(args);
   // Frame sequences: with a frame field in -o or --png, every frame is
   // written (animated frames advance with --animate).
+  // A list of views names its outputs per view (check_view_outputs).
+  const bool view_list = !r.cameras.empty() || !r.colmap.empty() || r.stereo;
   bool sequence = false;
   for (auto [option, out] : {std::pair{"-o", &r.exr}, {"--png", &r.png}}) {
     bool field = false;
-    if (!out->empty()) frame_name(option, *out, 0, &field);
+    if (!out->empty() && !view_list) frame_name(option, *out, 0, &field);
     sequence = sequence || field;
   }
   if (sequence && r.compare) throw UsageError("--compare: compares one frame; write a sequence without it");
-  // Fail on unwritable outputs before any expensive work.
+  // Fail on unwritable outputs before any expensive work: a camera file's
+  // once it is read, a stereo pair's now.
   for (const std::string* out : {&r.exr, &r.png, &r.stats, &r.ids})
-    if (!out->empty()) prepare_output(frame_name("output", *out, 0, nullptr));
+    if (!out->empty() && (!view_list || out == &r.ids)) prepare_output(frame_name("output", *out, 0, nullptr));
+  if (r.stereo) check_view_outputs(r, {cli::View{Camera{}, "left", ""}, cli::View{Camera{}, "right", ""}});
 
   // The OpenCL drivers load while the scene is read: the whole process 0.91x
   // to 0.97x the time on the shared scenes (docs/results.md).

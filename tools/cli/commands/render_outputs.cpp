@@ -1,5 +1,7 @@
 #include "cli/commands/render_outputs.h"
 
+#include "scene/dataset_cameras.h"
+
 #include <cstdio>
 
 #include "reference/hit_compare.h"
@@ -152,9 +154,11 @@ std::string frame_name(const std::string& option, const std::string& name, int f
   return out;
 }
 
-// The output name of one view: the view's index in a frame field for a
-// camera list (required when it has several views), "-left"/"-right" before
-// the extension for a stereo pair.
+// The output name of one view: for a camera list, the view's index in a
+// frame field (%04d) or its name in %s (view_file_stem: a transforms.json's
+// file_path, a COLMAP image's name; a rayfold camera list's views are named
+// by index), one of the two required when it has several views;
+// "-left"/"-right" before the extension for a stereo pair.
 std::string view_output(const std::string& option, const std::string& name, const cli::View& v, bool stereo,
                         size_t views) {
   if (name.empty()) return name;
@@ -164,11 +168,21 @@ std::string view_output(const std::string& option, const std::string& name, cons
     const size_t dot = name.rfind('.');
     return name.substr(0, dot) + "-" + v.label + name.substr(dot);
   }
+  const size_t named = name.find("%s");
+  if (named != std::string::npos) {
+    if (name.find('%', named + 2) != std::string::npos || name.find('%') != named)
+      throw UsageError(option + ": '" + name + "' may hold one field, %s (the view's name) or %04d (its index)");
+    const std::string stem = view_file_stem(v.name);
+    if (stem.empty())
+      throw UsageError(option + ": view " + v.label + "'s name '" + v.name +
+                       "' leaves no file name for %s; name the views by index (%04d)");
+    return name.substr(0, named) + stem + name.substr(named + 2);
+  }
   bool field = false;
   const std::string out = frame_name(option, name, std::stoi(v.label), &field);
   if (!field && views > 1)
-    throw UsageError(option + ": '" + name + "' needs a view field such as %04d for " + std::to_string(views) +
-                     " views");
+    throw UsageError(option + ": '" + name + "' needs a view field such as %04d (the view's index) or %s (its name) for " +
+                     std::to_string(views) + " views");
   return out;
 }
 
