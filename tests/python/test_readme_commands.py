@@ -1,5 +1,6 @@
-"""The README's command lines, run: every `build/rayfold...` line of its shell
-blocks and its camera-list example, at a small image size so the suite stays
+"""The command lines of the README and its guide (run_readme.GUIDE), run:
+every `build/rayfold...` line of their shell blocks and the camera-list
+example, at a small image size so the suite stays
 quick (the size is the only change), each expected to exit 0; and every
 option the README names is one the tool's --help documents. Docs that a
 test runs stay true."""
@@ -13,8 +14,9 @@ import sys
 
 import pytest
 
-ROOT = pathlib.Path(__file__).resolve().parents[2]
-README = (ROOT / "README.md").read_text()
+from run_readme import ROOT, guide_text
+
+README = guide_text()
 SMALL = "96x54"
 
 

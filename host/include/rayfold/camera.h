@@ -68,8 +68,8 @@ class Camera {
                                                                 std::vector<std::string>* ignored = nullptr);
   static std::vector<std::pair<std::string, Camera>> from_colmap(
       const std::string& dir, std::vector<std::pair<size_t, std::string>>* skipped = nullptr);
-  // A rayfold camera list (the CLI's --cameras FILE.json; README "Camera
-  // lists") or a NeRF transforms.json, told apart by content (an object
+  // A rayfold camera list (the CLI's --cameras FILE.json; the list in
+  // docs/cli.md) or a NeRF transforms.json, told apart by content (an object
   // with "frames" and no "cameras" is the latter), with the views' names
   // ("0", "1", ... in a list); width, height and *ignored as from_nerf, a
   // list refuses a size. InputError names the file and what is wrong.

@@ -1,5 +1,5 @@
 // G-buffers as OpenEXR files, the format `rayfold render -o` writes
-// (README "Outputs": channels Z, N.X, N.Y, N.Z, U, V, InstanceID,
+// (docs/formats.md: channels Z, N.X, N.Y, N.Z, U, V, InstanceID,
 // PrimitiveID, and the camera and instance names in the header).
 #pragma once
 

@@ -88,7 +88,7 @@ const char* kRenderUsage =
     "  --cameras F.json       render every view of a camera list, one output per view\n"
     "                         (-o out/view_%04d.exr by index, or out/%s.exr by the view's\n"
     "                         name: a transforms.json's file_path, a COLMAP image's name,\n"
-    "                         less folders and extension); see the README for the format; a\n"
+    "                         less folders and extension); see docs/cli.md for the format; a\n"
     "                         NeRF / instant-ngp transforms.json (--size for one without w, h)\n"
     "  --colmap DIR           render every image of a COLMAP text model (DIR/cameras.txt,\n"
     "                         DIR/images.txt; PINHOLE and SIMPLE_PINHOLE cameras)\n"
