@@ -72,7 +72,7 @@ TEST(DoubleReference, LargeTrianglesNearTheEyeKeepTheirDepth) {
   for (int variant = 0; variant < 3; ++variant) {
     PipelineOptions opt;
     opt.backend = variant == 0 ? Backend::cpu : Backend::opencl;
-    opt.kernel = variant == 1 ? KernelChoice::tile : KernelChoice::single;
+    opt.kernel = variant == 1 ? Kernel::tile : Kernel::single;
     const char* name = variant == 0 ? "CPU reference" : variant == 1 ? "tile kernel" : "single-ray kernel";
     Pipeline r(scene, opt);
     const auto ref = trace_double_reference(scene, r.scene_data(), cam);

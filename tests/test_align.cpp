@@ -20,13 +20,13 @@ namespace {
 // "" when every view of every pass equals that view alone; else each
 // difference, naming the renderer, fold and view.
 std::string aligned_differences(testing::ThreeWays& r, const std::vector<Camera>& views, int animate_frame = -1,
-                                std::vector<FoldMode> folds = {FoldMode::none, FoldMode::y, FoldMode::x,
-                                                               FoldMode::xy}) {
+                                std::vector<Fold> folds = {Fold::none, Fold::y, Fold::x,
+                                                               Fold::xy}) {
   std::vector<HitBuffer> alone;
   for (const Camera& v : views) alone.push_back(r.reference(v, animate_frame));
   const size_t pixels = static_cast<size_t>(views[0].width) * views[0].height;
   std::string out;
-  for (FoldMode f : folds) {
+  for (Fold f : folds) {
     if (static_cast<int>(views.size()) > max_pass_views(f)) continue;
     FrameOptions o;
     o.fold = f;
@@ -175,9 +175,9 @@ TEST(Align, SixteenViewsAndThirtyTwoGroups) {
   const double size = p.size;
   for (int n : {8, 16, 32})
     EXPECT_EQ(aligned_differences(r, cameras(orbit(b, n, 0.35 * size, 0.05 * size), 24, 16)), "") << n << " views";
-  EXPECT_EQ(max_pass_views(FoldMode::none), 32);
-  EXPECT_EQ(max_pass_views(FoldMode::y), 16);
-  EXPECT_EQ(max_pass_views(FoldMode::xy), 8);
+  EXPECT_EQ(max_pass_views(Fold::none), 32);
+  EXPECT_EQ(max_pass_views(Fold::y), 16);
+  EXPECT_EQ(max_pass_views(Fold::xy), 8);
 }
 
 TEST(Align, AnimatedInstances) {
@@ -236,7 +236,7 @@ TEST(Align, SharedScenesStereoAndOrbit) {
       s.eye += (0.05 * k * dist) * right;
       path.push_back(s);
     }
-    EXPECT_EQ(aligned_differences(r, cameras(path, 48, 27), -1, {FoldMode::none, FoldMode::xy}), "")
+    EXPECT_EQ(aligned_differences(r, cameras(path, 48, 27), -1, {Fold::none, Fold::xy}), "")
         << v.file << " path";
   });
   EXPECT_GT(n, 0);
@@ -250,7 +250,7 @@ namespace {
 
 TEST(Align, SampledTilesAreEveryStrideThTileWhole) {
   const Camera cam = make_camera(look({0, 0, 5}, {0, 0, 0}), 100, 70);
-  for (FoldMode f : {FoldMode::none, FoldMode::xy}) {
+  for (Fold f : {Fold::none, Fold::xy}) {
     const RayList rays = make_ray_list(cam.params, f);
     for (size_t stride : {1, 3, 8}) {
       const RayList s = sample_tiles(rays, stride, 1);
@@ -275,7 +275,7 @@ TEST(Align, AutomaticChoicesPredictEveryCandidateAndRenderTheSameBits) {
   const std::vector<Camera> views = cameras(orbit(b, 4, 0.3 * size, 0.1 * size), 64, 40);
   testing::ThreeWays r(scene);
   for (Pipeline* renderer : {r.cpu.get(), r.tile.get()}) {
-    const AutoChoice c = choose_fastest(*renderer, views, {FoldMode::none, FoldMode::xy},
+    const AutoChoice c = choose_fastest(*renderer, views, {Fold::none, Fold::xy},
                                         {KernelKind::tile, KernelKind::single}, {1, RF_GROUP_LIMIT});
     // The kernels are probed first; one predicted more than twice as slow
     // keeps only that prediction.

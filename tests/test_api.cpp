@@ -139,14 +139,17 @@ TEST(Api, InMemorySceneMatchesBruteForceInEveryBackendKernelAndFold) {
     const Camera camera = to_camera(spec, 37, 23);
     const std::vector<rf_pixel_hit> expected = brute(soup, camera);
     for (Backend backend : {Backend::cpu, Backend::opencl})
-      for (Kernel kernel : {Kernel::tile, Kernel::single}) {
-        if (backend == Backend::cpu && kernel == Kernel::single) continue;
+      for (Kernel kernel : {Kernel::tile, Kernel::single, Kernel::measure}) {
+        if (backend == Backend::cpu && kernel != Kernel::tile) continue;
         RendererOptions o;
         o.backend = backend;
         o.kernel = kernel;
         Renderer renderer(scene, o);
         for (Fold f : kFolds) {
           const GBuffer g = renderer.render(camera, f);
+          // measure: both kernels timed on the first render, the faster kept.
+          if (kernel == Kernel::measure)
+            EXPECT_TRUE(renderer.kernel() == "tile" || renderer.kernel() == "single") << renderer.kernel();
           EXPECT_EQ(g.fold, f);
           EXPECT_EQ(compare_hits(expected, to_hits(g), 37), "")
               << "view " << view << " backend " << int(backend) << " kernel " << int(kernel) << " fold " << int(f);
@@ -908,7 +911,7 @@ TEST(Api, PackedReadbackGivesTheHostLayoutsBitsInEveryChannelSet) {
       ReadbackEnv env("packed");
       packed = std::make_unique<Renderer>(scene, o);
       core::PipelineOptions co;
-      co.kernel = kernel == Kernel::tile ? core::KernelChoice::tile : core::KernelChoice::single;
+      co.kernel = kernel;
       core::Pipeline probe(scene.state()->scene, co, scene.state()->trees);
       ASSERT_TRUE(probe.packs_planes());
       core::FrameOptions fo;

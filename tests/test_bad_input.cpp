@@ -409,8 +409,8 @@ TEST(OddInput, RendersWithWarnings) {
     PipelineOptions cpu;
     cpu.backend = Backend::cpu;
     Pipeline a(scene, cpu), b(scene, PipelineOptions{});
-    const RenderResult ra = a.render(cam, 1, FrameOptions{FoldMode::xy});
-    const RenderResult rb = b.render(cam, 1, FrameOptions{FoldMode::xy});
+    const RenderResult ra = a.render(cam, 1, FrameOptions{Fold::xy});
+    const RenderResult rb = b.render(cam, 1, FrameOptions{Fold::xy});
     EXPECT_EQ(testing::compare_hits(ra.hits, rb.hits, cam.width), "");
     return ra;
   };

@@ -868,7 +868,7 @@ TEST(Bvh, DenseMeshesGetFullerLeaves) {
   Pipeline cpu(scene, opt);
   const HitBuffer want = cpu.render(cam).hits;
   EXPECT_EQ(testing::compare_hits(testing::brute_force(scene, cpu.scene_data(), cam), want, cam.width), "");
-  for (KernelChoice k : {KernelChoice::tile, KernelChoice::single}) {
+  for (Kernel k : {Kernel::tile, Kernel::single}) {
     opt.backend = Backend::opencl;
     opt.kernel = k;
     Pipeline cl(scene, opt);

@@ -19,7 +19,7 @@ namespace {
 
 using testing::Rng;
 
-FrameOptions exact(FoldMode fold = FoldMode::none) {
+FrameOptions exact(Fold fold = Fold::none) {
   FrameOptions o;
   o.fold = fold;
   o.exact_depth = true;
@@ -93,7 +93,7 @@ TEST(ExactDepth, OnePrincipalPointOffsetFoldsTheOtherAxisWithItsOwnRayLengths) {
     FrameOptions o = exact();
     o.planar_depth = v == 3;
     EXPECT_EQ(r.differences(cam, -1, o), "") << "view " << v;
-    folded += r.tile->render(cam, 1, exact(FoldMode::xy)).fold != FoldMode::none;
+    folded += r.tile->render(cam, 1, exact(Fold::xy)).fold != Fold::none;
   }
   EXPECT_EQ(folded, 4);
 }
@@ -154,7 +154,7 @@ TEST(ExactDepth, EqualsBruteForceInObjectSpace) {
       const Camera cam =
           make_camera(testing::random_camera(rng, scene.world_bounds()), 31 + v, 22 + v, v % 2 ? 0.3 : 0.0, 0.0);
       const std::vector<rf_pixel_hit> expected = testing::brute_force(scene, r.scene_data(), cam, true);
-      for (FoldMode f : {FoldMode::none, FoldMode::xy})
+      for (Fold f : {Fold::none, Fold::xy})
         EXPECT_EQ(testing::compare_hits(expected, r.render(cam, 1, exact(f)).hits, cam.width), "")
             << "scene " << s << " view " << v << " fold " << fold_name(f);
     }
@@ -173,7 +173,7 @@ TEST(ExactDepth, WithinOneRoundingOfTheDoubleReference) {
   for (int s = 0; s < 2; ++s) {
     const Scene scene = testing::generated_atrium(900 + s, 60, 20000);
     PipelineOptions o;
-    o.kernel = KernelChoice::tile;
+    o.kernel = Kernel::tile;
     Pipeline r(scene, o);
     for (int v = 0; v < 4; ++v) {
       CameraSpec spec = testing::random_camera(rng, scene.world_bounds());

@@ -18,7 +18,7 @@
 namespace rayfold::core {
 namespace {
 
-const FoldMode kFolds[] = {FoldMode::y, FoldMode::x, FoldMode::xy};
+const Fold kFolds[] = {Fold::y, Fold::x, Fold::xy};
 
 PipelineOptions backend(Backend b) {
   PipelineOptions o;
@@ -26,7 +26,7 @@ PipelineOptions backend(Backend b) {
   return o;
 }
 
-FrameOptions with_fold(FoldMode f, bool cull = true) {
+FrameOptions with_fold(Fold f, bool cull = true) {
   FrameOptions o;
   o.fold = f;
   o.cull = cull;
@@ -36,9 +36,9 @@ FrameOptions with_fold(FoldMode f, bool cull = true) {
 // Renders `cam` unfolded and in every fold mode on one renderer; returns ""
 // when all agree bit for bit, else the first difference.
 std::string fold_differences(Pipeline& r, const Camera& cam) {
-  const HitBuffer none = r.render(cam, 1, with_fold(FoldMode::none)).hits;
+  const HitBuffer none = r.render(cam, 1, with_fold(Fold::none)).hits;
   std::string out;
-  for (FoldMode f : kFolds) {
+  for (Fold f : kFolds) {
     const std::string d = testing::compare_hits(none, r.render(cam, 1, with_fold(f)).hits, cam.width);
     if (!d.empty()) out += std::string("fold ") + fold_name(f) + ": " + d + "\n";
   }
@@ -63,7 +63,7 @@ TEST(FoldRayList, AnswersEveryPixelExactlyOnce) {
   testing::Rng rng(8);
   for (int trial = 0; trial < 300; ++trial) {
     const auto [w, h, sx, sy, cam] = ray_list_image(rng, trial, 100, 6, 70, 50);
-    for (FoldMode f : {FoldMode::none, FoldMode::y, FoldMode::x, FoldMode::xy}) {
+    for (Fold f : {Fold::none, Fold::y, Fold::x, Fold::xy}) {
       const RayList list = make_ray_list(cam.params, f);
       std::vector<int> answered(static_cast<size_t>(w) * h, 0);
       for (uint32_t e : list.entries) {
@@ -104,7 +104,7 @@ TEST(FoldRayList, AnswersEveryPixelExactlyOnce) {
 // 8x8 blocks, in each its 4x4 quads, each quad row by row; a pixel traced
 // unless its fold partner's ray answers it (columns: the left half traced,
 // rows: the top half), and each mirror group's region grown ray by ray.
-RayList ray_list_pixel_by_pixel(const rf_camera& cam, FoldMode f) {
+RayList ray_list_pixel_by_pixel(const rf_camera& cam, Fold f) {
   auto role = [](int k, int partner, int n, bool fold, int traced_sign) {
     if (!fold || k == 0 || partner < 0 || partner >= n) return 0;  // traced, answers itself
     return (k > 0) == (traced_sign > 0) ? 1 : -1;                  // 1: also its partner; -1: skipped
@@ -143,7 +143,7 @@ TEST(FoldRayList, IsTheDocumentedOrderTilesAndRegionsBuiltPixelByPixel) {
   testing::Rng rng(21);
   for (int trial = 0; trial < 200; ++trial) {
     const auto [w, h, sx, sy, cam] = ray_list_image(rng, trial, 50, 20, 300, 200);
-    for (FoldMode f : {FoldMode::none, FoldMode::y, FoldMode::x, FoldMode::xy}) {
+    for (Fold f : {Fold::none, Fold::y, Fold::x, Fold::xy}) {
       const RayList got = make_ray_list(cam.params, f), want = ray_list_pixel_by_pixel(cam.params, f);
       const std::string what = std::to_string(w) + "x" + std::to_string(h) + " shift " + std::to_string(sx) + "," +
                                std::to_string(sy) + " fold " + fold_name(f);
@@ -174,7 +174,7 @@ TEST(Fold, HandBuiltSymmetricCase) {
   scene.instances.push_back({0, Xform(1.0), "left"});
   Pipeline r(scene, backend(Backend::cpu));
   const Camera cam = make_camera(CameraSpec{}, 64, 32);
-  const RenderResult folded = r.render(cam, 1, with_fold(FoldMode::y));
+  const RenderResult folded = r.render(cam, 1, with_fold(Fold::y));
   size_t left = 0, right = 0;
   for (int y = 0; y < 32; ++y)
     for (int x = 0; x < 64; ++x)
@@ -253,7 +253,7 @@ TEST(Fold, EveryPixelIsWrittenIntoAnUnclearedBuffer) {
     }
     const size_t pixels = static_cast<size_t>(w) * h * cams.size();
     for (Pipeline* renderer : {r.cpu.get(), r.single.get(), r.tile.get()})
-      for (FoldMode f : testing::kAllFolds) {
+      for (Fold f : testing::kAllFolds) {
         if (static_cast<int>(cams.size()) > max_pass_views(f)) continue;
         FrameOptions options = with_fold(f);
         const int kind = checked % 4;  // each kind meets every renderer and fold over the views
@@ -290,7 +290,7 @@ TEST(Fold, RandomMirroredSoupsAgainstBruteForce) {
       const Camera cam =
           make_camera(testing::random_camera(rng, scene.world_bounds()), 33 + v, 24 + v, v % 2 ? 0.3 : 0.0, 0.0);
       const std::vector<rf_pixel_hit> expected = testing::brute_force(scene, r.scene_data(), cam);
-      for (FoldMode f : kFolds)
+      for (Fold f : kFolds)
         EXPECT_EQ(testing::compare_hits(expected, r.render(cam, 1, with_fold(f)).hits, cam.width), "")
             << fold_name(f) << " scene " << s << " view " << v;
     }
@@ -303,7 +303,7 @@ TEST(Fold, CullingPerGroupIsConservative) {
   testing::Rng rng(4);
   for (int v = 0; v < 8; ++v) {
     const Camera cam = make_camera(testing::random_camera(rng, scene.world_bounds()), 80, 45);
-    for (FoldMode f : kFolds) {
+    for (Fold f : kFolds) {
       const RenderResult culled = r.render(cam, 1, with_fold(f, true));
       const RenderResult all = r.render(cam, 1, with_fold(f, false));
       EXPECT_EQ(testing::compare_hits(all.hits, culled.hits, cam.width), "") << fold_name(f) << " view " << v;
@@ -318,14 +318,14 @@ TEST(Fold, AnimatedFramesStayLossless) {
   Pipeline cl(scene, backend(Backend::opencl));
   const Camera cam = make_camera(*scene.camera, 160, 90);
   for (int frame : {0, 3, 17}) {
-    FrameOptions none = with_fold(FoldMode::none);
+    FrameOptions none = with_fold(Fold::none);
     none.animate_frame = frame;
     const HitBuffer ref = cpu.render(cam, 1, none).hits;
     if (frame > 0) {
-      EXPECT_NE(testing::compare_hits(ref, cpu.render(cam, 1, with_fold(FoldMode::none)).hits, 160), "")
+      EXPECT_NE(testing::compare_hits(ref, cpu.render(cam, 1, with_fold(Fold::none)).hits, 160), "")
           << "animation should move something in view";
     }
-    for (FoldMode f : kFolds) {
+    for (Fold f : kFolds) {
       FrameOptions o = with_fold(f);
       o.animate_frame = frame;
       EXPECT_EQ(testing::compare_hits(ref, cpu.render(cam, 1, o).hits, 160), "") << fold_name(f) << " cpu " << frame;

@@ -81,7 +81,7 @@ Views views() {
 
 // A renderer of this kernel made now (its program built or loaded) traces
 // the reference's bits.
-void expect_reference_bits(const Views& v, KernelChoice kernel, const std::string& what) {
+void expect_reference_bits(const Views& v, Kernel kernel, const std::string& what) {
   PipelineOptions o;
   o.kernel = kernel;
   Pipeline r(v.scene, o);
@@ -95,7 +95,7 @@ TEST(KernelCache, SecondRendererLoadsItsProgramAndTracesTheSameBits) {
   const Env env("RAYFOLD_KERNEL_CACHE", dir.c_str());
   const Views v = views();
   const size_t before = kernel_cache_hits();
-  expect_reference_bits(v, KernelChoice::tile, "built from source");
+  expect_reference_bits(v, Kernel::tile, "built from source");
   EXPECT_EQ(kernel_cache_hits(), before);
   const std::vector<fs::path> stored = files_in(dir);
   ASSERT_EQ(stored.size(), 1u) << "one program, one file";
@@ -104,8 +104,8 @@ TEST(KernelCache, SecondRendererLoadsItsProgramAndTracesTheSameBits) {
       << "others may write the binaries this process runs";
   const fs::file_time_type written = fs::last_write_time(stored[0]);
   std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  expect_reference_bits(v, KernelChoice::single, "loaded from the cache");
-  expect_reference_bits(v, KernelChoice::tile, "loaded from the cache");
+  expect_reference_bits(v, Kernel::single, "loaded from the cache");
+  expect_reference_bits(v, Kernel::tile, "loaded from the cache");
   EXPECT_EQ(kernel_cache_hits(), before + 2) << "the second and third renderers built from source";
   EXPECT_EQ(files_in(dir), stored);
   EXPECT_EQ(fs::last_write_time(stored[0]), written) << "a loaded program was stored again";
@@ -167,15 +167,15 @@ TEST(KernelCache, ADamagedProgramIsBuiltAgainAndStoredWhole) {
   const std::string dir = fresh_dir("kcache-damaged");
   const Env env("RAYFOLD_KERNEL_CACHE", dir.c_str());
   const Views v = views();
-  expect_reference_bits(v, KernelChoice::tile, "built from source");
+  expect_reference_bits(v, Kernel::tile, "built from source");
   const std::vector<fs::path> stored = files_in(dir);
   ASSERT_EQ(stored.size(), 1u);
   for (int how : {0, 1, 2}) {
     damage_file(stored[0], how);
     const size_t hits = kernel_cache_hits();
-    expect_reference_bits(v, KernelChoice::tile, "after damage " + std::to_string(how));
+    expect_reference_bits(v, Kernel::tile, "after damage " + std::to_string(how));
     EXPECT_EQ(kernel_cache_hits(), hits) << "a damaged file (damage " << how << ") was used";
-    expect_reference_bits(v, KernelChoice::single, "after the rebuild");
+    expect_reference_bits(v, Kernel::single, "after the rebuild");
     EXPECT_EQ(kernel_cache_hits(), hits + 1) << "damage " << how << " was not written over";
   }
   fs::remove_all(dir);
@@ -190,8 +190,8 @@ TEST(KernelCache, OffOrUnwritableChangesNothingButTheTime) {
   {
     const Env env("RAYFOLD_KERNEL_CACHE", "off");
     const size_t hits = kernel_cache_hits();
-    expect_reference_bits(v, KernelChoice::tile, "cache off");
-    expect_reference_bits(v, KernelChoice::tile, "cache off again");
+    expect_reference_bits(v, Kernel::tile, "cache off");
+    expect_reference_bits(v, Kernel::tile, "cache off again");
     EXPECT_EQ(kernel_cache_hits(), hits);
   }
   // A folder that cannot be made: a path through a regular file (root may
@@ -201,8 +201,8 @@ TEST(KernelCache, OffOrUnwritableChangesNothingButTheTime) {
   {
     const Env env("RAYFOLD_KERNEL_CACHE", (blocker + "/kernels").c_str());
     const size_t hits = kernel_cache_hits();
-    expect_reference_bits(v, KernelChoice::tile, "cache unwritable");
-    expect_reference_bits(v, KernelChoice::tile, "cache unwritable again");
+    expect_reference_bits(v, Kernel::tile, "cache unwritable");
+    expect_reference_bits(v, Kernel::tile, "cache unwritable again");
     EXPECT_EQ(kernel_cache_hits(), hits);
   }
   EXPECT_FALSE(store_cached_program(blocker + "/kernels", "key", {1, 2, 3}));

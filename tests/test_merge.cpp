@@ -124,7 +124,7 @@ TEST(Merge, SceneFilesKeepMergedTreesAndTheirBits) {
   o.backend = Backend::cpu;
   const HitBuffer want = Pipeline(s, o).render(cam).hits;
   o.backend = Backend::opencl;
-  o.kernel = KernelChoice::tile;
+  o.kernel = Kernel::tile;
   Pipeline loaded(back.scene, o, std::make_shared<const SceneData>(back.data));
   EXPECT_EQ(testing::compare_hits(want, loaded.render(cam).hits, 41), "");
 }
@@ -155,7 +155,7 @@ TEST(Merge, RayQueriesThroughMergedTreesGiveTheReferencesBits) {
   for (const rf_pixel_hit& h : want) members += h.instance != RF_INVALID && blas.traced_by[h.instance] != h.instance;
   EXPECT_GT(members, n / 100) << "too few hits on the groups' later members for the test to mean anything";
   opt.backend = Backend::opencl;
-  for (const KernelChoice kernel : {KernelChoice::single, KernelChoice::tile}) {
+  for (const Kernel kernel : {Kernel::single, Kernel::tile}) {
     opt.kernel = kernel;
     Pipeline cl(s, opt);
     cl.intersect(o.data(), d.data(), n, 0.0f, INFINITY, false, FrameOptions{}, got.data());
@@ -212,16 +212,16 @@ TEST(Merge, AnimatedInstancesAreBuiltApart) {
     }
   EXPECT_TRUE(blas.merged[0] && blas.merged[4]);
   o.backend = Backend::opencl;
-  o.kernel = KernelChoice::tile;
+  o.kernel = Kernel::tile;
   Pipeline tile(s, o);
   testing::Rng rng(2);
   const Camera cam = make_camera(testing::random_camera(rng, s.world_bounds()), 40, 28);
   for (int frame = 0; frame < 3; ++frame) {
     FrameOptions f;
     f.animate_frame = frame;
-    f.fold = FoldMode::xy;
+    f.fold = Fold::xy;
     FrameOptions none = f;
-    none.fold = FoldMode::none;
+    none.fold = Fold::none;
     EXPECT_EQ(testing::compare_hits(cpu.render(cam, 1, none).hits, tile.render(cam, 1, f).hits, 40), "")
         << "frame " << frame;
   }

@@ -27,13 +27,13 @@ TEST(Ortho, EveryTracerEqualsTheBruteForceInEveryFold) {
     for (const rf_pixel_hit& h : expected) hits += h.instance != RF_INVALID;
     EXPECT_GT(hits, 0u) << "trial " << trial;
     for (Backend backend : {Backend::cpu, Backend::opencl})
-      for (KernelChoice kernel : {KernelChoice::tile, KernelChoice::single}) {
-        if (backend == Backend::cpu && kernel == KernelChoice::single) continue;
+      for (Kernel kernel : {Kernel::tile, Kernel::single}) {
+        if (backend == Backend::cpu && kernel == Kernel::single) continue;
         PipelineOptions o;
         o.backend = backend;
         o.kernel = kernel;
         Pipeline r(scene, o);
-        for (FoldMode f : {FoldMode::none, FoldMode::y, FoldMode::x, FoldMode::xy}) {
+        for (Fold f : {Fold::none, Fold::y, Fold::x, Fold::xy}) {
           FrameOptions fo;
           fo.fold = f;
           EXPECT_EQ(compare_hits(expected, r.render(cam, 1, fo).hits, cam.width), "")
@@ -52,7 +52,7 @@ TEST(Ortho, APowerOfTwoScaleMovesOnlyTheDepth) {
   o.backend = Backend::opencl;
   Pipeline r0(base, o);
   FrameOptions fo;
-  fo.fold = FoldMode::xy;
+  fo.fold = Fold::xy;
   const auto ref = r0.render(make_camera(view, 40, 30), 1, fo).hits;
   for (int k : {-40, -3, 5, 60}) {
     Scene s = base;

@@ -347,9 +347,9 @@ TEST(RayQuery, SharedOriginTilesEqualTheCpuReference) {
     opt.backend = Backend::cpu;
     Pipeline cpu(scene, opt);
     opt.backend = Backend::opencl;
-    opt.kernel = KernelChoice::tile;
+    opt.kernel = Kernel::tile;
     Pipeline tiles(scene, opt);
-    opt.kernel = KernelChoice::single;
+    opt.kernel = Kernel::single;
     Pipeline single(scene, opt);
     ASSERT_EQ(plan_query_tiles(rays.o.data(), rays.size(), 0, 128).tiles.size(), 1 + 4 + 3 + 12 + 2)
         << "the runs as tiles";
@@ -413,7 +413,7 @@ TEST(RayQuery, TilesTakeTheCallersArraysToTraceSpaceAsTheReferenceDoes) {
       PipelineOptions opt = on(Backend::cpu);
       Pipeline cpu(scene, opt);
       opt.backend = Backend::opencl;
-      opt.kernel = KernelChoice::tile;
+      opt.kernel = Kernel::tile;
       Pipeline tiles(scene, opt);
       ASSERT_FALSE(plan_query_tiles(rays.o.data(), rays.size(), row_length, 128).tiles.empty())
           << "2^" << k << ": not tiled";
@@ -541,7 +541,7 @@ TEST(RayQuery, ImageRaysInBlocksEqualTheCpuReference) {
   opt.backend = Backend::cpu;
   Pipeline cpu(scene, opt);
   opt.backend = Backend::opencl;
-  opt.kernel = KernelChoice::tile;
+  opt.kernel = Kernel::tile;
   Pipeline tiles(scene, opt);
   const std::vector<rf_pixel_hit> want = query(cpu, rays);
   size_t hits = 0;
@@ -817,7 +817,7 @@ TEST(RayQuery, ASceneWithNothingToTraceAnswersMisses) {
       shared.d.push_back(rng.uniformf(-1, 1));
     }
   for (const Backend backend : {Backend::cpu, Backend::opencl})
-    for (const KernelChoice kernel : {KernelChoice::single, KernelChoice::tile}) {
+    for (const Kernel kernel : {Kernel::single, Kernel::tile}) {
       PipelineOptions o = on(backend);
       o.kernel = kernel;
       Pipeline r(scene, o);

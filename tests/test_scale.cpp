@@ -91,9 +91,9 @@ TEST(Scale, TracedFloatsDoNotDependOnAPowerOfTwoScale) {
   const CameraSpec spec = soup_camera(2, base);
   const Camera cam0 = make_camera(spec, 32, 24);
   const SceneData d0 = prepare_scene(base, 1);
-  const RayList rays = make_ray_list(cam0.params, FoldMode::xy);
+  const RayList rays = make_ray_list(cam0.params, Fold::xy);
   FrameOptions xy;
-  xy.fold = FoldMode::xy;
+  xy.fold = Fold::xy;
   const Frame f0 = build_frame(base, d0, cam0, rays, xy);
   ASSERT_GT(f0.instances.size(), 4u);
   auto same_bytes = [](const auto& a, const auto& b) {

@@ -28,7 +28,7 @@ HitBuffer render_everywhere(const Scene& scene, const Camera& cam, const std::st
   PipelineOptions cpu_opt;
   cpu_opt.backend = Backend::cpu;
   Pipeline cpu(scene, cpu_opt), cl(scene, PipelineOptions{});
-  const HitBuffer ref = cpu.render(cam, 1, FrameOptions{FoldMode::none}).hits;
+  const HitBuffer ref = cpu.render(cam, 1, FrameOptions{Fold::none}).hits;
   for (const rf_pixel_hit& h : ref) {
     if (std::isnan(h.z) || std::isnan(h.nx) || std::isnan(h.ny) || std::isnan(h.nz) || std::isnan(h.u) ||
         std::isnan(h.v)) {
@@ -37,8 +37,8 @@ HitBuffer render_everywhere(const Scene& scene, const Camera& cam, const std::st
     }
   }
   for (Pipeline* r : {&cpu, &cl})
-    for (FoldMode f : {FoldMode::none, FoldMode::y, FoldMode::x, FoldMode::xy}) {
-      if (r == &cpu && f == FoldMode::none) continue;
+    for (Fold f : {Fold::none, Fold::y, Fold::x, Fold::xy}) {
+      if (r == &cpu && f == Fold::none) continue;
       EXPECT_EQ(testing::compare_hits(ref, r->render(cam, 1, FrameOptions{f}).hits, cam.width), "")
           << what << ": " << (r == &cpu ? "cpu" : "opencl") << " fold " << fold_name(f);
     }
@@ -284,7 +284,7 @@ TEST(Exactness, FastBuildAgainstExact) {
     const auto fast_none = fast_r.render(cam).hits;
     const Agreement a = agreement(exact, fast_none);
     size_t fold_diff = 0;
-    for (FoldMode f : {FoldMode::y, FoldMode::x, FoldMode::xy}) {
+    for (Fold f : {Fold::y, Fold::x, Fold::xy}) {
       const auto folded = fast_r.render(cam, 1, FrameOptions{f}).hits;
       for (size_t i = 0; i < folded.size(); ++i)
         fold_diff += std::memcmp(&folded[i], &fast_none[i], sizeof(rf_pixel_hit)) != 0;

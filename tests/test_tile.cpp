@@ -89,7 +89,7 @@ TEST(TileKernel, ChosenByDefaultOnCpuDevices) {
   const bool cpu_device = testing::test_device().info().is_cpu;
   EXPECT_EQ(r.kernel_label(), cpu_device ? "tile" : "single");
   PipelineOptions o;
-  o.kernel = KernelChoice::single;
+  o.kernel = Kernel::single;
   EXPECT_EQ(Pipeline(scene, o).kernel_label(), "single");
 }
 
@@ -98,7 +98,7 @@ TEST(TileKernel, MeasuredChoiceKeepsTheFasterKernelAndTheSameBits) {
   // faster one stays. On PoCL that is the tile kernel by a wide margin.
   const Scene scene = load_gltf(std::string(RAYFOLD_SOURCE_DIR) + "/scenes/atrium.glb");
   PipelineOptions o;
-  o.kernel = KernelChoice::measure;
+  o.kernel = Kernel::measure;
   Pipeline measured(scene, o);
   EXPECT_EQ(measured.kernel_reason(), "to be measured");
   PipelineOptions cpu;
@@ -106,7 +106,7 @@ TEST(TileKernel, MeasuredChoiceKeepsTheFasterKernelAndTheSameBits) {
   Pipeline reference(scene, cpu);
   const Camera cam = make_camera(*scene.camera, 320, 180);
   FrameOptions xy;
-  xy.fold = FoldMode::xy;
+  xy.fold = Fold::xy;
   EXPECT_EQ(testing::compare_hits(reference.render(cam).hits, measured.render(cam, 2, xy).hits, cam.width), "");
   EXPECT_NE(measured.kernel_reason().find("measured on the first frame: tile"), std::string::npos)
       << measured.kernel_reason();
@@ -139,7 +139,7 @@ TEST(TileKernel, NormalsOffWriteZeroNormalsAndTheSameRest) {
   const Scene scene = load_gltf(std::string(RAYFOLD_SOURCE_DIR) + "/scenes/atrium.glb");
   ThreeWays r(scene);
   const Camera cam = make_camera(*scene.camera, 97, 41);
-  for (FoldMode fold : {FoldMode::none, FoldMode::xy}) {
+  for (Fold fold : {Fold::none, Fold::xy}) {
     FrameOptions with;
     with.fold = fold;
     FrameOptions without = with;
@@ -168,7 +168,7 @@ TEST(TileKernel, PlanarDepthIsTheDistanceAlongTheCameraAxis) {
   const Scene scene = load_gltf(std::string(RAYFOLD_SOURCE_DIR) + "/scenes/atrium.glb");
   ThreeWays r(scene);
   const Camera cam = make_camera(*scene.camera, 97, 41);
-  for (FoldMode fold : {FoldMode::none, FoldMode::xy}) {
+  for (Fold fold : {Fold::none, Fold::xy}) {
     FrameOptions distance;
     distance.fold = fold;
     FrameOptions planar = distance;
@@ -351,7 +351,7 @@ TEST(TileKernel, DenseScenesTraceWithEightLanesUnlessAsked) {
   const Scene sparse = sphere_scene(64, 32, 1);
   const DeviceInfo& info = testing::test_device().info();
   PipelineOptions o;
-  o.kernel = KernelChoice::tile;
+  o.kernel = Kernel::tile;
   Pipeline dense_default(dense, o);
   EXPECT_EQ(dense_default.tile_lanes(), tile_lanes(info, 0, true));
   EXPECT_EQ(Pipeline(sparse, o).tile_lanes(), tile_lanes(info, 0, false));
@@ -363,7 +363,7 @@ TEST(TileKernel, DenseScenesTraceWithEightLanesUnlessAsked) {
   spec.look_at = glm::dvec3(0.0);
   spec.vfov_degrees = 45.0;
   const Camera cam = make_camera(spec, 96, 64);
-  for (FoldMode fold : {FoldMode::none, FoldMode::xy}) {
+  for (Fold fold : {Fold::none, Fold::xy}) {
     FrameOptions f;
     f.fold = fold;
     const HitBuffer a = dense_default.render(cam, 1, f).hits, b = dense_16.render(cam, 1, f).hits;
@@ -384,7 +384,7 @@ TEST(TileKernel, DuplicatedTrianglesOfADenseMeshTakeTheLowerPrimitive) {
   ThreeWays r(scene);
   // A dense scene's tile kernel defaults to 8 lanes: the 16-lane build too.
   PipelineOptions wide;
-  wide.kernel = KernelChoice::tile;
+  wide.kernel = Kernel::tile;
   wide.tuning.tile_lanes = 16;
   Pipeline tile16(scene, wide);
   for (const glm::dvec3 eye : {glm::dvec3(0, 0, 3), glm::dvec3(2, 1.5, 1.2)}) {
@@ -405,7 +405,7 @@ TEST(TileKernel, DuplicatedTrianglesOfADenseMeshTakeTheLowerPrimitive) {
       EXPECT_EQ(odd, 0u);
       EXPECT_EQ(r.differences(cam), "") << w << "x" << h;
       const HitBuffer ref = r.reference(cam);
-      for (FoldMode fold : {FoldMode::none, FoldMode::y, FoldMode::x, FoldMode::xy}) {
+      for (Fold fold : {Fold::none, Fold::y, Fold::x, Fold::xy}) {
         FrameOptions f;
         f.fold = fold;
         const HitBuffer b = tile16.render(cam, 1, f).hits;

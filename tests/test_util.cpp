@@ -249,15 +249,15 @@ ThreeWays::ThreeWays(const Scene& scene) {
   o.merge.dynamic = animated_instances(scene.instances.size());
   cpu = std::make_unique<Pipeline>(scene, o);
   o.backend = Backend::opencl;
-  o.kernel = KernelChoice::single;
+  o.kernel = Kernel::single;
   single = std::make_unique<Pipeline>(scene, o);
-  o.kernel = KernelChoice::tile;
+  o.kernel = Kernel::tile;
   tile = std::make_unique<Pipeline>(scene, o);
 }
 
 HitBuffer ThreeWays::reference(const Camera& cam, int animate_frame, const FrameOptions& base) {
   FrameOptions none = base;
-  none.fold = FoldMode::none;
+  none.fold = Fold::none;
   none.animate_frame = animate_frame;
   return cpu->render(cam, 1, none).hits;
 }
@@ -265,7 +265,7 @@ HitBuffer ThreeWays::reference(const Camera& cam, int animate_frame, const Frame
 std::string ThreeWays::differences(const Camera& cam, int animate_frame, const FrameOptions& base) {
   const HitBuffer ref = reference(cam, animate_frame, base);
   std::string out;
-  for (FoldMode f : kAllFolds) {
+  for (Fold f : kAllFolds) {
     FrameOptions o = base;
     o.animate_frame = animate_frame;
     o.fold = f;

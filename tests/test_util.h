@@ -76,7 +76,7 @@ Mesh closed_cube(int n);
 // face outwards (a solid) or inwards (a room seen from inside).
 Mesh wound_box(bool inward, const glm::vec3& size = glm::vec3(1.0f));
 
-inline constexpr FoldMode kAllFolds[] = {FoldMode::none, FoldMode::y, FoldMode::x, FoldMode::xy};
+inline constexpr Fold kAllFolds[] = {Fold::none, Fold::y, Fold::x, Fold::xy};
 
 // One scene, rendered three ways: the CPU reference, the single-ray kernel
 // and the tile kernel (with the instances --animate moves built dynamic).

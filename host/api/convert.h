@@ -4,7 +4,6 @@
 
 #include <string>
 
-#include "fold/fold.h"
 #include "rayfold/gbuffer.h"
 #include "rayfold/types.h"
 #include "scene/transform.h"
@@ -23,15 +22,6 @@ inline Matrix4 to_matrix(const core::Xform& x) {
   for (int r = 0; r < 4; ++r)
     for (int c = 0; c < 4; ++c) m[4 * r + c] = x[c][r];
   return m;
-}
-
-inline core::FoldMode to_core(Fold f) {
-  switch (f) {
-    case Fold::y: return core::FoldMode::y;
-    case Fold::x: return core::FoldMode::x;
-    case Fold::xy: return core::FoldMode::xy;
-    default: return core::FoldMode::none;
-  }
 }
 
 // Throws InputError("", what + ...) for a matrix that is not finite or whose

@@ -55,7 +55,7 @@ void write_exr(const std::string& path, const GBuffer& g, const Camera& camera, 
   }
   const detail::SceneState& s = *scene.state();
   const core::ExrMetadata metadata =
-      core::view_metadata(camera.core(), s.scene, s.path, core::fold_name(detail::to_core(g.fold)),
+      core::view_metadata(camera.core(), s.scene, s.path, core::fold_name(g.fold),
                           g.depth_kind == Depth::planar, g.exact_depth, RAYFOLD_VERSION_STRING);
   core::write_exr(path, hits, g.width, g.height, &metadata, g.channels, compression);
 }

@@ -17,28 +17,6 @@
 #include "util/timer.h"
 
 namespace rayfold {
-namespace {
-
-Fold from_core(core::FoldMode f) {
-  switch (f) {
-    case core::FoldMode::y: return Fold::y;
-    case core::FoldMode::x: return Fold::x;
-    case core::FoldMode::xy: return Fold::xy;
-    default: return Fold::none;
-  }
-}
-
-using detail::to_core;
-
-core::KernelChoice to_core(Kernel k) {
-  switch (k) {
-    case Kernel::tile: return core::KernelChoice::tile;
-    case Kernel::single: return core::KernelChoice::single;
-    default: return core::KernelChoice::automatic;
-  }
-}
-
-}  // namespace
 
 struct Renderer::Impl {
   std::shared_ptr<detail::SceneState> state;
@@ -90,9 +68,9 @@ struct Renderer::Impl {
 
 Renderer::Renderer(const Scene& scene, const RendererOptions& options) : impl_(std::make_unique<Impl>()) {
   impl_->state = scene.state();
-  impl_->options.backend = options.backend == Backend::cpu ? core::Backend::cpu : core::Backend::opencl;
+  impl_->options.backend = options.backend;
   impl_->options.device_hint = options.device;
-  impl_->options.kernel = to_core(options.kernel);
+  impl_->options.kernel = options.kernel;
   impl_->options.threads = options.threads;
   impl_->planar_depth = options.depth == Depth::planar;
   impl_->exact_depth = options.exact_depth;
@@ -280,7 +258,7 @@ void fill_gbuffer(GBuffer& g, const core::RenderResult& r, size_t view, const st
   g.depth_kind = depth_kind;
   g.exact_depth = exact_depth;
   size_planes(channels, n, threads, g.depth, g.normal, g.uv, g.instance_id, g.primitive_id);
-  g.fold = from_core(r.fold);
+  g.fold = r.fold;
   g.rays = r.rays;
   g.trace_ms = r.median.trace_ms;
   g.warnings = warnings;
@@ -325,7 +303,7 @@ void fill_gbuffer(GBuffer& g, const core::RenderResult& r, size_t view, const st
 core::FrameOptions frame_options(Fold fold, std::vector<uint32_t> moved, unsigned channels, bool planar_depth,
                                  bool exact_depth) {
   core::FrameOptions frame;
-  frame.fold = to_core(fold);
+  frame.fold = fold;
   frame.moved = std::move(moved);
   frame.normals = (channels & kNormal) != 0;
   frame.planar_depth = planar_depth;

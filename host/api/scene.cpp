@@ -238,7 +238,7 @@ Camera Scene::default_camera(int width, int height) const {
     const std::shared_ptr<const core::SceneData> trees = detail::current_trees(state);
     if (state.framed_on != trees) {
       core::PipelineOptions cpu_options;
-      cpu_options.backend = core::Backend::cpu;
+      cpu_options.backend = Backend::cpu;
       core::Pipeline cpu(s, cpu_options, trees);
       state.framed = core::auto_frame(s, cpu).spec;
       state.framed_on = trees;

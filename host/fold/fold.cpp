@@ -2,12 +2,12 @@
 
 namespace rayfold::core {
 
-const char* fold_name(FoldMode m) {
+const char* fold_name(Fold m) {
   switch (m) {
-    case FoldMode::none: return "none";
-    case FoldMode::y: return "y";
-    case FoldMode::x: return "x";
-    case FoldMode::xy: return "xy";
+    case Fold::none: return "none";
+    case Fold::y: return "y";
+    case Fold::x: return "x";
+    case Fold::xy: return "xy";
   }
   return "?";
 }

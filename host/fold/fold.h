@@ -10,32 +10,34 @@
 
 #include <cstdint>
 
+#include "rayfold/gbuffer.h"
 #include "scene/aabb.h"
 
 namespace rayfold::core {
 
-enum class FoldMode { none, y, x, xy };
+// The fold is the public rayfold::Fold (rayfold/gbuffer.h), one type from the
+// command line to the kernels' ray lists.
 
-inline bool folds_columns(FoldMode m) { return m == FoldMode::y || m == FoldMode::xy; }
-inline bool folds_rows(FoldMode m) { return m == FoldMode::x || m == FoldMode::xy; }
+inline bool folds_columns(Fold m) { return m == Fold::y || m == Fold::xy; }
+inline bool folds_rows(Fold m) { return m == Fold::x || m == Fold::xy; }
 
 // The fold with the axes that cannot pair dropped: a camera whose principal
 // point is off the half-pixel grid in x cannot pair columns (y), in y rows.
-inline FoldMode restrict_fold(FoldMode m, bool columns_ok, bool rows_ok) {
+inline Fold restrict_fold(Fold m, bool columns_ok, bool rows_ok) {
   const bool cols = folds_columns(m) && columns_ok, rows = folds_rows(m) && rows_ok;
-  return cols && rows ? FoldMode::xy : cols ? FoldMode::y : rows ? FoldMode::x : FoldMode::none;
+  return cols && rows ? Fold::xy : cols ? Fold::y : rows ? Fold::x : Fold::none;
 }
 
 // "none", "y", "x" or "xy".
-const char* fold_name(FoldMode m);
+const char* fold_name(Fold m);
 
 // The mirrors a fold traces, as slots of each view's transform groups
 // (kernels/rf_types.h): none {0}, y {0, 1}, x {0, 2}, xy {0, 1, 2, 3}.
-inline int mirror_slots(FoldMode m) { return m == FoldMode::none ? 1 : m == FoldMode::xy ? 4 : 2; }
-inline int slot_mirror(FoldMode m, int slot) { return m == FoldMode::x && slot == 1 ? 2 : slot; }
+inline int mirror_slots(Fold m) { return m == Fold::none ? 1 : m == Fold::xy ? 4 : 2; }
+inline int slot_mirror(Fold m, int slot) { return m == Fold::x && slot == 1 ? 2 : slot; }
 // rf_camera::group_shift and slot_mirrors for the fold.
-inline uint32_t fold_group_shift(FoldMode m) { return m == FoldMode::none ? 0u : m == FoldMode::xy ? 2u : 1u; }
-inline uint32_t fold_slot_mirrors(FoldMode m) {
+inline uint32_t fold_group_shift(Fold m) { return m == Fold::none ? 0u : m == Fold::xy ? 2u : 1u; }
+inline uint32_t fold_slot_mirrors(Fold m) {
   uint32_t bits = 0;
   for (int s = 0; s < mirror_slots(m); ++s) bits |= static_cast<uint32_t>(slot_mirror(m, s)) << (2 * s);
   return bits;

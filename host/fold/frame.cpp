@@ -59,8 +59,8 @@ bool can_align(const SceneData& data, const Camera& a, const Camera& b) {
   return !a.params.ortho || trace_exponent(data, a) == trace_exponent(data, b);
 }
 
-int pass_groups(int views, FoldMode fold) { return views * mirror_slots(fold); }
-int max_pass_views(FoldMode fold) { return RF_GROUP_LIMIT / mirror_slots(fold); }
+int pass_groups(int views, Fold fold) { return views * mirror_slots(fold); }
+int max_pass_views(Fold fold) { return RF_GROUP_LIMIT / mirror_slots(fold); }
 
 std::vector<float> Frame::depth_scales() const {
   std::vector<float> out;

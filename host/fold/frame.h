@@ -29,7 +29,7 @@ struct AnswerPlanes {
 };
 
 struct FrameOptions {
-  FoldMode fold = FoldMode::none;
+  Fold fold = Fold::none;
   bool cull = true;        // frustum culling before the top-level build
   int animate_frame = -1;  // >= 0: pose of the animated instances (animation.h)
   // Scene instances whose world_from_object changed since prepare_scene: their
@@ -94,7 +94,7 @@ struct FrameView {
 
 struct Frame {
   std::vector<FrameView> views;  // the views traced together, in pass order
-  FoldMode fold = FoldMode::none;
+  Fold fold = Fold::none;
   uint32_t node_base = 0;           // first TLAS node index in the full node array
   uint32_t tlas_root = RF_INVALID;  // RF_INVALID: nothing to trace
   std::vector<rf_node> tlas_nodes;  // to be placed at node_base
@@ -146,9 +146,9 @@ int trace_exponent(const SceneData& data, const Camera& camera);
 bool can_align(const SceneData& data, const Camera& a, const Camera& b);
 
 // The (view, mirror) groups a pass of `views` views folded by `fold` uses.
-int pass_groups(int views, FoldMode fold);
+int pass_groups(int views, Fold fold);
 // The most views one pass can trace with this fold (RF_GROUP_LIMIT groups).
-int max_pass_views(FoldMode fold);
+int max_pass_views(Fold fold);
 
 // The ray parameters and pass layout (rf_camera) as a frame traces them.
 rf_camera frame_camera(const Camera& camera, const Frame& frame);

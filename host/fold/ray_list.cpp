@@ -51,7 +51,7 @@ Span span_of(const std::vector<Role>& roles, bool folding_only) {
 // per row instead of per pixel: the regions are products of spans, a tile's
 // rays the product of its traced rows and columns. Per pixel this was 10 to
 // 20 ms of a 1280x720 render's first frame; now a fraction of one.
-RayList make_ray_list(const rf_camera& cam, FoldMode fold) {
+RayList make_ray_list(const rf_camera& cam, Fold fold) {
   const int w = cam.width, h = cam.height;
   const std::vector<Role> cols = roles(w, cam.kx0, 1, cam.xpair, folds_columns(fold), -1);
   const std::vector<Role> rows = roles(h, cam.ky0, -1, cam.ypair, folds_rows(fold), +1);

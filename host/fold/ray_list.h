@@ -34,7 +34,7 @@ inline uint32_t encode_ray(int x, int y, bool mirror_x, bool mirror_y) {
 // The rays to trace for a camera and fold mode, in tiles of RF_TILE_SIDE
 // pixels (8x8 blocks of 4x4 quads inside) so that a tile, its vectors, and
 // neighbouring work-items of the single-ray kernel trace coherent rays.
-RayList make_ray_list(const rf_camera& camera, FoldMode fold);
+RayList make_ray_list(const rf_camera& camera, Fold fold);
 
 // Every stride-th tile of a list (from tile `offset`), with its tile table:
 // a sample that keeps the coherence of the full-resolution rays (the

@@ -17,6 +17,6 @@ namespace rayfold::core {
 // per camera as the renderer does), in list order; passes are ordered by
 // their first view. align = 1 traces every view alone.
 std::vector<std::vector<size_t>> plan_passes(const SceneData& data, const std::vector<Camera>& views, int align,
-                                             FoldMode fold);
+                                             Fold fold);
 
 }  // namespace rayfold::core

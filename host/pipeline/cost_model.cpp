@@ -43,7 +43,7 @@ std::vector<Prediction> Pipeline::predict(const std::vector<Camera>& views, cons
   for (size_t i = 0; i < choices.size(); ++i) {
     Probe& pr = probes[i];
     const Choice& c = choices[i];
-    const FoldMode fold = restrict_fold(c.fold, can_fold_columns(first), can_fold_rows(first));
+    const Fold fold = restrict_fold(c.fold, can_fold_columns(first), can_fold_rows(first));
     const int per_pass = std::max(1, std::min({c.align, max_pass_views(fold), static_cast<int>(views.size())}));
     if (per_pass == 1)
       pr.pass.push_back(views[views.size() / 2]);
@@ -112,7 +112,7 @@ void Pipeline::set_kernel(KernelKind kernel, const std::string& why) {
   measure_kernel_ = false;
 }
 
-AutoChoice choose_fastest(Pipeline& renderer, const std::vector<Camera>& views, const std::vector<FoldMode>& folds,
+AutoChoice choose_fastest(Pipeline& renderer, const std::vector<Camera>& views, const std::vector<Fold>& folds,
                           const std::vector<KernelKind>& kernels, const std::vector<int>& aligns) {
   RF_CHECK(!folds.empty() && !kernels.empty() && !aligns.empty(), "no choice to make");
   const auto t0 = Clock::now();
@@ -137,7 +137,7 @@ AutoChoice choose_fastest(Pipeline& renderer, const std::vector<Camera>& views, 
     }
   }
   std::vector<Choice> choices;
-  for (FoldMode f : folds)
+  for (Fold f : folds)
     for (KernelKind k : kept)
       for (int a : aligns) choices.push_back({f, k, a});
   const std::vector<Prediction> p = renderer.predict(views, choices);

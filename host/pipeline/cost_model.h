@@ -17,7 +17,7 @@ class Pipeline;
 // One way of tracing a list of views: the fold, the OpenCL kernel, and how
 // many views per pass (align 1: each alone).
 struct Choice {
-  FoldMode fold = FoldMode::none;
+  Fold fold = Fold::none;
   KernelKind kernel = KernelKind::tile;
   int align = 1;
 };
@@ -42,7 +42,7 @@ struct AutoChoice {
   std::vector<Prediction> predictions;
   double probe_ms = 0.0;  // what predicting cost, all choices together
 };
-AutoChoice choose_fastest(Pipeline& pipeline, const std::vector<Camera>& views, const std::vector<FoldMode>& folds,
+AutoChoice choose_fastest(Pipeline& pipeline, const std::vector<Camera>& views, const std::vector<Fold>& folds,
                           const std::vector<KernelKind>& kernels, const std::vector<int>& aligns);
 
 }  // namespace rayfold::core

@@ -83,18 +83,18 @@ Pipeline::Pipeline(const Scene& scene, const PipelineOptions& options, std::shar
     // CPU's vector units; on other devices the faster one is measured.
     const bool cpu = device_->info().is_cpu;
     switch (options_.kernel) {
-      case KernelChoice::tile:
+      case Kernel::tile:
         kernel_ = KernelKind::tile;
         kernel_reason_ = "chosen";
         break;
-      case KernelChoice::single:
+      case Kernel::single:
         kernel_ = KernelKind::single;
         kernel_reason_ = "chosen";
         break;
-      case KernelChoice::automatic:
-      case KernelChoice::measure:
+      case Kernel::automatic:
+      case Kernel::measure:
         kernel_ = KernelKind::tile;
-        measure_kernel_ = options_.kernel == KernelChoice::measure || !cpu;
+        measure_kernel_ = options_.kernel == Kernel::measure || !cpu;
         kernel_reason_ = measure_kernel_ ? "to be measured" : "CPU device";
         break;
     }
@@ -137,8 +137,8 @@ void Pipeline::ensure_capacity(size_t pixels, int groups) {
   for (CachedRays& r : rays_) r.uploaded = false;  // the new buffers hold no rays yet
 }
 
-const RayList& Pipeline::ray_list(const rf_camera& params, FoldMode fold) {
-  static_assert(static_cast<int>(FoldMode::xy) < 4 && ClTracer::kRaySlots >= 4, "one slot per fold mode");
+const RayList& Pipeline::ray_list(const rf_camera& params, Fold fold) {
+  static_assert(static_cast<int>(Fold::xy) < 4 && ClTracer::kRaySlots >= 4, "one slot per fold mode");
   CachedRays& r = rays_[static_cast<int>(fold)];
   // The list is pixel coordinates and fold roles: it depends on the image
   // size and the principal point's integer coordinates, not on the field of

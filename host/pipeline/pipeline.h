@@ -12,6 +12,7 @@
 #include "fold/frame.h"
 #include "opencl/cl_tracer.h"
 #include "pipeline/cost_model.h"
+#include "rayfold/types.h"
 #include "reference/trace_inputs.h"
 #include "scene/camera.h"
 #include "scene/scene.h"
@@ -19,19 +20,12 @@
 
 namespace rayfold::core {
 
-enum class Backend { opencl, cpu };
-
-// Which OpenCL kernel traces. Both give the same bits; only speed differs.
-enum class KernelChoice {
-  automatic,  // tile on CPU devices (PoCL: 10x the single-ray kernel), measure on others
-  tile,
-  single,
-  measure,  // trace the first frame with both, keep the faster
-};
+// The tracer and the kernel are the public rayfold::Backend and
+// rayfold::Kernel (rayfold/types.h).
 
 struct PipelineOptions {
   Backend backend = Backend::opencl;
-  KernelChoice kernel = KernelChoice::automatic;
+  Kernel kernel = Kernel::automatic;
   KernelPrecision precision = KernelPrecision::exact;
   std::string device_hint;  // see ClDevice
   unsigned threads = 0;     // CPU backend and BLAS builds; 0 = all cores
@@ -66,7 +60,7 @@ struct RenderResult {
   std::vector<FrameView> views;  // each view's trace space and losses, of the last frame
   // The fold traced: the one asked for, less an axis the camera's principal
   // point cannot mirror exactly (camera.h, can_fold_columns).
-  FoldMode fold = FoldMode::none;
+  Fold fold = Fold::none;
   // What this render may have lost, in words: instances beyond the float
   // range at this view, pixels finer than float positions resolve. Empty
   // when the render is within rayfold's exact range (docs/exactness.md).
@@ -144,7 +138,7 @@ class Pipeline {
   const SceneData& scene_data() const { return *data_; }
   const std::shared_ptr<const SceneData>& shared_scene_data() const { return data_; }
   std::string device_name() const;
-  // The OpenCL kernel that traces (KernelChoice resolved for the device;
+  // The OpenCL kernel that traces (Kernel resolved for the device;
   // before the first frame of a measured choice, the tile kernel);
   // meaningless for the CPU backend. Orthographic cameras always trace with
   // the single-ray kernel.
@@ -209,7 +203,7 @@ class Pipeline {
   // The ray list for this image and fold: it does not depend on the
   // camera's pose or field of view, so one per fold mode (and its upload)
   // is kept while the image size and principal point stay the same.
-  const RayList& ray_list(const rf_camera& params, FoldMode fold);
+  const RayList& ray_list(const rf_camera& params, Fold fold);
 
   const Scene& scene_;
   PipelineOptions options_;

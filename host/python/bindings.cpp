@@ -176,8 +176,10 @@ rayfold::RendererOptions renderer_options(const std::string& backend, const std:
     o.kernel = rayfold::Kernel::tile;
   else if (kernel == "single")
     o.kernel = rayfold::Kernel::single;
+  else if (kernel == "measure")
+    o.kernel = rayfold::Kernel::measure;
   else
-    throw rayfold::InputError("", "kernel must be 'auto', 'tile' or 'single', not '" + kernel + "'");
+    throw rayfold::InputError("", "kernel must be 'auto', 'tile', 'single' or 'measure', not '" + kernel + "'");
   if (depth == "distance")
     o.depth = rayfold::Depth::distance;
   else if (depth == "planar")

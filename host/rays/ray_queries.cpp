@@ -121,12 +121,12 @@ Frame build_query_frame(const Scene& scene, const SceneData& data, float origin_
   const Camera camera = query_camera();
   const int e = trace_exponent(data, camera);
   const double bound = origin_bound;
-  options.fold = FoldMode::none;
+  options.fold = Fold::none;
   options.cull = false;
   options.planar_depth = false;
   options.query_origin_bound = std::ldexp(bound, -e);
   options.whole_trees = query_trees != nullptr;
-  Frame frame = build_frame(scene, data, camera, make_ray_list(camera.params, FoldMode::none), options);
+  Frame frame = build_frame(scene, data, camera, make_ray_list(camera.params, Fold::none), options);
   frame.query = true;
   if (query_trees && frame.tlas_root != RF_INVALID) {
     // rf_trace_query_tlas_wide answers group 0 alone, which a frame of one

@@ -121,7 +121,7 @@ std::vector<ReferenceHit> trace_double_reference(const Scene& scene, const Scene
   // double rays too) say which bottom-level subtrees a ray can meet; each is
   // entered with its instance's double tree_from_trace. Rays and t live in
   // the frame's trace space, as in the float tracers.
-  const RayList rays = make_ray_list(camera.params, FoldMode::none);
+  const RayList rays = make_ray_list(camera.params, Fold::none);
   const Frame frame = build_frame(scene, data, camera, rays, FrameOptions{});
   std::vector<rf_node> nodes(data.blas.nodes.begin(), data.blas.nodes.end());
   nodes.insert(nodes.end(), frame.tlas_nodes.begin(), frame.tlas_nodes.end());

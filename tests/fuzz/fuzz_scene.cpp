@@ -81,7 +81,7 @@ void check_opencl(const Scene& scene, const SceneData& data, const Camera& camer
                   ConstSpan<rf_pixel_hit> reference) {
   const size_t pixels = static_cast<size_t>(camera.width) * camera.height;
   tracer().upload_scene(data, max_tlas_nodes(data), max_tlas_items(data), pixels, pixels);
-  for (FoldMode fold : {FoldMode::none, FoldMode::xy}) {
+  for (Fold fold : {Fold::none, Fold::xy}) {
     const RayList rays = make_ray_list(camera.params, fold);
     FrameOptions options;
     options.fold = fold;
@@ -93,7 +93,7 @@ void check_opencl(const Scene& scene, const SceneData& data, const Camera& camer
       tracer().bind_output(hits.data(), pixels);
       tracer().trace(frame_camera(camera, frame), kernel);
       tracer().read_hits(hits.data(), pixels);
-      const std::string what = std::string("OpenCL ") + kernel_name(kernel) + (fold == FoldMode::xy ? " folded" : "") +
+      const std::string what = std::string("OpenCL ") + kernel_name(kernel) + (fold == Fold::xy ? " folded" : "") +
                                " differs from the CPU reference";
       expect_same(what.c_str(), reference, hits);
     }
@@ -101,9 +101,9 @@ void check_opencl(const Scene& scene, const SceneData& data, const Camera& camer
   // The same view twice in one aligned pass, folded: 8 transform groups,
   // each copy the reference's bits.
   tracer().upload_scene(data, max_tlas_nodes(data, 8), max_tlas_items(data, 8), pixels, 2 * pixels);
-  const RayList rays = make_ray_list(camera.params, FoldMode::xy);
+  const RayList rays = make_ray_list(camera.params, Fold::xy);
   FrameOptions options;
-  options.fold = FoldMode::xy;
+  options.fold = Fold::xy;
   const Frame frame = build_frame(scene, data, std::vector<Camera>{camera, camera}, rays, options);
   tracer().upload_frame(frame);
   tracer().upload_rays(rays);
@@ -180,7 +180,7 @@ void check_scaled(const Scene& scene, const CameraSpec& spec, ConstSpan<rf_pixel
   options.threads = 1;
   Pipeline renderer(scaled, options);
   const Camera camera = make_camera(s, 9, 7);
-  const HitBuffer hits = renderer.render(camera, 1, FrameOptions{FoldMode::none}).hits;
+  const HitBuffer hits = renderer.render(camera, 1, FrameOptions{Fold::none}).hits;
   for (size_t i = 0; i < hits.size(); ++i) {
     rf_pixel_hit expected = reference[i];
     expected.z = std::ldexp(expected.z, k);
@@ -223,8 +223,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     Pipeline renderer(scene, options);
     const CameraSpec spec = scene.camera ? *scene.camera : frame_bounds(scene.world_bounds());
     const Camera camera = make_camera(spec, 9, 7);
-    const RenderResult none = renderer.render(camera, 1, FrameOptions{FoldMode::none});
-    const RenderResult xy = renderer.render(camera, 1, FrameOptions{FoldMode::xy});
+    const RenderResult none = renderer.render(camera, 1, FrameOptions{Fold::none});
+    const RenderResult xy = renderer.render(camera, 1, FrameOptions{Fold::xy});
     expect_same("folded render differs from unfolded", none.hits, xy.hits);
     check_opencl(scene, renderer.scene_data(), camera, none.hits);
     check_queries(scene, renderer, spec, hash(data, size));
@@ -238,8 +238,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     if (animated.triangle_count() <= 100000) {
       Pipeline r2(animated, options);
       const Camera c2 = make_camera(animated.camera ? *animated.camera : frame_bounds(animated.world_bounds()), 9, 7);
-      expect_same("posed: folded render differs from unfolded", r2.render(c2, 1, FrameOptions{FoldMode::none}).hits,
-                  r2.render(c2, 1, FrameOptions{FoldMode::xy}).hits);
+      expect_same("posed: folded render differs from unfolded", r2.render(c2, 1, FrameOptions{Fold::none}).hits,
+                  r2.render(c2, 1, FrameOptions{Fold::xy}).hits);
     }
     const double magnitude = world_magnitude(scene, spec);
     if (magnitude > 0.0 && std::isfinite(magnitude)) {

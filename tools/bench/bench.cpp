@@ -20,15 +20,15 @@ namespace {
 
 struct Method {
   const char* name;
-  FoldMode fold;
+  Fold fold;
   bool cull;
 };
 const Method kMethods[] = {
-    {"none (no culling)", FoldMode::none, false},
-    {"none", FoldMode::none, true},
-    {"y", FoldMode::y, true},
-    {"x", FoldMode::x, true},
-    {"xy", FoldMode::xy, true},
+    {"none (no culling)", Fold::none, false},
+    {"none", Fold::none, true},
+    {"y", Fold::y, true},
+    {"x", Fold::x, true},
+    {"xy", Fold::xy, true},
 };
 
 }  // namespace

@@ -44,7 +44,7 @@ struct BenchOptions : ViewPath {
 
 struct BenchRow {
   std::string method;  // "none (no culling)", "none", "y", "x", "xy"
-  FoldMode fold = FoldMode::none;
+  Fold fold = Fold::none;
   bool cull = true;
   double render_ms = 0.0;  // T: ray list + trace + readback, mean over views of per-view medians
   double trace_ms = 0.0;

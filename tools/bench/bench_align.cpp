@@ -26,7 +26,7 @@ struct Measured {
 
 // One frame of every pass; the hits kept when asked (they are large).
 Measured one_frame(Pipeline& renderer, const std::vector<Camera>& views, const std::vector<std::vector<size_t>>& passes,
-                   FoldMode fold, RenderResult& r, bool keep_hits) {
+                   Fold fold, RenderResult& r, bool keep_hits) {
   Measured m;
   if (keep_hits) m.hits.resize(views.size());
   FrameOptions fo;
@@ -63,12 +63,12 @@ Measured median_of(const std::vector<Measured>& ms) {
 
 // The tile kernel's counters over the passes, one stats-built tracer.
 TileCounters count_tiles(ClTracer& tracer, const Scene& scene, const SceneData& data, const std::vector<Camera>& views,
-                         const std::vector<std::vector<size_t>>& passes, FoldMode fold) {
+                         const std::vector<std::vector<size_t>>& passes, Fold fold) {
   TileCounters c;
   for (const std::vector<size_t>& pass : passes) {
     std::vector<Camera> cams;
     for (size_t i : pass) cams.push_back(views[i]);
-    const FoldMode traced = restrict_fold(fold, can_fold_columns(cams[0]), can_fold_rows(cams[0]));
+    const Fold traced = restrict_fold(fold, can_fold_columns(cams[0]), can_fold_rows(cams[0]));
     const RayList rays = make_ray_list(cams[0].params, traced);
     FrameOptions fo;
     fo.fold = traced;
@@ -123,18 +123,18 @@ AlignReport run_align_bench(const AlignBenchOptions& opt, const std::function<vo
     std::unique_ptr<Pipeline> renderer;
   };
   std::vector<Way> ways;
-  auto add_way = [&](KernelChoice k) {
+  auto add_way = [&](Kernel k) {
     PipelineOptions o = opt.renderer;
     o.kernel = k;
     auto r = std::make_unique<Pipeline>(scene, o);
     ways.push_back({r->kernel_label(), std::move(r)});
   };
-  if (opt.renderer.backend == Backend::cpu || opt.renderer.kernel == KernelChoice::tile ||
-      opt.renderer.kernel == KernelChoice::single) {
+  if (opt.renderer.backend == Backend::cpu || opt.renderer.kernel == Kernel::tile ||
+      opt.renderer.kernel == Kernel::single) {
     add_way(opt.renderer.kernel);
   } else {
-    add_way(KernelChoice::tile);
-    add_way(KernelChoice::single);
+    add_way(Kernel::tile);
+    add_way(Kernel::single);
   }
   const SceneData& data = ways[0].renderer->scene_data();
   std::unique_ptr<ClDevice> stats_device;
@@ -188,7 +188,7 @@ AlignReport run_align_bench(const AlignBenchOptions& opt, const std::function<vo
     for (size_t i = 0; i < s.views.size(); ++i) alone.push_back({i});
     // The model's predictions first, for every choice measured below.
     std::vector<Choice> choices;
-    for (FoldMode fold : opt.folds)
+    for (Fold fold : opt.folds)
       for (const Way& w : ways)
         for (int align : {1, RF_GROUP_LIMIT})
           choices.push_back({fold, w.label == "single" ? KernelKind::single : KernelKind::tile, align});
@@ -210,7 +210,7 @@ AlignReport run_align_bench(const AlignBenchOptions& opt, const std::function<vo
     // fold and kernel), so that a slow spell of a shared machine hits them
     // alike; each figure the median over frames.
     struct Cell {
-      FoldMode fold;
+      Fold fold;
       Way* way;
       std::vector<std::vector<size_t>> aligned;
       TileCounters alone_counts, aligned_counts;
@@ -218,7 +218,7 @@ AlignReport run_align_bench(const AlignBenchOptions& opt, const std::function<vo
       size_t mismatched = 0;  // aligned against alone, the last frame, every view
     };
     std::vector<Cell> cells;
-    for (FoldMode fold : opt.folds) {
+    for (Fold fold : opt.folds) {
       Cell base{fold, nullptr, plan_passes(data, s.views, RF_GROUP_LIMIT, fold), {}, {}, {}, {}, 0};
       if (stats_tracer) {
         base.alone_counts = count_tiles(*stats_tracer, scene, data, s.views, alone, fold);

@@ -16,7 +16,7 @@ namespace rayfold::core {
 struct AlignBenchOptions : ViewPath {
   PipelineOptions renderer;
   std::vector<int> counts{2, 4, 8, 16};  // path lengths
-  std::vector<FoldMode> folds{FoldMode::none, FoldMode::y, FoldMode::x, FoldMode::xy};
+  std::vector<Fold> folds{Fold::none, Fold::y, Fold::x, Fold::xy};
   // Stereo baseline in world units; 0: 64 mm for a scene 20 m across,
   // scaled to the scene's diagonal (0.0032 of it).
   double baseline = 0.0;
@@ -31,7 +31,7 @@ struct TileCounters {
 struct AlignRow {
   std::string scenario;  // "stereo", "path"
   int views = 0;
-  FoldMode fold = FoldMode::none;
+  Fold fold = Fold::none;
   std::string kernel;                         // "tile", "single", "cpu reference"
   int passes = 0;                             // traces per frame when aligned
   double alone_ms = 0.0;                      // per view: trace + readback, median over frames, mean over views

@@ -70,30 +70,30 @@ PeerReport run_peers(const PeerOptions& opt) {
     const char* key;  // as --variants names it
     const char* name;
     Backend backend;
-    KernelChoice kernel;
+    Kernel kernel;
     KernelPrecision precision;
     bool exact_depth;  // FrameOptions::exact_depth
     unsigned lanes;    // KernelTuning::tile_lanes (0: the device's)
     bool ab;           // built with PeerOptions::ab_defines as well
   };
   const Ours all_ours[] = {
-      {"tile", "OpenCL tile", Backend::opencl, KernelChoice::tile, KernelPrecision::exact, false, 0, false},
-      {"tile8", "OpenCL tile 8 lanes", Backend::opencl, KernelChoice::tile, KernelPrecision::exact, false, 8, false},
-      {"tile16", "OpenCL tile 16 lanes", Backend::opencl, KernelChoice::tile, KernelPrecision::exact, false, 16, false},
-      {"tile-ab", "OpenCL tile with the A/B defines", Backend::opencl, KernelChoice::tile, KernelPrecision::exact,
+      {"tile", "OpenCL tile", Backend::opencl, Kernel::tile, KernelPrecision::exact, false, 0, false},
+      {"tile8", "OpenCL tile 8 lanes", Backend::opencl, Kernel::tile, KernelPrecision::exact, false, 8, false},
+      {"tile16", "OpenCL tile 16 lanes", Backend::opencl, Kernel::tile, KernelPrecision::exact, false, 16, false},
+      {"tile-ab", "OpenCL tile with the A/B defines", Backend::opencl, Kernel::tile, KernelPrecision::exact,
        false, 0, true},
-      {"single", "OpenCL single", Backend::opencl, KernelChoice::single, KernelPrecision::exact, false, 0, false},
-      {"fast", "OpenCL tile fast", Backend::opencl, KernelChoice::tile, KernelPrecision::fast, false, 0, false},
-      {"exact-depth", "OpenCL tile exact depth", Backend::opencl, KernelChoice::tile, KernelPrecision::exact, true, 0,
+      {"single", "OpenCL single", Backend::opencl, Kernel::single, KernelPrecision::exact, false, 0, false},
+      {"fast", "OpenCL tile fast", Backend::opencl, Kernel::tile, KernelPrecision::fast, false, 0, false},
+      {"exact-depth", "OpenCL tile exact depth", Backend::opencl, Kernel::tile, KernelPrecision::exact, true, 0,
        false},
-      {"cpu", "CPU reference", Backend::cpu, KernelChoice::automatic, KernelPrecision::exact, false, 0, false}};
+      {"cpu", "CPU reference", Backend::cpu, Kernel::automatic, KernelPrecision::exact, false, 0, false}};
   // The CPU reference renderer always exists (it validates every exact row);
   // its rows are timed only when asked for.
   std::vector<Ours> ours;
   for (const Ours& o : all_ours)
     if (o.backend == Backend::cpu || opt.variants.count(o.key)) ours.push_back(o);
   const bool time_cpu = opt.variants.count("cpu") != 0;
-  const FoldMode folds[] = {FoldMode::none, FoldMode::y, FoldMode::x, FoldMode::xy};
+  const Fold folds[] = {Fold::none, Fold::y, Fold::x, Fold::xy};
   std::vector<std::unique_ptr<Pipeline>> renderers;
   double first_renderer_ms = 0.0;
   bool first_kernels_cached = false;
@@ -123,7 +123,7 @@ PeerReport run_peers(const PeerOptions& opt) {
   rep.device = renderers[0]->device_name();
   rep.machine = read_machine_info();
   for (size_t r = 0; r < renderers.size() && rep.tile_lanes == 0; ++r)
-    if (ours[r].kernel == KernelChoice::tile && ours[r].lanes == 0) rep.tile_lanes = renderers[r]->tile_lanes();
+    if (ours[r].kernel == Kernel::tile && ours[r].lanes == 0) rep.tile_lanes = renderers[r]->tile_lanes();
   rep.width = opt.width;
   rep.height = opt.height;
   rep.views = opt.views;
@@ -211,7 +211,7 @@ PeerReport run_peers(const PeerOptions& opt) {
 
   std::vector<Accumulator> acc;
   for (size_t r = 0; r < timed_renderers; ++r)
-    for (FoldMode f : folds) {
+    for (Fold f : folds) {
       acc.emplace_back(make_row(ours[r].name, fold_name(f)));
       acc.back().row.measurement_only = ours[r].ab;
     }
@@ -252,7 +252,7 @@ PeerReport run_peers(const PeerOptions& opt) {
     for (int f = -opt.warmup; f < opt.frames; ++f) {
       size_t a = 0;
       for (size_t r = 0; r < timed_renderers; ++r)
-        for (FoldMode fold : folds) {
+        for (Fold fold : folds) {
           FrameOptions fo;
           fo.fold = fold;
           fo.exact_depth = ours[r].exact_depth;

@@ -101,7 +101,7 @@ int main(int argc, char** argv) {
     const Scene scene = load_gltf(argv[1]);
     CameraSpec spec = scene.camera ? *scene.camera : frame_bounds(scene.world_bounds());
     int w = 320, h = 180;
-    FoldMode fold = FoldMode::none;
+    Fold fold = Fold::none;
     BraidOptions braid;
     MergeOptions merge;
     bool depth_sources = false;
@@ -163,7 +163,7 @@ int main(int argc, char** argv) {
     std::printf("  single-ray, per pixel: %.1f TLAS nodes, %.2f set-ups, %.1f BLAS nodes, %.1f triangle tests\n",
                 rf_stats.tlas_nodes / px, rf_stats.setups / px, rf_stats.blas_nodes / px, rf_stats.triangles / px);
 
-    if (depth_sources && fold == FoldMode::none) print_depth_sources(scene, data, cam, frame, out);
+    if (depth_sources && fold == Fold::none) print_depth_sources(scene, data, cam, frame, out);
 
     // The tile kernel on the OpenCL device, with its counters.
     ClDevice device;

@@ -86,11 +86,11 @@ std::vector<std::string> split_list(const std::string& option, const std::string
   }
 }
 
-FoldMode parse_fold(const std::string& option, const std::string& text) {
-  if (text == "none") return FoldMode::none;
-  if (text == "y") return FoldMode::y;
-  if (text == "x") return FoldMode::x;
-  if (text == "xy" || text == "yx") return FoldMode::xy;
+Fold parse_fold(const std::string& option, const std::string& text) {
+  if (text == "none") return Fold::none;
+  if (text == "y") return Fold::y;
+  if (text == "x") return Fold::x;
+  if (text == "xy" || text == "yx") return Fold::xy;
   throw UsageError(option + ": '" + text + "' is not none, y, x or xy");
 }
 

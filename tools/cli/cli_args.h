@@ -53,6 +53,6 @@ void parse_size(const std::string& option, const std::string& text, int* width, 
 // UsageError naming the option).
 std::vector<std::string> split_list(const std::string& option, const std::string& text);
 // none, y, x or xy (yx too).
-FoldMode parse_fold(const std::string& option, const std::string& text);
+Fold parse_fold(const std::string& option, const std::string& text);
 
 }  // namespace rayfold::core::cli

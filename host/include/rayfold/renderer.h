@@ -15,18 +15,6 @@
 
 namespace rayfold {
 
-enum class Backend {
-  opencl,  // the OpenCL kernels, on the device RendererOptions::device names
-  cpu,     // the CPU reference tracer: the same algorithm, the same bits
-};
-
-// Which OpenCL kernel traces; both give the same bits.
-enum class Kernel {
-  automatic,  // tile on CPU devices, measured on the first render elsewhere
-  tile,       // 16x16 ray tiles in vector lanes (fastest on CPUs)
-  single,     // one ray per work-item (fastest on GPUs)
-};
-
 struct RendererOptions {
   Backend backend = Backend::opencl;
   // The first OpenCL device whose platform or name contains this (any

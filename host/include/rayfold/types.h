@@ -24,4 +24,18 @@ inline constexpr uint32_t kMiss = 0xFFFFFFFFu;
 // smallest here; none writes 3 to 4 times faster at 10 times the bytes.
 enum class ExrCompression { none, rle, zips, zip, piz };
 
+// Which tracer renders; both give the same bits.
+enum class Backend {
+  opencl,  // the OpenCL kernels, on the device RendererOptions::device names
+  cpu,     // the CPU reference tracer: the same algorithm, the same bits
+};
+
+// Which OpenCL kernel traces; every choice gives the same bits.
+enum class Kernel {
+  automatic,  // tile on CPU devices, measured on the first render elsewhere
+  tile,       // 16x16 ray tiles in vector lanes (fastest on CPUs)
+  single,     // one ray per work-item (fastest on GPUs)
+  measure,    // trace the first render with both and keep the faster, on any device
+};
+
 }  // namespace rayfold

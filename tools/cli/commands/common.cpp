@@ -62,13 +62,13 @@ bool parse_renderer_option(const std::string& a, cli::Args& args, PipelineOption
   } else if (a == "--kernel") {
     const std::string k = args.value(a);
     if (k == "tile")
-      r.kernel = KernelChoice::tile;
+      r.kernel = Kernel::tile;
     else if (k == "single")
-      r.kernel = KernelChoice::single;
+      r.kernel = Kernel::single;
     else if (k == "auto")
-      r.kernel = KernelChoice::automatic;
+      r.kernel = Kernel::automatic;
     else if (k == "measure")
-      r.kernel = KernelChoice::measure;
+      r.kernel = Kernel::measure;
     else
       throw UsageError("--kernel: '" + k + "' is not tile, single, measure or auto");
   } else if (a == "--device") {
@@ -89,7 +89,7 @@ bool parse_renderer_option(const std::string& a, cli::Args& args, PipelineOption
 
 // After parsing: options that contradict each other.
 void check_renderer_options(const PipelineOptions& r) {
-  if (r.backend == Backend::cpu && r.kernel != KernelChoice::automatic)
+  if (r.backend == Backend::cpu && r.kernel != Kernel::automatic)
     throw UsageError("--kernel: the CPU backend runs the reference tracer, not an OpenCL kernel");
   if (r.backend == Backend::cpu && !r.device_hint.empty())
     throw UsageError("--device: the CPU backend runs the reference tracer on no OpenCL device");

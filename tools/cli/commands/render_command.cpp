@@ -235,11 +235,11 @@ RenderArgs parse_render(cli::Args& args) {
       {{"-o", &r.exr, ".exr"}, {"--png", &r.png, ".png"}, {"--stats", &r.stats, ".json"}, {"--ids", &r.ids, ".json"}});
   // No output reads the normal: the kernels skip it.
   r.frame.normals = (r.channels & rayfold::kNormal) != 0 || !r.png.empty();
-  if (r.compare && r.fold_given && r.frame.fold == FoldMode::none)
+  if (r.compare && r.fold_given && r.frame.fold == Fold::none)
     throw UsageError(
         "--compare --fold none: --compare checks a fold against none; name y, x or xy (or leave --fold "
         "out for xy)");
-  if (r.compare && r.frame.fold == FoldMode::none) r.frame.fold = FoldMode::xy;
+  if (r.compare && r.frame.fold == Fold::none) r.frame.fold = Fold::xy;
   check_renderer_options(r.renderer);
   return r;
 }
@@ -252,10 +252,10 @@ void choose_automatically(RenderArgs& r, Pipeline& renderer, const std::vector<C
   std::vector<Camera> group;
   for (const Camera& c : views)
     if (can_align(renderer.scene_data(), views[0], c)) group.push_back(c);
-  std::vector<FoldMode> folds{r.frame.fold};
-  if (r.fold_auto) folds = {FoldMode::none, FoldMode::y, FoldMode::x, FoldMode::xy};
+  std::vector<Fold> folds{r.frame.fold};
+  if (r.fold_auto) folds = {Fold::none, Fold::y, Fold::x, Fold::xy};
   std::vector<KernelKind> kernels{renderer.kernel()};
-  const bool kernel_free = r.renderer.backend == Backend::opencl && r.renderer.kernel == KernelChoice::automatic;
+  const bool kernel_free = r.renderer.backend == Backend::opencl && r.renderer.kernel == Kernel::automatic;
   if (kernel_free) kernels = {KernelKind::tile, KernelKind::single};
   std::vector<int> aligns{r.align > 0 ? r.align : RF_GROUP_LIMIT};
   if (r.align < 0 && group.size() > 1) aligns = {1, RF_GROUP_LIMIT};
@@ -265,7 +265,7 @@ void choose_automatically(RenderArgs& r, Pipeline& renderer, const std::vector<C
   if (r.align < 0) r.align = c.best.align;
   if (kernel_free) {
     renderer.set_kernel(c.best.kernel, "predicted fastest (docs/cost_model.md)");
-    r.renderer.kernel = c.best.kernel == KernelKind::tile ? KernelChoice::tile : KernelChoice::single;
+    r.renderer.kernel = c.best.kernel == KernelKind::tile ? Kernel::tile : Kernel::single;
   }
   if (quiet) return;
   std::printf("auto: %s, predicted %.2f ms per view (trace %.2f + update %.2f); probing %zu choices took %.0f ms:\n",
@@ -536,7 +536,7 @@ int run_render(cli::Args& args) {
   std::optional<RenderResult> unfolded;
   if (r.compare && !play) {
     FrameOptions none = frame_options;
-    none.fold = FoldMode::none;
+    none.fold = Fold::none;
     unfolded = renderer_ptr->render(camera, r.frames, none);
   }
   RenderResult result;
@@ -580,7 +580,7 @@ int run_render(cli::Args& args) {
     if (r.compare) {
       // The last frame's pose, unfolded.
       FrameOptions none = o;
-      none.fold = FoldMode::none;
+      none.fold = Fold::none;
       unfolded = renderer_ptr->render(camera, 1, none);
     }
     for (const std::string* out : {&r.exr, &r.png})

@@ -110,7 +110,7 @@ void write_stats(const std::string& path, const RenderArgs& args, const Scene& s
   write_text_file(path, j.dump(2) + "\n");
 }
 
-void print_comparison(const RenderResult& none, const RenderResult& folded, FoldMode fold) {
+void print_comparison(const RenderResult& none, const RenderResult& folded, Fold fold) {
   auto total = [](const FrameTimes& t) { return t.ray_list_ms + t.trace_ms + t.readback_ms; };
   const double pixels = static_cast<double>(none.hits.size());
   const size_t differ = count_differing_pixels(none.hits, folded.hits);

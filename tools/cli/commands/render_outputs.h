@@ -36,7 +36,7 @@ void write_stats(const std::string& path, const RenderArgs& args, const Scene& s
                  std::optional<PassInfo> pass = std::nullopt);
 
 // The folded and unfolded renders of one view side by side.
-void print_comparison(const RenderResult& none, const RenderResult& folded, FoldMode fold);
+void print_comparison(const RenderResult& none, const RenderResult& folded, Fold fold);
 
 // An output name with one frame field (%d, %04d, ...): the name of frame f.
 // Returns the name unchanged when it has no field; a second field or any
