@@ -920,8 +920,8 @@ TEST(Api, PackedReadbackGivesTheHostLayoutsBitsInEveryChannelSet) {
       core::RenderResult r;
       probe.render_views_into(r, {views[0].core()}, 1, fo);
       EXPECT_TRUE(r.hits.empty());
-      ASSERT_NE(r.planes, nullptr);
-      EXPECT_EQ(r.plane_words_per_view, 2u * 37 * 23);
+      ASSERT_NE(r.readback.words, nullptr);
+      EXPECT_EQ(r.readback.words_per_view, 2u * 37 * 23);
     }
     {
       ReadbackEnv env("hits");
@@ -982,7 +982,7 @@ TEST(Api, PlanesWrittenInPlaceHaveTheHitPathsBits) {
     fo.planes_in_place = &targets;
     core::RenderResult r;
     probe.render_into(r, persp.core(), 1, fo);
-    EXPECT_TRUE(r.planes_in_place);
+    EXPECT_TRUE(r.readback.in_place);
     EXPECT_TRUE(r.hits.empty());
     size_t hits = 0;
     for (size_t i = 0; i < z.size(); ++i) {

@@ -262,7 +262,7 @@ void fill_gbuffer(GBuffer& g, const core::RenderResult& r, size_t view, const st
   g.rays = r.rays;
   g.trace_ms = r.median.trace_ms;
   g.warnings = warnings;
-  if (r.planes_in_place) {  // written by the kernel (render_into)
+  if (r.readback.in_place) {  // written by the kernel (render_into)
     RF_CHECK_EQ(view, 0u, "planes in place for more than one view");
     const bool by_instance = !g.instance_id.empty();
     RF_CHECK(by_instance || !g.depth.empty(), "planes in place without instance ids or depths to count hits by");
@@ -271,10 +271,10 @@ void fill_gbuffer(GBuffer& g, const core::RenderResult& r, size_t view, const st
     });
     return;
   }
-  if (r.plane_channels != 0) {
-    RF_CHECK(r.plane_channels == channels && r.planes, "packed planes other than those asked for");
-    RF_CHECK_LT(r.packed_slot, 0, "planes of a pass still in flight");
-    const uint32_t* w = r.planes + view * r.plane_words_per_view;
+  if (r.readback.channels != 0) {
+    RF_CHECK(r.readback.channels == channels && r.readback.words, "packed planes other than those asked for");
+    RF_CHECK_LT(r.readback.slot, 0, "planes of a pass still in flight");
+    const uint32_t* w = r.readback.words + view * r.readback.words_per_view;
     auto copy = [&](auto& v) {
       if (v.empty()) return;
       std::memcpy(v.data(), w, v.size() * sizeof(uint32_t));
@@ -286,7 +286,7 @@ void fill_gbuffer(GBuffer& g, const core::RenderResult& r, size_t view, const st
     copy(g.uv);
     copy(g.instance_id);
     copy(g.primitive_id);
-    g.hits = r.view_hits.at(view);
+    g.hits = r.readback.view_hits.at(view);
     return;
   }
   RF_CHECK(r.hits.size() >= (view + 1) * n, "a view's hits of another size: " + std::to_string(r.hits.size()) +

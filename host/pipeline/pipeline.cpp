@@ -195,26 +195,26 @@ void Pipeline::submit_views_into(RenderResult& result, const std::vector<Camera>
 }
 
 void Pipeline::finish_views(RenderResult& result) {
-  if (result.packed_slot < 0) return;  // rendered whole by submit
+  if (result.readback.slot < 0) return;  // rendered whole by submit
   collect_planes(result, result.frames.back());
   result.median = median_times(result.frames);
 }
 
 void Pipeline::collect_planes(RenderResult& result, FrameTimes& times) {
-  const int slot = result.packed_slot;
-  result.packed_slot = -1;  // also when the wait fails: the slot is free again
+  const int slot = result.readback.slot;
+  result.readback.slot = -1;  // also when the wait fails: the slot is free again
   const ClTracer::PackedPlanes p = tracer_->wait_packed(slot);
-  result.planes = p.words;
-  result.plane_words_per_view = p.words_per_view;
-  result.view_hits.assign(p.hit_counts, p.hit_counts + result.views.size());
+  result.readback.words = p.words;
+  result.readback.words_per_view = p.words_per_view;
+  result.readback.view_hits.assign(p.hit_counts, p.hit_counts + result.views.size());
   times.readback_ms += p.wait_ms;
-  if (result.pipelined) times.trace_ms = p.trace_ms;
+  if (result.readback.pipelined) times.trace_ms = p.trace_ms;
 }
 
 void Pipeline::begin_views(RenderResult& result, const std::vector<Camera>& cameras,
                            const FrameOptions& frame_options) {
   RF_CHECK(!cameras.empty(), "nothing to render");
-  RF_CHECK_LT(result.packed_slot, 0, "a result still in flight (submit_views_into without finish_views)");
+  RF_CHECK_LT(result.readback.slot, 0, "a result still in flight (submit_views_into without finish_views)");
   if (tracer_ && frame_options.exact_depth && options_.precision == KernelPrecision::fast)
     throw InputError("", "the exact depth runs on the exact build only; this renderer was made with the fast one, "
                          "whose reordered arithmetic drops the double-float steps");
@@ -227,18 +227,18 @@ void Pipeline::begin_views(RenderResult& result, const std::vector<Camera>& came
   check_host_memory(pixels);
   ensure_capacity(pixels, groups);
   if (tracer_) tracer_->prepare_groups(groups);  // a kernel build is not trace time
-  result.planes = nullptr;
-  result.plane_words_per_view = 0;
-  result.plane_channels = 0;
-  result.view_hits.clear();
-  result.pipelined = false;
-  result.planes_in_place = tracer_ && frame_options.planes && frame_options.planes_in_place && cameras.size() == 1 &&
+  result.readback.words = nullptr;
+  result.readback.words_per_view = 0;
+  result.readback.channels = 0;
+  result.readback.view_hits.clear();
+  result.readback.pipelined = false;
+  result.readback.in_place = tracer_ && frame_options.planes && frame_options.planes_in_place && cameras.size() == 1 &&
                            !packs_planes_ && tracer_->writes_host_memory();
-  if (result.planes_in_place) {
+  if (result.readback.in_place) {
     result.hits.clear();
   } else if (tracer_ && frame_options.planes && packs_planes_) {
     result.hits.clear();
-    result.plane_channels = frame_options.channels;
+    result.readback.channels = frame_options.channels;
   } else if (result.hits.size() != pixels) {
     // Not zeroed: every kernel and the CPU reference write each pixel's
     // hit, a miss included, every frame (as they do into a reused buffer).
@@ -255,7 +255,7 @@ FrameTimes Pipeline::trace_frame(RenderResult& result, const std::vector<Camera>
   const Camera& camera = cameras[0];
   const size_t view_pixels = static_cast<size_t>(camera.width) * camera.height;
   const size_t pixels = view_pixels * cameras.size();
-  const bool packed = result.plane_channels != 0;
+  const bool packed = result.readback.channels != 0;
   FrameTimes times;
   FrameOptions options = frame_options;
   options.fold = result.fold;
@@ -291,7 +291,7 @@ FrameTimes Pipeline::trace_frame(RenderResult& result, const std::vector<Camera>
   times.upload_ms = tracer_->upload_frame(frame);
   // A packed pass traces into the device's own buffer (unbinding any
   // host memory an earlier pass bound).
-  if (result.planes_in_place)
+  if (result.readback.in_place)
     tracer_->bind_planes(frame_options.planes_in_place, pixels);
   else
     tracer_->bind_output(packed ? nullptr : result.hits.data(), packed ? 0 : pixels);
@@ -324,7 +324,7 @@ FrameTimes Pipeline::trace_frame(RenderResult& result, const std::vector<Camera>
   } else {
     times.trace_ms = tracer_->trace(cam, kernel_);
   }
-  if (result.planes_in_place) {
+  if (result.readback.in_place) {
     times.readback_ms = tracer_->read_planes();
     return times;
   }
@@ -333,12 +333,12 @@ FrameTimes Pipeline::trace_frame(RenderResult& result, const std::vector<Camera>
     return times;
   }
   t0 = Clock::now();
-  result.packed_slot = next_pack_slot_;
+  result.readback.slot = next_pack_slot_;
   next_pack_slot_ = (next_pack_slot_ + 1) % ClTracer::kPackSlots;
-  tracer_->enqueue_packed_read(view_pixels, static_cast<unsigned>(cameras.size()), result.plane_channels,
-                               result.packed_slot);
+  tracer_->enqueue_packed_read(view_pixels, static_cast<unsigned>(cameras.size()), result.readback.channels,
+                               result.readback.slot);
   times.readback_ms = ms_since(t0);
-  result.pipelined = pipelined;
+  result.readback.pipelined = pipelined;
   if (!pipelined) collect_planes(result, times);
   return times;
 }
@@ -496,13 +496,13 @@ TraceInputs Pipeline::host_inputs(const Frame& frame) {
 
 RenderResult view_result(const RenderResult& pass, size_t v) {
   RF_CHECK(v < pass.views.size() && pass.hits.size() % pass.views.size() == 0, "no such view in the pass");
-  RF_CHECK_LT(pass.packed_slot, 0, "view of a pass still in flight");
+  RF_CHECK_LT(pass.readback.slot, 0, "view of a pass still in flight");
   RenderResult out;
-  if (pass.plane_channels != 0) {
-    out.planes = pass.planes + v * pass.plane_words_per_view;
-    out.plane_words_per_view = pass.plane_words_per_view;
-    out.plane_channels = pass.plane_channels;
-    out.view_hits = {pass.view_hits.at(v)};
+  if (pass.readback.channels != 0) {
+    out.readback.words = pass.readback.words + v * pass.readback.words_per_view;
+    out.readback.words_per_view = pass.readback.words_per_view;
+    out.readback.channels = pass.readback.channels;
+    out.readback.view_hits = {pass.readback.view_hits.at(v)};
   } else {
     const size_t n = pass.hits.size() / pass.views.size();
     out.hits.assign(pass.hits.begin() + v * n, pass.hits.begin() + (v + 1) * n);

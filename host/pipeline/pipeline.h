@@ -48,6 +48,25 @@ struct FrameTimes {
 // every frame), large ones in 2 MiB pages kept for reuse (util/page_aligned.h).
 using HitBuffer = PageAlignedVector<rf_pixel_hit>;
 
+// How a pass's planes came back when it asked for planes
+// (FrameOptions::planes) rather than 32-byte hits (RenderResult::hits is
+// then empty), and its place in the pipeline while in flight: the tracer's
+// state for the pass, apart from what the pass found.
+struct PlaneReadback {
+  // Packed (where Pipeline::packs_planes): the planes `channels` names, view
+  // after view, words_per_view words each (rf_types.h, RF_PLANE_*), in the
+  // renderer's pinned memory: valid until the second pass submitted after
+  // this one. view_hits: per view, the pixels that hit.
+  const uint32_t* words = nullptr;
+  size_t words_per_view = 0;
+  unsigned channels = 0;
+  std::vector<size_t> view_hits;
+  // The kernel wrote the planes into FrameOptions::planes_in_place.
+  bool in_place = false;
+  int slot = -1;  // the tracer's readback slot while the pass is in flight
+  bool pipelined = false;  // submitted by submit_views_into: trace_ms is the kernel's device time
+};
+
 struct RenderResult {
   // width * height per view, row-major, row 0 at the top; view after view.
   HitBuffer hits;
@@ -72,20 +91,8 @@ struct RenderResult {
   // kernel_reason, but an orthographic view's is the single-ray kernel's).
   std::string kernel, kernel_reason;
 
-  // A packed readback (FrameOptions::planes where Pipeline::packs_planes):
-  // `hits` is empty and the planes plane_channels names are here, view
-  // after view, plane_words_per_view words each (rf_types.h, RF_PLANE_*),
-  // in the renderer's pinned memory: valid until the second pass submitted
-  // after this one. view_hits: per view, the pixels that hit.
-  const uint32_t* planes = nullptr;
-  size_t plane_words_per_view = 0;
-  unsigned plane_channels = 0;
-  std::vector<size_t> view_hits;
-  // The kernel wrote the planes into FrameOptions::planes_in_place; `hits`
-  // is empty.
-  bool planes_in_place = false;
-  int packed_slot = -1;  // the tracer's readback slot while the pass is in flight
-  bool pipelined = false;  // submitted by submit_views_into: trace_ms is the kernel's device time
+  // Where the planes are when a pass asked for planes, not hits.
+  PlaneReadback readback;
 };
 
 class Pipeline {
