@@ -16,6 +16,8 @@
 namespace rayfold::core {
 namespace {
 
+using testing::cpu_pipeline;
+using testing::same_bits;
 using testing::wound_box;
 
 Scene scene_of(const std::vector<Mesh>& meshes) {
@@ -28,14 +30,6 @@ Scene scene_of(const std::vector<Mesh>& meshes) {
   }
   return s;
 }
-
-std::unique_ptr<Pipeline> cpu_pipeline(const Scene& s) {
-  PipelineOptions o;
-  o.backend = Backend::cpu;
-  return std::make_unique<Pipeline>(s, o);
-}
-
-bool same_bits(const glm::dvec3& a, const glm::dvec3& b) { return std::memcmp(&a, &b, sizeof a) == 0; }
 
 glm::dvec3 centre_of(const Scene& s) {
   const Aabb b = s.world_bounds();

@@ -15,6 +15,9 @@
 namespace rayfold::core {
 namespace {
 
+using testing::cpu_pipeline;
+using testing::same_bits;
+
 // A solid object, or a closed room seen from inside.
 Scene box_scene(bool inward, const Xform& world_from_object = Xform(1.0)) {
   const Mesh m = testing::wound_box(inward);
@@ -26,23 +29,15 @@ Scene box_scene(bool inward, const Xform& world_from_object = Xform(1.0)) {
   return s;
 }
 
-std::unique_ptr<Pipeline> cpu_renderer(const Scene& s) {
-  PipelineOptions ro;
-  ro.backend = Backend::cpu;
-  return std::make_unique<Pipeline>(s, ro);
-}
-
-bool same_bits(const glm::dvec3& a, const glm::dvec3& b) { return std::memcmp(&a, &b, sizeof a) == 0; }
-
 TEST(RandomViews, TellsRoomsFromObjects) {
   const Scene room = box_scene(true), solid = box_scene(false);
-  EXPECT_EQ(classify_scene(room, *cpu_renderer(room)), ViewKind::interior);
-  EXPECT_EQ(classify_scene(solid, *cpu_renderer(solid)), ViewKind::object);
+  EXPECT_EQ(classify_scene(room, *cpu_pipeline(room)), ViewKind::interior);
+  EXPECT_EQ(classify_scene(solid, *cpu_pipeline(solid)), ViewKind::object);
 }
 
 TEST(RandomViews, TheSeedGivesTheViews) {
   const Scene s = box_scene(false, glm::translate(Xform(1.0), glm::dvec3(5.0, -2.0, 1.0)));
-  auto cpu = cpu_renderer(s);
+  auto cpu = cpu_pipeline(s);
   const RandomViews a = random_views(s, *cpu, 6, 7), b = random_views(s, *cpu, 6, 7), c = random_views(s, *cpu, 6, 8);
   ASSERT_EQ(a.cameras.size(), 6u);
   int differ = 0;
@@ -60,7 +55,7 @@ TEST(RandomViews, TheSeedGivesTheViews) {
 // pixels, counted again here on a render of the view.
 TEST(RandomViews, ObjectsAreOrbitedAndSeen) {
   const Scene s = box_scene(false, glm::scale(Xform(1.0), glm::dvec3(3.0, 1.0, 0.5)));
-  auto cpu = cpu_renderer(s);
+  auto cpu = cpu_pipeline(s);
   const RandomViews rv = random_views(s, *cpu, 12, 3);
   EXPECT_EQ(rv.kind, ViewKind::object);
   EXPECT_EQ(rv.below_threshold, 0);
@@ -85,7 +80,7 @@ TEST(RandomViews, ObjectsAreOrbitedAndSeen) {
 
 TEST(RandomViews, InteriorEyesStayInside) {
   const Scene s = box_scene(true, glm::scale(Xform(1.0), glm::dvec3(10.0, 3.0, 6.0)));
-  auto cpu = cpu_renderer(s);
+  auto cpu = cpu_pipeline(s);
   const RandomViews rv = random_views(s, *cpu, 8, 11);
   EXPECT_EQ(rv.kind, ViewKind::interior);
   const Aabb b = s.world_bounds();
@@ -104,7 +99,7 @@ TEST(RandomViews, InteriorEyesStayInside) {
 // draws, keeps a view and says so.
 TEST(RandomViews, GivesUpAndSaysSo) {
   const Scene s = box_scene(false);
-  auto cpu = cpu_renderer(s);
+  auto cpu = cpu_pipeline(s);
   const RandomViews rv = random_views(s, *cpu, 1, 5, ViewKind::interior);
   ASSERT_EQ(rv.cameras.size(), 1u);
   EXPECT_EQ(rv.below_threshold, 1);

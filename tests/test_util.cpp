@@ -380,4 +380,12 @@ Mesh wound_box(bool inward, const glm::vec3& size) {
   return m;
 }
 
+std::unique_ptr<Pipeline> cpu_pipeline(const Scene& scene) {
+  PipelineOptions o;
+  o.backend = Backend::cpu;
+  return std::make_unique<Pipeline>(scene, o);
+}
+
+bool same_bits(const glm::dvec3& a, const glm::dvec3& b) { return std::memcmp(&a, &b, sizeof a) == 0; }
+
 }  // namespace rayfold::core::testing

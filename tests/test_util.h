@@ -76,6 +76,13 @@ Mesh closed_cube(int n);
 // face outwards (a solid) or inwards (a room seen from inside).
 Mesh wound_box(bool inward, const glm::vec3& size = glm::vec3(1.0f));
 
+// A CPU-reference pipeline of the scene (the probes of auto-framing and
+// random views take one).
+std::unique_ptr<Pipeline> cpu_pipeline(const Scene& scene);
+
+// Whether two points are the same doubles, bit for bit.
+bool same_bits(const glm::dvec3& a, const glm::dvec3& b);
+
 inline constexpr Fold kAllFolds[] = {Fold::none, Fold::y, Fold::x, Fold::xy};
 
 // One scene, rendered three ways: the CPU reference, the single-ray kernel
