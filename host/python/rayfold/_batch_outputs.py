@@ -55,12 +55,16 @@ def make_folder(folder):
 
 
 class ExrOutput:
-    """out % index: one EXR per view, all in one folder (with the manifest)."""
+    """out % index, or out with %s the view's name: one EXR per view, all in one folder (with the
+    manifest)."""
 
     def __init__(self, pattern, count, compression="zip", names=None):
         _check_exr_compression(compression)  # InputError for a name OpenEXR has not, or a lossy one
         self.compression = compression
         self.stems = None
+        if not pattern.endswith(".exr"):
+            raise InputError(f"output pattern {pattern!r}: rayfold-batch writes EXR files (end it in .exr) or one "
+                             "zarr store (end it in .zarr)")
         if "%s" in pattern:
             self._name_views(pattern, names)
             return
@@ -72,9 +76,6 @@ class ExrOutput:
             raise InputError(message)
         if count > 1 and first[0] == first[1]:
             raise InputError(message)
-        if not pattern.endswith(".exr"):
-            raise InputError(f"output pattern {pattern!r}: rayfold-batch writes EXR files (end it in .exr) or one "
-                             "zarr store (end it in .zarr)")
         self.pattern = os.path.abspath(pattern)
         if os.path.dirname(self.pattern % 0) != os.path.dirname(self.pattern % max(count - 1, 0)):
             raise InputError(f"output pattern {pattern!r}: the index goes in the file's name, not its folder (one "
@@ -88,9 +89,6 @@ class ExrOutput:
         if pattern.count("%") != 1:
             raise InputError(f"output pattern {pattern!r} may hold one field, %s (the view's name) or %06d (its "
                              "index)")
-        if not pattern.endswith(".exr"):
-            raise InputError(f"output pattern {pattern!r}: rayfold-batch writes EXR files (end it in .exr) or one "
-                             "zarr store (end it in .zarr)")
         if "%s" in os.path.dirname(pattern):
             raise InputError(f"output pattern {pattern!r}: the name goes in the file's name, not its folder (one "
                              "folder holds a job's views and its manifest)")

@@ -1,10 +1,9 @@
 #include "cli/commands/render_outputs.h"
 
-#include "scene/dataset_cameras.h"
-
 #include <cstdio>
 
 #include "reference/hit_compare.h"
+#include "scene/dataset_cameras.h"
 #include "util/atomic_file.h"
 #include "util/errors.h"
 
