@@ -158,6 +158,88 @@ TEST(Api, InMemorySceneMatchesBruteForceInEveryBackendKernelAndFold) {
   }
 }
 
+// The options that arrange the work (braid, merging, culling) and the cost
+// model's choice change no bit: every combination against brute force. The
+// renderer says what it built and how a render's time went.
+TEST(Api, TuningAndTheCostModelsChoiceChangeTheWorkNotTheBits) {
+  core::testing::Rng rng(11);
+  const core::Scene soup = core::testing::random_scene(rng, 3, 9, 40);
+  const Scene scene = to_public(soup);
+  const Camera camera = to_camera(core::testing::random_camera(rng, soup.world_bounds()), 41, 27);
+  const std::vector<rf_pixel_hit> expected = brute(soup, camera);
+  struct Tuning {
+    int braid;
+    bool merge, cull;
+  };
+  for (const Tuning t : {Tuning{2, true, true}, Tuning{0, true, true}, Tuning{8, false, true}, Tuning{2, true, false}})
+    for (Backend backend : {Backend::cpu, Backend::opencl}) {
+      RendererOptions o;
+      o.backend = backend;
+      o.braid = t.braid;
+      o.merge_static = t.merge;
+      o.cull = t.cull;
+      Renderer renderer(scene, o);
+      const AutoChoice choice = renderer.choose_fastest({camera});
+      ASSERT_FALSE(choice.predictions.empty());
+      EXPECT_EQ(choice.predictions[0].fold, choice.fold);
+      EXPECT_EQ(choice.align, 1) << "one view aligns with nothing";
+      for (size_t i = 1; i < choice.predictions.size(); ++i)
+        EXPECT_LE(choice.predictions[i - 1].total_ms(), choice.predictions[i].total_ms());
+      const GBuffer g = renderer.render(camera, choice.fold);
+      EXPECT_EQ(compare_hits(expected, to_hits(g), 41), "")
+          << "braid " << t.braid << " merge " << t.merge << " cull " << t.cull << " backend " << int(backend);
+      EXPECT_EQ(g.stages.trace_ms, g.trace_ms);
+      EXPECT_EQ(g.top_level.scene_instances, soup.instances.size());
+      EXPECT_EQ(g.kernel, renderer.kernel());
+      if (!t.cull) EXPECT_GE(g.top_level.traced_instances, soup.instances.size()) << "culled without culling";
+      const BuildStats b = renderer.build_stats();
+      EXPECT_GT(b.sah_cost, 0.0);
+      EXPECT_GT(b.depth, 0);
+      EXPECT_EQ(renderer.device_buffers().empty(), backend == Backend::cpu);
+    }
+  RendererOptions bad;
+  bad.braid = -1;
+  EXPECT_THROW(Renderer(scene, bad), InputError);
+  bad = {};
+  bad.fast_math = true;
+  bad.exact_depth = true;
+  EXPECT_THROW(Renderer(scene, bad), InputError);
+  Renderer cpu(scene, {Backend::cpu});
+  EXPECT_THROW(cpu.choose_fastest({}), InputError);
+  EXPECT_THROW(cpu.choose_fastest({camera}, {}, {33}), InputError);
+}
+
+// A view as a look-at (the file's camera, the chosen one, the CLI's) makes
+// the camera look_at makes, and a shifted window the core's shifted camera.
+TEST(Api, ViewsMakeTheCamerasTheirLookAtsMake) {
+  View v;
+  v.eye = {1.0, 2.0, 5.0};
+  v.target = {0.0, 0.5, 0.0};
+  v.vfov_degrees = 40.0;
+  const Camera a = Camera::from_view(v, 40, 30);
+  EXPECT_EQ(a.to_bytes(), Camera::look_at(v.eye, v.target, v.up, 40.0, 40, 30).to_bytes());
+  core::CameraSpec spec;
+  spec.eye = {1.0, 2.0, 5.0};
+  spec.look_at = {0.0, 0.5, 0.0};
+  spec.vfov_degrees = 40.0;
+  const core::Camera shifted = core::make_camera(spec, 40, 30, 0.25, -0.5);
+  const Camera b = Camera::from_view(v, 40, 30, 0.25, -0.5);
+  EXPECT_EQ(std::memcmp(&b.core().params, &shifted.params, sizeof shifted.params), 0);
+  EXPECT_FALSE(b.can_fold_columns() && b.can_fold_rows() && a.to_bytes() == b.to_bytes());
+  v.orthographic = true;
+  v.half_height = 3.0;
+  EXPECT_EQ(Camera::from_view(v, 40, 30).to_bytes(), Camera::orthographic(v.eye, v.target, v.up, 3.0, 40, 30).to_bytes());
+  EXPECT_THROW(Camera::from_view(v, 40, 30, 101.0, 0.0), InputError);
+
+  core::Scene hall;
+  hall.meshes.push_back(core::testing::wound_box(true, glm::vec3(5.0f, 1.0f, 1.0f)));
+  hall.instances.push_back(core::Instance{});
+  ViewSource source = ViewSource::file_camera;
+  const View chosen = to_public(hall).default_view(&source);
+  EXPECT_EQ(source, ViewSource::interior);
+  EXPECT_EQ(chosen.eye, (Vec3{0.0, 0.0, 0.0}));
+}
+
 TEST(Api, MatrixCameraInEitherConventionEqualsTheLookAtCamera) {
   const Scene scene = Scene::load(RAYFOLD_SOURCE_DIR "/scenes/atrium.glb");
   const Camera a = scene.default_camera(64, 36);

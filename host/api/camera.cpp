@@ -40,6 +40,14 @@ Camera Camera::look_at(const Vec3& eye, const Vec3& target, const Vec3& up, doub
   return Camera(std::make_shared<core::Camera>(core::make_camera(spec, width, height)));
 }
 
+Camera Camera::from_view(const View& view, int width, int height, double shift_x, double shift_y) {
+  core::CameraSpec spec = pose(view.eye, view.target, view.up);
+  if (!view.orthographic) spec.vfov_degrees = view.vfov_degrees;  // as orthographic() leaves it
+  spec.orthographic = view.orthographic;
+  spec.ymag = view.half_height;
+  return Camera(std::make_shared<core::Camera>(core::make_camera(spec, width, height, shift_x, shift_y)));
+}
+
 std::array<Camera, 2> Camera::stereo_pair(const Vec3& eye, const Vec3& target, const Vec3& up, double vfov_degrees,
                                           int width, int height, double baseline) {
   if (!(baseline > 0.0) || !std::isfinite(baseline))

@@ -25,11 +25,11 @@ void check_plane(size_t size, size_t per_pixel, unsigned bit, const GBuffer& g, 
 
 ExrCompression exr_compression(const std::string& name) { return core::parse_exr_compression(name); }
 
-void write_exr(const std::string& path, const GBuffer& g, const Camera& camera, const Scene& scene,
-               ExrCompression compression) {
-  if (g.width != camera.width() || g.height != camera.height())
-    throw InputError("", "write_exr: the G-buffer is " + std::to_string(g.width) + "x" + std::to_string(g.height) +
-                             ", its camera " + std::to_string(camera.width()) + "x" + std::to_string(camera.height()));
+namespace {
+
+// g's planes as the 32-byte hits the writers take; a plane g lacks reads as
+// a miss's value (instance and primitive kMiss, the rest 0).
+std::vector<rf_pixel_hit> hits_of(const GBuffer& g) {
   check_plane(g.depth.size(), 1, kDepth, g, "depth");
   check_plane(g.normal.size(), 3, kNormal, g, "normal");
   check_plane(g.uv.size(), 2, kUv, g, "uv");
@@ -53,11 +53,33 @@ void write_exr(const std::string& path, const GBuffer& g, const Camera& camera, 
     h.instance = (g.channels & kInstanceId) ? g.instance_id[i] : RF_INVALID;
     h.primitive = (g.channels & kPrimitiveId) ? g.primitive_id[i] : RF_INVALID;
   }
+  return hits;
+}
+
+}  // namespace
+
+void write_exr(const std::string& path, const GBuffer& g, const Camera& camera, const Scene& scene,
+               ExrCompression compression, unsigned channels) {
+  if (g.width != camera.width() || g.height != camera.height())
+    throw InputError("", "write_exr: the G-buffer is " + std::to_string(g.width) + "x" + std::to_string(g.height) +
+                             ", its camera " + std::to_string(camera.width()) + "x" + std::to_string(camera.height()));
+  const unsigned missing = channels & kAllChannels & ~g.channels;
+  if (missing != 0)
+    throw InputError("", "write_exr: channels " + std::to_string(channels) + " name planes the G-buffer lacks (it has " +
+                             std::to_string(g.channels) + ")");
+  const std::vector<rf_pixel_hit> hits = hits_of(g);
   const detail::SceneState& s = *scene.state();
   const core::ExrMetadata metadata =
       core::view_metadata(camera.core(), s.scene, s.path, core::fold_name(g.fold),
                           g.depth_kind == Depth::planar, g.exact_depth, RAYFOLD_VERSION_STRING);
-  core::write_exr(path, hits, g.width, g.height, &metadata, g.channels, compression);
+  core::write_exr(path, hits, g.width, g.height, &metadata, g.channels & channels, compression);
+}
+
+void write_png(const std::string& path, const GBuffer& g) {
+  if ((g.channels & (kNormal | kInstanceId)) != (kNormal | kInstanceId))
+    throw InputError("", "write_png: the preview shades normals and leaves misses black: the G-buffer needs its "
+                         "normal and instance_id planes (it has channels " + std::to_string(g.channels) + ")");
+  core::write_png(path, hits_of(g), g.width, g.height);
 }
 
 GBuffer read_exr(const std::string& path) {

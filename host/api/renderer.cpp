@@ -29,19 +29,30 @@ struct Renderer::Impl {
   std::vector<rf_pixel_hit> query_hits;  // a query chunk's answers, kept from query to query
   bool planar_depth = false;   // RendererOptions::depth
   bool exact_depth = false;    // RendererOptions::exact_depth
+  bool cull = true;            // RendererOptions::cull
+  // Trees of the default braid and merging are the scene's, shared with every
+  // renderer of it; others are this renderer's own.
+  bool shares_trees = true;
+  size_t builds = 0;  // trees this renderer built (BuildStats::builds)
 
   void build() {
     core.reset();
-    if (state->trees && state->trees_version == state->structure_version) {
+    if (!shares_trees) {
+      const std::vector<uint8_t> dynamic = state->merge().dynamic;
+      if (options.merge.enabled) options.merge.dynamic = dynamic;
+      core = std::make_unique<core::Pipeline>(state->scene, options);
+      ++builds;
+    } else if (state->trees && state->trees_version == state->structure_version) {
       core = std::make_unique<core::Pipeline>(state->scene, options, state->trees);
     } else {
       options.merge = state->merge();
       core = std::make_unique<core::Pipeline>(state->scene, options);
+      ++builds;
       state->trees = core->shared_scene_data();
       state->trees_version = state->structure_version;
       state->trees_clock = state->clock;
     }
-    built_clock = state->trees_clock;  // instances set_transform moved since are moves
+    built_clock = shares_trees ? state->trees_clock : state->clock;  // instances set_transform moved since are moves
     built_version = state->structure_version;
   }
 
@@ -58,7 +69,7 @@ struct Renderer::Impl {
     for (uint32_t i : out)
       if (core->scene_data().blas.merged[i] ||
           (!core->scene_data().renderable[i] && !state->scene.meshes[state->scene.instances[i].mesh].indices.empty())) {
-        state->trees.reset();  // they lack this instance's tree space too
+        if (shares_trees) state->trees.reset();  // they lack this instance's tree space too
         build();
         return {};
       }
@@ -74,6 +85,17 @@ Renderer::Renderer(const Scene& scene, const RendererOptions& options) : impl_(s
   impl_->options.threads = options.threads;
   impl_->planar_depth = options.depth == Depth::planar;
   impl_->exact_depth = options.exact_depth;
+  impl_->cull = options.cull;
+  if (options.braid < 0 || options.braid > 1024)
+    throw InputError("", "braid must be 0 (whole trees) to 1024 items per instance, not " + std::to_string(options.braid));
+  impl_->options.braid.items_per_instance = static_cast<size_t>(options.braid);
+  impl_->options.braid.enabled = options.braid > 0;
+  impl_->options.merge.enabled = options.merge_static;
+  if (options.fast_math && options.exact_depth)
+    throw InputError("", "exact_depth runs on the exact kernels; fast_math reorders the double-float steps away");
+  impl_->options.precision = options.fast_math ? core::KernelPrecision::fast : core::KernelPrecision::exact;
+  const RendererOptions defaults;
+  impl_->shares_trees = options.braid == defaults.braid && options.merge_static == defaults.merge_static;
   impl_->build();
 }
 
@@ -262,6 +284,12 @@ void fill_gbuffer(GBuffer& g, const core::RenderResult& r, size_t view, const st
   g.rays = r.rays;
   g.trace_ms = r.median.trace_ms;
   g.warnings = warnings;
+  const core::FrameTimes& t = r.median;
+  g.stages = {t.cull_ms, t.tlas_ms, t.upload_ms, t.ray_list_ms, t.trace_ms, t.readback_ms};
+  g.top_level = {r.frame_stats.candidates, r.frame_stats.kept, view < r.views.size() ? r.views[view].out_of_range : 0,
+                 r.frame_stats.tlas_sah};
+  g.kernel = r.kernel;
+  g.kernel_reason = r.kernel_reason;
   if (r.readback.in_place) {  // written by the kernel (render_into)
     RF_CHECK_EQ(view, 0u, "planes in place for more than one view");
     const bool by_instance = !g.instance_id.empty();
@@ -301,9 +329,10 @@ void fill_gbuffer(GBuffer& g, const core::RenderResult& r, size_t view, const st
 
 // The frame options of a render that asks for these planes.
 core::FrameOptions frame_options(Fold fold, std::vector<uint32_t> moved, unsigned channels, bool planar_depth,
-                                 bool exact_depth) {
+                                 bool exact_depth, bool cull) {
   core::FrameOptions frame;
   frame.fold = fold;
+  frame.cull = cull;
   frame.moved = std::move(moved);
   frame.normals = (channels & kNormal) != 0;
   frame.planar_depth = planar_depth;
@@ -322,7 +351,7 @@ static_assert(kDepth == RF_PLANE_DEPTH && kNormal == RF_PLANE_NORMAL && kUv == R
 void Renderer::render_into(GBuffer& g, const Camera& camera, Fold fold, unsigned channels) {
   check_channels(channels);
   const auto t0 = core::Clock::now();
-  core::FrameOptions frame = frame_options(fold, impl_->moved(), channels, impl_->planar_depth, impl_->exact_depth);
+  core::FrameOptions frame = frame_options(fold, impl_->moved(), channels, impl_->planar_depth, impl_->exact_depth, impl_->cull);
   core::RenderResult& r = impl_->result;
   // The kernel writes the planes in place where the device can (a CPU
   // device): sized first, as fill_gbuffer leaves them. Hits are counted
@@ -359,7 +388,7 @@ void Renderer::render_views(const std::vector<Camera>& cameras, const std::funct
                              std::to_string(align));
   if (cameras.empty()) return;
   const core::FrameOptions frame =
-      frame_options(fold, impl_->moved(), channels, impl_->planar_depth, impl_->exact_depth);
+      frame_options(fold, impl_->moved(), channels, impl_->planar_depth, impl_->exact_depth, impl_->cull);
   std::vector<core::Camera> views;
   views.reserve(cameras.size());
   for (const Camera& c : cameras) views.push_back(c.core());
@@ -408,6 +437,56 @@ void Renderer::render_views(const std::vector<Camera>& cameras, const std::funct
     }
     throw;
   }
+}
+
+AutoChoice Renderer::choose_fastest(const std::vector<Camera>& cameras, const std::vector<Fold>& folds,
+                                    const std::vector<int>& aligns) {
+  if (cameras.empty()) throw InputError("", "choose_fastest: no cameras");
+  for (int a : aligns)
+    if (a < 1 || a > kMaxAlignedViews)
+      throw InputError("", "choose_fastest: views per pass must be 1 to " + std::to_string(kMaxAlignedViews) +
+                               ", not " + std::to_string(a));
+  impl_->moved();  // the trees as the scene is now
+  core::Pipeline& p = *impl_->core;
+  // The views that align with the first are predicted together; the others
+  // go to passes of their own, whose cost the first's stands for.
+  std::vector<core::Camera> group;
+  for (const Camera& c : cameras)
+    if (core::can_align(p.scene_data(), cameras[0].core(), c.core())) group.push_back(c.core());
+  std::vector<Fold> fold_list = folds.empty() ? std::vector<Fold>{Fold::none, Fold::y, Fold::x, Fold::xy} : folds;
+  std::vector<core::KernelKind> kernels{p.kernel()};
+  const bool kernel_free = impl_->options.backend == Backend::opencl && impl_->options.kernel == Kernel::automatic;
+  if (kernel_free) kernels = {core::KernelKind::tile, core::KernelKind::single};
+  std::vector<int> align_list = aligns;
+  if (align_list.empty()) align_list = {1, kMaxAlignedViews};
+  if (group.size() == 1) align_list = {1};
+  const core::AutoChoice c = core::choose_fastest(p, group, fold_list, kernels, align_list);
+  if (kernel_free) p.set_kernel(c.best.kernel, "predicted fastest (docs/cost_model.md)");
+  auto kernel_name = [&](core::KernelKind k) {
+    return impl_->options.backend == Backend::cpu ? std::string("cpu reference")
+                                                  : std::string(k == core::KernelKind::tile ? "tile" : "single");
+  };
+  AutoChoice out;
+  out.fold = c.best.fold;
+  out.align = c.best.align;
+  out.kernel = kernel_name(c.best.kernel);
+  out.probe_ms = c.probe_ms;
+  for (const core::Prediction& q : c.predictions)
+    out.predictions.push_back(
+        {q.choice.fold, kernel_name(q.choice.kernel), q.choice.align, core::choice_name(q.choice), q.trace_ms, q.update_ms});
+  return out;
+}
+
+BuildStats Renderer::build_stats() const {
+  const core::Pipeline& p = *impl_->core;
+  return {p.blas_build_ms(), p.scene_data().blas.sah_cost, p.scene_data().blas.max_depth, p.program_build_ms(),
+          impl_->builds};
+}
+
+std::vector<std::pair<std::string, size_t>> Renderer::device_buffers() const {
+  std::vector<std::pair<std::string, size_t>> out;
+  for (const core::BufferInfo& b : impl_->core->device_buffers()) out.emplace_back(b.name, b.bytes);
+  return out;
 }
 
 std::string Renderer::device_name() const { return impl_->core->device_name(); }

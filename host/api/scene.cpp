@@ -74,6 +74,7 @@ Scene Scene::load(const std::string& path, const LoadOptions& options) {
   lo.scene = options.scene;
   lo.camera = options.camera;
   lo.time = options.time;
+  lo.threads = options.threads;
   s.state_->file = std::make_shared<core::GltfFile>(path, lo);
   s.state_->scene = s.state_->file->scene_at(options.time);
   s.state_->warnings = s.state_->file->warnings();
@@ -231,7 +232,7 @@ std::vector<std::string> Scene::camera_names() const {
   return names;
 }
 
-Camera Scene::default_camera(int width, int height) const {
+View Scene::default_view(ViewSource* source) const {
   detail::SceneState& state = *state_;
   const core::Scene& s = state.scene;
   if (!s.camera) {
@@ -240,17 +241,26 @@ Camera Scene::default_camera(int width, int height) const {
       core::PipelineOptions cpu_options;
       cpu_options.backend = Backend::cpu;
       core::Pipeline cpu(s, cpu_options, trees);
-      state.framed = core::auto_frame(s, cpu).spec;
+      const core::AutoFrame framed = core::auto_frame(s, cpu);
+      state.framed = framed.spec;
+      state.framed_interior = framed.kind == core::ViewKind::interior;
       state.framed_on = trees;
     }
   }
-  const core::CameraSpec spec = s.camera ? *s.camera : state.framed;
-  if (spec.orthographic)
-    return Camera::orthographic({spec.eye.x, spec.eye.y, spec.eye.z}, {spec.look_at.x, spec.look_at.y, spec.look_at.z},
-                                {spec.up.x, spec.up.y, spec.up.z}, spec.ymag, width, height);
-  return Camera::look_at({spec.eye.x, spec.eye.y, spec.eye.z}, {spec.look_at.x, spec.look_at.y, spec.look_at.z},
-                         {spec.up.x, spec.up.y, spec.up.z}, spec.vfov_degrees, width, height);
+  if (source)
+    *source = s.camera ? ViewSource::file_camera : state.framed_interior ? ViewSource::interior : ViewSource::object;
+  const core::CameraSpec& spec = s.camera ? *s.camera : state.framed;
+  View v;
+  v.eye = {spec.eye.x, spec.eye.y, spec.eye.z};
+  v.target = {spec.look_at.x, spec.look_at.y, spec.look_at.z};
+  v.up = {spec.up.x, spec.up.y, spec.up.z};
+  v.vfov_degrees = spec.vfov_degrees;
+  v.orthographic = spec.orthographic;
+  v.half_height = spec.ymag;
+  return v;
 }
+
+Camera Scene::default_camera(int width, int height) const { return Camera::from_view(default_view(), width, height); }
 
 std::array<double, 6> Scene::bounds() const {
   const core::Aabb b = state_->scene.world_bounds();

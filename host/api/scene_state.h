@@ -34,6 +34,7 @@ struct SceneState {
   // camera), for the trees it was chosen on.
   std::shared_ptr<const core::SceneData> framed_on;
   core::CameraSpec framed;
+  bool framed_interior = false;  // framed from inside (core::ViewKind::interior)
 
   // Which instances trees built now keep apart (bvh/blas.h): those
   // set_transform or set_time has moved; the others may share a tree.

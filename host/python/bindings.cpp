@@ -125,7 +125,8 @@ rayfold::Fold parse_fold(const std::string& s) {
   if (s == "y") return rayfold::Fold::y;
   if (s == "x") return rayfold::Fold::x;
   if (s == "xy" || s == "yx") return rayfold::Fold::xy;
-  throw rayfold::InputError("", "fold must be 'none', 'y', 'x' or 'xy', not '" + s + "'");
+  throw rayfold::InputError("", "fold must be 'none', 'y', 'x', 'xy' or, to render, 'auto' (the cost model's choice), "
+                                "not '" + s + "'");
 }
 
 const char* fold_name(rayfold::Fold f) {
@@ -205,6 +206,9 @@ struct PyGBuffer {
   int views_in_trace = 1;
   rayfold::Depth depth_kind = rayfold::Depth::distance;
   bool exact_depth = false;
+  rayfold::StageTimes stages;
+  rayfold::TopLevelStats top_level;
+  std::string kernel, kernel_reason;
 };
 
 PyGBuffer to_python(rayfold::GBuffer&& g, const rayfold::Camera& camera) {
@@ -230,7 +234,11 @@ PyGBuffer to_python(rayfold::GBuffer&& g, const rayfold::Camera& camera) {
               camera,
               g.views_in_trace,
               g.depth_kind,
-              g.exact_depth};
+              g.exact_depth,
+              g.stages,
+              g.top_level,
+              std::move(g.kernel),
+              std::move(g.kernel_reason)};
   return p;
 }
 
@@ -269,16 +277,65 @@ rayfold::GBuffer from_python(const PyGBuffer& p) {
 
 // A scene and what renders it: renderers by options, reused across calls;
 // a mutex so that a render (which drops the GIL) never overlaps a change.
+// fold="auto" and align="auto": the choice the cost model predicts fastest
+// (Renderer::choose_fastest) for views of one size and intrinsics, made on
+// the first render of such views and kept for the later ones: its probe
+// costs tens of ms, more than a frame.
+class AutoPlans {
+ public:
+  // The fold and views per pass for these cameras: as asked, or as chosen.
+  // align -1 is "auto".
+  std::pair<rayfold::Fold, int> plan(rayfold::Renderer& r, const std::vector<rayfold::Camera>& cameras,
+                                     const std::string& fold, int align) {
+    const bool fold_auto = fold == "auto";
+    if (cameras.empty() || (!fold_auto && align >= 0)) return {fold_auto ? rayfold::Fold::none : parse_fold(fold), align};
+    const rayfold::Camera& c = cameras[0];
+    const rayfold::Intrinsics k = c.intrinsics();
+    char key[256];
+    std::snprintf(key, sizeof key, "%s|%d|%d|%d|%a|%a|%a|%a|%d|%d", fold.c_str(), align, c.width(), c.height(), k.fx,
+                  k.fy, k.cx, k.cy, int(c.is_orthographic()), int(cameras.size() > 1));
+    auto it = chosen_.find(key);
+    if (it == chosen_.end()) {
+      std::vector<rayfold::Fold> folds;
+      if (!fold_auto) folds = {parse_fold(fold)};
+      std::vector<int> aligns;
+      if (align > 0) aligns = {align};
+      if (align == 0) aligns = {rayfold::kMaxAlignedViews};
+      it = chosen_.emplace(key, r.choose_fastest(cameras, folds, aligns)).first;
+    }
+    return {it->second.fold, align < 0 ? it->second.align : align};
+  }
+
+ private:
+  std::map<std::string, rayfold::AutoChoice> chosen_;
+};
+
 struct PyScene {
   rayfold::Scene scene;
   std::mutex mutex;
   std::map<std::string, std::unique_ptr<rayfold::Renderer>> renderers;
+  std::map<std::string, AutoPlans> plans;  // by renderers' key
 };
 
 struct PyRenderer {
   std::shared_ptr<PyScene> scene;
   std::unique_ptr<rayfold::Renderer> renderer;
+  AutoPlans plans;
 };
+
+// render_views' align: a count (0: as many as a pass holds) or "auto" (-1).
+int parse_align(nb::handle align) {
+  if (nb::isinstance<nb::str>(align)) {
+    const std::string a = nb::cast<std::string>(align);
+    if (a == "auto") return -1;
+    if (a == "all") return 0;
+    throw rayfold::InputError("", "align must be a count of views, 'all' or 'auto', not '" + a + "'");
+  }
+  if (nb::isinstance<bool>(align) || !nb::isinstance<int>(align))
+    throw rayfold::InputError("", "align must be a count of views, 'all' or 'auto', not a " +
+                                      std::string(nb::inst_name(align).c_str()));
+  return nb::cast<int>(align);
+}
 
 template <class F>
 auto locked(PyScene& s, F&& f) {
@@ -305,12 +362,17 @@ void take_planes(rayfold::GBuffer& g, const rayfold::Camera& camera, unsigned ch
 }
 
 // Renders with the renderer `pick` returns (called under the scene's lock).
+// fold: a fold's name or "auto" (plans' choice).
 template <class Pick>
-PyGBuffer render_locked(PyScene& s, Pick&& pick, const rayfold::Camera& camera, rayfold::Fold fold,
-                        unsigned channels) {
+PyGBuffer render_locked(PyScene& s, Pick&& pick, const rayfold::Camera& camera, const std::string& fold,
+                        unsigned channels, AutoPlans& plans) {
+  if (fold != "auto") parse_fold(fold);  // a bad name refused before the planes are taken
   rayfold::GBuffer g;
   take_planes(g, camera, channels);
-  locked(s, [&] { pick().render_into(g, camera, fold, channels); });
+  locked(s, [&] {
+    rayfold::Renderer& r = pick();
+    r.render_into(g, camera, plans.plan(r, {camera}, fold, 1).first, channels);
+  });
   return to_python(std::move(g), camera);
 }
 
@@ -525,6 +587,34 @@ NB_MODULE(_core, m) {
               "views traced together with this one, itself included (Scene.render_views)")
       .def_ro("warnings", &PyGBuffer::warnings)
       .def_ro("camera", &PyGBuffer::camera)
+      .def_ro("kernel", &PyGBuffer::kernel, "the kernel that traced it: 'tile', 'single' or 'cpu reference'")
+      .def_ro("kernel_reason", &PyGBuffer::kernel_reason, "why that kernel ('CPU device', 'chosen', ...)")
+      .def_prop_ro(
+          "stages",
+          [](const PyGBuffer& g) {
+            const rayfold::StageTimes& t = g.stages;
+            nb::dict d;
+            d["cull_ms"] = t.cull_ms;
+            d["tlas_ms"] = t.tlas_ms;
+            d["upload_ms"] = t.upload_ms;
+            d["ray_list_ms"] = t.ray_list_ms;
+            d["trace_ms"] = t.trace_ms;
+            d["readback_ms"] = t.readback_ms;
+            return d;
+          },
+          "where the render's time went, ms per stage (a trace of several views: the whole pass's)")
+      .def_prop_ro(
+          "top_level",
+          [](const PyGBuffer& g) {
+            nb::dict d;
+            d["scene_instances"] = g.top_level.scene_instances;
+            d["traced_instances"] = g.top_level.traced_instances;
+            d["out_of_range"] = g.top_level.out_of_range;
+            d["sah_cost"] = g.top_level.sah_cost;
+            return d;
+          },
+          "the top-level tree traced: the scene's renderable instances, those in the tree after culling (copies "
+          "per view and mirror included), those beyond the float range, its SAH cost")
       .def_prop_ro(
           "depth_kind",
           [](const PyGBuffer& g) { return g.depth_kind == rayfold::Depth::planar ? "planar" : "distance"; },
@@ -698,20 +788,25 @@ NB_MODULE(_core, m) {
               if (!r) r = std::make_unique<rayfold::Renderer>(s.scene, o);
               return *r;
             };
-            return render_locked(s, cached, camera, parse_fold(fold), mask);
+            return render_locked(s, cached, camera, fold, mask, s.plans[key]);
           },
           "camera"_a, "fold"_a = "none", "backend"_a = "opencl", "device"_a = "", "kernel"_a = "auto", "threads"_a = 0,
           "channels"_a = nb::none(), "depth"_a = "distance", "exact_depth"_a = false,
-          "Renders a G-buffer. The trees and kernels for these options are built on first use and kept. channels: "
+          "Renders a G-buffer. The trees and kernels for these options are built on first use and kept. fold: "
+          "'none', 'y', 'x', 'xy' (the same bits, less work), or 'auto': the fold (and, with kernel='auto', the "
+          "kernel) the cost model predicts fastest from a probe of sampled tiles (docs/cost_model.md), chosen on "
+          "the first render of this size and intrinsics and kept (GBuffer.fold says which). channels: "
           "the planes to fill (a list or 'depth,instance_id'; default all), the others None. depth: 'distance' "
           "along each pixel's ray, or 'planar' along the camera's axis. exact_depth: each depth from the pixel's "
           "exact ray in double-float, within 2^-24 of the exact value (slower: about 1.2x to 1.5x the frame). "
           "Releases the GIL.")
       .def(
           "render_views",
-          [](PyScene& s, const std::vector<rayfold::Camera>& cameras, const std::string& fold, int align,
+          [](PyScene& s, const std::vector<rayfold::Camera>& cameras, const std::string& fold, nb::handle align_arg,
              const std::string& backend, const std::string& device, const std::string& kernel, unsigned threads,
              nb::handle channels, const std::string& depth, bool exact_depth) {
+            const int align = parse_align(align_arg);
+            if (fold != "auto") parse_fold(fold);
             const rayfold::RendererOptions o = renderer_options(backend, device, kernel, threads, depth, exact_depth);
             const unsigned mask = parse_channels(channels);
             const std::string key = backend + "|" + device + "|" + kernel + "|" + std::to_string(threads) + "|" +
@@ -720,8 +815,9 @@ NB_MODULE(_core, m) {
             locked(s, [&] {
               std::unique_ptr<rayfold::Renderer>& r = s.renderers[key];
               if (!r) r = std::make_unique<rayfold::Renderer>(s.scene, o);
+              const auto [f, a] = s.plans[key].plan(*r, cameras, fold, align);
               r->render_views(
-                  cameras, [&](size_t i, rayfold::GBuffer&& g) { gs[i] = std::move(g); }, parse_fold(fold), align, mask,
+                  cameras, [&](size_t i, rayfold::GBuffer&& g) { gs[i] = std::move(g); }, f, a, mask,
                   [&](size_t i, rayfold::GBuffer& g) { take_planes(g, cameras[i], mask); });
             });
             std::vector<PyGBuffer> out;
@@ -731,8 +827,9 @@ NB_MODULE(_core, m) {
           "cameras"_a, "fold"_a = "none", "align"_a = 0, "backend"_a = "opencl", "device"_a = "", "kernel"_a = "auto",
           "threads"_a = 0, "channels"_a = nb::none(), "depth"_a = "distance", "exact_depth"_a = false,
           "Renders a list of views, one GBuffer each. Views of the same size and intrinsics are traced together, up "
-          "to align per trace (0: as many as one holds; 1: each alone); every view's bits equal render(view). "
-          "channels, depth and exact_depth as in render. Releases the GIL.");
+          "to align per trace (0 or 'all': as many as one holds; 1: each alone; 'auto': as the cost model predicts "
+          "fastest, chosen on the first list of this size and intrinsics and kept); every view's bits equal "
+          "render(view). fold, channels, depth and exact_depth as in render. Releases the GIL.");
 
   auto scene_renderer = [](PyScene& s, const std::string& backend, const std::string& device, unsigned threads)
       -> rayfold::Renderer& {
@@ -861,9 +958,44 @@ NB_MODULE(_core, m) {
           [](PyRenderer& r, const rayfold::Camera& camera, const std::string& fold, nb::handle channels) {
             const unsigned mask = parse_channels(channels);
             return render_locked(
-                *r.scene, [&]() -> rayfold::Renderer& { return *r.renderer; }, camera, parse_fold(fold), mask);
+                *r.scene, [&]() -> rayfold::Renderer& { return *r.renderer; }, camera, fold, mask, r.plans);
           },
-          "camera"_a, "fold"_a = "none", "channels"_a = nb::none(), "channels as in Scene.render.")
+          "camera"_a, "fold"_a = "none", "channels"_a = nb::none(), "fold and channels as in Scene.render.")
+      .def(
+          "choose_fastest",
+          [](PyRenderer& r, const std::vector<rayfold::Camera>& cameras, nb::handle folds, nb::handle aligns) {
+            std::vector<rayfold::Fold> fs;
+            if (!folds.is_none())
+              for (nb::handle f : folds) fs.push_back(parse_fold(nb::cast<std::string>(f)));
+            std::vector<int> as;
+            if (!aligns.is_none())
+              for (nb::handle a : aligns) as.push_back(nb::cast<int>(a));
+            const rayfold::AutoChoice c = locked(*r.scene, [&] { return r.renderer->choose_fastest(cameras, fs, as); });
+            nb::list predictions;
+            for (const rayfold::Prediction& p : c.predictions) {
+              nb::dict d;
+              d["fold"] = fold_name(p.fold);
+              d["kernel"] = p.kernel;
+              d["align"] = p.align;
+              d["name"] = p.name;
+              d["trace_ms"] = p.trace_ms;
+              d["update_ms"] = p.update_ms;
+              d["total_ms"] = p.total_ms();
+              predictions.append(d);
+            }
+            nb::dict out;
+            out["fold"] = fold_name(c.fold);
+            out["align"] = c.align;
+            out["kernel"] = c.kernel;
+            out["predictions"] = predictions;
+            out["probe_ms"] = c.probe_ms;
+            return out;
+          },
+          "cameras"_a, "folds"_a = nb::none(), "aligns"_a = nb::none(),
+          "The fold, views per pass and (kernel='auto' on OpenCL) kernel the cost model predicts fastest for these "
+          "views (docs/cost_model.md): a dict of 'fold', 'align', 'kernel', 'probe_ms' and every prediction, "
+          "fastest first. folds: those to weigh (default all four); aligns: views per pass to weigh (default 1 "
+          "and as many as a pass holds). The kernel chosen traces from now on. Releases the GIL.")
       .def_prop_ro("device_name", [](PyRenderer& r) { return r.renderer->device_name(); })
       .def_prop_ro("kernel", [](PyRenderer& r) { return r.renderer->kernel(); })
       .def_prop_ro(

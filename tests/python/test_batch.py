@@ -297,9 +297,9 @@ def test_bad_input_fails_first_naming_what_is_wrong(atrium_path, tmp_path):
         ([atrium_path, "--cameras", tmp_path / "c.json", "-o", tmp_path / "v_%d.exr", "--exr-compression", "b44"],
          "invalid choice"),
         ([atrium_path, "--cameras", tmp_path / "c.json", "-o", tmp_path / "v_%d.exr", "--align", "many"],
-         "expected N or all, not 'many'"),
-        ([atrium_path, "--cameras", tmp_path / "c.json", "-o", tmp_path / "v_%d.exr", "--align", "auto"],
-         "rayfold-batch takes N or all"),
+         "expected N, all or auto, not 'many'"),
+        ([atrium_path, "--cameras", tmp_path / "c.json", "-o", tmp_path / "v_%d.exr", "--fold", "z"],
+         "invalid choice"),
     ]
     for args, what in cases:
         r = subprocess.run([sys.executable, "-m", "rayfold.batch", *map(str, args)], capture_output=True, text=True,
@@ -342,11 +342,17 @@ def test_the_cli_speaks_the_render_commands_words(atrium_path, tmp_path, cli):
     r = batch_cli(atrium_path, "--cameras", tmp_path / "transforms.json", "-o", tmp_path / "new" / "named" / "%s.exr",
                   "-q")
     assert r.returncode == 0, r.stderr
+    # --fold auto and --align auto as rayfold render takes them: the cost
+    # model's choice, the same bits.
+    r = batch_cli(atrium_path, "--cameras", tmp_path / "transforms.json", "-o", tmp_path / "auto" / "v_%d.exr",
+                  "--fold", "auto", "--align", "auto", "--kernel", "auto", "-q")
+    assert r.returncode == 0, r.stderr
     subprocess.run([cli, "render", atrium_path, "-q", "--cameras", tmp_path / "transforms.json", "-o",
                     tmp_path / "render" / "%s.exr"], check=True)
     for i in range(2):
         got = rayfold.read_exr(tmp_path / "new" / "named" / f"r_{i}.exr")
         for want in (rayfold.read_exr(tmp_path / "out" / f"v_{i}.exr"),
+                     rayfold.read_exr(tmp_path / "auto" / f"v_{i}.exr"),
                      rayfold.read_exr(tmp_path / "render" / f"r_{i}.exr")):
             for p in PLANES:
                 assert got[p].tobytes() == want[p].tobytes(), f"view {i}, plane {p}"

@@ -329,6 +329,34 @@ def test_every_fold_backend_and_kernel_gives_the_same_bits(atrium):
             assert_same_bits(ref, g)
 
 
+def test_fold_auto_is_the_cost_models_choice_with_the_same_bits_and_says_how_the_time_went(atrium):
+    cameras = [atrium.default_camera(64, 40), rayfold.Camera.look_at((0, 8, 30), (0, 6, 0), (0, 1, 0), 50, 64, 40)]
+    ref = [atrium.render(c, backend="cpu") for c in cameras]
+    r = rayfold.Renderer(atrium)
+    choice = r.choose_fastest(cameras)
+    assert choice["fold"] in ("none", "y", "x", "xy") and choice["kernel"] in ("tile", "single"), choice
+    assert choice["align"] in (1, 32), choice
+    totals = [p["total_ms"] for p in choice["predictions"]]
+    assert totals == sorted(totals) and choice["predictions"][0]["fold"] == choice["fold"], choice
+    assert r.choose_fastest(cameras[:1], folds=["xy"])["fold"] == "xy"
+    for c, want in zip(cameras, ref):
+        g = atrium.render(c, fold="auto")
+        assert g.fold in ("none", "y", "x", "xy")
+        assert_same_bits(want, g)
+        assert g.kernel in ("tile", "single") and g.kernel_reason, (g.kernel, g.kernel_reason)
+        assert g.stages["trace_ms"] == g.trace_ms > 0, (g.stages, g.trace_ms)
+        assert set(g.stages) == {"cull_ms", "tlas_ms", "upload_ms", "ray_list_ms", "trace_ms", "readback_ms"}
+        top = g.top_level
+        assert top["scene_instances"] == 240 and 0 < top["traced_instances"] and top["out_of_range"] == 0, top
+        assert top["sah_cost"] > 0, top
+    for g, want in zip(atrium.render_views(cameras, fold="auto", align="auto"), ref):
+        assert_same_bits(want, g)
+    with pytest.raises(rayfold.InputError, match="align must be a count of views, 'all' or 'auto'"):
+        atrium.render_views(cameras, align="most")
+    with pytest.raises(rayfold.InputError, match="'auto'"):
+        atrium.render(cameras[0], fold="yx!")
+
+
 def test_python_equals_the_cli_exr_bit_for_bit(atrium_path, cli, tmp_path):
     openexr = pytest.importorskip("OpenEXR")
     out = tmp_path / "cli.exr"

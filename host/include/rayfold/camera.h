@@ -29,6 +29,18 @@ struct Intrinsics {
   double fx = 0.0, fy = 0.0, cx = 0.0, cy = 0.0;
 };
 
+// A view described as a look-at: what a glTF camera, a view rayfold chose
+// (Scene::default_view) and the CLI's --eye, --look-at, --up, --vfov and
+// --ortho give; Camera::from_view makes the camera of it at an image size.
+struct View {
+  Vec3 eye{0.0, 0.0, 1.0};
+  Vec3 target{0.0, 0.0, 0.0};
+  Vec3 up{0.0, 1.0, 0.0};
+  double vfov_degrees = 60.0;  // perspective: the vertical field of view
+  bool orthographic = false;
+  double half_height = 1.0;  // orthographic: world units above and below the axis
+};
+
 class Camera {
  public:
   // From an eye looking at target, +y of the image along up projected onto
@@ -48,6 +60,12 @@ class Camera {
   // the axis (square pixels). Depth is the distance from that plane.
   static Camera orthographic(const Vec3& eye, const Vec3& target, const Vec3& up, double half_height, int width,
                              int height);
+  // look_at or orthographic as the view says, its image window moved by
+  // shift_x, shift_y half image widths and heights (an off-centre principal
+  // point, rounded to whole half pixels so that mirror partners keep exactly
+  // negated rays; only the symmetric part folds): at most 100 each way,
+  // InputError otherwise.
+  static Camera from_view(const View& view, int width, int height, double shift_x = 0.0, double shift_y = 0.0);
   // From a rigid camera-to-world matrix in the named convention (rotations
   // rounded to float are accepted to 1e-5 and made orthonormal; scale, shear
   // and mirrors are InputErrors) and intrinsics. A principal point off the

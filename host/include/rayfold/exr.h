@@ -1,4 +1,4 @@
-// G-buffers as OpenEXR files, the format `rayfold render -o` writes
+// G-buffers as OpenEXR files (and PNG previews), the format `rayfold render -o` writes
 // (docs/formats.md: channels Z, N.X, N.Y, N.Z, U, V, InstanceID,
 // PrimitiveID, and the camera and instance names in the header).
 #pragma once
@@ -17,9 +17,17 @@ namespace rayfold {
 // removed on failure or on SIGINT/SIGTERM/SIGHUP in the CLI). Throws
 // InputError for a G-buffer whose planes do not match its size or camera,
 // RuntimeFailure naming the file when it cannot be written. compression:
-// OpenEXR's lossless methods (ExrCompression), ZIP by default.
+// OpenEXR's lossless methods (ExrCompression), ZIP by default. channels
+// (Channels): of g's planes, those written (the CLI's --channels);
+// InputError naming a plane g lacks.
 void write_exr(const std::string& path, const GBuffer& g, const Camera& camera, const Scene& scene,
-               ExrCompression compression = ExrCompression::zip);
+               ExrCompression compression = ExrCompression::zip, unsigned channels = kAllChannels);
+
+// A preview of g as the CLI's --png writes it: normals mapped to colour
+// ((n + 1) / 2, 8 bits), misses black. Needs g's normal and instance_id
+// planes (InputError otherwise); whole or not at all, RuntimeFailure naming
+// the file when it cannot be written.
+void write_png(const std::string& path, const GBuffer& g);
 // "none", "rle", "zips", "zip" or "piz"; InputError otherwise (a lossy
 // method named as such).
 ExrCompression exr_compression(const std::string& name);

@@ -34,6 +34,25 @@ enum class Depth {
   planar,    // along the camera's axis (camera-space -z; Nuke's and Blender's Z, a NeRF's depth map)
 };
 
+// Where a render's time went, stage by stage, in ms on the host's clock (a
+// trace of several views: the whole pass's, shared by its views).
+struct StageTimes {
+  double cull_ms = 0.0;      // instances outside the view left out
+  double tlas_ms = 0.0;      // the top-level tree over the rest
+  double upload_ms = 0.0;    // its nodes and instances to the device
+  double ray_list_ms = 0.0;  // the compacted ray list; 0 when the last render's still holds
+  double trace_ms = 0.0;     // the kernel
+  double readback_ms = 0.0;  // the hits or planes back from the device
+};
+
+// The top-level tree a render traced.
+struct TopLevelStats {
+  size_t scene_instances = 0;   // instances the scene renders (not hidden, not empty)
+  size_t traced_instances = 0;  // in the tree, after culling: copies per view and per mirror included
+  size_t out_of_range = 0;      // instances beyond the float range at this view (and in `warnings`)
+  double sah_cost = 0.0;        // the tree's surface-area cost
+};
+
 struct GBuffer {
   int width = 0, height = 0;
   // Distance from the eye along the pixel's ray (Camera::ray_direction), in
@@ -58,6 +77,11 @@ struct GBuffer {
   double trace_ms = 0.0;   // on the device (a trace of several views: its share)
   double frame_ms = 0.0;   // culling, top-level build, upload, ray list, trace, readback (likewise)
   int views_in_trace = 1;  // views traced together with this one, itself included (Renderer::render_views)
+  StageTimes stages;       // trace_ms's and the other stages' times (likewise the pass's)
+  TopLevelStats top_level;
+  // The kernel that traced it ("tile", "single", "cpu reference") and why
+  // ("CPU device", "chosen", "measured on the first frame: ...").
+  std::string kernel, kernel_reason;
   // What this render may have lost, in words (docs/exactness.md); empty
   // within rayfold's exact range.
   std::vector<std::string> warnings;

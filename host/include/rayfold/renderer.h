@@ -7,6 +7,7 @@
 #include <limits>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "rayfold/camera.h"
@@ -30,6 +31,46 @@ struct RendererOptions {
   // about 1.2x to 1.5x the frame time on a CPU. The other channels and the
   // bits on every backend are unchanged.
   bool exact_depth = false;
+
+  // How the work is arranged; the bits are the same whatever they are (the
+  // CLI's --braid, --no-merge, --no-cull).
+  int braid = 2;              // the top level opens each traced instance's tree into about this many items; 0: whole trees
+  bool merge_static = true;   // static instances that share a transform share one tree
+  bool cull = true;           // instances outside the view stay out of the top-level tree
+  // Fast-math kernels (the CLI's --fast): faster on some devices, NOT bit
+  // for bit the CPU reference's, and refused with exact_depth (InputError).
+  bool fast_math = false;
+};
+
+// One way of tracing a list of views and the cost model's prediction for it
+// (docs/cost_model.md), per view.
+struct Prediction {
+  Fold fold = Fold::none;
+  std::string kernel;  // "tile", "single" or "cpu reference"
+  int align = 1;       // views per pass
+  std::string name;    // "xy/tile/align 8"
+  double trace_ms = 0.0;
+  double update_ms = 0.0;  // culling, top-level build and upload
+  double total_ms() const { return trace_ms + update_ms; }
+};
+
+// Renderer::choose_fastest's answer: the choice of least predicted time,
+// and every prediction, fastest first.
+struct AutoChoice {
+  Fold fold = Fold::none;
+  int align = 1;
+  std::string kernel;
+  std::vector<Prediction> predictions;
+  double probe_ms = 0.0;  // what predicting cost, all choices together
+};
+
+// The bottom-level trees a renderer traces and the kernels it built.
+struct BuildStats {
+  double trees_ms = 0.0;    // their build (as first built, also when shared from another renderer or a scene file)
+  double sah_cost = 0.0;    // their surface-area cost
+  int depth = 0;            // the deepest tree's levels
+  double kernels_ms = 0.0;  // the OpenCL programs' build (cached on disk after a device's first use); 0 on the CPU
+  size_t builds = 0;        // how often this renderer built trees (a scene changed shape: set_time of a skin, add_mesh)
 };
 
 // The answers to ray queries (Renderer::intersect), ray by ray.
@@ -117,6 +158,21 @@ class Renderer {
   std::vector<uint8_t> occluded(const float* origins, const float* directions, size_t n, float tmin = 0.0f,
                                 float tmax = std::numeric_limits<float>::infinity(),
                                 std::vector<std::string>* warnings = nullptr, size_t row_length = 0);
+
+  // The fold, views per pass and, for Kernel::automatic on OpenCL, the
+  // kernel of least predicted time for these views: the cost model of
+  // docs/cost_model.md traces every 8th tile of each choice on this device
+  // (tens of ms). folds: those to weigh (empty: all four); aligns: views per
+  // pass to weigh, for views that can be traced together (empty: 1 and as
+  // many as a pass holds). The kernel chosen traces from now on; the fold
+  // and align are the caller's to pass to render or render_views. InputError
+  // for no cameras or an align out of range.
+  AutoChoice choose_fastest(const std::vector<Camera>& cameras, const std::vector<Fold>& folds = {},
+                            const std::vector<int>& aligns = {});
+
+  BuildStats build_stats() const;
+  // The device buffers now held, by name, in bytes; empty for the CPU backend.
+  std::vector<std::pair<std::string, size_t>> device_buffers() const;
 
   std::string device_name() const;  // "cpu reference" for the CPU backend
   std::string kernel() const;       // "tile", "single" or "cpu reference"

@@ -22,6 +22,14 @@ struct LoadOptions {
   int scene = -1;     // the file's scene to show; -1: its default scene, else scene 0
   int camera = -1;    // the file's camera to use (index into camera_names()); -1: the first perspective one
   double time = NAN;  // seconds: every node animation posed at this time; NaN: the rest pose
+  unsigned threads = 0;  // threads decoding the file's buffers; 0: all cores
+};
+
+// Where Scene::default_view's view comes from.
+enum class ViewSource {
+  file_camera,  // the file's camera (LoadOptions::camera)
+  object,       // chosen: the whole scene from outside
+  interior,     // chosen: an interior, from inside, looking along it
 };
 
 // A handle: copies share one scene, and a Renderer keeps it alive. Not safe
@@ -100,6 +108,10 @@ class Scene {
   // images on the CPU over the scene's trees, built here if no renderer has
   // built them yet (renderers then share them): Sponza about 40 ms.
   Camera default_camera(int width, int height) const;
+  // The view default_camera makes its camera of (Camera::from_view), and
+  // where it comes from: to change one of its values (the CLI's --up alone
+  // turns the file's camera) and keep the rest.
+  View default_view(ViewSource* source = nullptr) const;
   // World-space bounds of the instances at rest: min x, y, z and max x, y, z.
   std::array<double, 6> bounds() const;
 

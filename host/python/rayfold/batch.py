@@ -123,6 +123,7 @@ class _Worker:
         # Trees (unless they came built) and kernels now, so that a worker is
         # ready when it says so: the time to its first view is the start's.
         warm = {o: v for o, v in render_options.items() if o not in ("align", "channels")}
+        warm["fold"] = "none"  # fold="auto" probes each size of view on first use: the real views' size, later
         # Any view will do: the default one would probe a camera-less file for its view first.
         lo, hi = self.scene.bounds[:3], self.scene.bounds[3:]
         centre = [(a + b) / 2 for a, b in zip(lo, hi)]
@@ -404,19 +405,19 @@ def _unwind_on_signals():
 
 
 def _align_arg(text):
-    """--align as the CLI spells it: N views a trace (1: each alone) or all
-    (as many as a trace holds; 0, the Python default, means the same)."""
+    """--align as the CLI spells it: N views a trace (1: each alone), all
+    (as many as a trace holds; 0, the Python default, means the same) or
+    auto (as the cost model predicts fastest)."""
     if text == "all":
         return 0
     if text == "auto":
-        raise argparse.ArgumentTypeError("auto (the cost model's choice) is rayfold render's; rayfold-batch takes N "
-                                         "or all")
+        return "auto"
     try:
         n = int(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected N or all, not {text!r}")
+        raise argparse.ArgumentTypeError(f"expected N, all or auto, not {text!r}")
     if n < 0:
-        raise argparse.ArgumentTypeError(f"expected N (1 or more) or all, not {text!r}")
+        raise argparse.ArgumentTypeError(f"expected N (1 or more), all or auto, not {text!r}")
     return n
 
 
@@ -446,9 +447,12 @@ def main(argv=None):
     p.add_argument("--gpu-workers", type=int, default=0,
                    help="more actors with one GPU each (OpenCL device 'gpu'; the CPU workers then take 'cpu')")
     p.add_argument("--address", help="a running Ray cluster (auto, or host:port); default: start one here")
-    p.add_argument("--fold", default="none", choices=["none", "y", "x", "xy"])
-    p.add_argument("--align", type=_align_arg, default=0, metavar="N|all",
-                   help="views traced together: N (1: each alone) or all, the default: as many as a trace holds")
+    p.add_argument("--fold", default="none", choices=["none", "y", "x", "xy", "auto"],
+                   help="the same bits in every mode, less work folded; auto: the fold (and, with --kernel auto, "
+                        "the kernel) the cost model predicts fastest, chosen by each worker on its first views")
+    p.add_argument("--align", type=_align_arg, default=0, metavar="N|all|auto",
+                   help="views traced together: N (1: each alone), all, the default: as many as a trace holds, "
+                        "or auto: as the cost model predicts fastest")
     p.add_argument("--channels", help="the planes written, for example depth,instance_id (default all)")
     p.add_argument("--depth", default="distance", choices=["distance", "planar"])
     p.add_argument("--exact-depth", action="store_true",
@@ -459,6 +463,9 @@ def main(argv=None):
                         "the bytes")
     p.add_argument("--backend", default="opencl", choices=["opencl", "cpu"])
     p.add_argument("--device", default="", help="the first OpenCL device whose platform or name holds this")
+    p.add_argument("--kernel", default="auto", choices=["auto", "tile", "single", "measure"],
+                   help="the OpenCL kernel, as rayfold render's --kernel (default auto: tile on CPU devices); the "
+                        "same bits with each")
     p.add_argument("--size", metavar="WxH", help="image size for a transforms.json without w and h")
     p.add_argument("--retries", type=int, default=3, help="times a view whose worker died is tried again (3)")
     p.add_argument("--send", default="file", choices=["trees", "file"],
@@ -479,7 +486,7 @@ def main(argv=None):
         cameras = a.cameras if a.cameras else a.colmap
         s = render(a.scene, cameras, a.output, workers=a.workers, address=a.address, fold=a.fold, align=a.align,
                    channels=a.channels, depth=a.depth, exact_depth=a.exact_depth, backend=a.backend,
-                   device=a.device, verify=not a.no_verify,
+                   device=a.device, kernel=a.kernel, verify=not a.no_verify,
                    retries=a.retries, width=width, height=height, progress=not a.quiet, send=a.send,
                    gpu_workers=a.gpu_workers, exr_compression=a.exr_compression,
                    _after_ray_start=_unwind_on_signals)
