@@ -63,10 +63,9 @@ void write_exr(const std::string& path, const GBuffer& g, const Camera& camera, 
   if (g.width != camera.width() || g.height != camera.height())
     throw InputError("", "write_exr: the G-buffer is " + std::to_string(g.width) + "x" + std::to_string(g.height) +
                              ", its camera " + std::to_string(camera.width()) + "x" + std::to_string(camera.height()));
-  const unsigned missing = channels & kAllChannels & ~g.channels;
-  if (missing != 0)
-    throw InputError("", "write_exr: channels " + std::to_string(channels) + " name planes the G-buffer lacks (it has " +
-                             std::to_string(g.channels) + ")");
+  if ((g.channels & channels) == 0)
+    throw InputError("", "write_exr: channels " + std::to_string(channels) + " name none of the G-buffer's planes "
+                             "(it has " + std::to_string(g.channels) + ")");
   const std::vector<rf_pixel_hit> hits = hits_of(g);
   const detail::SceneState& s = *scene.state();
   const core::ExrMetadata metadata =

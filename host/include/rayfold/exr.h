@@ -18,8 +18,8 @@ namespace rayfold {
 // InputError for a G-buffer whose planes do not match its size or camera,
 // RuntimeFailure naming the file when it cannot be written. compression:
 // OpenEXR's lossless methods (ExrCompression), ZIP by default. channels
-// (Channels): of g's planes, those written (the CLI's --channels);
-// InputError naming a plane g lacks.
+// (Channels): g's planes that it also names are written (the CLI's
+// --channels); InputError when it names none of them.
 void write_exr(const std::string& path, const GBuffer& g, const Camera& camera, const Scene& scene,
                ExrCompression compression = ExrCompression::zip, unsigned channels = kAllChannels);
 
