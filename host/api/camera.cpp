@@ -95,9 +95,10 @@ std::vector<std::pair<std::string, Camera>> Camera::from_colmap(const std::strin
 
 std::vector<std::pair<std::string, Camera>> Camera::from_file(const std::string& path, int width, int height,
                                                               std::vector<std::string>* ignored,
-                                                              std::vector<std::pair<size_t, std::string>>* skipped) {
+                                                              std::vector<std::pair<size_t, std::string>>* skipped,
+                                                              const std::string& size_words) {
   std::vector<std::pair<std::string, Camera>> out;
-  for (core::DatasetView& v : core::read_cameras_any(path, width, height, ignored, "width and height", skipped))
+  for (core::DatasetView& v : core::read_cameras_any(path, width, height, ignored, size_words, skipped))
     out.emplace_back(v.name, Camera(std::make_shared<core::Camera>(v.camera)));
   return out;
 }

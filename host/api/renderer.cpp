@@ -7,6 +7,7 @@
 #include <cstring>
 #include <functional>
 
+#include "api/pipeline_options.h"
 #include "api/scene_state.h"
 #include "fold/view_passes.h"
 #include "rayfold/errors.h"
@@ -77,23 +78,29 @@ struct Renderer::Impl {
   }
 };
 
+core::PipelineOptions detail::pipeline_options(const RendererOptions& options) {
+  core::PipelineOptions o;
+  o.backend = options.backend;
+  o.device_hint = options.device;
+  o.kernel = options.kernel;
+  o.threads = options.threads;
+  if (options.braid < 0 || options.braid > 1024)
+    throw InputError("", "braid must be 0 (whole trees) to 1024 items per instance, not " + std::to_string(options.braid));
+  o.braid.items_per_instance = static_cast<size_t>(options.braid);
+  o.braid.enabled = options.braid > 0;
+  o.merge.enabled = options.merge_static;
+  if (options.fast_math && options.exact_depth)
+    throw InputError("", "exact_depth runs on the exact kernels; fast_math reorders the double-float steps away");
+  o.precision = options.fast_math ? core::KernelPrecision::fast : core::KernelPrecision::exact;
+  return o;
+}
+
 Renderer::Renderer(const Scene& scene, const RendererOptions& options) : impl_(std::make_unique<Impl>()) {
   impl_->state = scene.state();
-  impl_->options.backend = options.backend;
-  impl_->options.device_hint = options.device;
-  impl_->options.kernel = options.kernel;
-  impl_->options.threads = options.threads;
+  impl_->options = detail::pipeline_options(options);
   impl_->planar_depth = options.depth == Depth::planar;
   impl_->exact_depth = options.exact_depth;
   impl_->cull = options.cull;
-  if (options.braid < 0 || options.braid > 1024)
-    throw InputError("", "braid must be 0 (whole trees) to 1024 items per instance, not " + std::to_string(options.braid));
-  impl_->options.braid.items_per_instance = static_cast<size_t>(options.braid);
-  impl_->options.braid.enabled = options.braid > 0;
-  impl_->options.merge.enabled = options.merge_static;
-  if (options.fast_math && options.exact_depth)
-    throw InputError("", "exact_depth runs on the exact kernels; fast_math reorders the double-float steps away");
-  impl_->options.precision = options.fast_math ? core::KernelPrecision::fast : core::KernelPrecision::exact;
   const RendererOptions defaults;
   impl_->shares_trees = options.braid == defaults.braid && options.merge_static == defaults.merge_static;
   impl_->build();
@@ -354,8 +361,9 @@ void Renderer::render_into(GBuffer& g, const Camera& camera, Fold fold, unsigned
   core::FrameOptions frame = frame_options(fold, impl_->moved(), channels, impl_->planar_depth, impl_->exact_depth, impl_->cull);
   core::RenderResult& r = impl_->result;
   // The kernel writes the planes in place where the device can (a CPU
-  // device): sized first, as fill_gbuffer leaves them. Hits are counted
-  // from the instance ids or the depths.
+  // device): sized first, as fill_gbuffer leaves them (once they fit).
+  // Hits are counted from the instance ids or the depths.
+  core::check_host_memory(static_cast<size_t>(camera.width()) * camera.height());
   size_planes(channels, static_cast<size_t>(camera.width()) * camera.height(), impl_->options.threads, g.depth,
               g.normal, g.uv, g.instance_id, g.primitive_id);
   const core::AnswerPlanes targets{data_or_null(g.depth), data_or_null(g.normal), data_or_null(g.uv),
@@ -379,21 +387,39 @@ void Renderer::render_views(const std::vector<Camera>& cameras, const std::funct
   render_views(cameras, on_view, fold, align, channels, nullptr);
 }
 
+namespace {
+
+void check_align(int align) {
+  if (align < 0 || align > kMaxAlignedViews)
+    throw InputError("", "align must be 0 (as many as a pass holds) to " + std::to_string(kMaxAlignedViews) + ", not " +
+                             std::to_string(align));
+}
+
+std::vector<core::Camera> core_cameras(const std::vector<Camera>& cameras) {
+  std::vector<core::Camera> views;
+  views.reserve(cameras.size());
+  for (const Camera& c : cameras) views.push_back(c.core());
+  return views;
+}
+
+}  // namespace
+
+std::vector<std::vector<size_t>> Renderer::passes(const std::vector<Camera>& cameras, Fold fold, int align) const {
+  check_align(align);
+  return core::plan_passes(impl_->core->scene_data(), core_cameras(cameras), align == 0 ? kMaxAlignedViews : align,
+                           fold);
+}
+
 void Renderer::render_views(const std::vector<Camera>& cameras, const std::function<void(size_t, GBuffer&&)>& on_view,
                             Fold fold, int align, unsigned channels,
                             const std::function<void(size_t, GBuffer&)>& prepare) {
   check_channels(channels);
-  if (align < 0 || align > kMaxAlignedViews)
-    throw InputError("", "align must be 0 (as many as a pass holds) to " + std::to_string(kMaxAlignedViews) + ", not " +
-                             std::to_string(align));
+  check_align(align);
   if (cameras.empty()) return;
   const core::FrameOptions frame =
       frame_options(fold, impl_->moved(), channels, impl_->planar_depth, impl_->exact_depth, impl_->cull);
-  std::vector<core::Camera> views;
-  views.reserve(cameras.size());
-  for (const Camera& c : cameras) views.push_back(c.core());
-  const auto passes =
-      core::plan_passes(impl_->core->scene_data(), views, align == 0 ? kMaxAlignedViews : align, frame.fold);
+  const std::vector<core::Camera> views = core_cameras(cameras);
+  const auto passes = core::plan_passes(impl_->core->scene_data(), views, align == 0 ? kMaxAlignedViews : align, fold);
   // Where the device reads packed planes back, pass p + 1 is submitted
   // before pass p's G-buffers are made and handed on, so that the host's
   // work overlaps the device's; elsewhere one pass at a time.

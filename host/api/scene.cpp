@@ -197,6 +197,7 @@ Matrix4 Scene::transform(uint32_t instance) const {
 size_t Scene::mesh_count() const { return state_->scene.meshes.size(); }
 size_t Scene::instance_count() const { return state_->scene.instances.size(); }
 size_t Scene::triangle_count() const { return state_->scene.triangle_count(); }
+size_t Scene::stored_triangle_count() const { return state_->scene.unique_triangle_count(); }
 
 uint32_t Scene::instance_mesh(uint32_t instance) const {
   check_instance(*state_, instance);
@@ -220,6 +221,20 @@ std::vector<std::string> Scene::instance_names() const {
   std::vector<std::string> names;
   names.reserve(state_->scene.instances.size());
   for (const core::Instance& i : state_->scene.instances) names.push_back(i.name);
+  return names;
+}
+
+std::vector<int> Scene::instance_nodes() const {
+  std::vector<int> nodes;
+  nodes.reserve(state_->scene.instances.size());
+  for (const core::Instance& i : state_->scene.instances) nodes.push_back(i.node);
+  return nodes;
+}
+
+std::vector<std::string> Scene::mesh_names() const {
+  std::vector<std::string> names;
+  names.reserve(state_->scene.meshes.size());
+  for (const core::Mesh& m : state_->scene.meshes) names.push_back(m.name);
   return names;
 }
 
@@ -259,6 +274,8 @@ View Scene::default_view(ViewSource* source) const {
   v.half_height = spec.ymag;
   return v;
 }
+
+bool Scene::has_camera() const { return state_->scene.camera.has_value(); }
 
 Camera Scene::default_camera(int width, int height) const { return Camera::from_view(default_view(), width, height); }
 

@@ -2,16 +2,6 @@
 
 namespace rayfold::core {
 
-const char* fold_name(Fold m) {
-  switch (m) {
-    case Fold::none: return "none";
-    case Fold::y: return "y";
-    case Fold::x: return "x";
-    case Fold::xy: return "xy";
-  }
-  return "?";
-}
-
 Aabb mirror_box(const Aabb& b, int mirror) {
   Aabb m = b;
   if (mirror_negates_x(mirror)) {

@@ -28,8 +28,8 @@ inline Fold restrict_fold(Fold m, bool columns_ok, bool rows_ok) {
   return cols && rows ? Fold::xy : cols ? Fold::y : rows ? Fold::x : Fold::none;
 }
 
-// "none", "y", "x" or "xy".
-const char* fold_name(Fold m);
+// "none", "y", "x" or "xy" (the public rayfold::fold_name).
+using rayfold::fold_name;
 
 // The mirrors a fold traces, as slots of each view's transform groups
 // (kernels/rf_types.h): none {0}, y {0, 1}, x {0, 2}, xy {0, 1, 2, 3}.

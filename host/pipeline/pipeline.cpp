@@ -20,12 +20,6 @@
 
 namespace rayfold::core {
 
-double median(std::vector<double> values) {
-  if (values.empty()) return 0.0;
-  std::nth_element(values.begin(), values.begin() + values.size() / 2, values.end());
-  return values[values.size() / 2];
-}
-
 Pipeline::Pipeline(const Scene& scene, const PipelineOptions& options)
     : Pipeline(scene, options, open_device(scene, options, std::launch::async)) {}
 

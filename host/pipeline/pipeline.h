@@ -16,6 +16,7 @@
 #include "reference/trace_inputs.h"
 #include "scene/camera.h"
 #include "scene/scene.h"
+#include "util/median.h"
 #include "util/page_aligned.h"
 
 namespace rayfold::core {
@@ -244,8 +245,11 @@ class Pipeline {
 // and counters stay the pass's.
 RenderResult view_result(const RenderResult& pass, size_t v);
 
-// Median of a list of values (the upper median for even counts).
-double median(std::vector<double> values);
+// Throws RuntimeFailure when the host buffers of an image of this many
+// pixels (its hits or planes, its rays) would take more than 3/4 of the
+// machine's memory: a message, not the OOM killer mid-trace.
+void check_host_memory(size_t pixels);
+
 // Each phase's median over frames.
 FrameTimes median_times(const std::vector<FrameTimes>& frames);
 

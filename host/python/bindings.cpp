@@ -129,14 +129,7 @@ rayfold::Fold parse_fold(const std::string& s) {
                                 "not '" + s + "'");
 }
 
-const char* fold_name(rayfold::Fold f) {
-  switch (f) {
-    case rayfold::Fold::y: return "y";
-    case rayfold::Fold::x: return "x";
-    case rayfold::Fold::xy: return "xy";
-    default: return "none";
-  }
-}
+using rayfold::fold_name;
 
 rayfold::CameraConvention parse_convention(const std::string& s) {
   if (s == "opencv" || s == "colmap") return rayfold::CameraConvention::opencv;
@@ -334,7 +327,11 @@ int parse_align(nb::handle align) {
   if (nb::isinstance<bool>(align) || !nb::isinstance<int>(align))
     throw rayfold::InputError("", "align must be a count of views, 'all' or 'auto', not a " +
                                       std::string(nb::inst_name(align).c_str()));
-  return nb::cast<int>(align);
+  const int n = nb::cast<int>(align);
+  if (n < 0)
+    throw rayfold::InputError("", "align must be a count of views (0: as many as a pass holds), 'all' or 'auto', "
+                                  "not " + std::to_string(n));
+  return n;
 }
 
 template <class F>

@@ -94,9 +94,11 @@ class Camera {
   // With skipped given, from_file and from_colmap leave out a view whose
   // own entry is bad and list it there (its index in the file, the reason)
   // instead of throwing; a bad file structure still throws.
+  // size_words: what an error calls width and height (the CLI: "--size").
   static std::vector<std::pair<std::string, Camera>> from_file(
       const std::string& path, int width = 0, int height = 0, std::vector<std::string>* ignored = nullptr,
-      std::vector<std::pair<size_t, std::string>>* skipped = nullptr);
+      std::vector<std::pair<size_t, std::string>>* skipped = nullptr,
+      const std::string& size_words = "width and height");
 
   int width() const;
   int height() const;

@@ -16,6 +16,16 @@ namespace rayfold {
 // output is bit for bit the same in every mode; only the work differs.
 enum class Fold { none, y, x, xy };
 
+// "none", "y", "x" or "xy", as the CLI's --fold and Python's fold= spell them.
+inline const char* fold_name(Fold f) {
+  switch (f) {
+    case Fold::y: return "y";
+    case Fold::x: return "x";
+    case Fold::xy: return "xy";
+    default: return "none";
+  }
+}
+
 // The channels a render fills, as bit flags (kAllChannels by default): a
 // job that needs depth and masks asks for kDepth | kInstanceId and gets the
 // other planes empty, skipping their copies.

@@ -170,6 +170,12 @@ class Renderer {
   AutoChoice choose_fastest(const std::vector<Camera>& cameras, const std::vector<Fold>& folds = {},
                             const std::vector<int>& aligns = {});
 
+  // The passes render_views traces these views in with this fold and align
+  // (its rules, above): each pass the indices of its views, in the order the
+  // views come. InputError for an align out of range.
+  std::vector<std::vector<size_t>> passes(const std::vector<Camera>& cameras, Fold fold = Fold::none,
+                                          int align = 0) const;
+
   BuildStats build_stats() const;
   // The device buffers now held, by name, in bytes; empty for the CPU backend.
   std::vector<std::pair<std::string, size_t>> device_buffers() const;

@@ -86,6 +86,7 @@ class Scene {
   size_t mesh_count() const;
   size_t instance_count() const;
   size_t triangle_count() const;  // over instances, as rendered
+  size_t stored_triangle_count() const;  // over meshes, as stored (a mesh many instances show counts once)
   uint32_t instance_mesh(uint32_t instance) const;
   // A mesh's object-space positions (x, y, z per vertex) and triangles (three
   // indices each, primitive_id indexing triangles), as stored: to look a hit
@@ -95,6 +96,11 @@ class Scene {
   // The node name of each instance (glTF: the node's name, "node N" when
   // unnamed, "<node>[i]" for GPU instances), indexed by instance_id.
   std::vector<std::string> instance_names() const;
+  // The glTF node of each instance (many files repeat node names), -1 for
+  // one added in memory; the name of each mesh (the glTF mesh's, "mesh N"
+  // when unnamed, as add_mesh was given it otherwise).
+  std::vector<int> instance_nodes() const;
+  std::vector<std::string> mesh_names() const;
   const std::string& path() const;  // the file loaded; empty for a scene built in memory
   const std::vector<std::string>& warnings() const;
 
@@ -112,6 +118,7 @@ class Scene {
   // where it comes from: to change one of its values (the CLI's --up alone
   // turns the file's camera) and keep the rest.
   View default_view(ViewSource* source = nullptr) const;
+  bool has_camera() const;  // the file gave a camera (LoadOptions::camera): default_view is then its view
   // World-space bounds of the instances at rest: min x, y, z and max x, y, z.
   std::array<double, 6> bounds() const;
 

@@ -2,6 +2,7 @@
 #include <cstdio>
 #include <vector>
 
+#include "api/pipeline_options.h"
 #include "bench/bench.h"
 #include "bench/bench_align.h"
 #include "cli/commands/common.h"
@@ -63,6 +64,7 @@ int run_bench_command(cli::Args& args) {
   bool have_scene = false, align = false;
   double baseline = 0.0;
   std::vector<int> counts{2, 4, 8, 16};
+  rayfold::RendererOptions renderer;  // as rayfold render takes it, then the pipeline's
   while (!args.done()) {
     const std::string a = args.next();
     if (a == "--help" || a == "-h") {
@@ -80,7 +82,7 @@ int run_bench_command(cli::Args& args) {
     } else if (a == "--baseline") {
       baseline = cli::parse_double(a, args.value(a));
       if (!(baseline > 0.0)) throw UsageError("--baseline: must be positive (world units)");
-    } else if (parse_renderer_option(a, args, opt.renderer)) {
+    } else if (parse_renderer_option(a, args, renderer)) {
     } else if (a == "--json") {
       json = args.value(a);
     } else if (a == "--md") {
@@ -90,7 +92,9 @@ int run_bench_command(cli::Args& args) {
     }
   }
   check_view_path(opt);
-  check_renderer_options(opt.renderer);
+  check_renderer_options(renderer);
+  if (!renderer.cull) throw UsageError("--no-cull: bench measures the unfolded baseline with and without culling already");
+  opt.renderer = rayfold::detail::pipeline_options(renderer);
   check_outputs({{"--json", &json, ".json"}, {"--md", &md, ".md"}});
   for (const std::string* out : {&json, &md})
     if (!out->empty()) prepare_output(*out);

@@ -12,18 +12,6 @@
 #endif
 
 namespace rayfold::core::commands {
-namespace {
-
-BraidOptions parse_braid(const std::string& option, const std::string& text) {
-  BraidOptions b;
-  b.items_per_instance = static_cast<size_t>(cli::parse_int(option, text, 0, 1024));
-  b.enabled = b.items_per_instance > 0;
-  b.min_items = b.enabled ? b.min_items : 0;
-  return b;
-}
-
-}  // namespace
-
 std::string default_scene() {
   std::error_code ec;
   if (std::filesystem::exists(RAYFOLD_DEFAULT_SCENE, ec)) return RAYFOLD_DEFAULT_SCENE;
@@ -41,16 +29,9 @@ std::string with_commas(size_t n) {
   return s;
 }
 
-Scene load_scene(const std::string& path, const LoadOptions& options) {
-  std::vector<std::string> warnings;
-  Scene scene = load_gltf(path, &warnings, options);
-  for (const std::string& w : warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
-  return scene;
-}
-
 // Options render and bench share: which tracer, which device, how built.
 // Returns false when `a` is none of them.
-bool parse_renderer_option(const std::string& a, cli::Args& args, PipelineOptions& r) {
+bool parse_renderer_option(const std::string& a, cli::Args& args, rayfold::RendererOptions& r) {
   if (a == "--backend") {
     const std::string b = args.value(a);
     if (b == "opencl")
@@ -72,15 +53,17 @@ bool parse_renderer_option(const std::string& a, cli::Args& args, PipelineOption
     else
       throw UsageError("--kernel: '" + k + "' is not tile, single, measure or auto");
   } else if (a == "--device") {
-    r.device_hint = args.value(a);
+    r.device = args.value(a);
   } else if (a == "--fast") {
-    r.precision = KernelPrecision::fast;
+    r.fast_math = true;
   } else if (a == "--threads") {
     r.threads = static_cast<unsigned>(cli::parse_int(a, args.value(a), 0, 1024));
   } else if (a == "--braid") {
-    r.braid = parse_braid(a, args.value(a));
+    r.braid = cli::parse_int(a, args.value(a), 0, 1024);
   } else if (a == "--no-merge") {
-    r.merge.enabled = false;
+    r.merge_static = false;
+  } else if (a == "--no-cull") {
+    r.cull = false;
   } else {
     return false;
   }
@@ -88,10 +71,10 @@ bool parse_renderer_option(const std::string& a, cli::Args& args, PipelineOption
 }
 
 // After parsing: options that contradict each other.
-void check_renderer_options(const PipelineOptions& r) {
+void check_renderer_options(const rayfold::RendererOptions& r) {
   if (r.backend == Backend::cpu && r.kernel != Kernel::automatic)
     throw UsageError("--kernel: the CPU backend runs the reference tracer, not an OpenCL kernel");
-  if (r.backend == Backend::cpu && !r.device_hint.empty())
+  if (r.backend == Backend::cpu && !r.device.empty())
     throw UsageError("--device: the CPU backend runs the reference tracer on no OpenCL device");
 }
 

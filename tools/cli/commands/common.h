@@ -7,8 +7,7 @@
 #include <string>
 
 #include "cli/cli_args.h"
-#include "pipeline/pipeline.h"
-#include "scene/gltf_loader.h"
+#include "rayfold/renderer.h"
 
 namespace rayfold::core::commands {
 
@@ -19,15 +18,13 @@ std::string default_scene();
 // 1234567 -> "1,234,567".
 std::string with_commas(size_t n);
 
-// Loads a glTF file, its warnings printed to stderr; InputError as load_gltf.
-Scene load_scene(const std::string& path, const LoadOptions& options = {});
-
-// Options render and bench share: which tracer, which device, how built.
-// Returns false when `a` is none of them.
-bool parse_renderer_option(const std::string& a, cli::Args& args, PipelineOptions& r);
+// Options render and bench share: which tracer, which device, how the work
+// is arranged (--braid, --no-merge, --no-cull). Returns false when `a` is
+// none of them.
+bool parse_renderer_option(const std::string& a, cli::Args& args, rayfold::RendererOptions& r);
 
 // After parsing: options that contradict each other (UsageError).
-void check_renderer_options(const PipelineOptions& r);
+void check_renderer_options(const rayfold::RendererOptions& r);
 
 struct Output {
   const char* option;

@@ -2,6 +2,7 @@
 #include <cstdio>
 
 #include "cli/commands/common.h"
+#include "scene/gltf_loader.h"
 #include "util/errors.h"
 
 namespace rayfold::core::commands {
@@ -26,7 +27,9 @@ int run_info(cli::Args& args) {
     path = a;
   }
   if (path.empty()) throw UsageError("info: no scene given (usage: rayfold info SCENE)");
-  const Scene scene = load_scene(path);
+  std::vector<std::string> warnings;
+  const Scene scene = load_gltf(path, &warnings);
+  for (const std::string& w : warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
   const Aabb b = scene.world_bounds();
   std::printf("%s\n", path.c_str());
   std::printf("  meshes      %s\n", with_commas(scene.meshes.size()).c_str());

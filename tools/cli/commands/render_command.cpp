@@ -1,25 +1,21 @@
 // `rayfold render`: one view, a frame sequence, a camera list or a stereo
-// pair, traced and written.
+// pair, traced and written through the public API (rayfold/rayfold.h), as
+// a C++ or Python caller would.
 #include <cmath>
 #include <cstdio>
 #include <map>
-#include <memory>
 #include <optional>
 
 #include "cli/camera_list.h"
 #include "cli/commands/common.h"
 #include "cli/commands/render_args.h"
 #include "cli/commands/render_outputs.h"
-#include "output/channels.h"
-#include "fold/view_passes.h"
-#include "opencl/cl_device.h"
-#include "pipeline/auto_frame.h"
 #include "cli/progress.h"
-#include "reference/hit_compare.h"
+#include "opencl/cl_device.h"
+#include "output/channels.h"
 #include "scene/animation.h"
 #include "util/atomic_file.h"
 #include "util/errors.h"
-#include "output/image_output.h"
 #include "util/timer.h"
 
 namespace rayfold::core::commands {
@@ -105,6 +101,8 @@ const char* kRenderUsage =
     "Each output's extension must match its kind (.exr, .png, .json), so no two\n"
     "outputs can name the same file.\n";
 
+rayfold::Vec3 vec3(const glm::dvec3& v) { return {v.x, v.y, v.z}; }
+
 RenderArgs parse_render(cli::Args& args) {
   RenderArgs r;
   bool have_scene = false;
@@ -125,12 +123,12 @@ RenderArgs parse_render(cli::Args& args) {
       if (v != "distance" && v != "planar")
         throw UsageError("--depth: 'distance' (along the ray, the default) or 'planar' (along the camera's axis), "
                          "not '" + v + "'");
-      r.frame.planar_depth = v == "planar";
+      r.options.depth = v == "planar" ? rayfold::Depth::planar : rayfold::Depth::distance;
     } else if (a == "--exact-depth") {
-      r.frame.exact_depth = true;
+      r.options.exact_depth = true;
     } else if (a == "--exr-compression") {
       try {
-        r.exr_compression = parse_exr_compression(args.value(a));
+        r.exr_compression = rayfold::exr_compression(args.value(a));
       } catch (const InputError& e) {
         throw UsageError(std::string("--exr-compression: ") + e.what());
       }
@@ -142,16 +140,16 @@ RenderArgs parse_render(cli::Args& args) {
       }
     } else if (a == "--align") {
       const std::string v = args.value(a);
-      r.align = v == "auto" ? -1 : v == "all" ? 0 : cli::parse_int(a, v, 1, RF_GROUP_LIMIT);
+      r.align = v == "auto" ? -1 : v == "all" ? 0 : cli::parse_int(a, v, 1, rayfold::kMaxAlignedViews);
     } else if (a == "--stereo") {
       r.stereo = cli::parse_double(a, args.value(a));
       if (!(*r.stereo > 0.0)) throw UsageError("--stereo: the baseline must be positive (world units)");
     } else if (a == "--eye") {
-      r.eye = cli::parse_vec3(a, args.value(a));
+      r.eye = vec3(cli::parse_vec3(a, args.value(a)));
     } else if (a == "--look-at") {
-      r.look_at = cli::parse_vec3(a, args.value(a));
+      r.look_at = vec3(cli::parse_vec3(a, args.value(a)));
     } else if (a == "--up") {
-      r.up = cli::parse_vec3(a, args.value(a));
+      r.up = vec3(cli::parse_vec3(a, args.value(a)));
     } else if (a == "--ortho") {
       r.ortho = cli::parse_double(a, args.value(a));
     } else if (a == "--vfov") {
@@ -162,12 +160,12 @@ RenderArgs parse_render(cli::Args& args) {
       r.load.camera = cli::parse_int(a, args.value(a), 0, 1 << 30);
     } else if (a == "--time") {
       r.load.time = cli::parse_double(a, args.value(a));
-    } else if (parse_renderer_option(a, args, r.renderer)) {
+    } else if (parse_renderer_option(a, args, r.options)) {
     } else if (a == "--fold") {
       const std::string v = args.value(a);
       r.fold_auto = v == "auto";
       r.fold_given = true;
-      if (!r.fold_auto) r.frame.fold = cli::parse_fold(a, v);
+      if (!r.fold_auto) r.fold = cli::parse_fold(a, v);
     } else if (a == "--shift") {
       const std::string v = args.value(a);
       const size_t comma = v.find(',');
@@ -175,11 +173,9 @@ RenderArgs parse_render(cli::Args& args) {
       r.shift_x = cli::parse_double(a, v.substr(0, comma));
       r.shift_y = cli::parse_double(a, v.substr(comma + 1));
     } else if (a == "--animate") {
-      r.frame.animate_frame = 0;
+      r.animate = true;
     } else if (a == "--compare") {
       r.compare = true;
-    } else if (a == "--no-cull") {
-      r.frame.cull = false;
     } else if (a == "--fps") {
       r.fps = cli::parse_double(a, args.value(a));
       if (!(r.fps > 0.0 && r.fps <= 1e6)) throw UsageError("--fps: must be in (0, 1e6] frames per second");
@@ -212,7 +208,7 @@ RenderArgs parse_render(cli::Args& args) {
     const char* what = !r.cameras.empty() ? "--cameras" : !r.colmap.empty() ? "--colmap" : "--stereo";
     if ((!r.cameras.empty()) + (!r.colmap.empty()) + bool(r.stereo) > 1)
       throw UsageError("--cameras, --colmap and --stereo: one list of views at a time");
-    if (r.compare || r.frame.animate_frame >= 0 || r.frames != 1 || r.shift_x != 0.0 || r.shift_y != 0.0)
+    if (r.compare || r.animate || r.frames != 1 || r.shift_x != 0.0 || r.shift_y != 0.0)
       throw UsageError(std::string(what) +
                        ": renders each view once; --compare, --animate, --frames and --shift "
                        "do not combine with it");
@@ -227,59 +223,46 @@ RenderArgs parse_render(cli::Args& args) {
     throw UsageError("--align: aligns the views of --cameras or --stereo");
   }
   if (r.fold_auto && r.compare) throw UsageError("--compare: compares a fold with none; name the fold");
-  if (r.frame.exact_depth && (r.channels & rayfold::kDepth) == 0)
+  if (r.options.exact_depth && (r.channels & rayfold::kDepth) == 0)
     throw UsageError("--exact-depth: it is Z's; --channels leaves Z out");
-  if (r.frame.exact_depth && r.renderer.precision == KernelPrecision::fast)
+  if (r.options.exact_depth && r.options.fast_math)
     throw UsageError("--exact-depth runs on the exact kernels; --fast reorders the double-float steps away");
   check_outputs(
       {{"-o", &r.exr, ".exr"}, {"--png", &r.png, ".png"}, {"--stats", &r.stats, ".json"}, {"--ids", &r.ids, ".json"}});
-  // No output reads the normal: the kernels skip it.
-  r.frame.normals = (r.channels & rayfold::kNormal) != 0 || !r.png.empty();
-  if (r.compare && r.fold_given && r.frame.fold == Fold::none)
+  if (r.compare && r.fold_given && r.fold == Fold::none)
     throw UsageError(
         "--compare --fold none: --compare checks a fold against none; name y, x or xy (or leave --fold "
         "out for xy)");
-  if (r.compare && r.frame.fold == Fold::none) r.frame.fold = Fold::xy;
-  check_renderer_options(r.renderer);
+  if (r.compare && r.fold == Fold::none) r.fold = Fold::xy;
+  check_renderer_options(r.options);
   return r;
 }
 
 // --fold auto and --align auto: the choice the cost model predicts fastest
-// for these views (alignable ones: the first view's intrinsics), applied to
-// r and the renderer and printed. The kernel is chosen too unless named.
-void choose_automatically(RenderArgs& r, Pipeline& renderer, const std::vector<Camera>& views, bool quiet) {
+// for these views (Renderer::choose_fastest; its kernel too unless one was
+// named), applied to r and printed.
+void choose_automatically(RenderArgs& r, rayfold::Renderer& renderer, const std::vector<rayfold::Camera>& views) {
   if (!r.fold_auto && r.align >= 0) return;
-  std::vector<Camera> group;
-  for (const Camera& c : views)
-    if (can_align(renderer.scene_data(), views[0], c)) group.push_back(c);
-  std::vector<Fold> folds{r.frame.fold};
-  if (r.fold_auto) folds = {Fold::none, Fold::y, Fold::x, Fold::xy};
-  std::vector<KernelKind> kernels{renderer.kernel()};
-  const bool kernel_free = r.renderer.backend == Backend::opencl && r.renderer.kernel == Kernel::automatic;
-  if (kernel_free) kernels = {KernelKind::tile, KernelKind::single};
-  std::vector<int> aligns{r.align > 0 ? r.align : RF_GROUP_LIMIT};
-  if (r.align < 0 && group.size() > 1) aligns = {1, RF_GROUP_LIMIT};
-  if (group.size() == 1) aligns = {1};
-  const AutoChoice c = choose_fastest(renderer, group, folds, kernels, aligns);
-  r.frame.fold = c.best.fold;
-  if (r.align < 0) r.align = c.best.align;
-  if (kernel_free) {
-    renderer.set_kernel(c.best.kernel, "predicted fastest (docs/cost_model.md)");
-    r.renderer.kernel = c.best.kernel == KernelKind::tile ? Kernel::tile : Kernel::single;
-  }
-  if (quiet) return;
+  std::vector<Fold> folds;
+  if (!r.fold_auto) folds = {r.fold};
+  std::vector<int> aligns;
+  if (r.align > 0) aligns = {r.align};
+  if (r.align == 0) aligns = {rayfold::kMaxAlignedViews};
+  const rayfold::AutoChoice c = renderer.choose_fastest(views, folds, aligns);
+  r.fold = c.fold;
+  if (r.align < 0) r.align = c.align;
+  if (r.quiet) return;
+  const rayfold::Prediction& best = c.predictions.at(0);
   std::printf("auto: %s, predicted %.2f ms per view (trace %.2f + update %.2f); probing %zu choices took %.0f ms:\n",
-              choice_name(c.best).c_str(), c.predictions[0].total_ms(), c.predictions[0].trace_ms,
-              c.predictions[0].update_ms, c.predictions.size(), c.probe_ms);
-  for (const Prediction& p : c.predictions)
-    std::printf("  %-24s %8.2f ms/view\n", choice_name(p.choice).c_str(), p.total_ms());
+              best.name.c_str(), best.total_ms(), best.trace_ms, best.update_ms, c.predictions.size(), c.probe_ms);
+  for (const rayfold::Prediction& p : c.predictions) std::printf("  %-24s %8.2f ms/view\n", p.name.c_str(), p.total_ms());
 }
 
 // A slow program build is a machine's first use (PoCL compiles, then
 // caches); said once so that the wait and the first frame's time (which
 // also holds the compile for the work-group size) are not taken for rayfold's.
-void announce_program_build(const Pipeline& renderer, Progress& progress, bool quiet) {
-  const double ms = renderer.program_build_ms();
+void announce_program_build(const rayfold::Renderer& renderer, Progress& progress, bool quiet) {
+  const double ms = renderer.build_stats().kernels_ms;
   if (quiet || ms < 500.0) return;
   char text[400];
   std::snprintf(text, sizeof text,
@@ -291,8 +274,6 @@ void announce_program_build(const Pipeline& renderer, Progress& progress, bool q
   progress.print(stderr, text);
 }
 
-// --cameras and --stereo: the views traced in passes of aligned views, each
-// view's outputs written.
 // Every view's outputs made ready (prepare_output); two views that would
 // write one file (their names end alike under %s) are a UsageError naming both.
 void check_view_outputs(const RenderArgs& r, const std::vector<cli::View>& views) {
@@ -300,7 +281,7 @@ void check_view_outputs(const RenderArgs& r, const std::vector<cli::View>& views
     if (out->empty()) continue;
     std::map<std::string, const cli::View*> written;
     for (const cli::View& v : views) {
-      const std::string path = view_output(option, *out, v, r.stereo.has_value(), views.size());
+      const std::string path = view_output(option, *out, v.label, v.name, r.stereo.has_value(), views.size());
       const auto [at, fresh] = written.emplace(path, &v);
       if (!fresh)
         throw UsageError(std::string(option) + ": views " + at->second->label + " ('" + at->second->name +
@@ -311,64 +292,67 @@ void check_view_outputs(const RenderArgs& r, const std::vector<cli::View>& views
   }
 }
 
-int render_views(RenderArgs r, const Scene& scene, Pipeline& renderer, const std::vector<cli::View>& views,
-                 Progress& progress, double load_ms) {
+// --cameras, --colmap and --stereo: the views traced in passes of aligned
+// views (Renderer::render_views), each view's outputs written as it comes.
+int render_views(RenderArgs r, const rayfold::Scene& scene, rayfold::Renderer& renderer,
+                 const std::vector<cli::View>& views, Progress& progress, double load_ms) {
   const bool stereo = r.stereo.has_value();
-  std::vector<Camera> cameras;
+  std::vector<rayfold::Camera> cameras;
   for (const cli::View& v : views) cameras.push_back(v.camera);
   const bool align_auto = r.align < 0;
   progress.clear();
-  choose_automatically(r, renderer, cameras, r.quiet);
-  const int align = r.align > 0 ? r.align : RF_GROUP_LIMIT;
-  const std::vector<std::vector<size_t>> passes = plan_passes(renderer.scene_data(), cameras, align, r.frame.fold);
+  choose_automatically(r, renderer, cameras);
+  const int align = r.align > 0 ? r.align : 0;
+  const std::vector<std::vector<size_t>> passes = renderer.passes(cameras, r.fold, align);
+  std::vector<PassInfo> pass_of(views.size());
+  for (size_t p = 0; p < passes.size(); ++p)
+    for (size_t i : passes[p]) pass_of[i] = {p, passes[p].size()};
   if (!r.quiet)
     std::printf("rayfold render  %s  %zu views in %zu passes (--align %s)  fold %s\n", r.scene.c_str(), views.size(),
                 passes.size(),
-                align_auto    ? ("auto: " + std::to_string(align)).c_str()
+                align_auto    ? ("auto: " + std::to_string(r.align)).c_str()
                 : r.align > 0 ? std::to_string(r.align).c_str()
                               : "all",
-                fold_name(r.frame.fold));
+                fold_name(r.fold));
   progress.stage("tracing", views.size());
   const auto start = Clock::now();
-  RenderResult result;
   size_t done = 0;
   double trace_ms = 0.0;
   char line[512];
-  for (size_t p = 0; p < passes.size(); ++p) {
-    const std::vector<size_t>& pass = passes[p];
-    std::vector<Camera> pass_cameras;
-    for (size_t i : pass) pass_cameras.push_back(cameras[i]);
-    renderer.render_views_into(result, pass_cameras, 1, r.frame);
-    trace_ms += result.median.trace_ms;
-    // One line per pass: its views were traced together, so the time is theirs together.
-    if (!r.quiet) {
-      std::snprintf(line, sizeof line, "  pass %zu of %zu: %zu view%s, trace %.2f ms\n", p + 1, passes.size(),
-                    pass.size(), pass.size() == 1 ? "" : "s", result.median.trace_ms);
-      progress.print(stdout, line);
-    }
-    for (size_t k = 0; k < pass.size(); ++k) {
-      const cli::View& v = views[pass[k]];
-      const RenderResult vr = view_result(result, k);
-      const ExrMetadata metadata = exr_metadata(v.camera, scene, r);
-      const int w = v.camera.width, h = v.camera.height;
-      if (!r.exr.empty())
-        write_exr(view_output("-o", r.exr, v, stereo, views.size()), vr.hits, w, h, &metadata, r.channels,
-                  r.exr_compression);
-      if (!r.png.empty()) write_png(view_output("--png", r.png, v, stereo, views.size()), vr.hits, w, h);
-      if (!r.stats.empty())
-        write_stats(view_output("--stats", r.stats, v, stereo, views.size()), r, scene, v.camera, renderer, vr, load_ms,
-                    PassInfo{p, pass.size()});
-      for (const std::string& w : vr.warnings)
-        progress.print(stderr, "warning: view " + v.label + ": " + w + " (docs/exactness.md)\n");
-      progress.update(++done);
-      if (!r.quiet) {
-        const glm::dvec3 eye(v.camera.world_from_camera[3]);
-        std::snprintf(line, sizeof line, "    view %-6s %dx%d  eye (%g, %g, %g)\n", v.label.c_str(), w, h, eye.x, eye.y,
-                      eye.z);
-        progress.print(stdout, line);
-      }
-    }
-  }
+  renderer.render_views(
+      cameras,
+      [&](size_t i, rayfold::GBuffer&& g) {
+        const cli::View& v = views[i];
+        const PassInfo& pass = pass_of[i];
+        // One line per pass, at its first view: its views were traced
+        // together, so the time is theirs together.
+        if (i == passes[pass.index].front()) {
+          const double pass_ms = g.stages.trace_ms;
+          trace_ms += pass_ms;
+          if (!r.quiet) {
+            std::snprintf(line, sizeof line, "  pass %zu of %zu: %zu view%s, trace %.2f ms\n", pass.index + 1,
+                          passes.size(), pass.views, pass.views == 1 ? "" : "s", pass_ms);
+            progress.print(stdout, line);
+          }
+        }
+        if (!r.exr.empty())
+          rayfold::write_exr(view_output("-o", r.exr, v.label, v.name, stereo, views.size()), g, v.camera, scene,
+                             r.exr_compression, r.channels);
+        if (!r.png.empty()) rayfold::write_png(view_output("--png", r.png, v.label, v.name, stereo, views.size()), g);
+        if (!r.stats.empty())
+          write_stats(view_output("--stats", r.stats, v.label, v.name, stereo, views.size()), r, scene, v.camera,
+                      renderer, g, g.stages, 1, load_ms, pass);
+        for (const std::string& w : g.warnings)
+          progress.print(stderr, "warning: view " + v.label + ": " + w + " (docs/exactness.md)\n");
+        progress.update(++done);
+        if (!r.quiet) {
+          const rayfold::Vec3 eye = v.camera.eye();
+          std::snprintf(line, sizeof line, "    view %-6s %dx%d  eye (%g, %g, %g)\n", v.label.c_str(),
+                        v.camera.width(), v.camera.height(), eye[0], eye[1], eye[2]);
+          progress.print(stdout, line);
+        }
+      },
+      r.fold, align, r.render_channels());
   progress.clear();
   if (!r.quiet) {
     const double wall_s = ms_since(start) / 1000.0;
@@ -380,6 +364,52 @@ int render_views(RenderArgs r, const Scene& scene, Pipeline& renderer, const std
     std::printf("  nothing written (-o F_%%04d.exr, --png, --stats or --ids write the results)\n");
   return 0;
 }
+
+// --animate on a file without animations: every fourth instance moves
+// (scene/animation.h's synthetic motion, for benchmarking updates), placed
+// with Scene::set_transform.
+class SyntheticMotion {
+ public:
+  explicit SyntheticMotion(const rayfold::Scene& scene) {
+    for (uint32_t i = 0; i < scene.instance_count(); ++i) {
+      if (!is_animated(i)) continue;
+      const uint32_t mesh = scene.instance_mesh(i);
+      // The mesh's box over its triangles' corners, as its tree's root box.
+      const std::vector<float> p = scene.mesh_positions(mesh);
+      Aabb box;
+      for (uint32_t v : scene.mesh_indices(mesh)) box.grow(glm::vec3(p[3 * v], p[3 * v + 1], p[3 * v + 2]));
+      moving_.push_back({i, scene.transform(i), box});
+    }
+  }
+  // The instances at frame f's pose (frame 0: as loaded).
+  void pose(rayfold::Scene& scene, int frame) const {
+    for (const Moving& m : moving_) {
+      Instance rest;
+      rest.world_from_object = to_xform(m.rest);
+      scene.set_transform(m.instance, to_matrix(animated_world_from_object(rest, m.object_bounds, m.instance, frame)));
+    }
+  }
+
+ private:
+  static Xform to_xform(const rayfold::Matrix4& m) {
+    Xform x;
+    for (int r = 0; r < 4; ++r)
+      for (int c = 0; c < 4; ++c) x[c][r] = m[4 * r + c];
+    return x;
+  }
+  static rayfold::Matrix4 to_matrix(const Xform& x) {
+    rayfold::Matrix4 m;
+    for (int r = 0; r < 4; ++r)
+      for (int c = 0; c < 4; ++c) m[4 * r + c] = x[c][r];
+    return m;
+  }
+  struct Moving {
+    uint32_t instance;
+    rayfold::Matrix4 rest;
+    Aabb object_bounds;
+  };
+  std::vector<Moving> moving_;
+};
 
 }  // namespace
 
@@ -400,35 +430,38 @@ int run_render(cli::Args& args) {
   // once it is read, a stereo pair's now.
   for (const std::string* out : {&r.exr, &r.png, &r.stats, &r.ids})
     if (!out->empty() && (!view_list || out == &r.ids)) prepare_output(frame_name("output", *out, 0, nullptr));
-  if (r.stereo) check_view_outputs(r, {cli::View{Camera{}, "left", ""}, cli::View{Camera{}, "right", ""}});
+  if (r.stereo) check_view_outputs(r, {{cli::View{rayfold::Camera::look_at({0, 0, 1}, {0, 0, 0}, {0, 1, 0}, 60, 1, 1),
+                                                  "left", ""},
+                                        cli::View{rayfold::Camera::look_at({0, 0, 1}, {0, 0, 0}, {0, 1, 0}, 60, 1, 1),
+                                                  "right", ""}}});
 
   // The OpenCL drivers load while the scene is read: the whole process 0.91x
   // to 0.97x the time on the shared scenes (docs/results.md).
   std::optional<OpenClPreload> preload;
-  if (r.renderer.backend == Backend::opencl) preload.emplace();
+  if (r.options.backend == Backend::opencl) preload.emplace();
   // Progress on a terminal only; the table and warnings come after it.
   Progress progress(!r.quiet);
   progress.stage("loading " + r.scene);
   auto t0 = Clock::now();
-  r.load.threads = r.renderer.threads;
-  GltfFile file(r.scene, r.load);
-  Scene scene = file.scene_at(r.load.time);
+  r.load.threads = r.options.threads;
+  rayfold::Scene scene = rayfold::Scene::load(r.scene, r.load);
   // Warnings are printed under -q too: it silences the table and progress.
-  for (const std::string& w : file.warnings()) std::fprintf(stderr, "warning: %s\n", w.c_str());
-  r.load_warnings = file.warnings();
+  for (const std::string& w : scene.warnings()) std::fprintf(stderr, "warning: %s\n", w.c_str());
   const double load_ms = ms_since(t0);
   // --animate plays the file's own animations when it has any (frame f at
-  // --time + f / --fps); other files get the synthetic motion (animation.h).
-  const bool play = r.frame.animate_frame >= 0 && file.animated();
+  // --time + f / --fps); other files get the synthetic motion.
+  const bool play = r.animate && scene.animated();
   // A substitute is announced, -q or not.
-  if (r.frame.animate_frame >= 0 && !play)
+  if (r.animate && !play)
     std::fprintf(stderr,
                  "warning: --animate: %s has no animations; every fourth instance moves instead (a synthetic "
                  "motion for benchmarking updates)\n",
                  r.scene.c_str());
-  FrameOptions frame_options = r.frame;
-  if (play) frame_options.animate_frame = -1;
-  if (r.frame.animate_frame >= 0 && !play) r.renderer.merge.dynamic = animated_instances(scene.instances.size());
+  std::optional<SyntheticMotion> motion;
+  if (r.animate && !play) {
+    motion.emplace(scene);
+    motion->pose(scene, 0);  // moved before the trees are built: they keep trees of their own
+  }
   const double start_time = std::isnan(r.load.time) ? 0.0 : r.load.time;
 
   // A list of views from a file: its outputs are checked before any
@@ -446,196 +479,148 @@ int run_render(cli::Args& args) {
 
   progress.stage("building the bottom-level trees and the kernels");
   t0 = Clock::now();
-  auto renderer_ptr = std::make_unique<Pipeline>(scene, r.renderer);
-  std::vector<char> moved_since_build(scene.instances.size(), 0);  // since the renderer's trees were built
+  rayfold::Renderer renderer(scene, r.options);
   const double setup_ms = ms_since(t0);
-  announce_program_build(*renderer_ptr, progress, r.quiet);
-  if (listed) return render_views(r, scene, *renderer_ptr, views, progress, load_ms);
+  announce_program_build(renderer, progress, r.quiet);
+  if (listed) return render_views(r, scene, renderer, views, progress, load_ms);
 
   // Without a camera in the file or on the command line, the view is chosen
-  // from the scene's trees (pipeline/auto_frame.h): an interior from inside.
+  // from the scene's trees (Scene::default_view): an interior from inside.
   // An animated file is framed at its start (time 0) whenever a time is
   // asked for, so that --time T and frame k of --animate at the same time
   // see the same camera.
-  const bool timed = !std::isnan(r.load.time) || r.frame.animate_frame >= 0;
-  const bool auto_framed = !scene.camera && !r.eye;
-  CameraSpec spec;
-  ViewKind framed_kind = ViewKind::object;
-  if (scene.camera) {
-    spec = *scene.camera;
-  } else if (auto_framed) {
-    progress.stage("choosing a view");
-    PipelineOptions cpu_options;
-    cpu_options.backend = Backend::cpu;
-    cpu_options.threads = r.renderer.threads;
-    AutoFrame framed;
-    if (timed && file.animated()) {
-      const Scene start = file.scene_at(0.0);
-      Pipeline cpu(start, cpu_options);
-      framed = auto_frame(start, cpu);
-    } else {
-      Pipeline cpu(scene, cpu_options, renderer_ptr->shared_scene_data());
-      framed = auto_frame(scene, cpu);
-    }
-    spec = framed.spec;
-    framed_kind = framed.kind;
+  const bool timed = !std::isnan(r.load.time) || r.animate;
+  rayfold::ViewSource source = rayfold::ViewSource::file_camera;
+  rayfold::View view;
+  if (!r.eye || scene.has_camera()) {  // the file's camera lends its field of view to --eye
+    if (!r.eye) progress.stage("choosing a view");
+    const bool reframe = !scene.has_camera() && timed && scene.animated();
+    if (reframe) scene.set_time(0.0);
+    view = scene.default_view(&source);
+    if (reframe) scene.set_time(start_time);
   }
+  const bool auto_framed = !r.eye && source != rayfold::ViewSource::file_camera;
   if (r.eye) {
     // A camera given on the command line is given whole: +Y up unless --up.
-    spec.eye = *r.eye;
-    spec.look_at = *r.look_at;
-    spec.up = glm::dvec3(0.0, 1.0, 0.0);
+    view.eye = *r.eye;
+    view.target = *r.look_at;
+    view.up = {0.0, 1.0, 0.0};
   }
-  if (r.up) spec.up = *r.up;
+  if (r.up) view.up = *r.up;
   if (r.vfov) {
-    spec.vfov_degrees = *r.vfov;
-    spec.orthographic = false;
+    view.vfov_degrees = *r.vfov;
+    view.orthographic = false;
   }
   if (r.ortho) {
-    spec.orthographic = true;
-    spec.ymag = *r.ortho;
+    view.orthographic = true;
+    view.half_height = *r.ortho;
   }
   if (r.stereo) {
-    views = cli::stereo_pair(spec, *r.stereo, r.width, r.height);
+    views = cli::stereo_pair(view, *r.stereo, r.width, r.height);
     check_view_outputs(r, views);
-    return render_views(r, scene, *renderer_ptr, views, progress, load_ms);
+    return render_views(r, scene, renderer, views, progress, load_ms);
   }
-  const Camera camera = make_camera(spec, r.width, r.height, r.shift_x, r.shift_y);
+  const rayfold::Camera camera = rayfold::Camera::from_view(view, r.width, r.height, r.shift_x, r.shift_y);
 
   if (r.fold_auto) {
     progress.clear();
-    choose_automatically(r, *renderer_ptr, {camera}, r.quiet);
-    frame_options.fold = r.frame.fold;
+    choose_automatically(r, renderer, {camera});
   }
-  // The file's pose for frame f: instances that moved since the trees were
-  // built go to FrameOptions::moved; changed meshes (morph weights, skins)
-  // rebuild the trees.
-  size_t rebuilds = 0;
-  // An instance merged into a static tree (bvh/blas.h) that moves is built
-  // dynamic from then on.
-  auto pose_frame = [&](int f, FrameOptions& o) {
-    std::vector<uint32_t> changed;
-    bool rebuild = apply_pose(scene, file.scene_at(start_time + f / r.fps), &changed);
-    std::vector<uint8_t>& dynamic = r.renderer.merge.dynamic;
-    dynamic.resize(scene.instances.size(), 0);
-    for (uint32_t i : changed) {
-      rebuild |= renderer_ptr->scene_data().blas.merged[i] != 0;
-      dynamic[i] = 1;
-    }
-    if (rebuild) {
-      renderer_ptr = std::make_unique<Pipeline>(scene, r.renderer);
-      moved_since_build.assign(scene.instances.size(), 0);
-      ++rebuilds;
-    }
-    for (uint32_t i : changed) moved_since_build[i] = 1;
-    o.moved.clear();
-    for (size_t i = 0; i < moved_since_build.size(); ++i)
-      if (moved_since_build[i]) o.moved.push_back(static_cast<uint32_t>(i));
+  // Frame f's pose: the file's animations at its time, or the synthetic
+  // motion's frame f; the renderer places what moved and rebuilds the trees
+  // where meshes changed (morph weights, skins).
+  auto pose_frame = [&](int f) {
+    if (play) scene.set_time(start_time + f / r.fps);
+    if (motion) motion->pose(scene, f);
   };
   progress.stage("tracing", sequence || play ? static_cast<size_t>(r.frames) : 0);
-  std::optional<RenderResult> unfolded;
-  if (r.compare && !play) {
-    FrameOptions none = frame_options;
-    none.fold = Fold::none;
-    unfolded = renderer_ptr->render(camera, r.frames, none);
-  }
-  RenderResult result;
+  const unsigned channels = r.render_channels();
+  rayfold::GBuffer g;
+  std::vector<rayfold::StageTimes> times;
   std::vector<std::string> written;
   double write_ms = 0.0;  // the EXR and PNG writes (ZIP compression is most of it)
-  const ExrMetadata metadata = exr_metadata(camera, scene, r);
-  if (!sequence && !play) {
-    Pipeline& renderer = *renderer_ptr;
-    result = renderer.render(camera, r.frames, frame_options);
-    progress.stage("writing");
-    const auto w0 = Clock::now();
-    if (!r.exr.empty()) write_exr(r.exr, result.hits, r.width, r.height, &metadata, r.channels, r.exr_compression);
-    if (!r.png.empty()) write_png(r.png, result.hits, r.width, r.height);
-    write_ms += ms_since(w0);
-    for (const std::string* out : {&r.exr, &r.png})
-      if (!out->empty()) written.push_back(*out);
-  } else {
-    std::vector<FrameTimes> times;
-    FrameOptions o = frame_options;
-    for (int f = 0; f < r.frames; ++f) {
-      if (play)
-        pose_frame(f, o);
-      else if (frame_options.animate_frame >= 0)
-        o.animate_frame = frame_options.animate_frame + f;
-      renderer_ptr->render_into(result, camera, 1, o);
-      times.push_back(result.frames.front());
-      const bool last = f + 1 == r.frames;
-      if (sequence || last) {
-        const auto w0 = Clock::now();
-        // A frame field may name the folder too (out/%04d/z.exr).
-        for (const std::string* out : {&r.exr, &r.png})
-          if (!out->empty() && f > 0) make_output_folders(frame_name("output", *out, f, nullptr));
-        if (!r.exr.empty())
-          write_exr(frame_name("output", r.exr, f, nullptr), result.hits, r.width, r.height, &metadata, r.channels,
-                    r.exr_compression);
-        if (!r.png.empty()) write_png(frame_name("output", r.png, f, nullptr), result.hits, r.width, r.height);
-        write_ms += ms_since(w0);
-      }
-      progress.update(static_cast<size_t>(f + 1));
+  for (int f = 0; f < r.frames; ++f) {
+    pose_frame(f);
+    renderer.render_into(g, camera, r.fold, channels);
+    times.push_back(g.stages);
+    const bool last = f + 1 == r.frames;
+    if (sequence || last) {
+      if (last) progress.stage("writing");
+      const auto w0 = Clock::now();
+      // A frame field may name the folder too (out/%04d/z.exr).
+      for (const std::string* out : {&r.exr, &r.png})
+        if (!out->empty() && f > 0) make_output_folders(frame_name("output", *out, f, nullptr));
+      if (!r.exr.empty())
+        rayfold::write_exr(frame_name("output", r.exr, f, nullptr), g, camera, scene, r.exr_compression, r.channels);
+      if (!r.png.empty()) rayfold::write_png(frame_name("output", r.png, f, nullptr), g);
+      write_ms += ms_since(w0);
     }
-    if (r.compare) {
-      // The last frame's pose, unfolded.
-      FrameOptions none = o;
-      none.fold = Fold::none;
-      unfolded = renderer_ptr->render(camera, 1, none);
-    }
-    for (const std::string* out : {&r.exr, &r.png})
-      if (!out->empty())
-        written.push_back(sequence ? frame_name("output", *out, 0, nullptr) + " .. " +
-                                         frame_name("output", *out, r.frames - 1, nullptr) + " (" +
-                                         std::to_string(r.frames) + " frames)"
-                                   : *out);
-    result.frames = times;
-    result.median = median_times(times);
+    progress.update(static_cast<size_t>(f + 1));
   }
-  Pipeline& renderer = *renderer_ptr;
+  for (const std::string* out : {&r.exr, &r.png})
+    if (!out->empty())
+      written.push_back(sequence ? frame_name("output", *out, 0, nullptr) + " .. " +
+                                       frame_name("output", *out, r.frames - 1, nullptr) + " (" +
+                                       std::to_string(r.frames) + " frames)"
+                                 : *out);
+  const rayfold::StageTimes m = median_stages(times);
+  // --compare: the last frame's pose, unfolded, as many frames.
+  std::optional<rayfold::GBuffer> unfolded;
+  rayfold::StageTimes unfolded_times;
+  if (r.compare) {
+    std::vector<rayfold::StageTimes> none_times;
+    unfolded.emplace();
+    for (int f = 0; f < r.frames; ++f) {
+      renderer.render_into(*unfolded, camera, Fold::none, channels);
+      none_times.push_back(unfolded->stages);
+    }
+    unfolded_times = median_stages(none_times);
+  }
+  const rayfold::BuildStats built = renderer.build_stats();
   if (play && !r.quiet)
-    std::fprintf(
-        stderr, "playing the file's animation: %d frames from %g s at %g fps (it ends at %g s)%s\n", r.frames,
-        start_time, r.fps, file.animation_end(),
-        rebuilds ? (", trees rebuilt for " + std::to_string(rebuilds) + " frames whose meshes changed").c_str() : "");
+    std::fprintf(stderr, "playing the file's animation: %d frames from %g s at %g fps (it ends at %g s)%s\n",
+                 r.frames, start_time, r.fps, scene.animation_end(),
+                 built.builds > 1 ? (", trees rebuilt " + std::to_string(built.builds - 1) +
+                                     " times for frames whose meshes changed")
+                                        .c_str()
+                                  : "");
   progress.clear();
-  for (const std::string& w : result.warnings) std::fprintf(stderr, "warning: %s (docs/exactness.md)\n", w.c_str());
+  for (const std::string& w : g.warnings) std::fprintf(stderr, "warning: %s (docs/exactness.md)\n", w.c_str());
 
-  if (!r.stats.empty()) write_stats(r.stats, r, scene, camera, renderer, result, load_ms);
+  if (!r.stats.empty()) write_stats(r.stats, r, scene, camera, renderer, g, m, times.size(), load_ms);
   if (!r.ids.empty()) write_ids(r.ids, r, scene);
 
   if (!r.quiet) {
-    const FrameTimes& m = result.median;
-    const double mrays = result.rays / (m.trace_ms * 1e3);
-    std::printf("rayfold render  %s  %dx%d  fold %s\n", r.scene.c_str(), r.width, r.height, fold_name(r.frame.fold));
+    const size_t pixels = static_cast<size_t>(r.width) * r.height;
+    std::printf("rayfold render  %s  %dx%d  fold %s\n", r.scene.c_str(), r.width, r.height, fold_name(r.fold));
     std::printf("  %-12s %s\n", "device", renderer.device_name().c_str());
-    std::printf("  %-12s %s (%s)\n", "kernel", result.kernel.c_str(), result.kernel_reason.c_str());
+    std::printf("  %-12s %s (%s)\n", "kernel", g.kernel.c_str(), g.kernel_reason.c_str());
     std::printf("  %-12s %s instances, %s meshes, %s triangles (%s stored)\n", "scene",
-                with_commas(scene.instances.size()).c_str(), with_commas(scene.meshes.size()).c_str(),
-                with_commas(scene.triangle_count()).c_str(), with_commas(scene.unique_triangle_count()).c_str());
-    std::printf("  %-12s %9.2f ms   (SAH cost %.1f, depth %d)\n", "BLAS build", renderer.blas_build_ms(),
-                renderer.scene_data().blas.sah_cost, renderer.scene_data().blas.max_depth);
+                with_commas(scene.instance_count()).c_str(), with_commas(scene.mesh_count()).c_str(),
+                with_commas(scene.triangle_count()).c_str(), with_commas(scene.stored_triangle_count()).c_str());
+    std::printf("  %-12s %9.2f ms   (SAH cost %.1f, depth %d)\n", "BLAS build", built.trees_ms, built.sah_cost,
+                built.depth);
     std::printf("  %-12s %9.2f ms   (%zu instances traced, from %zu in the scene; SAH cost %.1f)\n", "TLAS build",
-                m.cull_ms + m.tlas_ms, result.frame_stats.kept, result.frame_stats.candidates,
-                result.frame_stats.tlas_sah);
-    std::printf("  %-12s %9.2f ms   (median of %zu frames)\n", "trace", m.trace_ms, result.frames.size());
-    std::printf("  %-12s %9.2f   (%zu rays for %zu pixels: %.2f Mpixels/s)\n", "Mrays/s", mrays, result.rays,
-                result.hits.size(), result.hits.size() / (m.trace_ms * 1e3));
+                m.cull_ms + m.tlas_ms, g.top_level.traced_instances, g.top_level.scene_instances,
+                g.top_level.sah_cost);
+    std::printf("  %-12s %9.2f ms   (median of %zu frames)\n", "trace", m.trace_ms, times.size());
+    std::printf("  %-12s %9.2f   (%zu rays for %zu pixels: %.2f Mpixels/s)\n", "Mrays/s", g.rays / (m.trace_ms * 1e3),
+                g.rays, pixels, pixels / (m.trace_ms * 1e3));
     if (auto_framed) {
-      std::printf("  %-12s %s\n", "view", framed_kind == ViewKind::interior
+      std::printf("  %-12s %s\n", "view", source == rayfold::ViewSource::interior
                                               ? "chosen: an interior, seen from inside along its length"
                                               : "chosen: the whole scene from outside");
       std::printf("  %-12s --eye %.17g,%.17g,%.17g --look-at %.17g,%.17g,%.17g --up %.17g,%.17g,%.17g %s %.17g\n",
-                  "auto-framed", spec.eye.x, spec.eye.y, spec.eye.z, spec.look_at.x, spec.look_at.y, spec.look_at.z,
-                  spec.up.x, spec.up.y, spec.up.z, spec.orthographic ? "--ortho" : "--vfov",
-                  spec.orthographic ? spec.ymag : spec.vfov_degrees);
+                  "auto-framed", view.eye[0], view.eye[1], view.eye[2], view.target[0], view.target[1],
+                  view.target[2], view.up[0], view.up[1], view.up[2], view.orthographic ? "--ortho" : "--vfov",
+                  view.orthographic ? view.half_height : view.vfov_degrees);
     }
-    if (unfolded) print_comparison(*unfolded, result, r.frame.fold);
+    if (unfolded) print_comparison(*unfolded, unfolded_times, g, m);
     if (r.verbose) {
       std::printf("  %-12s load %.2f ms, trees and kernels %.2f ms (BLAS %.2f ms, kernels %.2f ms), writing %.2f ms\n",
-                  "stages", load_ms, setup_ms, renderer.blas_build_ms(), renderer.program_build_ms(), write_ms);
-      for (size_t f = 0; f < result.frames.size(); ++f) {
-        const FrameTimes& t = result.frames[f];
+                  "stages", load_ms, setup_ms, built.trees_ms, built.kernels_ms, write_ms);
+      for (size_t f = 0; f < times.size(); ++f) {
+        const rayfold::StageTimes& t = times[f];
         std::printf("  %-12s cull %.3f, TLAS %.3f, upload %.3f, ray list %.3f, trace %.3f, readback %.3f ms\n",
                     ("frame " + std::to_string(f)).c_str(), t.cull_ms, t.tlas_ms, t.upload_ms, t.ray_list_ms,
                     t.trace_ms, t.readback_ms);
@@ -647,7 +632,7 @@ int run_render(cli::Args& args) {
     if (r.exr.empty() && r.png.empty() && r.stats.empty() && r.ids.empty())
       std::printf("  nothing written (-o F.exr, --png F.png or --stats F.json write the results)\n");
   }
-  if (unfolded && count_differing_pixels(unfolded->hits, result.hits) != 0) {
+  if (unfolded && count_differing_pixels(*unfolded, g) != 0) {
     std::fprintf(stderr, "error: the folded render differs from the unfolded one\n");
     return 3;
   }
