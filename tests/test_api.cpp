@@ -1042,7 +1042,9 @@ TEST(Api, PackedReadbackGivesTheHostLayoutsBitsInEveryChannelSet) {
 // hits path (render_views, which takes it) and of the CPU reference, for
 // each kernel, fold, depth kind and channel set, on a size that is no
 // multiple of a tile, rendered into a G-buffer of another size before; and
-// the core takes that path for such a render.
+// the core takes that path for such a render. The public render_into takes
+// it under RAYFOLD_PLANES_IN_PLACE=1 (by default records and a host copy,
+// measured faster), set here for the renderers made below.
 TEST(Api, PlanesWrittenInPlaceHaveTheHitPathsBits) {
   const Scene scene = Scene::load(RAYFOLD_SOURCE_DIR "/scenes/atrium.glb");
   const Camera persp = scene.default_camera(37, 23);
@@ -1077,6 +1079,10 @@ TEST(Api, PlanesWrittenInPlaceHaveTheHitPathsBits) {
                                    kNormal | kUv};  // the last counts hits through the hits path
   RendererOptions ref_options;
   ref_options.backend = Backend::cpu;
+  setenv("RAYFOLD_PLANES_IN_PLACE", "1", 1);
+  struct Unset {
+    ~Unset() { unsetenv("RAYFOLD_PLANES_IN_PLACE"); }
+  } unset;
   for (Kernel kernel : {Kernel::tile, Kernel::single})
     for (Depth depth : {Depth::distance, Depth::planar})
       for (bool exact : {false, true}) {

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <functional>
 
@@ -31,6 +32,7 @@ struct Renderer::Impl {
   bool planar_depth = false;   // RendererOptions::depth
   bool exact_depth = false;    // RendererOptions::exact_depth
   bool cull = true;            // RendererOptions::cull
+  bool planes_in_place = false;  // RAYFOLD_PLANES_IN_PLACE=1: render_into's kernel writes the planes (A/B)
   // Trees of the default braid and merging are the scene's, shared with every
   // renderer of it; others are this renderer's own.
   bool shares_trees = true;
@@ -101,6 +103,8 @@ Renderer::Renderer(const Scene& scene, const RendererOptions& options) : impl_(s
   impl_->planar_depth = options.depth == Depth::planar;
   impl_->exact_depth = options.exact_depth;
   impl_->cull = options.cull;
+  const char* in_place = std::getenv("RAYFOLD_PLANES_IN_PLACE");
+  impl_->planes_in_place = in_place && std::string(in_place) == "1";
   const RendererOptions defaults;
   impl_->shares_trees = options.braid == defaults.braid && options.merge_static == defaults.merge_static;
   impl_->build();
@@ -360,15 +364,18 @@ void Renderer::render_into(GBuffer& g, const Camera& camera, Fold fold, unsigned
   const auto t0 = core::Clock::now();
   core::FrameOptions frame = frame_options(fold, impl_->moved(), channels, impl_->planar_depth, impl_->exact_depth, impl_->cull);
   core::RenderResult& r = impl_->result;
-  // The kernel writes the planes in place where the device can (a CPU
-  // device): sized first, as fill_gbuffer leaves them (once they fit).
-  // Hits are counted from the instance ids or the depths.
+  // With RAYFOLD_PLANES_IN_PLACE=1 the kernel writes the planes in place
+  // where the device can (a CPU device): sized first, as fill_gbuffer leaves
+  // them (once they fit); hits counted from the instance ids or the depths.
+  // By default it writes 32-byte records that fill_gbuffer copies on the
+  // host's threads: 12.8 against 16 ms a 720p frame on Lost Empire, 13.5
+  // against 15 to 19 on the conference room, Sponza alike (docs/results.md).
   core::check_host_memory(static_cast<size_t>(camera.width()) * camera.height());
   size_planes(channels, static_cast<size_t>(camera.width()) * camera.height(), impl_->options.threads, g.depth,
               g.normal, g.uv, g.instance_id, g.primitive_id);
   const core::AnswerPlanes targets{data_or_null(g.depth), data_or_null(g.normal), data_or_null(g.uv),
                                    data_or_null(g.instance_id), data_or_null(g.primitive_id)};
-  if (channels & (kInstanceId | kDepth)) frame.planes_in_place = &targets;
+  if ((channels & (kInstanceId | kDepth)) && impl_->planes_in_place) frame.planes_in_place = &targets;
   impl_->core->render_into(r, camera.core(), 1, frame);
   fill_gbuffer(g, r, 0, r.warnings, camera.width(), camera.height(), impl_->options.threads, channels,
                impl_->planar_depth ? Depth::planar : Depth::distance, frame.exact_depth);
