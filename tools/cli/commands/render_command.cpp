@@ -276,20 +276,28 @@ void announce_program_build(const rayfold::Renderer& renderer, Progress& progres
 
 // Every view's outputs made ready (prepare_output); two views that would
 // write one file (their names end alike under %s) are a UsageError naming both.
-void check_view_outputs(const RenderArgs& r, const std::vector<cli::View>& views) {
+// views: each view's label and name (cli::View's).
+void check_view_outputs(const RenderArgs& r, const std::vector<std::pair<std::string, std::string>>& views) {
   for (auto [option, out] : {std::pair{"-o", &r.exr}, {"--png", &r.png}, {"--stats", &r.stats}}) {
     if (out->empty()) continue;
-    std::map<std::string, const cli::View*> written;
-    for (const cli::View& v : views) {
-      const std::string path = view_output(option, *out, v.label, v.name, r.stereo.has_value(), views.size());
+    std::map<std::string, const std::pair<std::string, std::string>*> written;
+    for (const auto& v : views) {
+      const auto& [label, name] = v;
+      const std::string path = view_output(option, *out, label, name, r.stereo.has_value(), views.size());
       const auto [at, fresh] = written.emplace(path, &v);
       if (!fresh)
-        throw UsageError(std::string(option) + ": views " + at->second->label + " ('" + at->second->name +
-                         "') and " + v.label + " ('" + v.name + "') would both write " + path +
+        throw UsageError(std::string(option) + ": views " + at->second->first + " ('" + at->second->second +
+                         "') and " + label + " ('" + name + "') would both write " + path +
                          "; name the views by index (%04d)");
       prepare_output(path);
     }
   }
+}
+
+void check_view_outputs(const RenderArgs& r, const std::vector<cli::View>& views) {
+  std::vector<std::pair<std::string, std::string>> names;
+  for (const cli::View& v : views) names.emplace_back(v.label, v.name);
+  check_view_outputs(r, names);
 }
 
 // --cameras, --colmap and --stereo: the views traced in passes of aligned
@@ -430,10 +438,7 @@ int run_render(cli::Args& args) {
   // once it is read, a stereo pair's now.
   for (const std::string* out : {&r.exr, &r.png, &r.stats, &r.ids})
     if (!out->empty() && (!view_list || out == &r.ids)) prepare_output(frame_name("output", *out, 0, nullptr));
-  if (r.stereo) check_view_outputs(r, {{cli::View{rayfold::Camera::look_at({0, 0, 1}, {0, 0, 0}, {0, 1, 0}, 60, 1, 1),
-                                                  "left", ""},
-                                        cli::View{rayfold::Camera::look_at({0, 0, 1}, {0, 0, 0}, {0, 1, 0}, 60, 1, 1),
-                                                  "right", ""}}});
+  if (r.stereo) check_view_outputs(r, std::vector<std::pair<std::string, std::string>>{{"left", ""}, {"right", ""}});
 
   // The OpenCL drivers load while the scene is read: the whole process 0.91x
   // to 0.97x the time on the shared scenes (docs/results.md).
