@@ -72,12 +72,7 @@ TEST(Api, RayQueriesFillOnlyTheChannelsAskedFor) {
 }
 
 // A core transform as the public API's row-major matrix.
-Matrix4 to_matrix(const core::Xform& x) {
-  Matrix4 m;
-  for (int r = 0; r < 4; ++r)
-    for (int c = 0; c < 4; ++c) m[4 * r + c] = x[c][r];
-  return m;
-}
+using core::to_matrix;
 
 // A core camera spec as a public look-at camera of w x h pixels.
 Camera to_camera(const core::CameraSpec& spec, int w, int h) {

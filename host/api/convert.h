@@ -10,19 +10,8 @@
 
 namespace rayfold::detail {
 
-inline core::Xform to_xform(const Matrix4& m) {
-  core::Xform x;
-  for (int r = 0; r < 4; ++r)
-    for (int c = 0; c < 4; ++c) x[c][r] = m[4 * r + c];
-  return x;
-}
-
-inline Matrix4 to_matrix(const core::Xform& x) {
-  Matrix4 m;
-  for (int r = 0; r < 4; ++r)
-    for (int c = 0; c < 4; ++c) m[4 * r + c] = x[c][r];
-  return m;
-}
+using core::to_matrix;  // scene/transform.h
+using core::to_xform;
 
 // Throws InputError("", what + ...) for a matrix that is not finite or whose
 // last row is not 0 0 0 1.

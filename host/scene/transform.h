@@ -6,6 +6,7 @@
 #include <glm/mat4x4.hpp>
 #include <glm/vec3.hpp>
 
+#include "rayfold/types.h"
 #include "scene/aabb.h"
 
 namespace rayfold::core {
@@ -32,6 +33,22 @@ void normal_matrix_rows3x3(const Xform& m, float out[9]);
 Xform uniform_scale(int exponent);
 
 glm::dvec3 transform_point(const Xform& m, const glm::dvec3& p);
+
+// Between the public row-major rayfold::Matrix4 and the column-major Xform,
+// value for value.
+inline Xform to_xform(const rayfold::Matrix4& m) {
+  Xform x;
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c) x[c][r] = m[4 * r + c];
+  return x;
+}
+
+inline rayfold::Matrix4 to_matrix(const Xform& x) {
+  rayfold::Matrix4 m;
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c) m[4 * r + c] = x[c][r];
+  return m;
+}
 
 // Bounds of a float box under an affine transform, rounded outwards and padded
 // by a relative 2^-20 of the box's size and position plus `extra_pad`, so the

@@ -399,18 +399,6 @@ class SyntheticMotion {
   }
 
  private:
-  static Xform to_xform(const rayfold::Matrix4& m) {
-    Xform x;
-    for (int r = 0; r < 4; ++r)
-      for (int c = 0; c < 4; ++c) x[c][r] = m[4 * r + c];
-    return x;
-  }
-  static rayfold::Matrix4 to_matrix(const Xform& x) {
-    rayfold::Matrix4 m;
-    for (int r = 0; r < 4; ++r)
-      for (int c = 0; c < 4; ++c) m[4 * r + c] = x[c][r];
-    return m;
-  }
   struct Moving {
     uint32_t instance;
     rayfold::Matrix4 rest;
