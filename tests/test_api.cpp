@@ -223,7 +223,8 @@ TEST(Api, ViewsMakeTheCamerasTheirLookAtsMake) {
   EXPECT_FALSE(b.can_fold_columns() && b.can_fold_rows() && a.to_bytes() == b.to_bytes());
   v.orthographic = true;
   v.half_height = 3.0;
-  EXPECT_EQ(Camera::from_view(v, 40, 30).to_bytes(), Camera::orthographic(v.eye, v.target, v.up, 3.0, 40, 30).to_bytes());
+  EXPECT_EQ(Camera::from_view(v, 40, 30).to_bytes(),
+            Camera::orthographic(v.eye, v.target, v.up, 3.0, 40, 30).to_bytes());
   EXPECT_THROW(Camera::from_view(v, 40, 30, 101.0, 0.0), InputError);
 
   core::Scene hall;

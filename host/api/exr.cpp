@@ -64,8 +64,8 @@ void write_exr(const std::string& path, const GBuffer& g, const Camera& camera, 
     throw InputError("", "write_exr: the G-buffer is " + std::to_string(g.width) + "x" + std::to_string(g.height) +
                              ", its camera " + std::to_string(camera.width()) + "x" + std::to_string(camera.height()));
   if ((g.channels & channels) == 0)
-    throw InputError("", "write_exr: channels " + std::to_string(channels) + " name none of the G-buffer's planes "
-                             "(it has " + std::to_string(g.channels) + ")");
+    throw InputError("", "write_exr: channels " + std::to_string(channels) +
+                             " name none of the G-buffer's planes (it has " + std::to_string(g.channels) + ")");
   const std::vector<rf_pixel_hit> hits = hits_of(g);
   const detail::SceneState& s = *scene.state();
   const core::ExrMetadata metadata =
@@ -76,8 +76,10 @@ void write_exr(const std::string& path, const GBuffer& g, const Camera& camera, 
 
 void write_png(const std::string& path, const GBuffer& g) {
   if ((g.channels & (kNormal | kInstanceId)) != (kNormal | kInstanceId))
-    throw InputError("", "write_png: the preview shades normals and leaves misses black: the G-buffer needs its "
-                         "normal and instance_id planes (it has channels " + std::to_string(g.channels) + ")");
+    throw InputError("",
+                     "write_png: the preview shades normals and leaves misses black: the G-buffer needs its "
+                     "normal and instance_id planes (it has channels " +
+                         std::to_string(g.channels) + ")");
   core::write_png(path, hits_of(g), g.width, g.height);
 }
 

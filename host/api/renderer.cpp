@@ -11,9 +11,9 @@
 #include "api/pipeline_options.h"
 #include "api/scene_state.h"
 #include "fold/view_passes.h"
+#include "pipeline/pipeline.h"
 #include "rayfold/errors.h"
 #include "rays/ray_queries.h"
-#include "pipeline/pipeline.h"
 #include "util/errors.h"
 #include "util/parallel.h"
 #include "util/timer.h"
@@ -41,8 +41,7 @@ struct Renderer::Impl {
   void build() {
     core.reset();
     if (!shares_trees) {
-      const std::vector<uint8_t> dynamic = state->merge().dynamic;
-      if (options.merge.enabled) options.merge.dynamic = dynamic;
+      options.merge.dynamic = state->merge().dynamic;  // kept apart, when merging at all
       core = std::make_unique<core::Pipeline>(state->scene, options);
       ++builds;
     } else if (state->trees && state->trees_version == state->structure_version) {
@@ -87,7 +86,8 @@ core::PipelineOptions detail::pipeline_options(const RendererOptions& options) {
   o.kernel = options.kernel;
   o.threads = options.threads;
   if (options.braid < 0 || options.braid > 1024)
-    throw InputError("", "braid must be 0 (whole trees) to 1024 items per instance, not " + std::to_string(options.braid));
+    throw InputError("",
+                     "braid must be 0 (whole trees) to 1024 items per instance, not " + std::to_string(options.braid));
   o.braid.items_per_instance = static_cast<size_t>(options.braid);
   o.braid.enabled = options.braid > 0;
   o.merge.enabled = options.merge_static;
@@ -362,7 +362,8 @@ static_assert(kDepth == RF_PLANE_DEPTH && kNormal == RF_PLANE_NORMAL && kUv == R
 void Renderer::render_into(GBuffer& g, const Camera& camera, Fold fold, unsigned channels) {
   check_channels(channels);
   const auto t0 = core::Clock::now();
-  core::FrameOptions frame = frame_options(fold, impl_->moved(), channels, impl_->planar_depth, impl_->exact_depth, impl_->cull);
+  core::FrameOptions frame =
+      frame_options(fold, impl_->moved(), channels, impl_->planar_depth, impl_->exact_depth, impl_->cull);
   core::RenderResult& r = impl_->result;
   // With RAYFOLD_PLANES_IN_PLACE=1 the kernel writes the planes in place
   // where the device can (a CPU device): sized first, as fill_gbuffer leaves
@@ -505,8 +506,8 @@ AutoChoice Renderer::choose_fastest(const std::vector<Camera>& cameras, const st
   out.kernel = kernel_name(c.best.kernel);
   out.probe_ms = c.probe_ms;
   for (const core::Prediction& q : c.predictions)
-    out.predictions.push_back(
-        {q.choice.fold, kernel_name(q.choice.kernel), q.choice.align, core::choice_name(q.choice), q.trace_ms, q.update_ms});
+    out.predictions.push_back({q.choice.fold, kernel_name(q.choice.kernel), q.choice.align, core::choice_name(q.choice),
+                               q.trace_ms, q.update_ms});
   return out;
 }
 

@@ -125,8 +125,10 @@ rayfold::Fold parse_fold(const std::string& s) {
   if (s == "y") return rayfold::Fold::y;
   if (s == "x") return rayfold::Fold::x;
   if (s == "xy" || s == "yx") return rayfold::Fold::xy;
-  throw rayfold::InputError("", "fold must be 'none', 'y', 'x', 'xy' or, to render, 'auto' (the cost model's choice), "
-                                "not '" + s + "'");
+  throw rayfold::InputError("",
+                            "fold must be 'none', 'y', 'x', 'xy' or, to render, 'auto' (the cost model's choice), "
+                            "not '" +
+                                s + "'");
 }
 
 using rayfold::fold_name;
@@ -281,7 +283,8 @@ class AutoPlans {
   std::pair<rayfold::Fold, int> plan(rayfold::Renderer& r, const std::vector<rayfold::Camera>& cameras,
                                      const std::string& fold, int align) {
     const bool fold_auto = fold == "auto";
-    if (cameras.empty() || (!fold_auto && align >= 0)) return {fold_auto ? rayfold::Fold::none : parse_fold(fold), align};
+    if (cameras.empty() || (!fold_auto && align >= 0))
+      return {fold_auto ? rayfold::Fold::none : parse_fold(fold), align};
     const rayfold::Camera& c = cameras[0];
     const rayfold::Intrinsics k = c.intrinsics();
     char key[256];
@@ -325,12 +328,14 @@ int parse_align(nb::handle align) {
     throw rayfold::InputError("", "align must be a count of views, 'all' or 'auto', not '" + a + "'");
   }
   if (nb::isinstance<bool>(align) || !nb::isinstance<int>(align))
-    throw rayfold::InputError("", "align must be a count of views, 'all' or 'auto', not a " +
-                                      std::string(nb::inst_name(align).c_str()));
+    throw rayfold::InputError(
+        "", "align must be a count of views, 'all' or 'auto', not a " + std::string(nb::inst_name(align).c_str()));
   const int n = nb::cast<int>(align);
   if (n < 0)
-    throw rayfold::InputError("", "align must be a count of views (0: as many as a pass holds), 'all' or 'auto', "
-                                  "not " + std::to_string(n));
+    throw rayfold::InputError("",
+                              "align must be a count of views (0: as many as a pass holds), 'all' or 'auto', "
+                              "not " +
+                                  std::to_string(n));
   return n;
 }
 
@@ -769,7 +774,8 @@ NB_MODULE(_core, m) {
           "bounds", [](PyScene& s) { return s.scene.bounds(); }, "(min x, y, z, max x, y, z) at rest")
       .def(
           "default_camera", [](PyScene& s, int width, int height) { return s.scene.default_camera(width, height); },
-          "width"_a, "height"_a, "The file's camera at this size, or a chosen view: an object whole from outside, a room from inside, "
+          "width"_a, "height"_a,
+          "The file's camera at this size, or a chosen view: an object whole from outside, a room from inside, "
           "looking along it (as `rayfold render` chooses).")
       .def(
           "render",

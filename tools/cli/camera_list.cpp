@@ -6,7 +6,8 @@ namespace {
 std::vector<View> numbered(std::vector<std::pair<std::string, rayfold::Camera>> named) {
   std::vector<View> views;
   views.reserve(named.size());
-  for (auto& [name, camera] : named) views.push_back({std::move(camera), std::to_string(views.size()), std::move(name)});
+  for (auto& [name, camera] : named)
+    views.push_back({std::move(camera), std::to_string(views.size()), std::move(name)});
   return views;
 }
 
@@ -27,8 +28,8 @@ std::vector<View> read_cameras_file(const std::string& path, int width, int heig
 std::vector<View> read_colmap_dir(const std::string& dir) { return numbered(rayfold::Camera::from_colmap(dir)); }
 
 std::vector<View> stereo_pair(const rayfold::View& centre, double baseline, int width, int height) {
-  const auto eyes = rayfold::Camera::stereo_pair(centre.eye, centre.target, centre.up, centre.vfov_degrees, width,
-                                                 height, baseline);
+  const auto eyes =
+      rayfold::Camera::stereo_pair(centre.eye, centre.target, centre.up, centre.vfov_degrees, width, height, baseline);
   return {{eyes[0], "left", ""}, {eyes[1], "right", ""}};
 }
 

@@ -34,9 +34,9 @@ struct RendererOptions {
 
   // How the work is arranged; the bits are the same whatever they are (the
   // CLI's --braid, --no-merge, --no-cull).
-  int braid = 2;              // the top level opens each traced instance's tree into about this many items; 0: whole trees
-  bool merge_static = true;   // static instances that share a transform share one tree
-  bool cull = true;           // instances outside the view stay out of the top-level tree
+  int braid = 2;  // the top level opens each traced instance's tree into about this many items; 0: whole trees
+  bool merge_static = true;  // static instances that share a transform share one tree
+  bool cull = true;          // instances outside the view stay out of the top-level tree
   // Fast-math kernels (the CLI's --fast): faster on some devices, NOT bit
   // for bit the CPU reference's, and refused with exact_depth (InputError).
   bool fast_math = false;

@@ -93,7 +93,8 @@ int run_bench_command(cli::Args& args) {
   }
   check_view_path(opt);
   check_renderer_options(renderer);
-  if (!renderer.cull) throw UsageError("--no-cull: bench measures the unfolded baseline with and without culling already");
+  if (!renderer.cull)
+    throw UsageError("--no-cull: bench measures the unfolded baseline with and without culling already");
   opt.renderer = rayfold::detail::pipeline_options(renderer);
   check_outputs({{"--json", &json, ".json"}, {"--md", &md, ".md"}});
   for (const std::string* out : {&json, &md})

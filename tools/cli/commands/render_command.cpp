@@ -255,7 +255,8 @@ void choose_automatically(RenderArgs& r, rayfold::Renderer& renderer, const std:
   const rayfold::Prediction& best = c.predictions.at(0);
   std::printf("auto: %s, predicted %.2f ms per view (trace %.2f + update %.2f); probing %zu choices took %.0f ms:\n",
               best.name.c_str(), best.total_ms(), best.trace_ms, best.update_ms, c.predictions.size(), c.probe_ms);
-  for (const rayfold::Prediction& p : c.predictions) std::printf("  %-24s %8.2f ms/view\n", p.name.c_str(), p.total_ms());
+  for (const rayfold::Prediction& p : c.predictions)
+    std::printf("  %-24s %8.2f ms/view\n", p.name.c_str(), p.total_ms());
 }
 
 // A slow program build is a machine's first use (PoCL compiles, then
@@ -286,9 +287,8 @@ void check_view_outputs(const RenderArgs& r, const std::vector<std::pair<std::st
       const std::string path = view_output(option, *out, label, name, r.stereo.has_value(), views.size());
       const auto [at, fresh] = written.emplace(path, &v);
       if (!fresh)
-        throw UsageError(std::string(option) + ": views " + at->second->first + " ('" + at->second->second +
-                         "') and " + label + " ('" + name + "') would both write " + path +
-                         "; name the views by index (%04d)");
+        throw UsageError(std::string(option) + ": views " + at->second->first + " ('" + at->second->second + "') and " +
+                         label + " ('" + name + "') would both write " + path + "; name the views by index (%04d)");
       prepare_output(path);
     }
   }
@@ -355,8 +355,8 @@ int render_views(RenderArgs r, const rayfold::Scene& scene, rayfold::Renderer& r
         progress.update(++done);
         if (!r.quiet) {
           const rayfold::Vec3 eye = v.camera.eye();
-          std::snprintf(line, sizeof line, "    view %-6s %dx%d  eye (%g, %g, %g)\n", v.label.c_str(),
-                        v.camera.width(), v.camera.height(), eye[0], eye[1], eye[2]);
+          std::snprintf(line, sizeof line, "    view %-6s %dx%d  eye (%g, %g, %g)\n", v.label.c_str(), v.camera.width(),
+                        v.camera.height(), eye[0], eye[1], eye[2]);
           progress.print(stdout, line);
         }
       },
@@ -571,12 +571,12 @@ int run_render(cli::Args& args) {
   }
   const rayfold::BuildStats built = renderer.build_stats();
   if (play && !r.quiet)
-    std::fprintf(stderr, "playing the file's animation: %d frames from %g s at %g fps (it ends at %g s)%s\n",
-                 r.frames, start_time, r.fps, scene.animation_end(),
-                 built.builds > 1 ? (", trees rebuilt " + std::to_string(built.builds - 1) +
-                                     " times for frames whose meshes changed")
-                                        .c_str()
-                                  : "");
+    std::fprintf(
+        stderr, "playing the file's animation: %d frames from %g s at %g fps (it ends at %g s)%s\n", r.frames,
+        start_time, r.fps, scene.animation_end(),
+        built.builds > 1
+            ? (", trees rebuilt " + std::to_string(built.builds - 1) + " times for frames whose meshes changed").c_str()
+            : "");
   progress.clear();
   for (const std::string& w : g.warnings) std::fprintf(stderr, "warning: %s (docs/exactness.md)\n", w.c_str());
 
@@ -594,18 +594,17 @@ int run_render(cli::Args& args) {
     std::printf("  %-12s %9.2f ms   (SAH cost %.1f, depth %d)\n", "BLAS build", built.trees_ms, built.sah_cost,
                 built.depth);
     std::printf("  %-12s %9.2f ms   (%zu instances traced, from %zu in the scene; SAH cost %.1f)\n", "TLAS build",
-                m.cull_ms + m.tlas_ms, g.top_level.traced_instances, g.top_level.scene_instances,
-                g.top_level.sah_cost);
+                m.cull_ms + m.tlas_ms, g.top_level.traced_instances, g.top_level.scene_instances, g.top_level.sah_cost);
     std::printf("  %-12s %9.2f ms   (median of %zu frames)\n", "trace", m.trace_ms, times.size());
     std::printf("  %-12s %9.2f   (%zu rays for %zu pixels: %.2f Mpixels/s)\n", "Mrays/s", g.rays / (m.trace_ms * 1e3),
                 g.rays, pixels, pixels / (m.trace_ms * 1e3));
     if (auto_framed) {
-      std::printf("  %-12s %s\n", "view", source == rayfold::ViewSource::interior
-                                              ? "chosen: an interior, seen from inside along its length"
-                                              : "chosen: the whole scene from outside");
+      std::printf("  %-12s %s\n", "view",
+                  source == rayfold::ViewSource::interior ? "chosen: an interior, seen from inside along its length"
+                                                          : "chosen: the whole scene from outside");
       std::printf("  %-12s --eye %.17g,%.17g,%.17g --look-at %.17g,%.17g,%.17g --up %.17g,%.17g,%.17g %s %.17g\n",
-                  "auto-framed", view.eye[0], view.eye[1], view.eye[2], view.target[0], view.target[1],
-                  view.target[2], view.up[0], view.up[1], view.up[2], view.orthographic ? "--ortho" : "--vfov",
+                  "auto-framed", view.eye[0], view.eye[1], view.eye[2], view.target[0], view.target[1], view.target[2],
+                  view.up[0], view.up[1], view.up[2], view.orthographic ? "--ortho" : "--vfov",
                   view.orthographic ? view.half_height : view.vfov_degrees);
     }
     if (unfolded) print_comparison(*unfolded, unfolded_times, g, m);

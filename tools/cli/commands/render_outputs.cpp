@@ -83,14 +83,10 @@ void write_stats(const std::string& path, const RenderArgs& args, const rayfold:
   j["instances_out_of_range"] = g.top_level.out_of_range;
   j["warnings"] = scene.warnings();  // the loader's, then the trace's
   for (const std::string& w : g.warnings) j["warnings"].push_back(w);
-  j["times_ms"] = {{"load", load_ms},
-                   {"blas_build", built.trees_ms},
-                   {"cull", times.cull_ms},
-                   {"tlas_build", times.tlas_ms},
-                   {"upload", times.upload_ms},
-                   {"ray_list", times.ray_list_ms},
-                   {"trace", times.trace_ms},
-                   {"readback", times.readback_ms}};
+  j["times_ms"] = {{"load", load_ms},           {"blas_build", built.trees_ms},
+                   {"cull", times.cull_ms},     {"tlas_build", times.tlas_ms},
+                   {"upload", times.upload_ms}, {"ray_list", times.ray_list_ms},
+                   {"trace", times.trace_ms},   {"readback", times.readback_ms}};
   j["sah_cost"] = {{"blas", built.sah_cost}, {"tlas", g.top_level.sah_cost}};
   nlohmann::json buffers = nlohmann::json::object();
   size_t total = 0;
