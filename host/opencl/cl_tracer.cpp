@@ -6,26 +6,13 @@
 #include <sstream>
 #include <utility>
 
+#include "opencl/host_buffers.h"
 #include "opencl/kernel_sources.h"
 #include "util/errors.h"
 #include "util/parallel.h"
 #include "util/timer.h"
 
 namespace rayfold::core {
-namespace {
-
-// OpenCL refuses zero-sized buffers; every buffer gets at least one element.
-size_t at_least_one(size_t n) { return n ? n : 1; }
-
-// Hands a buffer over host memory back to the host, synchronised: on a CPU
-// device mapping gives that memory itself, without a copy.
-void sync_host_buffer(cl::CommandQueue& q, const cl::Buffer& buf, void* host, size_t bytes) {
-  void* m = q.enqueueMapBuffer(buf, CL_TRUE, CL_MAP_READ, 0, bytes);
-  if (m != host) std::memcpy(host, m, bytes);
-  q.enqueueUnmapMemObject(buf, m);
-}
-
-}  // namespace
 
 unsigned tile_lanes(const DeviceInfo& info, unsigned requested, bool dense_scene) {
   if (requested == 8 || requested == 16) return requested;
@@ -69,29 +56,12 @@ ClTracer::Programs& ClTracer::programs_for(int groups) {
   build_ms_ += ms_since(start);
   p.single = cl::Kernel(p.program, "rf_trace_primary");
   p.tile = cl::Kernel(p.program, "rf_trace_tiles");
-  p.queries = cl::Kernel(p.program, "rf_trace_queries");
-  p.query_tiles = cl::Kernel(p.program, "rf_trace_query_tiles");
   p.pack = cl::Kernel(p.program, "rf_pack_planes");
   programs_.push_back(p);
   return programs_.back();
 }
 
 void ClTracer::prepare_groups(int groups) { programs_for(groups); }
-
-// A CPU device reads the scene's arrays (triangles, wide nodes, query trees)
-// where the host holds them (read-only, page-aligned: util/page_aligned.h,
-// and kept by their owner for as long as these buffers); any other device
-// gets its own copy, in a buffer of `bytes` (at least one element).
-template <class Array>
-cl::Buffer ClTracer::host_array_buffer(const Array& v, size_t bytes) {
-  using T = typename Array::value_type;
-  cl::Context& ctx = device_.context();
-  if (device_.info().is_cpu && !v.empty())
-    return cl::Buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_USE_HOST_PTR, v.size() * sizeof(T), const_cast<T*>(v.data()));
-  cl::Buffer b(ctx, CL_MEM_READ_ONLY, bytes);
-  if (!v.empty()) device_.queue().enqueueWriteBuffer(b, CL_FALSE, 0, v.size() * sizeof(T), v.data());
-  return b;
-}
 
 void ClTracer::upload_scene(const SceneData& data, size_t max_tlas_nodes, size_t max_instances, size_t max_rays,
                             size_t pixel_count) {
@@ -111,12 +81,6 @@ void ClTracer::upload_scene(const SceneData& data, size_t max_tlas_nodes, size_t
       {"wide_nodes", at_least_one(data.wide_nodes.size()) * sizeof(rf_wide_node)},
       // Grown by the first frame that asks for the exact depth (upload_frame).
       {"depth_xforms", sizeof(rf_depth_xform)},
-      // Grown by the query frames (upload_frame).
-      {"query_top_level", sizeof(rf_wide8_node)},
-      // Grown by the query frames (upload_frame).
-      {"query_roots", sizeof(uint32_t)},
-      // The 8-wide bottom levels, at the first query (upload_query_trees).
-      {"query_trees", sizeof(rf_wide8_node)},
   };
   const DeviceInfo& info = device_.info();
   for (const BufferInfo& b : buffer_info_) {
@@ -137,7 +101,7 @@ void ClTracer::upload_scene(const SceneData& data, size_t max_tlas_nodes, size_t
     cl::Context& ctx = device_.context();
     cl::CommandQueue& q = device_.queue();
     nodes_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, buffer_info_[0].bytes);
-    tris_ = host_array_buffer(blas.tris, buffer_info_[1].bytes);
+    tris_ = host_array_buffer(device_, blas.tris, buffer_info_[1].bytes);
     instances_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, buffer_info_[2].bytes);
     normal_xforms_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, buffer_info_[3].bytes);
     depth_scales_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, RF_GROUP_LIMIT * sizeof(float));
@@ -145,15 +109,9 @@ void ClTracer::upload_scene(const SceneData& data, size_t max_tlas_nodes, size_t
     slots_[0].rays = cl::Buffer(ctx, CL_MEM_READ_ONLY, buffer_info_[4].bytes);
     slots_[0].rays_capacity = at_least_one(max_rays);
     hits_ = cl::Buffer(ctx, CL_MEM_WRITE_ONLY, buffer_info_[5].bytes);
-    wide_nodes_ = host_array_buffer(data.wide_nodes, buffer_info_[6].bytes);
+    wide_nodes_ = host_array_buffer(device_, data.wide_nodes, buffer_info_[6].bytes);
     depth_xforms_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, buffer_info_[7].bytes);
     depth_xforms_capacity_ = buffer_info_[7].bytes;
-    tlas_wide_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, buffer_info_[8].bytes);
-    tlas_wide_capacity_ = buffer_info_[8].bytes;
-    query_wide_roots_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, buffer_info_[9].bytes);
-    query_wide_roots_capacity_ = buffer_info_[9].bytes;
-    query_wide_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, buffer_info_[10].bytes);
-    query_trees_uploaded_ = false;
     if (!blas.nodes.empty())
       q.enqueueWriteBuffer(nodes_, CL_FALSE, 0, blas.nodes.size() * sizeof(rf_node), blas.nodes.data());
     if (!data.normal_xforms.empty())
@@ -163,6 +121,7 @@ void ClTracer::upload_scene(const SceneData& data, size_t max_tlas_nodes, size_t
   } catch (const cl::Error& e) {
     throw RuntimeFailure("cannot upload the scene to '" + info.name + "': " + cl_error_text(e));
   }
+  ++scene_uploads_;
 }
 
 double ClTracer::upload_frame(const Frame& frame) {
@@ -194,26 +153,6 @@ double ClTracer::upload_frame(const Frame& frame) {
       }
       q.enqueueWriteBuffer(depth_xforms_, CL_FALSE, 0, bytes, frame.depth_xforms.data());
     }
-    // A query frame's arrays, into buffers grown to hold them.
-    auto put_query_array = [&](const auto& v, cl::Buffer& buf, size_t& capacity, BufferInfo& info, const char* what) {
-      if (v.empty()) return;
-      const size_t bytes = v.size() * sizeof(v[0]);
-      if (bytes > capacity) {
-        if (bytes > device_.info().max_alloc_bytes)
-          throw RuntimeFailure(std::string("a query's ") + what + " needs " + std::to_string(bytes >> 20) +
-                               " MiB, more than the largest allocation '" + device_.info().name + "' allows");
-        buf = cl::Buffer(device_.context(), CL_MEM_READ_ONLY, bytes);
-        capacity = bytes;
-        info.bytes = bytes;
-      }
-      q.enqueueWriteBuffer(buf, CL_FALSE, 0, bytes, v.data());
-    };
-    put_query_array(frame.tlas_wide, tlas_wide_, tlas_wide_capacity_, buffer_info_[8], "top level");
-    put_query_array(frame.query_wide_roots, query_wide_roots_, query_wide_roots_capacity_, buffer_info_[9],
-                    "instance roots");
-    tlas_wide_root_ = frame.tlas_wide_root;
-    query_frame_ = frame.query;
-    whole_trees_ = frame.whole_trees;
     depth_instances_ = frame.depth_instances;
     const std::vector<float> scales = frame.depth_scales();
     RF_CHECK_LE(scales.size(), size_t{RF_GROUP_LIMIT}, "more views than one pass holds");
@@ -223,6 +162,7 @@ double ClTracer::upload_frame(const Frame& frame) {
     throw RuntimeFailure("cannot upload a frame: " + cl_error_text(e));
   }
   tlas_root_ = frame.tlas_root;
+  ++frame_uploads_;
   return ms_since(t0);
 }
 
@@ -444,170 +384,6 @@ ClTracer::PackedPlanes ClTracer::wait_packed(int slot) {
   return out;
 }
 
-void ClTracer::upload_query_trees(const Wide8Trees& trees) {
-  const size_t bytes = at_least_one(trees.nodes.size()) * sizeof(rf_wide8_node);
-  const DeviceInfo& info = device_.info();
-  if (bytes > info.max_alloc_bytes)
-    throw RuntimeFailure("the query trees need " + std::to_string(bytes >> 20) +
-                         " MiB, more than the largest allocation '" + info.name + "' allows");
-  try {
-    query_wide_ = host_array_buffer(trees.nodes, bytes);
-    device_.queue().finish();
-  } catch (const cl::Error& e) {
-    throw RuntimeFailure("cannot upload the query trees to '" + info.name + "': " + cl_error_text(e));
-  }
-  buffer_info_[10].bytes = bytes;
-  query_trees_uploaded_ = true;
-}
-
-double ClTracer::trace_queries(const QueryRays& rays, bool any_hit, unsigned write_flags, rf_pixel_hit* out,
-                               const QueryTiles* plan) {
-  const size_t n = rays.count;
-  if (n == 0) return 0.0;
-  // The query kernel reads RF_INVALID as a top level whose root is a leaf,
-  // which only a query frame's tlas_wide_root means.
-  RF_CHECK(query_frame_, "ray queries traced in a frame that is not a query frame");
-  const std::vector<uint32_t>* tiles = plan && !plan->tiles.empty() ? &plan->tiles : nullptr;
-  RF_CHECK(tiles || query_trees_uploaded_, "ray queries traced before the query trees' upload");
-  // The single-ray kernel reads the whole-tree frame's roots; the tile
-  // kernel the re-braided frame's 4-wide ones.
-  RF_CHECK(tiles ? !whole_trees_ : whole_trees_, "ray queries traced through a frame built for the other kernel");
-  RF_CHECK(!tiles || (tiles->size() >= 2 && tiles->front() == 0 && tiles->back() == n),
-           "query tiles do not cover the rays");
-  RF_CHECK(tiles ? rays.origins && rays.directions : rays.records && rays.records->size() == n,
-           "query rays not in the form their kernel reads");
-  // The tile kernel's order, or the order the single-ray kernel takes the
-  // rays in.
-  static const std::vector<uint32_t> input_order;
-  const std::vector<uint32_t>& order = !plan ? input_order : tiles ? plan->order : plan->scattered;
-  RF_CHECK(order.empty() || order.size() == n, "query order of another length");
-  Programs& programs = programs_for(RF_MIRRORS);
-  const auto t0 = Clock::now();
-  const size_t ray_bytes = n * sizeof(rf_query_ray), hit_bytes = n * sizeof(rf_pixel_hit);
-  const size_t array_bytes = 3 * n * sizeof(float);
-  try {
-    cl::Context& ctx = device_.context();
-    cl::CommandQueue& q = device_.queue();
-    // On a CPU device the kernel reads the rays and writes the answers in
-    // place (buffers over the caller's memory): a million rays' two 32 MB
-    // copies were a fifth of a query. Elsewhere, device buffers and copies.
-    cl::Buffer rays_buf, origins_buf, directions_buf, hits_buf;
-    // The single-ray kernel in an order answers in that order (into
-    // `answers`), put back into `out` below.
-    const bool staged = !order.empty() && !tiles;
-    if (staged) query_staged_.resize(n);
-    rf_pixel_hit* answers = staged ? query_staged_.data() : out;
-    const bool in_place = device_.info().is_cpu;
-    if (in_place) {
-      constexpr cl_mem_flags kIn = CL_MEM_READ_ONLY | CL_MEM_USE_HOST_PTR;
-      if (tiles) {
-        origins_buf = cl::Buffer(ctx, kIn, array_bytes, const_cast<float*>(rays.origins));
-        directions_buf = cl::Buffer(ctx, kIn, array_bytes, const_cast<float*>(rays.directions));
-      } else {
-        rays_buf = cl::Buffer(ctx, kIn, ray_bytes, const_cast<rf_query_ray*>(rays.records->data()));
-      }
-      hits_buf = cl::Buffer(ctx, CL_MEM_WRITE_ONLY | CL_MEM_USE_HOST_PTR, hit_bytes, answers);
-    } else {
-      if (n > query_capacity_) {
-        query_hits_ = cl::Buffer(ctx, CL_MEM_WRITE_ONLY, hit_bytes);
-        query_capacity_ = n;
-        // The rays' buffers of the new size when a query of their kind needs them.
-        query_rays_ = query_origins_ = query_directions_ = cl::Buffer();
-      }
-      if (tiles) {
-        if (!query_origins_() || !query_directions_()) {
-          query_origins_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, 3 * query_capacity_ * sizeof(float));
-          query_directions_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, 3 * query_capacity_ * sizeof(float));
-        }
-        q.enqueueWriteBuffer(query_origins_, CL_FALSE, 0, array_bytes, rays.origins);
-        q.enqueueWriteBuffer(query_directions_, CL_FALSE, 0, array_bytes, rays.directions);
-        origins_buf = query_origins_;
-        directions_buf = query_directions_;
-      } else {
-        if (!query_rays_()) query_rays_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, query_capacity_ * sizeof(rf_query_ray));
-        q.enqueueWriteBuffer(query_rays_, CL_FALSE, 0, ray_bytes, rays.records->data());
-        rays_buf = query_rays_;
-      }
-      hits_buf = query_hits_;
-    }
-    // The single-ray kernel's records come in the traced order already
-    // (to_trace_space); the tile kernel reads the arrays through it.
-    const bool ordered = !order.empty() && tiles;
-    if (ordered && order.size() > query_order_capacity_) {
-      query_order_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, order.size() * sizeof(uint32_t));
-      query_order_capacity_ = order.size();
-    }
-    if (ordered) q.enqueueWriteBuffer(query_order_, CL_FALSE, 0, order.size() * sizeof(uint32_t), order.data());
-    if (tiles) {
-      if (tiles->size() > query_tiles_capacity_) {
-        query_tiles_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, tiles->size() * sizeof(uint32_t));
-        query_tiles_capacity_ = tiles->size();
-      }
-      q.enqueueWriteBuffer(query_tiles_, CL_FALSE, 0, tiles->size() * sizeof(uint32_t), tiles->data());
-      cl::Kernel& kernel = programs.query_tiles;
-      int a = 0;
-      kernel.setArg(a++, nodes_);
-      kernel.setArg(a++, wide_nodes_);
-      kernel.setArg(a++, tris_);
-      kernel.setArg(a++, instances_);
-      kernel.setArg(a++, normal_xforms_);
-      kernel.setArg(a++, tlas_root_);
-      kernel.setArg(a++, origins_buf);
-      kernel.setArg(a++, directions_buf);
-      kernel.setArg(a++, rays.tmin);
-      kernel.setArg(a++, rays.tmax);
-      kernel.setArg(a++, static_cast<cl_int>(rays.exponent));
-      kernel.setArg(a++, query_tiles_);
-      kernel.setArg(a++, static_cast<uint32_t>(tiles->size() - 1));
-      kernel.setArg(a++, static_cast<uint32_t>(write_flags));
-      kernel.setArg(a++, ordered ? query_order_ : query_tiles_);  // read only when ordered
-      kernel.setArg(a++, static_cast<uint32_t>(ordered ? 1u : 0u));
-      kernel.setArg(a++, hits_buf);
-      // One tile per work-group, as the camera tile kernel.
-      q.enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(tiles->size() - 1), cl::NDRange(1));
-    } else {
-      cl::Kernel& kernel = programs.queries;
-      int a = 0;
-      kernel.setArg(a++, nodes_);
-      kernel.setArg(a++, query_wide_);
-      kernel.setArg(a++, tlas_wide_);
-      kernel.setArg(a++, tlas_wide_root_);
-      kernel.setArg(a++, query_wide_roots_);
-      kernel.setArg(a++, tris_);
-      kernel.setArg(a++, instances_);
-      kernel.setArg(a++, normal_xforms_);
-      kernel.setArg(a++, tlas_root_);
-      kernel.setArg(a++, rays_buf);
-      kernel.setArg(a++, static_cast<uint32_t>(n));
-      kernel.setArg(a++, static_cast<uint32_t>(any_hit ? 1u : 0u));
-      kernel.setArg(a++, static_cast<uint32_t>(write_flags));
-      kernel.setArg(a++, hits_buf);
-      constexpr size_t kGroup = 64;
-      const size_t global = (n + kGroup - 1) / kGroup * kGroup;
-      q.enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(global), cl::NDRange(kGroup));
-    }
-    if (in_place) {
-      sync_host_buffer(q, hits_buf, answers, hit_bytes);
-      q.finish();
-    } else {
-      q.enqueueReadBuffer(hits_buf, CL_TRUE, 0, hit_bytes, answers);
-    }
-    if (staged)
-      parallel_for(n, 0, size_t{1} << 15, [&](size_t lo, size_t hi) {
-        for (size_t k = lo; k < hi; ++k) out[order[k]] = answers[k];
-      });
-  } catch (const cl::Error& e) {
-    // Writes queued without waiting read the caller's rays and this
-    // tracer's order: let them end before those can go.
-    try {
-      device_.queue().finish();
-    } catch (const cl::Error&) {
-    }
-    throw RuntimeFailure("ray query kernel failed on '" + device_.info().name + "': " + cl_error_text(e));
-  }
-  return ms_since(t0);
-}
-
 int ClTracer::set_answer_args(cl::Kernel& kernel, int a, const cl::Buffer* hits, const cl::Buffer* planes) {
   RF_CHECK(!hits != !planes, "answers go to hits or to planes");
   // A null buffer is a null pointer in the kernel (clSetKernelArg).
@@ -716,6 +492,10 @@ std::vector<uint32_t> ClTracer::read_tile_stats() {
   std::vector<uint32_t> out(static_cast<size_t>(slots_[slot_].tile_count) * RF_TILE_STAT_COUNT);
   if (!out.empty()) device_.queue().enqueueReadBuffer(stats_, CL_TRUE, 0, out.size() * sizeof(uint32_t), out.data());
   return out;
+}
+
+ClTracer::SceneBuffers ClTracer::scene_buffers() const {
+  return {nodes_, wide_nodes_, tris_, instances_, normal_xforms_, tlas_root_};
 }
 
 std::vector<BufferInfo> ClTracer::buffers() const { return buffer_info_; }

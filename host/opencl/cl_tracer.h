@@ -1,6 +1,7 @@
-// Device buffers and the trace kernel. The scene part (bottom-level nodes,
-// triangles, normal matrices) is uploaded once; a frame re-uploads only its
-// top-level nodes and instances, into space reserved at scene upload.
+// Device buffers and the camera trace kernels. The scene part (bottom-level
+// nodes, triangles, normal matrices) is uploaded once; a frame re-uploads only
+// its top-level nodes and instances, into space reserved at scene upload. Ray
+// queries trace through the same scene beside it (cl_query_tracer.h).
 #pragma once
 
 #include <string>
@@ -9,7 +10,6 @@
 #include "fold/frame.h"
 #include "fold/ray_list.h"
 #include "opencl/cl_device.h"
-#include "rays/ray_queries.h"
 
 namespace rayfold::core {
 
@@ -109,38 +109,20 @@ class ClTracer {
   };
   // Waits for slot's read. The words stay valid until that slot is read into again.
   PackedPlanes wait_packed(int slot);
-  // A chunk of ray queries as the kernels read it: for the single-ray
-  // kernel `records`, in trace space and in the order it traces them
-  // (to_trace_space with QueryTiles::scattered); for tiles the
-  // caller's world-space arrays, which the tile kernel takes to trace space
-  // itself by 2^exponent (rf_query_arrays), with tmin and tmax for all.
-  struct QueryRays {
-    const std::vector<rf_query_ray>* records = nullptr;
-    const float* origins = nullptr;     // count x 3
-    const float* directions = nullptr;  // count x 3
-    size_t count = 0;
-    float tmin = 0.0f, tmax = 0.0f;
-    int exponent = 0;
+  // What the query tracer (cl_query_tracer.h) traces through: the scene's
+  // buffers and the top-level root of the frame uploaded last. The counters
+  // say whether the scene or the frame changed since.
+  struct SceneBuffers {
+    cl::Buffer nodes, wide_nodes, tris, instances, normal_xforms;
+    uint32_t tlas_root = RF_INVALID;
   };
-  // Answers ray queries (rays/ray_queries.h) through the frame uploaded
-  // last, one rf_pixel_hit per ray into out (z = t); ms of kernel time.
-  // With tiles (plan_query_tiles: rays of one origin, traced ray k being
-  // ray order[k] and answering out[order[k]] when the order is not empty),
-  // the query tile kernel answers them from the arrays, closest hits only:
-  // an any-hit query's answer, hit or not, is the same; the frame must be
-  // the re-braided one. Without, the single-ray kernel traces the records
-  // (in plan->scattered's order, rays/ray_order.h) through a frame of whole
-  // trees, answering into a staging buffer in that order, put back into
-  // `out` here.
-  double trace_queries(const QueryRays& rays, bool any_hit, unsigned write_flags, rf_pixel_hit* out,
-                       const QueryTiles* tiles = nullptr);
-  // The bottom levels as the single-ray query kernel walks them
-  // (build_query_trees), before the first query frame's upload; on a CPU
-  // device read in place, so kept by the caller until the next
-  // upload_scene or the tracer's end.
-  void upload_query_trees(const Wide8Trees& trees);
-  // Whether upload_query_trees ran since the last upload_scene.
-  bool has_query_trees() const { return query_trees_uploaded_; }
+  SceneBuffers scene_buffers() const;
+  uint64_t scene_uploads() const { return scene_uploads_; }
+  uint64_t frame_uploads() const { return frame_uploads_; }
+  // The program built for up to `groups` transform groups (built here on
+  // first use), whose query kernels the query tracer takes.
+  const cl::Program& program(int groups) { return programs_for(groups).program; }
+  ClDevice& device() { return device_; }
   // Milliseconds spent building programs so far: about 2 s on a machine's
   // first use of this rayfold version with PoCL, about 0.1 s once PoCL's
   // cache ($XDG_CACHE_HOME/pocl or ~/.cache/pocl) holds them.
@@ -173,12 +155,9 @@ class ClTracer {
   struct Programs {
     int groups = 0;
     cl::Program program;
-    cl::Kernel single, tile, queries, query_tiles, pack;
+    cl::Kernel single, tile, pack;
   };
   Programs& programs_for(int groups);
-  // A read-only buffer over a scene array (cl_tracer.cpp says where it lives).
-  template <class Array>
-  cl::Buffer host_array_buffer(const Array& v, size_t bytes);
 
   ClDevice& device_;
   KernelPrecision precision_;
@@ -188,15 +167,6 @@ class ClTracer {
   // frame asks for the exact depth, then grown to what a pass needs.
   cl::Buffer depth_xforms_;
   size_t depth_xforms_capacity_ = 0;
-  // A query frame's 8-wide top level (Frame::tlas_wide) and its
-  // instances' 8-wide roots (Frame::query_wide_roots): one entry until a
-  // query frame needs more. query_wide_: the bottom levels' 8-wide trees.
-  cl::Buffer tlas_wide_, query_wide_roots_, query_wide_;
-  size_t tlas_wide_capacity_ = 0, query_wide_roots_capacity_ = 0;
-  bool query_trees_uploaded_ = false;
-  uint32_t tlas_wide_root_ = RF_INVALID;
-  bool query_frame_ = false;  // the uploaded frame is a query frame (trace_queries)
-  bool whole_trees_ = false;  // ... of whole trees, the single-ray kernel's (Frame::whole_trees)
   uint32_t depth_instances_ = 0;
   // One uploaded ray list and its tile table. Slot 0's rays buffer is made
   // with the scene (its size is checked against the device's memory); the
@@ -211,10 +181,6 @@ class ClTracer {
   bool tile_stats_ = false;
   KernelTuning tuning_;
   cl::Buffer stats_;
-  cl::Buffer query_rays_, query_hits_, query_tiles_, query_order_;  // grown as queries need
-  cl::Buffer query_origins_, query_directions_;                     // a tiled query's arrays
-  size_t query_capacity_ = 0, query_tiles_capacity_ = 0, query_order_capacity_ = 0;
-  std::vector<rf_pixel_hit> query_staged_;  // answers in a scattered order (trace_queries)
   // Packed readback, per slot: the device's packed planes and per-view hit
   // counts, and the pinned host memory (CL_MEM_ALLOC_HOST_PTR, mapped once)
   // they are read into; grown as passes need. The reads go through their
@@ -249,6 +215,7 @@ class ClTracer {
   std::vector<BufferInfo> buffer_info_;
   uint32_t blas_node_count_ = 0;
   uint32_t tlas_root_ = RF_INVALID;
+  uint64_t scene_uploads_ = 0, frame_uploads_ = 0;
   size_t max_tlas_nodes_ = 0, max_instances_ = 0, max_rays_ = 0, pixel_count_ = 0;
   double build_ms_ = 0.0;
 };

@@ -118,7 +118,10 @@ unsigned Pipeline::tile_lanes() const { return tracer_ ? tracer_->tile_lanes() :
 std::string Pipeline::kernel_label() const { return tracer_ ? kernel_name(kernel_) : "cpu reference"; }
 
 std::vector<BufferInfo> Pipeline::device_buffers() const {
-  return tracer_ ? tracer_->buffers() : std::vector<BufferInfo>{};
+  std::vector<BufferInfo> out = tracer_ ? tracer_->buffers() : std::vector<BufferInfo>{};
+  if (queries_)
+    for (const BufferInfo& b : queries_->buffers()) out.push_back(b);
+  return out;
 }
 
 void Pipeline::ensure_capacity(size_t pixels, int groups) {
@@ -401,7 +404,10 @@ std::vector<std::string> Pipeline::intersect(const float* origins, const float* 
   // chunk first needs it.
   std::optional<Frame> frames[2];
   int uploaded = -1;
-  if (tracer_) ensure_capacity(1, RF_MIRRORS);
+  if (tracer_) {
+    ensure_capacity(1, RF_MIRRORS);
+    if (!queries_) queries_ = std::make_unique<ClQueryTracer>(*tracer_);
+  }
   auto frame_for = [&](bool single_ray) -> const Frame& {
     const int k = single_ray ? 1 : 0;
     if (!frames[k]) {
@@ -410,11 +416,11 @@ std::vector<std::string> Pipeline::intersect(const float* origins, const float* 
         query_trees_built_ = true;
       }
       // Again after a scene upload for more pixels or groups.
-      if (single_ray && !tracer_->has_query_trees()) tracer_->upload_query_trees(query_trees_);
+      if (single_ray && !queries_->has_query_trees()) queries_->upload_query_trees(query_trees_);
       frames[k] = build_query_frame(scene_, *data_, origin_bound, frame_options, single_ray ? &query_trees_ : nullptr);
     }
     if (tracer_ && uploaded != k) {
-      tracer_->upload_frame(*frames[k]);
+      queries_->upload_frame(*frames[k]);
       uploaded = k;
     }
     return *frames[k];
@@ -443,7 +449,7 @@ std::vector<std::string> Pipeline::intersect(const float* origins, const float* 
                           options_.threads);
     const Frame& frame = frame_for(tracer_ && tiles.tiles.empty());
     const unsigned flags = frame.normals ? 0u : RF_WRITE_NO_NORMALS;
-    ClTracer::QueryRays rays;
+    ClQueryTracer::QueryRays rays;
     rays.count = end - begin;
     if (!tiles.tiles.empty()) {  // the tile kernel reads the arrays themselves
       rays.origins = origins + 3 * begin;
@@ -456,7 +462,7 @@ std::vector<std::string> Pipeline::intersect(const float* origins, const float* 
       rays.records = &chunk;
     }
     if (tracer_)
-      tracer_->trace_queries(rays, any_hit, flags, out + begin, &tiles);
+      queries_->trace_queries(rays, any_hit, flags, out + begin, &tiles);
     else
       trace_queries_cpu(in, chunk, any_hit, flags, out + begin, options_.threads, tiles.scattered);
   }

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "fold/frame.h"
+#include "opencl/cl_query_tracer.h"
 #include "opencl/cl_tracer.h"
 #include "pipeline/cost_model.h"
 #include "rayfold/types.h"
@@ -223,6 +224,7 @@ class Pipeline {
   bool query_trees_built_ = false;
   std::unique_ptr<ClDevice> device_;
   std::unique_ptr<ClTracer> tracer_;
+  std::unique_ptr<ClQueryTracer> queries_;  // made at the first ray query
   KernelKind kernel_ = KernelKind::single;
   bool measure_kernel_ = false;  // time both kernels on the next traced frame
   bool packs_planes_ = false;

@@ -24,6 +24,7 @@
 #include <vector>
 
 #include "fold/ray_list.h"
+#include "opencl/cl_query_tracer.h"
 #include "opencl/cl_tracer.h"
 #include "rays/ray_queries.h"
 #include "pipeline/pipeline.h"
@@ -145,16 +146,17 @@ void check_queries(const Scene& scene, Pipeline& reference, const CameraSpec& sp
   const SceneData& data = reference.scene_data();
   tracer().upload_scene(data, max_tlas_nodes(data), max_tlas_items(data), 1, 1);
   const Wide8Trees trees = build_query_trees(data);
-  tracer().upload_query_trees(trees);
+  ClQueryTracer queries(tracer());
+  queries.upload_query_trees(trees);
   const Frame frame =
       build_query_frame(scene, data, check_query_rays(o.data(), d.data(), n, 0.0f, INFINITY), FrameOptions{}, &trees);
-  tracer().upload_frame(frame);
+  queries.upload_frame(frame);
   std::vector<rf_query_ray> records;
   to_trace_space(o.data(), d.data(), 0, n, 0.0f, INFINITY, frame, records);
-  ClTracer::QueryRays rays;
+  ClQueryTracer::QueryRays rays;
   rays.records = &records;
   rays.count = n;
-  tracer().trace_queries(rays, false, 0, got.data());
+  queries.trace_queries(rays, false, 0, got.data());
   expect_same("OpenCL ray queries differ from the CPU reference", want, got);
 }
 
