@@ -247,6 +247,30 @@ std::vector<std::string> Scene::camera_names() const {
   return names;
 }
 
+namespace {
+
+View view_of(const core::CameraSpec& spec) {
+  View v;
+  v.eye = {spec.eye.x, spec.eye.y, spec.eye.z};
+  v.target = {spec.look_at.x, spec.look_at.y, spec.look_at.z};
+  v.up = {spec.up.x, spec.up.y, spec.up.z};
+  v.vfov_degrees = spec.vfov_degrees;
+  v.orthographic = spec.orthographic;
+  v.half_height = spec.ymag;
+  return v;
+}
+
+}  // namespace
+
+std::vector<Scene::FileCamera> Scene::file_cameras() const {
+  std::vector<FileCamera> out;
+  for (const core::Scene::FileCamera& c : state_->scene.cameras) out.push_back({c.name, c.node, view_of(c.spec)});
+  return out;
+}
+
+std::vector<std::string> Scene::scene_names() const { return state_->scene.scene_names; }
+int Scene::scene_index() const { return state_->scene.scene_index; }
+
 View Scene::default_view(ViewSource* source) const {
   detail::SceneState& state = *state_;
   const core::Scene& s = state.scene;
@@ -264,15 +288,7 @@ View Scene::default_view(ViewSource* source) const {
   }
   if (source)
     *source = s.camera ? ViewSource::file_camera : state.framed_interior ? ViewSource::interior : ViewSource::object;
-  const core::CameraSpec& spec = s.camera ? *s.camera : state.framed;
-  View v;
-  v.eye = {spec.eye.x, spec.eye.y, spec.eye.z};
-  v.target = {spec.look_at.x, spec.look_at.y, spec.look_at.z};
-  v.up = {spec.up.x, spec.up.y, spec.up.z};
-  v.vfov_degrees = spec.vfov_degrees;
-  v.orthographic = spec.orthographic;
-  v.half_height = spec.ymag;
-  return v;
+  return view_of(s.camera ? *s.camera : state.framed);
 }
 
 bool Scene::has_camera() const { return state_->scene.camera.has_value(); }

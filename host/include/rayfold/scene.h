@@ -107,6 +107,17 @@ class Scene {
   // The file's cameras by node name, in node order (LoadOptions::camera
   // indexes them; perspective and orthographic alike).
   std::vector<std::string> camera_names() const;
+  // The file's cameras as views, in camera_names()'s order, with the glTF
+  // node each hangs from; the file's scenes (names, "" when unnamed) and
+  // the one shown (LoadOptions::scene; -1 when the file has none).
+  struct FileCamera {
+    std::string name;
+    int node = -1;
+    View view;
+  };
+  std::vector<FileCamera> file_cameras() const;
+  std::vector<std::string> scene_names() const;
+  int scene_index() const;
   // The chosen file camera (LoadOptions::camera) at this image size, or, for a
   // file without one and a scene built in memory, a view chosen from the
   // scene: an object whole from outside, an interior from inside, looking
@@ -119,7 +130,8 @@ class Scene {
   // turns the file's camera) and keep the rest.
   View default_view(ViewSource* source = nullptr) const;
   bool has_camera() const;  // the file gave a camera (LoadOptions::camera): default_view is then its view
-  // World-space bounds of the instances at rest: min x, y, z and max x, y, z.
+  // World-space bounds of the instances at rest: min x, y, z and max x, y, z
+  // (all 0 for a scene of no triangles).
   std::array<double, 6> bounds() const;
 
   const std::shared_ptr<detail::SceneState>& state() const { return state_; }
