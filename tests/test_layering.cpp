@@ -18,8 +18,8 @@ namespace fs = std::filesystem;
 // ones before it. `base` are headers every stage may include: the traversal
 // layout and the kernels' shared code, and the public headers that only
 // declare types (errors, plain types, G-buffer channels, the version).
-const std::vector<std::string> kStages = {"base",      "util", "scene",    "bvh", "fold",
-                                          "reference", "rays", "opencl",   "output",
+const std::vector<std::string> kStages = {"base",      "util", "scene",   "bvh",    "fold",
+                                          "reference", "rays", "resolve", "opencl", "output",
                                           "pipeline",  "api",  "python"};
 const std::vector<std::string> kBasePublicHeaders = {"rayfold/errors.h", "rayfold/types.h", "rayfold/gbuffer.h",
                                                      "rayfold/version.h"};

@@ -9,6 +9,7 @@
 #include <functional>
 
 #include "api/pipeline_options.h"
+#include "api/resolve_gbuffer.h"
 #include "api/scene_state.h"
 #include "fold/view_passes.h"
 #include "pipeline/pipeline.h"
@@ -116,10 +117,13 @@ Renderer& Renderer::operator=(Renderer&&) noexcept = default;
 
 namespace {
 
-void check_channels(unsigned channels) {
-  if (channels == 0u || (channels & ~static_cast<unsigned>(kAllChannels)) != 0u)
-    throw InputError("", "channels must be a nonzero combination of kDepth, kNormal, kUv, kInstanceId and "
-                         "kPrimitiveId, not " + std::to_string(channels));
+void check_channels(unsigned channels, unsigned allowed = kEveryChannel) {
+  if (channels == 0u || (channels & ~allowed) != 0u)
+    throw InputError("", allowed == kAllChannels
+                             ? "channels must be a nonzero combination of kDepth, kNormal, kUv, kInstanceId and "
+                               "kPrimitiveId, not " + std::to_string(channels)
+                             : "channels must be a nonzero combination of the Channels flags (kDepth to "
+                               "kMaterialId), not " + std::to_string(channels));
 }
 
 // A G-buffer's planes and a ray query's answers have one layout: per pixel
@@ -222,7 +226,7 @@ RayHits Renderer::intersect(const float* origins, const float* directions, size_
 
 void Renderer::intersect_into(RayHits& out, const float* origins, const float* directions, size_t n, float tmin,
                               float tmax, size_t row_length, unsigned channels) {
-  check_channels(channels);
+  check_channels(channels, kAllChannels);
   core::FrameOptions options;
   options.moved = impl_->moved();
   options.normals = (channels & kNormal) != 0;
@@ -359,9 +363,12 @@ static_assert(kDepth == RF_PLANE_DEPTH && kNormal == RF_PLANE_NORMAL && kUv == R
 
 }  // namespace
 
-void Renderer::render_into(GBuffer& g, const Camera& camera, Fold fold, unsigned channels) {
-  check_channels(channels);
+void Renderer::render_into(GBuffer& g, const Camera& camera, Fold fold, unsigned asked) {
+  check_channels(asked);
   const auto t0 = core::Clock::now();
+  const std::vector<std::string> attribute_warnings =
+      detail::load_attributes(*impl_->state, detail::attributes_for(asked));
+  const unsigned channels = detail::trace_channels(asked);
   core::FrameOptions frame =
       frame_options(fold, impl_->moved(), channels, impl_->planar_depth, impl_->exact_depth, impl_->cull);
   core::RenderResult& r = impl_->result;
@@ -380,6 +387,8 @@ void Renderer::render_into(GBuffer& g, const Camera& camera, Fold fold, unsigned
   impl_->core->render_into(r, camera.core(), 1, frame);
   fill_gbuffer(g, r, 0, r.warnings, camera.width(), camera.height(), impl_->options.threads, channels,
                impl_->planar_depth ? Depth::planar : Depth::distance, frame.exact_depth);
+  detail::resolve_gbuffer(g, impl_->state->scene, asked, impl_->options.threads);
+  g.warnings.insert(g.warnings.end(), attribute_warnings.begin(), attribute_warnings.end());
   g.frame_ms = core::ms_since(t0);
 }
 
@@ -419,11 +428,13 @@ std::vector<std::vector<size_t>> Renderer::passes(const std::vector<Camera>& cam
 }
 
 void Renderer::render_views(const std::vector<Camera>& cameras, const std::function<void(size_t, GBuffer&&)>& on_view,
-                            Fold fold, int align, unsigned channels,
+                            Fold fold, int align, unsigned asked,
                             const std::function<void(size_t, GBuffer&)>& prepare) {
-  check_channels(channels);
+  check_channels(asked);
   check_align(align);
   if (cameras.empty()) return;
+  std::vector<std::string> attribute_warnings = detail::load_attributes(*impl_->state, detail::attributes_for(asked));
+  const unsigned channels = detail::trace_channels(asked);
   const core::FrameOptions frame =
       frame_options(fold, impl_->moved(), channels, impl_->planar_depth, impl_->exact_depth, impl_->cull);
   const std::vector<core::Camera> views = core_cameras(cameras);
@@ -454,6 +465,10 @@ void Renderer::render_views(const std::vector<Camera>& cameras, const std::funct
         fill_gbuffer(g, r, k, r.view_warnings.at(k), cameras[pass[k]].width(), cameras[pass[k]].height(),
                      impl_->options.threads, channels, impl_->planar_depth ? Depth::planar : Depth::distance,
                      frame.exact_depth);
+        detail::resolve_gbuffer(g, impl_->state->scene, asked, impl_->options.threads);
+        // The attributes' warnings go with the first view handed on.
+        g.warnings.insert(g.warnings.end(), attribute_warnings.begin(), attribute_warnings.end());
+        attribute_warnings.clear();
         g.views_in_trace = static_cast<int>(pass.size());
         g.trace_ms = r.median.trace_ms / static_cast<double>(pass.size());
         g.frame_ms = ms;

@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "api/convert.h"
+#include "api/resolve_gbuffer.h"
 #include "api/scene_state.h"
 #include "bvh/scene_file.h"
 #include "pipeline/auto_frame.h"
@@ -75,6 +76,8 @@ Scene Scene::load(const std::string& path, const LoadOptions& options) {
   lo.camera = options.camera;
   lo.time = options.time;
   lo.threads = options.threads;
+  lo.attributes = detail::attributes_for(options.channels);
+  s.state_->time = options.time;
   s.state_->file = std::make_shared<core::GltfFile>(path, lo);
   s.state_->scene = s.state_->file->scene_at(options.time);
   s.state_->warnings = s.state_->file->warnings();
@@ -178,7 +181,9 @@ void Scene::set_time(double seconds) {
   detail::SceneState& s = *state_;
   if (!s.file) throw InputError("", "set_time: the scene was not loaded from a file, so it has no animations");
   std::vector<uint32_t> moved;
-  if (core::apply_pose(s.scene, s.file->scene_at(seconds), &moved)) {
+  core::Scene posed = s.file->scene_at(seconds);
+  s.time = seconds;
+  if (core::apply_pose(s.scene, std::move(posed), &moved)) {
     s.moved_at.assign(s.scene.instances.size(), 0);
     s.structure_version++;
     return;

@@ -2,6 +2,7 @@
 // Renderer that it changed.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -19,6 +20,10 @@ struct SceneState {
   std::string path;
   std::shared_ptr<core::GltfFile> file;  // the file read once, for set_time
   std::vector<std::string> warnings;
+  double time = NAN;  // the pose the file's scene is in (LoadOptions::time, set_time)
+  // The attributes (core::Attribute bits) whose absence from some mesh the
+  // warnings have named already (resolve_gbuffer.h, load_attributes).
+  unsigned attributes_named = 0;
   // Bumped when meshes or instances are added: a renderer rebuilds its trees.
   uint64_t structure_version = 0;
   // Per instance, the clock value of its last set_transform (0: as added).

@@ -62,6 +62,13 @@ ExrMetadata view_metadata(const Camera& camera, const Scene& scene, const std::s
 void write_exr(const std::string& path, ConstSpan<rf_pixel_hit> hits, int width, int height,
                const ExrMetadata* metadata = nullptr, unsigned channels = kAllChannels,
                rayfold::ExrCompression compression = rayfold::ExrCompression::zip);
+// The planes of g that `channels` names (each of the size g's width and
+// height give), under the names of output/channels.h; otherwise as above.
+void write_exr(const std::string& path, const GBuffer& g, unsigned channels, const ExrMetadata* metadata,
+               rayfold::ExrCompression compression);
+// Every plane of output/channels.h whose EXR channels the file has, bit for
+// bit (g.channels says which); InputError naming the file on failure.
+GBuffer read_exr_planes(const std::string& path);
 // The lossless methods by name ("none, rle, zips, zip, piz"), for messages.
 const char* exr_compressions();
 // "none", "rle", "zips", "zip" or "piz" as ExrCompression; InputError

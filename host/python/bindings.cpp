@@ -1,6 +1,7 @@
 // The Python module rayfold._core: the public C++ API (rayfold/rayfold.h)
 // with numpy arrays in and out. Arrays out own their C++ buffers (no copy);
 // renders release the GIL; one render of a scene runs at a time.
+#include <deque>
 #include <nanobind/nanobind.h>
 #include <nanobind/ndarray.h>
 #include <nanobind/stl/array.h>
@@ -191,7 +192,8 @@ rayfold::RendererOptions renderer_options(const std::string& backend, const std:
 // The G-buffer as Python sees it: numpy planes and the camera it was
 // rendered with.
 struct PyGBuffer {
-  nb::object depth, normal, uv, instance_id, primitive_id;
+  // One per plane of output/channels.h, in its order; None where not asked for.
+  std::vector<nb::object> planes;
   int width = 0, height = 0;
   std::string fold;
   size_t rays = 0, hits = 0;
@@ -208,16 +210,7 @@ struct PyGBuffer {
 
 PyGBuffer to_python(rayfold::GBuffer&& g, const rayfold::Camera& camera) {
   const size_t h = g.height, w = g.width;
-  // A plane not asked for (channels=) is None.
-  auto plane = [&](auto&& v, unsigned bit, std::initializer_list<size_t> shape) -> nb::object {
-    if (!(g.channels & bit)) return nb::none();
-    return plane_to_numpy(std::move(v), shape);
-  };
-  PyGBuffer p{plane(std::move(g.depth), rayfold::kDepth, {h, w}),
-              plane(std::move(g.normal), rayfold::kNormal, {h, w, 3}),
-              plane(std::move(g.uv), rayfold::kUv, {h, w, 2}),
-              plane(std::move(g.instance_id), rayfold::kInstanceId, {h, w}),
-              plane(std::move(g.primitive_id), rayfold::kPrimitiveId, {h, w}),
+  PyGBuffer p{{},
               g.width,
               g.height,
               fold_name(g.fold),
@@ -234,6 +227,17 @@ PyGBuffer to_python(rayfold::GBuffer&& g, const rayfold::Camera& camera) {
               g.top_level,
               std::move(g.kernel),
               std::move(g.kernel_reason)};
+  // A plane not asked for (channels=) is None; (H, W) or (H, W, components).
+  for (const rayfold::core::PlaneSpec& spec : rayfold::core::plane_specs()) {
+    if (!(g.channels & spec.bit)) {
+      p.planes.push_back(nb::none());
+      continue;
+    }
+    const std::initializer_list<size_t> flat = {h, w}, deep = {h, w, size_t(spec.components)};
+    const auto shape = spec.components == 1 ? flat : deep;
+    p.planes.push_back(spec.floats ? plane_to_numpy(std::move(g.*spec.floats), shape)
+                                   : plane_to_numpy(std::move(g.*spec.ids), shape));
+  }
   return p;
 }
 
@@ -250,24 +254,55 @@ rayfold::GBuffer from_python(const PyGBuffer& p) {
   rayfold::GBuffer g;
   g.width = p.width;
   g.height = p.height;
-  g.depth = plane_values<float>(p.depth, "float32", "depth");
-  g.normal = plane_values<float>(p.normal, "float32", "normal");
-  g.uv = plane_values<float>(p.uv, "float32", "uv");
-  g.instance_id = plane_values<uint32_t>(p.instance_id, "uint32", "instance_id");
-  g.primitive_id = plane_values<uint32_t>(p.primitive_id, "uint32", "primitive_id");
-  const std::pair<const nb::object*, unsigned> planes[] = {{&p.depth, rayfold::kDepth},
-                                                          {&p.normal, rayfold::kNormal},
-                                                          {&p.uv, rayfold::kUv},
-                                                          {&p.instance_id, rayfold::kInstanceId},
-                                                          {&p.primitive_id, rayfold::kPrimitiveId}};
   g.channels = 0;
-  for (const auto& [plane, bit] : planes)
-    if (!plane->is_none()) g.channels |= bit;
+  const std::vector<rayfold::core::PlaneSpec>& specs = rayfold::core::plane_specs();
+  for (size_t k = 0; k < specs.size(); ++k) {
+    const rayfold::core::PlaneSpec& spec = specs[k];
+    if (p.planes.at(k).is_none()) continue;
+    g.channels |= spec.bit;
+    if (spec.floats)
+      g.*spec.floats = plane_values<float>(p.planes[k], "float32", spec.name);
+    else
+      g.*spec.ids = plane_values<uint32_t>(p.planes[k], "uint32", spec.name);
+  }
   g.fold = p.fold == "y" ? rayfold::Fold::y : p.fold == "x" ? rayfold::Fold::x : p.fold == "xy" ? rayfold::Fold::xy
                                                                                                  : rayfold::Fold::none;
   g.depth_kind = p.depth_kind;
   g.exact_depth = p.exact_depth;
   return g;
+}
+
+// The planes as properties, one per plane of output/channels.h (its name,
+// and an older one where it has one), documented by the table in
+// docs/channels.md.
+template <class Class>
+void add_plane_properties(Class& cls) {
+  static const char* const kDocs[] = {
+      "(H, W) float32: distance from the eye along the pixel's ray (or planar, depth_kind); inf on a miss",
+      "(H, W, 3) float32: world-space unit geometric normal, front by the triangle's winding; 0 on a miss",
+      "(H, W, 2) float32: barycentric weights (u, v) of the triangle's 2nd and 3rd vertex (not texture "
+      "coordinates: texcoord); 0 on a miss",
+      "(H, W) uint32: index into Scene.instance_names; MISS",
+      "(H, W) uint32: triangle index within the mesh; MISS",
+      "(H, W, 3) float32: world-space unit shading normal, the file's NORMAL interpolated (the geometric normal "
+      "where the triangle has none); 0 on a miss",
+      "(H, W, 2) float32: TEXCOORD_0 interpolated, as the file gives it ((0, 0) where the mesh has none); 0 on a "
+      "miss",
+      "(H, W, 2) float32: TEXCOORD_1 likewise",
+      "(H, W, 3) float32: world-space position of the hit (the triangle's point at the barycentrics); 0 on a miss",
+      "(H, W, 3) float32: the hit in the mesh's own (object) space; 0 on a miss",
+      "(H, W) uint32: the glTF material index; DEFAULT_MATERIAL where the primitive names none; MISS",
+  };
+  const std::vector<rayfold::core::PlaneSpec>& specs = rayfold::core::plane_specs();
+  RF_CHECK_EQ(specs.size(), sizeof(kDocs) / sizeof(kDocs[0]), "a doc per plane");
+  static std::deque<std::string> alias_docs;  // nanobind keeps the pointer
+  for (size_t k = 0; k < specs.size(); ++k) {
+    cls.def_prop_ro(specs[k].name, [k](const PyGBuffer& g) { return g.planes.at(k); }, kDocs[k]);
+    if (specs[k].alias && std::string(specs[k].alias) != "t") {
+      alias_docs.push_back(std::string("the older name of ") + specs[k].name + ", kept: " + kDocs[k]);
+      cls.def_prop_ro(specs[k].alias, [k](const PyGBuffer& g) { return g.planes.at(k); }, alias_docs.back().c_str());
+    }
+  }
 }
 
 // A scene and what renders it: renderers by options, reused across calls;
@@ -450,6 +485,7 @@ NB_MODULE(_core, m) {
   m.doc() = "rayfold's C++ core; use the rayfold package.";
   m.attr("__version__") = RAYFOLD_VERSION_STRING;
   m.attr("MISS") = rayfold::kMiss;
+  m.attr("DEFAULT_MATERIAL") = rayfold::kDefaultMaterial;
   nb::exception<rayfold::InputError>(m, "InputError", PyExc_ValueError);
   nb::exception<rayfold::RuntimeFailure>(m, "RuntimeFailure", PyExc_RuntimeError);
 
@@ -568,14 +604,9 @@ NB_MODULE(_core, m) {
         return s.str();
       });
 
-  nb::class_<PyGBuffer>(m, "GBuffer",
+  auto gbuffer_class = nb::class_<PyGBuffer>(m, "GBuffer",
                         "One render's hit info: numpy planes, rows from the top; a plane not asked for (channels=) "
                         "is None.")
-      .def_ro("depth", &PyGBuffer::depth, "(H, W) float32: distance from the eye along the pixel's ray; inf on a miss")
-      .def_ro("normal", &PyGBuffer::normal, "(H, W, 3) float32: world-space unit geometric normal; 0 on a miss")
-      .def_ro("uv", &PyGBuffer::uv, "(H, W, 2) float32: barycentrics of the triangle's 2nd and 3rd vertex")
-      .def_ro("instance_id", &PyGBuffer::instance_id, "(H, W) uint32: index into Scene.instance_names; MISS")
-      .def_ro("primitive_id", &PyGBuffer::primitive_id, "(H, W) uint32: triangle index within the mesh; MISS")
       .def_ro("width", &PyGBuffer::width)
       .def_ro("height", &PyGBuffer::height)
       .def_ro("fold", &PyGBuffer::fold,
@@ -635,9 +666,12 @@ NB_MODULE(_core, m) {
           },
           "path"_a, "scene"_a, "compression"_a = "zip",
           "Writes the planes this G-buffer has as `rayfold render -o` writes a view (channels Z, N.X, N.Y, N.Z, U, "
-          "V, InstanceID, PrimitiveID; the camera and scene's instance names in the header). The file appears "
+          "V, InstanceID, PrimitiveID and those of the resolved planes, docs/channels.md; the camera and scene's "
+          "instance names in the header). The file appears "
           "whole or not at all. compression: OpenEXR's lossless 'zip' (default), 'zips', 'piz', 'rle' or 'none' "
           "(3 to 4 times faster to write, 10 times the bytes). Releases the GIL.");
+
+  add_plane_properties(gbuffer_class);
 
   auto scene_class = nb::class_<PyScene>(m, "Scene", "Meshes and instances, from a glTF 2.0 file or built in memory.");
   scene_class

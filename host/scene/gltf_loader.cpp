@@ -49,6 +49,9 @@ Scene GltfFile::scene_at(double time) {
   return scene;
 }
 
+void GltfFile::set_attributes(unsigned attributes) { impl_->loader.set_attributes(attributes); }
+unsigned GltfFile::attributes() const { return impl_->loader.attributes(); }
+
 bool GltfFile::animated() const { return !std::isnan(impl_->end); }
 double GltfFile::animation_end() const { return std::isnan(impl_->end) ? 0.0 : impl_->end; }
 const std::vector<std::string>& GltfFile::warnings() const { return impl_->warnings; }
@@ -78,7 +81,9 @@ bool same_geometry(const Scene& a, const Scene& b) {
   for (size_t i = 0; i < a.instances.size(); ++i)
     if (a.instances[i].mesh != b.instances[i].mesh) return false;
   for (size_t m = 0; m < a.meshes.size(); ++m)
-    if (a.meshes[m].positions != b.meshes[m].positions || a.meshes[m].indices != b.meshes[m].indices) return false;
+    if (a.meshes[m].positions != b.meshes[m].positions || a.meshes[m].indices != b.meshes[m].indices ||
+        a.meshes[m].attributes.normals != b.meshes[m].attributes.normals)
+      return false;
   return true;
 }
 

@@ -1,5 +1,6 @@
 // glTF 2.0 (.gltf and .glb) -> Scene. Keeps positions, indices and the node
-// hierarchy's transforms; skips everything hit info does not need.
+// hierarchy's transforms, and the vertex attributes and materials asked for
+// (LoadOptions::attributes); skips everything else.
 #pragma once
 
 #include <cmath>
@@ -21,6 +22,9 @@ struct LoadOptions {
   // Threads the reading may use (0: every core): with two or more,
   // tinygltf parses the file while rayfold's own checks parse its JSON.
   unsigned threads = 0;
+  // The attributes to keep (scene/attributes.h, Attribute bits): none by
+  // default, what hit info alone needs.
+  unsigned attributes = 0;
 };
 
 // A glTF file read once and posed at any time: each frame of its
@@ -33,6 +37,10 @@ class GltfFile {
   // The scene posed at `time` seconds (NaN: the rest pose; options.time is
   // not used here). Throws InputError for animation data that is broken.
   Scene scene_at(double time);
+  // From now on scene_at keeps these attributes (Attribute bits) too: the
+  // positions, indices and transforms it gives are those it gave before.
+  void set_attributes(unsigned attributes);
+  unsigned attributes() const;
   bool animated() const;         // the file animates nodes (transforms or morph weights)
   double animation_end() const;  // the last keyframe, seconds; 0 when not animated
   // Non-fatal oddities of the first scene_at, one line per kind.

@@ -1,6 +1,6 @@
-// The scene model: only what hit info needs. Meshes hold positions and
-// triangle indices; instances place a mesh in the world. No materials, no
-// normals, no texture coordinates.
+// The scene model: what hit info needs, and what a render's channels read.
+// Meshes hold positions and triangle indices, and the attributes a render
+// asked for (scene/attributes.h); instances place a mesh in the world.
 #pragma once
 
 #include <cstdint>
@@ -11,6 +11,7 @@
 #include <glm/vec3.hpp>
 
 #include "scene/aabb.h"
+#include "scene/attributes.h"
 #include "scene/transform.h"
 
 namespace rayfold::core {
@@ -19,6 +20,7 @@ struct Mesh {
   std::string name;
   std::vector<glm::vec3> positions;
   std::vector<uint32_t> indices;  // three per triangle, in the file's winding
+  MeshAttributes attributes;      // those loaded (LoadOptions::attributes)
   size_t triangle_count() const { return indices.size() / 3; }
 };
 

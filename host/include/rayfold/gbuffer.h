@@ -1,5 +1,5 @@
-// The G-buffer of one render: eight channels per pixel in planes, rows from
-// the top.
+// The G-buffer of one render: its channels per pixel in planes, rows from
+// the top. docs/channels.md gives every plane's meaning, space and miss value.
 #pragma once
 
 #include <cstddef>
@@ -28,15 +28,39 @@ inline const char* fold_name(Fold f) {
 
 // The channels a render fills, as bit flags (kAllChannels by default): a
 // job that needs depth and masks asks for kDepth | kInstanceId and gets the
-// other planes empty, skipping their copies.
+// other planes empty, skipping their copies. The first five are the
+// visibility buffer the trace writes; the others are resolved from it and
+// the scene's attributes, which the scene reads from its file on the first
+// render that asks for them.
 enum Channels : unsigned {
   kDepth = 1u,
-  kNormal = 2u,
-  kUv = 4u,
+  kNormal = 2u,           // the geometric normal
+  kUv = 4u,               // the barycentrics (GBuffer::uv), not texture coordinates
+  kBarycentrics = 4u,     // kUv's name that says what it holds
   kInstanceId = 8u,
   kPrimitiveId = 16u,
-  kAllChannels = 31u,
+  kAllChannels = 31u,     // the visibility buffer: every channel above, the default
+  kShadingNormal = 32u,   // NORMAL interpolated, in world space
+  kTexcoord = 64u,        // TEXCOORD_0 interpolated
+  kTexcoord1 = 128u,      // TEXCOORD_1 interpolated
+  kPosition = 256u,       // world-space position
+  kObjectPosition = 512u, // position in the mesh's own space
+  kMaterialId = 1024u,    // the glTF material's index
+  kEveryChannel = 2047u,
 };
+
+// A comma-separated list of channel names as Channels, as the CLI's
+// --channels and Python's channels= take them: depth, normal,
+// barycentrics, instance_id, primitive_id, shading_normal, texcoord,
+// texcoord1, position, object_position, material_id, or the EXR's names for
+// them (Z, N, UV, InstanceID, PrimitiveID, Ns, TexCoord, TexCoord1, P,
+// Pref, MaterialID); uv is barycentrics' older name. InputError naming an
+// unknown name, or for none.
+unsigned parse_channels(const std::string& list);
+
+// A triangle's material_id where its primitive names no material (glTF's
+// default material); kMiss on a miss.
+constexpr uint32_t kDefaultMaterial = 0xFFFFFFFEu;
 
 // What a G-buffer's depth plane holds.
 enum class Depth {
@@ -77,6 +101,18 @@ struct GBuffer {
   std::vector<float> uv;
   std::vector<uint32_t> instance_id;   // Scene instance index, kMiss on a miss
   std::vector<uint32_t> primitive_id;  // triangle index within the mesh, kMiss on a miss
+  // Resolved from the hit (kShadingNormal and after; 0 on a miss unless
+  // said otherwise; docs/channels.md): every float computed in double from
+  // the file's values and rounded once, the first vertex weighted
+  // (1 - u) - v. World-space unit shading normal, the file's NORMAL through
+  // the instance's inverse transpose (the geometric normal where the
+  // triangle has none). height * width * 3.
+  std::vector<float> shading_normal;
+  std::vector<float> texcoord;         // TEXCOORD_0 as the file gives it, (0, 0) without; height * width * 2
+  std::vector<float> texcoord1;        // TEXCOORD_1 likewise
+  std::vector<float> position;         // world space; height * width * 3
+  std::vector<float> object_position;  // the mesh's own space; height * width * 3
+  std::vector<uint32_t> material_id;   // glTF material index, kDefaultMaterial for none, kMiss on a miss
   unsigned channels = kAllChannels;    // the planes filled (Channels); the others are empty
   Depth depth_kind = Depth::distance;  // what `depth` measures (RendererOptions::depth)
   bool exact_depth = false;            // depth from the exact ray in double-float (RendererOptions::exact_depth)

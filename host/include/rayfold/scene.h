@@ -23,6 +23,10 @@ struct LoadOptions {
   int camera = -1;    // the file's camera to use (index into camera_names()); -1: the first perspective one
   double time = NAN;  // seconds: every node animation posed at this time; NaN: the rest pose
   unsigned threads = 0;  // threads decoding the file's buffers; 0: all cores
+  // The channels (Channels) renders will ask for: the attributes they read
+  // (normals, texture coordinates, materials) are read now rather than on
+  // the first render that asks for them. 0: none yet.
+  unsigned channels = 0;
 };
 
 // Where Scene::default_view's view comes from.

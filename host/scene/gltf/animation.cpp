@@ -18,27 +18,28 @@ double Loader::animation_end() const {
 }
 
 void Loader::apply_morph_targets(int mi, size_t pi, const std::vector<double>& weights, const std::string& where,
-                                 std::vector<glm::vec3>& positions) const {
+                                 std::vector<glm::vec3>& values, const char* attribute) const {
   const tinygltf::Primitive& prim = model_.meshes[mi].primitives[pi];
   if (prim.targets.empty()) return;
   if (!weights.empty() && weights.size() != prim.targets.size())
     fail(where + " has " + std::to_string(prim.targets.size()) + " morph targets but " +
          std::to_string(weights.size()) + " weights");
-  std::vector<glm::dvec3> sum(positions.begin(), positions.end());
+  std::vector<glm::dvec3> sum(values.begin(), values.end());
   bool moved = false;
+  const std::string name = attribute;
   for (size_t t = 0; t < prim.targets.size(); ++t) {
     const double w = weights.empty() ? 0.0 : weights[t];
-    const auto p = prim.targets[t].find("POSITION");
+    const auto p = prim.targets[t].find(name);
     if (w == 0.0 || p == prim.targets[t].end()) continue;
-    const std::vector<glm::vec3> d = read_vec3(p->second, where + ": morph target " + std::to_string(t) + " POSITION");
-    if (d.size() != positions.size())
-      fail(where + ": morph target " + std::to_string(t) + " has " + std::to_string(d.size()) + " positions for " +
-           std::to_string(positions.size()) + " vertices");
+    const std::vector<glm::vec3> d = read_vec3(p->second, where + ": morph target " + std::to_string(t) + " " + name);
+    if (d.size() != values.size())
+      fail(where + ": morph target " + std::to_string(t) + " has " + std::to_string(d.size()) + " " + name +
+           " values for " + std::to_string(values.size()) + " vertices");
     for (size_t i = 0; i < d.size(); ++i) sum[i] += w * glm::dvec3(d[i]);
     moved = true;
   }
   if (moved)
-    for (size_t i = 0; i < positions.size(); ++i) positions[i] = glm::vec3(sum[i]);
+    for (size_t i = 0; i < values.size(); ++i) values[i] = glm::vec3(sum[i]);
 }
 
 void Loader::pose_at(double time) {
@@ -159,8 +160,12 @@ std::vector<Xform> Loader::joint_matrices(int si) {
 }
 
 void Loader::apply_skin(const tinygltf::Primitive& prim, const std::vector<Xform>& joints, const std::string& where,
-                        std::vector<glm::vec3>& positions) const {
+                        std::vector<glm::vec3>& positions, std::vector<glm::vec3>* normals) const {
   std::vector<glm::dvec3> sum(positions.size(), glm::dvec3(0.0));
+  std::vector<glm::dvec3> normal_sum(normals ? normals->size() : 0, glm::dvec3(0.0));
+  std::vector<glm::dmat3> normal_from_object;
+  if (normals)
+    for (const Xform& j : joints) normal_from_object.push_back(glm::transpose(glm::inverse(glm::dmat3(j))));
   std::vector<double> total(positions.size(), 0.0);
   int sets = 0;
   for (int set = 0;; ++set) {
@@ -185,6 +190,8 @@ void Loader::apply_skin(const tinygltf::Primitive& prim, const std::vector<Xform
           fail(where + ": vertex " + std::to_string(v) + " refers to joint " +
                std::to_string(static_cast<long long>(joint)) + " of " + std::to_string(joints.size()));
         sum[v] += weight * glm::dvec3(joints[static_cast<size_t>(joint)] * glm::dvec4(glm::dvec3(positions[v]), 1.0));
+        if (normals)
+          normal_sum[v] += weight * (normal_from_object[static_cast<size_t>(joint)] * glm::dvec3((*normals)[v]));
         total[v] += weight;
       }
     ++sets;
@@ -195,6 +202,7 @@ void Loader::apply_skin(const tinygltf::Primitive& prim, const std::vector<Xform
     // Weights should sum to 1; normalising keeps a file that rounds them
     // (as 8-bit weights do) from shrinking the mesh.
     positions[v] = glm::vec3(sum[v] / total[v]);
+    if (normals) (*normals)[v] = glm::vec3(normal_sum[v] / total[v]);
   }
 }
 

@@ -50,6 +50,14 @@ class Loader {
   Scene build(double time);
 
   void cache_meshes(bool on) { cache_meshes_ = on; }
+  // The attributes build() keeps from now on (LoadOptions::attributes);
+  // meshes converted before are converted again.
+  void set_attributes(unsigned attributes) {
+    if (attributes == options_.attributes) return;
+    options_.attributes = attributes;
+    converted_.clear();
+  }
+  unsigned attributes() const { return options_.attributes; }
 
   // The last keyframe time over the node animations; NaN without any.
   double animation_end() const;
@@ -126,9 +134,10 @@ class Loader {
   void add_instance(int ni, const Xform& world_from_node);
 
   // Morph targets at the default weights (glTF 2.0, 3.7.2.2): the node's,
-  // else the mesh's, else 0; summed in double and rounded once.
+  // else the mesh's, else 0; summed in double and rounded once. `attribute`:
+  // the targets' POSITION (values: the positions) or NORMAL (the normals).
   void apply_morph_targets(int mi, size_t pi, const std::vector<double>& weights, const std::string& where,
-                           std::vector<glm::vec3>& positions) const;
+                           std::vector<glm::vec3>& values, const char* attribute = "POSITION") const;
 
   // Every animation channel sampled at `time`, written over the node's TRS or
   // weights before the hierarchy is read (glTF 2.0, 3.11). Times outside a
@@ -157,9 +166,24 @@ class Loader {
 
   // Linear blend skinning (glTF 2.0, 3.7.3): each vertex moved by the
   // weighted sum of its joints' matrices, from every JOINTS_n / WEIGHTS_n
-  // set; summed in double and rounded once.
+  // set; summed in double and rounded once. normals, when given, move by
+  // the same weights of the joints' normal matrices (inverse transposes);
+  // their length is the resolve's to restore.
   void apply_skin(const tinygltf::Primitive& prim, const std::vector<Xform>& joints, const std::string& where,
-                  std::vector<glm::vec3>& positions) const;
+                  std::vector<glm::vec3>& positions, std::vector<glm::vec3>* normals = nullptr) const;
+
+  // A primitive's NORMALs (attributes.cpp), morphed by its targets' NORMAL,
+  // appended to out.normals for its vertex_count vertices (the caller skins
+  // them with its positions); zeros and the missing bit for a primitive
+  // without (scene/attributes.h).
+  void read_normals(int mi, size_t pi, const std::string& where, size_t vertex_count,
+                    const std::vector<double>& weights, MeshAttributes& out);
+  // The primitive's other attributes options_.attributes asks for: texture
+  // coordinates for its vertex_count vertices, its material for its
+  // `triangles` new triangles; a primitive without texture coordinates gets
+  // (0, 0) and the missing bit.
+  void read_attributes(int mi, size_t pi, const std::string& where, size_t vertex_count, size_t triangles,
+                       MeshAttributes& out);
 
   // Converts a glTF mesh (all its triangle primitives) into one Mesh; returns
   // its index in scene_.meshes, or -1 when it has no triangles.
@@ -207,6 +231,9 @@ class Loader {
   // Positions (and morph target displacements): VEC3 of FLOAT, or of
   // (normalized) integers as KHR_mesh_quantization allows.
   std::vector<glm::vec3> read_vec3(int ai, const std::string& what) const;
+  // Texture coordinates: VEC2 of FLOAT or normalized unsigned byte or short
+  // (glTF 2.0, 3.7.2.1), or another integer type with KHR_mesh_quantization.
+  std::vector<glm::vec2> read_vec2(int ai, const std::string& what) const;
 
   void read_indices(int ai, const std::string& where, uint32_t vertex_count, std::vector<uint32_t>& out) const;
 

@@ -22,6 +22,7 @@ int Loader::convert_mesh(int mi, const std::vector<double>& weights, int skin) {
   const tinygltf::Mesh& gm = model_.meshes[mi];
   Mesh mesh;
   mesh.name = gm.name;
+  mesh.attributes.loaded = options_.attributes;
   for (size_t pi = 0; pi < gm.primitives.size(); ++pi) {
     const tinygltf::Primitive& prim = gm.primitives[pi];
     const std::string where = "mesh " + std::to_string(mi) + " primitive " + std::to_string(pi);
@@ -37,8 +38,17 @@ int Loader::convert_mesh(int mi, const std::vector<double>& weights, int skin) {
     if (pos == prim.attributes.end()) fail(where + " has no POSITION attribute");
     const uint32_t base = static_cast<uint32_t>(mesh.positions.size());
     std::vector<glm::vec3> positions = read_vec3(pos->second, where + ": POSITION");
+    const size_t first_normal = mesh.attributes.normals.size();
+    if (options_.attributes & kAttributeNormal)
+      read_normals(mi, pi, where, positions.size(), weights, mesh.attributes);
     apply_morph_targets(mi, pi, weights, where, positions);
-    if (skin >= 0) apply_skin(prim, joints, where, positions);
+    if (skin >= 0) {
+      std::vector<glm::vec3> normals;
+      const bool with_normals = (options_.attributes & kAttributeNormal) && prim.attributes.count("NORMAL");
+      if (with_normals) normals.assign(mesh.attributes.normals.begin() + first_normal, mesh.attributes.normals.end());
+      apply_skin(prim, joints, where, positions, with_normals ? &normals : nullptr);
+      if (with_normals) std::copy(normals.begin(), normals.end(), mesh.attributes.normals.begin() + first_normal);
+    }
     const uint32_t vertex_count = static_cast<uint32_t>(positions.size());
     // A mesh's first primitive is taken whole: a copy was 5 MB of fresh
     // pages on the dragon.
@@ -55,7 +65,9 @@ int Loader::convert_mesh(int mi, const std::vector<double>& weights, int skin) {
     }
     size_t dropped = 0;
     const size_t seq_size = seq.size();
+    const size_t triangles_before = mesh.triangle_count();
     append_triangles(mode, std::move(seq), base, mesh.indices, &dropped);
+    read_attributes(mi, pi, where, vertex_count, mesh.triangle_count() - triangles_before, mesh.attributes);
     if (dropped)
       warn(where + " has " + std::to_string(seq_size) + " triangle vertices, not a multiple of 3; the last " +
            std::to_string(dropped) + " are ignored");

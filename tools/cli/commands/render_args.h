@@ -38,7 +38,7 @@ struct RenderArgs {
   // The planes a render fills: the EXR's, and what the preview shades and
   // --compare compares.
   unsigned render_channels() const {
-    if (compare) return rayfold::kAllChannels;
+    if (compare) return channels | rayfold::kAllChannels;
     return channels | (png.empty() ? 0u : unsigned(rayfold::kNormal | rayfold::kInstanceId));
   }
 };

@@ -12,7 +12,6 @@
 #include "cli/commands/render_outputs.h"
 #include "cli/progress.h"
 #include "opencl/cl_device.h"
-#include "output/channels.h"
 #include "scene/animation.h"
 #include "util/atomic_file.h"
 #include "util/errors.h"
@@ -74,8 +73,10 @@ const char* kRenderUsage =
     "  --exact-depth          Z from each pixel's exact ray in double-float: within 2^-24\n"
     "                         of the exact value (the float ray's is off by up to 1e-4\n"
     "                         on grazing pixels); about 1.2x to 1.5x the frame time\n"
-    "  --channels C,...       the EXR channels written: Z, N (N.X, N.Y, N.Z), UV (U, V),\n"
-    "                         InstanceID, PrimitiveID (default: all eight)\n"
+    "  --channels C,...       the planes written (default: the visibility buffer, Z, N,\n"
+    "                         UV, InstanceID, PrimitiveID); also the G-buffer's Ns\n"
+    "                         (shading_normal), TexCoord, TexCoord1, P (position),\n"
+    "                         Pref (object_position), MaterialID: docs/channels.md\n"
     "  --exr-compression M    zip (default), zips, piz, rle or none: OpenEXR's lossless\n"
     "                         methods; none writes 3 to 4 times faster, 10x the bytes\n"
     "  --png F.png            normal-shaded preview, misses black\n"
@@ -134,7 +135,7 @@ RenderArgs parse_render(cli::Args& args) {
       }
     } else if (a == "--channels") {
       try {
-        r.channels = parse_channels(args.value(a));
+        r.channels = rayfold::parse_channels(args.value(a));
       } catch (const InputError& e) {
         throw UsageError(e.what());
       }

@@ -1,0 +1,33 @@
+// The public G-buffer's resolved channels (kShadingNormal and after): which
+// visibility channels and scene attributes they need, the attributes read
+// from the file on first need, and the resolve (resolve/resolve.h) into a
+// GBuffer's planes.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "api/scene_state.h"
+#include "rayfold/gbuffer.h"
+
+namespace rayfold::detail {
+
+constexpr unsigned kResolvedChannels = kEveryChannel & ~static_cast<unsigned>(kAllChannels);
+
+// The scene attributes (core::Attribute bits) the channels read.
+unsigned attributes_for(unsigned channels);
+// The channels the trace fills for these: those asked for, and the ids,
+// barycentrics and geometric normal the resolved ones are made from.
+unsigned trace_channels(unsigned channels);
+
+// Reads the attributes the scene lacks from its file (posed as it is now),
+// once; returns one line for each mesh that lacks one of them and was not
+// named before (also added to the scene's warnings).
+std::vector<std::string> load_attributes(SceneState& s, unsigned attributes);
+
+// Fills g's resolved planes that `channels` asks for from its visibility
+// planes, then empties the visibility planes `channels` did not ask for and
+// sets g.channels to it.
+void resolve_gbuffer(GBuffer& g, const core::Scene& scene, unsigned channels, unsigned threads);
+
+}  // namespace rayfold::detail

@@ -1,0 +1,45 @@
+// A mesh's vertex attributes beyond its positions, and its triangles'
+// materials: what the G-buffer's resolve (host/resolve/) reads for shading
+// normals, texture coordinates and material ids. The loader reads them
+// only when a render asks for a channel that reads them (Scene::meshes
+// keep positions alone otherwise): a scene whose renders ask for none costs
+// what it did before them.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <glm/vec2.hpp>
+#include <glm/vec3.hpp>
+
+namespace rayfold::core {
+
+// Which attributes to read (LoadOptions::attributes), as bit flags.
+enum Attribute : unsigned {
+  kAttributeNormal = 1u,     // NORMAL (and its morph targets, skinned)
+  kAttributeTexcoord0 = 2u,  // TEXCOORD_0
+  kAttributeTexcoord1 = 4u,  // TEXCOORD_1
+  kAttributeMaterial = 8u,   // each primitive's material index
+};
+
+// A triangle's material where its primitive names none (glTF's default
+// material).
+constexpr uint32_t kDefaultMaterial = 0xFFFFFFFEu;
+
+// One mesh's attributes, indexed as its positions (per vertex) or its
+// triangles (materials). A vector is empty where `loaded` lacks its bit. A
+// vertex of a primitive without the attribute holds the documented stand-in
+// and its bit in `missing`: a normal of (0, 0, 0) (the resolve then takes
+// the triangle's geometric normal, as glTF says of a primitive without
+// normals), texture coordinates (0, 0).
+struct MeshAttributes {
+  unsigned loaded = 0;   // Attribute bits read for this mesh
+  unsigned missing = 0;  // Attribute bits some primitive of it lacked
+  unsigned present = 0;  // Attribute bits some primitive of it had
+  std::vector<glm::vec3> normals;       // object space, as the file gives them (unit length there)
+  std::vector<glm::vec2> texcoords[2];  // TEXCOORD_0 and TEXCOORD_1, as the file gives them (v downward)
+  std::vector<uint32_t> materials;      // per triangle: the glTF material index, or kDefaultMaterial
+};
+
+}  // namespace rayfold::core
