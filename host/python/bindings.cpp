@@ -959,20 +959,40 @@ NB_MODULE(_core, m) {
         }();
         const size_t h = g.height, w = g.width;
         nb::dict out;
-        auto put = [&](const char* name, auto&& v, unsigned bit, std::initializer_list<size_t> shape) {
-          if (g.channels & bit) out[name] = to_numpy(std::move(v), shape);
-        };
-        put("depth", std::move(g.depth), rayfold::kDepth, {h, w});
-        put("normal", std::move(g.normal), rayfold::kNormal, {h, w, 3});
-        put("uv", std::move(g.uv), rayfold::kUv, {h, w, 2});
-        put("instance_id", std::move(g.instance_id), rayfold::kInstanceId, {h, w});
-        put("primitive_id", std::move(g.primitive_id), rayfold::kPrimitiveId, {h, w});
+        for (const rayfold::core::PlaneSpec& spec : rayfold::core::plane_specs()) {
+          if (!(g.channels & spec.bit)) continue;
+          const std::initializer_list<size_t> flat = {h, w}, deep = {h, w, size_t(spec.components)};
+          const auto shape = spec.components == 1 ? flat : deep;
+          out[spec.name] = spec.floats ? to_numpy(std::move(g.*spec.floats), shape)
+                                       : to_numpy(std::move(g.*spec.ids), shape);
+          // The barycentrics under their older name too, as GBuffer.uv.
+          if (spec.bit == rayfold::kBarycentrics) out["uv"] = out[spec.name];
+        }
         return out;
       },
       "path"_a,
       "The planes of an EXR rayfold wrote (GBuffer.write_exr, rayfold render -o), bit for bit, as a dict with the "
-      "GBuffer's plane names and shapes (depth, normal, uv, instance_id, primitive_id), holding the planes the "
-      "file has. InputError naming the file otherwise.");
+      "GBuffer's plane names and shapes (depth, normal, barycentrics (also as uv), instance_id, primitive_id, "
+      "shading_normal, texcoord, texcoord1, position, object_position, material_id), holding the planes the file "
+      "has. InputError naming the file otherwise.");
+  m.def(
+      "_plane_specs",
+      [] {
+        nb::list out;
+        for (const rayfold::core::PlaneSpec& spec : rayfold::core::plane_specs()) {
+          nb::dict d;
+          d["name"] = spec.name;
+          d["alias"] = spec.alias ? nb::object(nb::str(spec.alias)) : nb::none();
+          d["exr_layer"] = spec.exr_layer;
+          d["components"] = spec.components;
+          d["dtype"] = spec.floats ? "float32" : "uint32";
+          d["visibility"] = (spec.bit & rayfold::kAllChannels) != 0;
+          out.append(d);
+        }
+        return out;
+      },
+      "The G-buffer's planes, one dict each (name, alias, exr_layer, components, dtype, visibility), in their "
+      "channel bits' order (output/channels.h).");
   m.def("_view_file_stem", &rayfold::core::view_file_stem, "name"_a,
         "The file name a view's name gives under %s: its last component less its extension; '' when none.");
   m.def(

@@ -840,3 +840,75 @@ def test_intersect_warns_of_instances_it_cannot_trace():
         s.intersect([[0, 0, 0]], [[0, 0, -1]], backend="cpu")
     with pytest.warns(RuntimeWarning, match="1 instances not traced"):
         s.occluded([[0, 0, 0]], [[0, 0, -1]], backend="cpu")
+
+
+def write_quad_gltf(path):
+    """A bent quad with unit NORMALs, TEXCOORD_0 and material 1, placed turned
+    and scaled; returns (positions, normals, texcoords, indices, world_from_object)."""
+    import json
+    p = np.array([[-1, -1, 0], [1, -1, 0.25], [1, 1, 0], [-1, 1, 0]], np.float32)
+    n = np.array([[0.2, 0.1, 1], [-0.3, 0.2, 1], [0.1, -0.4, 1], [0, 0.3, 1]], np.float64)
+    n = (n / np.linalg.norm(n, axis=1, keepdims=True)).astype(np.float32)
+    t = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], np.float32)
+    idx = np.array([0, 1, 2, 0, 2, 3], np.uint32)
+    blob = p.tobytes() + n.tobytes() + t.tobytes() + idx.tobytes()
+    views = [(0, 48), (48, 48), (96, 32), (128, 24)]
+    doc = {
+        "asset": {"version": "2.0"},
+        "buffers": [{"uri": path.name + ".bin", "byteLength": len(blob)}],
+        "bufferViews": [{"buffer": 0, "byteOffset": o, "byteLength": b} for o, b in views],
+        "accessors": [
+            {"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3",
+             "min": p.min(0).tolist(), "max": p.max(0).tolist()},
+            {"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC3"},
+            {"bufferView": 2, "componentType": 5126, "count": 4, "type": "VEC2"},
+            {"bufferView": 3, "componentType": 5125, "count": 6, "type": "SCALAR"},
+        ],
+        "materials": [{"name": "a"}, {"name": "b"}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "NORMAL": 1, "TEXCOORD_0": 2},
+                                    "indices": 3, "material": 1}]}],
+        "nodes": [{"mesh": 0, "translation": [0.2, -0.1, -4], "scale": [1.5, 0.75, 1.2]}],
+    }
+    (path.parent / (path.name + ".bin")).write_bytes(blob)
+    path.write_text(json.dumps(doc))
+    m = np.diag([1.5, 0.75, 1.2, 1.0])
+    m[:3, 3] = [0.2, -0.1, -4]
+    return p, n, t, idx.reshape(-1, 3), m
+
+
+def test_resolved_planes_equal_a_float64_resolve_of_the_file(tmp_path):
+    path = tmp_path / "quad.gltf"
+    p, n, t, tris, m = write_quad_gltf(path)
+    scene = rayfold.Scene(str(path))
+    camera = rayfold.Camera.look_at((0, 0, 0), (0, 0, -4), (0, 1, 0), 60.0, 64, 48)
+    g = scene.render(camera, channels="depth,barycentrics,instance_id,primitive_id,shading_normal,texcoord,"
+                                       "position,object_position,material_id")
+    assert g.normal is None and g.texcoord1 is None
+    np.testing.assert_array_equal(bits(g.uv), bits(g.barycentrics))  # the older name, kept
+    hit = g.instance_id != rayfold.MISS
+    assert hit.sum() > 500
+    assert (g.material_id[hit] == 1).all() and (g.material_id[~hit] == rayfold.MISS).all()
+    assert (g.position[~hit] == 0).all()
+    v = tris[g.primitive_id[hit]]  # (K, 3) vertex indices
+    bary = g.barycentrics[hit].astype(np.float64)
+    w = np.stack([1 - bary[:, 0] - bary[:, 1], bary[:, 0], bary[:, 1]], axis=1)[:, :, None]
+    obj = (w * p[v].astype(np.float64)).sum(axis=1)
+    world = obj @ m[:3, :3].T + m[:3, 3]
+    ns = (w * n[v].astype(np.float64)).sum(axis=1) @ np.linalg.inv(m[:3, :3])
+    ns /= np.linalg.norm(ns, axis=1, keepdims=True)
+    uv = (w * t[v].astype(np.float64)).sum(axis=1)
+    tol = dict(rtol=2 * 2.0**-24, atol=2 * 2.0**-24)
+    np.testing.assert_allclose(g.object_position[hit], obj, **tol)
+    np.testing.assert_allclose(g.position[hit], world, rtol=2 * 2.0**-24, atol=8 * 2.0**-24)
+    np.testing.assert_allclose(g.shading_normal[hit], ns, **tol)
+    np.testing.assert_allclose(g.texcoord[hit], uv, **tol)
+    # The position is on the pixel's ray at its depth.
+    along = camera.ray_directions()[hit] * g.depth[hit][:, None]
+    np.testing.assert_allclose(g.position[hit], along, atol=1e-5)
+    # Written and read back, every plane bit for bit.
+    g.write_exr(tmp_path / "quad.exr", scene)
+    back = rayfold.read_exr(tmp_path / "quad.exr")
+    for name in ["depth", "barycentrics", "instance_id", "shading_normal", "texcoord", "position",
+                 "object_position", "material_id"]:
+        np.testing.assert_array_equal(bits(back[name]), bits(getattr(g, name)), err_msg=name)
+    assert "normal" not in back and "texcoord1" not in back

@@ -11,16 +11,24 @@ import os
 
 import numpy as np
 
-from ._core import MISS, InputError, __version__, _check_exr_compression, _view_file_stem
+from ._core import MISS, InputError, __version__, _check_exr_compression, _plane_specs, _view_file_stem
 
-# A plane's trailing shape, dtype and the value of a view not yet written.
+
+def _store_name(spec):
+    """A plane's array in the store: its name, but the barycentrics keep the
+    store's older name, uv."""
+    return "uv" if spec["name"] == "barycentrics" else spec["name"]
+
+
+# A plane's trailing shape, dtype and the value of a view not yet written,
+# from the core's one table of planes (output/channels.h), in its order.
 PLANES = {
-    "depth": ((), "float32", float("nan")),
-    "normal": ((3,), "float32", float("nan")),
-    "uv": ((2,), "float32", float("nan")),
-    "instance_id": ((), "uint32", MISS),
-    "primitive_id": ((), "uint32", MISS),
+    _store_name(s): ((() if s["components"] == 1 else (s["components"],)), s["dtype"],
+                     MISS if s["dtype"] == "uint32" else float("nan"))
+    for s in _plane_specs()
 }
+# The visibility buffer, what a render writes unless channels= says more.
+VISIBILITY = [_store_name(s) for s in _plane_specs() if s["visibility"]]
 
 
 def sha256_file(path):
@@ -218,7 +226,7 @@ class ZarrOutput:
                              f"{', '.join(f'{w}x{h}' for w, h in sorted(sizes))} (write EXRs instead)")
         (width, height), = sizes
         channels = options["channels"]
-        planes = [p for p in PLANES if channels is None or p in _channel_names(channels)]
+        planes = VISIBILITY if channels is None else [p for p in PLANES if p in _channel_names(channels)]
         attrs = {
             "rayfold_version": __version__,
             "scene": scene.path,
@@ -285,8 +293,7 @@ class ZarrOutput:
                 pass
 
 
-_CHANNEL_PLANES = {"Z": "depth", "N": "normal", "UV": "uv", "InstanceID": "instance_id",
-                   "PrimitiveID": "primitive_id", **{p: p for p in PLANES}}
+_CHANNEL_PLANES = {n: _store_name(s) for s in _plane_specs() for n in (s["name"], s["alias"], s["exr_layer"]) if n}
 
 
 def _channel_names(channels):
@@ -295,8 +302,10 @@ def _channel_names(channels):
     out = set()
     for n in names:
         if n.strip() not in _CHANNEL_PLANES:
-            raise InputError(f"channels: unknown channel {n.strip()!r} (Z, N, UV, InstanceID, PrimitiveID; or "
-                             "depth, normal, uv, instance_id, primitive_id)")
+            names = ", ".join(s["name"] for s in _plane_specs())
+            layers = ", ".join(s["exr_layer"] for s in _plane_specs())
+            raise InputError(f"channels: unknown channel {n.strip()!r} ({names}; or as the EXR names them: "
+                             f"{layers}; uv is barycentrics' older name)")
         out.add(_CHANNEL_PLANES[n.strip()])
     return out
 
