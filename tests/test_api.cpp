@@ -679,8 +679,9 @@ TEST(Api, ExrFilesReadBackBitForBitWithThePlanesWritten) {
   EXPECT_TRUE(some_back.normal.empty() && some_back.instance_id.empty());
   GBuffer cut = all;
   cut.uv.pop_back();
-  EXPECT_NE(message_of<InputError>([&] { write_exr((d / "cut.exr").string(), cut, cam, scene); })
-                .find("barycentrics (uv) plane holds 2879 values, not the 2880"),
+  EXPECT_NE(message_of<InputError>([&] {
+              write_exr((d / "cut.exr").string(), cut, cam, scene);
+            }).find("barycentrics (uv) plane holds 2879 values, not the 2880"),
             std::string::npos);
   EXPECT_NE(message_of<InputError>([&] {
               write_exr((d / "small.exr").string(), all, scene.default_camera(24, 30), scene);

@@ -442,7 +442,8 @@ TEST(Cli, ChannelsWriteOnlyTheChannelsNamed) {
   }
   r = rayfold("render --size 48x30 --channels Z,Depth -o " + (d / "bad.exr").string());
   EXPECT_EQ(r.code, 2) << r.err;
-  EXPECT_NE(r.err.find("unknown channel 'Depth' (depth, normal, barycentrics, instance_id"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("unknown channel 'Depth' (depth, normal, barycentrics, instance_id"), std::string::npos)
+      << r.err;
   EXPECT_FALSE(fs::exists(d / "bad.exr"));
 }
 

@@ -17,10 +17,10 @@ namespace fs = std::filesystem;
 // The stages, lowest first: a file of one may include its own stage and the
 // ones before it. `base` are headers every stage may include: the traversal
 // layout and the kernels' shared code, and the public headers that only
-// declare types (errors, plain types, G-buffer channels, the version).
-const std::vector<std::string> kStages = {"base",      "util", "scene",   "bvh",    "fold",
-                                          "reference", "rays", "resolve", "opencl", "output",
-                                          "pipeline",  "api",  "python"};
+// declare types (errors, plain types, G-buffer channels and the parse of
+// their names, the version).
+const std::vector<std::string> kStages = {"base",    "util",   "scene",  "bvh",      "fold", "reference", "rays",
+                                          "resolve", "opencl", "output", "pipeline", "api",  "python"};
 const std::vector<std::string> kBasePublicHeaders = {"rayfold/errors.h", "rayfold/types.h", "rayfold/gbuffer.h",
                                                      "rayfold/version.h"};
 

@@ -36,8 +36,8 @@ struct QuadFile {
   std::string path;
 
   explicit QuadFile(const std::string& name, bool with_normals = true) {
-    for (glm::vec3 v : {glm::vec3(0.2f, 0.1f, 1), glm::vec3(-0.3f, 0.2f, 1), glm::vec3(0.1f, -0.4f, 1),
-                        glm::vec3(0, 0.3f, 1)})
+    for (glm::vec3 v :
+         {glm::vec3(0.2f, 0.1f, 1), glm::vec3(-0.3f, 0.2f, 1), glm::vec3(0.1f, -0.4f, 1), glm::vec3(0, 0.3f, 1)})
       n.push_back(glm::normalize(v));
     GltfFile f;
     const int pos = f.positions(p);
@@ -56,25 +56,27 @@ struct QuadFile {
     f.j["materials"] = {{{"name", "red"}}, {{"name", "green"}}};
     f.j["meshes"] = {{{"name", "quad"}, {"primitives", {a, b}}}};
     const double turn[4] = {0.2, 0.3, 0.1, 0.927};  // x, y, z, w, normalised by the loader
-    f.j["nodes"] = {{{"mesh", 0}, {"translation", {-1.5, 0.2, -6}}, {"rotation", {turn[0], turn[1], turn[2], turn[3]}},
+    f.j["nodes"] = {{{"mesh", 0},
+                     {"translation", {-1.5, 0.2, -6}},
+                     {"rotation", {turn[0], turn[1], turn[2], turn[3]}},
                      {"scale", {1.3, 0.8, 1.1}}},
                     {{"mesh", 0}, {"translation", {1.4, -0.1, -5}}, {"scale", {-1.0, 1.2, 1.0}}}};
     path = f.write(name);
     const glm::dquat q = glm::normalize(glm::dquat(turn[3], turn[0], turn[1], turn[2]));
     m0 = glm::translate(glm::dmat4(1.0), glm::dvec3(-1.5, 0.2, -6)) * glm::mat4_cast(q) *
          glm::scale(glm::dmat4(1.0), glm::dvec3(1.3, 0.8, 1.1));
-    m1 = glm::translate(glm::dmat4(1.0), glm::dvec3(1.4, -0.1, -5)) * glm::scale(glm::dmat4(1.0), glm::dvec3(-1, 1.2, 1));
+    m1 = glm::translate(glm::dmat4(1.0), glm::dvec3(1.4, -0.1, -5)) *
+         glm::scale(glm::dmat4(1.0), glm::dvec3(-1, 1.2, 1));
   }
 };
 
-constexpr unsigned kResolved = rayfold::kShadingNormal | rayfold::kTexcoord | rayfold::kTexcoord1 |
-                               rayfold::kPosition | rayfold::kObjectPosition | rayfold::kMaterialId;
+constexpr unsigned kResolved = rayfold::kShadingNormal | rayfold::kTexcoord | rayfold::kTexcoord1 | rayfold::kPosition |
+                               rayfold::kObjectPosition | rayfold::kMaterialId;
 
 // |got - want| within `ulps` of float's precision at want's scale (at least 1).
 void expect_near(float got, double want, double ulps, const char* what, size_t pixel) {
   const double tolerance = ulps * 0x1p-24 * std::max(1.0, std::fabs(want));
-  ASSERT_LE(std::fabs(got - want), tolerance) << what << " at pixel " << pixel << ": got " << got << ", want "
-                                              << want;
+  ASSERT_LE(std::fabs(got - want), tolerance) << what << " at pixel " << pixel << ": got " << got << ", want " << want;
 }
 
 TEST(Resolve, ChannelsEqualAFloat64ResolveOfTheFile) {
@@ -99,9 +101,9 @@ TEST(Resolve, ChannelsEqualAFloat64ResolveOfTheFile) {
     const glm::dmat4& m = inst == 0 ? quad.m0 : quad.m1;
     const glm::dvec3 o = b0 * glm::dvec3(quad.p[v[0]]) + u * glm::dvec3(quad.p[v[1]]) + w * glm::dvec3(quad.p[v[2]]);
     const glm::dvec3 world = glm::dvec3(m * glm::dvec4(o, 1.0));
-    const glm::dvec3 ns = glm::normalize(glm::transpose(glm::inverse(glm::dmat3(m))) *
-                                         (b0 * glm::dvec3(quad.n[v[0]]) + u * glm::dvec3(quad.n[v[1]]) +
-                                          w * glm::dvec3(quad.n[v[2]])));
+    const glm::dvec3 ns =
+        glm::normalize(glm::transpose(glm::inverse(glm::dmat3(m))) *
+                       (b0 * glm::dvec3(quad.n[v[0]]) + u * glm::dvec3(quad.n[v[1]]) + w * glm::dvec3(quad.n[v[2]])));
     for (int k = 0; k < 3; ++k) {
       expect_near(g.object_position[3 * i + k], o[k], 2, "object_position", i);
       expect_near(g.position[3 * i + k], world[k], 2, "position", i);
@@ -149,8 +151,7 @@ TEST(Resolve, EveryBackendAndFoldGivesTheReferencesBits) {
     }
   }
   // Aligned views: each view's planes are its own render's.
-  const std::vector<rayfold::GBuffer> views =
-      opencl.render_views({camera, camera}, rayfold::Fold::xy, 0, kResolved);
+  const std::vector<rayfold::GBuffer> views = opencl.render_views({camera, camera}, rayfold::Fold::xy, 0, kResolved);
   for (const rayfold::GBuffer& v : views) EXPECT_EQ(v.position, want.position);
 }
 

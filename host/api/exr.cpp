@@ -5,10 +5,10 @@
 #include "api/convert.h"
 #include "api/scene_state.h"
 #include "fold/fold.h"
-#include "rayfold/errors.h"
-#include "rayfold/version.h"
 #include "output/channels.h"
 #include "output/image_output.h"
+#include "rayfold/errors.h"
+#include "rayfold/version.h"
 
 namespace rayfold {
 namespace {

@@ -121,9 +121,11 @@ void check_channels(unsigned channels, unsigned allowed = kEveryChannel) {
   if (channels == 0u || (channels & ~allowed) != 0u)
     throw InputError("", allowed == kAllChannels
                              ? "channels must be a nonzero combination of kDepth, kNormal, kUv, kInstanceId and "
-                               "kPrimitiveId, not " + std::to_string(channels)
+                               "kPrimitiveId, not " +
+                                   std::to_string(channels)
                              : "channels must be a nonzero combination of the Channels flags (kDepth to "
-                               "kMaterialId), not " + std::to_string(channels));
+                               "kMaterialId), not " +
+                                   std::to_string(channels));
 }
 
 // A G-buffer's planes and a ray query's answers have one layout: per pixel

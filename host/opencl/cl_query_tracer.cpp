@@ -12,7 +12,7 @@ namespace rayfold::core {
 ClQueryTracer::ClQueryTracer(ClTracer& frames) : frames_(frames), device_(frames.device()) {
   // The query kernels are in the frame tracer's program of one view's
   // groups: no second build.
-  const char* names[kBufferCount] = {"query_top_level", "query_roots", "query_trees",      "query_rays",      "query_hits",
+  const char* names[kBufferCount] = {"query_top_level", "query_roots", "query_trees",   "query_rays",      "query_hits",
                                      "query_tiles",     "query_order", "query_origins", "query_directions"};
   for (int k = 0; k < kBufferCount; ++k) info_[k].name = names[k];
   try {
@@ -83,13 +83,12 @@ double ClQueryTracer::upload_frame(const Frame& frame) {
 std::vector<BufferInfo> ClQueryTracer::buffers() const { return {info_, info_ + kBufferCount}; }
 
 double ClQueryTracer::trace_queries(const QueryRays& rays, bool any_hit, unsigned write_flags, rf_pixel_hit* out,
-                               const QueryTiles* plan) {
+                                    const QueryTiles* plan) {
   const size_t n = rays.count;
   if (n == 0) return 0.0;
   // The query kernel reads RF_INVALID as a top level whose root is a leaf,
   // which only a query frame's tlas_wide_root means.
-  RF_CHECK(frame_ != 0 && frame_ == frames_.frame_uploads(),
-           "ray queries traced in a frame that is not a query frame");
+  RF_CHECK(frame_ != 0 && frame_ == frames_.frame_uploads(), "ray queries traced in a frame that is not a query frame");
   const std::vector<uint32_t>* tiles = plan && !plan->tiles.empty() ? &plan->tiles : nullptr;
   RF_CHECK(tiles || has_query_trees(), "ray queries traced before the query trees' upload");
   // The single-ray kernel reads the whole-tree frame's roots; the tile

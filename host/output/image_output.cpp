@@ -162,8 +162,9 @@ ExrMetadata view_metadata(const Camera& camera, const Scene& scene, const std::s
                              (exact_depth ? ". Exact: from the pixel's exact ray and the hit triangle's plane in "
                                             "double-float, rounded once (--exact-depth)"
                                           : "")},
-               {"miss", "InstanceID, PrimitiveID and MaterialID are 4294967295 on a miss (MaterialID 4294967294 "
-                        "where the triangle has no material); Z is +inf, every other channel 0"}};
+               {"miss",
+                "InstanceID, PrimitiveID and MaterialID are 4294967295 on a miss (MaterialID 4294967294 "
+                "where the triangle has no material); Z is +inf, every other channel 0"}};
   return m;
 }
 

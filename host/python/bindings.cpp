@@ -1,7 +1,6 @@
 // The Python module rayfold._core: the public C++ API (rayfold/rayfold.h)
 // with numpy arrays in and out. Arrays out own their C++ buffers (no copy);
 // renders release the GIL; one render of a scene runs at a time.
-#include <deque>
 #include <nanobind/nanobind.h>
 #include <nanobind/ndarray.h>
 #include <nanobind/stl/array.h>
@@ -12,6 +11,7 @@
 #include <nanobind/stl/string.h>
 #include <nanobind/stl/tuple.h>
 #include <nanobind/stl/vector.h>
+#include <deque>
 
 #include <pthread.h>
 
@@ -297,10 +297,12 @@ void add_plane_properties(Class& cls) {
   RF_CHECK_EQ(specs.size(), sizeof(kDocs) / sizeof(kDocs[0]), "a doc per plane");
   static std::deque<std::string> alias_docs;  // nanobind keeps the pointer
   for (size_t k = 0; k < specs.size(); ++k) {
-    cls.def_prop_ro(specs[k].name, [k](const PyGBuffer& g) { return g.planes.at(k); }, kDocs[k]);
+    cls.def_prop_ro(
+        specs[k].name, [k](const PyGBuffer& g) { return g.planes.at(k); }, kDocs[k]);
     if (specs[k].alias && std::string(specs[k].alias) != "t") {
       alias_docs.push_back(std::string("the older name of ") + specs[k].name + ", kept: " + kDocs[k]);
-      cls.def_prop_ro(specs[k].alias, [k](const PyGBuffer& g) { return g.planes.at(k); }, alias_docs.back().c_str());
+      cls.def_prop_ro(
+          specs[k].alias, [k](const PyGBuffer& g) { return g.planes.at(k); }, alias_docs.back().c_str());
     }
   }
 }
@@ -604,72 +606,73 @@ NB_MODULE(_core, m) {
         return s.str();
       });
 
-  auto gbuffer_class = nb::class_<PyGBuffer>(m, "GBuffer",
-                        "One render's hit info: numpy planes, rows from the top; a plane not asked for (channels=) "
-                        "is None.")
-      .def_ro("width", &PyGBuffer::width)
-      .def_ro("height", &PyGBuffer::height)
-      .def_ro("fold", &PyGBuffer::fold,
-              "the fold traced ('none', 'y', 'x', 'xy'): the one asked for, less what the "
-              "camera's principal point cannot mirror")
-      .def_ro("rays", &PyGBuffer::rays)
-      .def_ro("hits", &PyGBuffer::hits)
-      .def_ro("trace_ms", &PyGBuffer::trace_ms)
-      .def_ro("frame_ms", &PyGBuffer::frame_ms)
-      .def_ro("views_in_trace", &PyGBuffer::views_in_trace,
-              "views traced together with this one, itself included (Scene.render_views)")
-      .def_ro("warnings", &PyGBuffer::warnings)
-      .def_ro("camera", &PyGBuffer::camera)
-      .def_ro("kernel", &PyGBuffer::kernel, "the kernel that traced it: 'tile', 'single' or 'cpu reference'")
-      .def_ro("kernel_reason", &PyGBuffer::kernel_reason, "why that kernel ('CPU device', 'chosen', ...)")
-      .def_prop_ro(
-          "stages",
-          [](const PyGBuffer& g) {
-            const rayfold::StageTimes& t = g.stages;
-            nb::dict d;
-            d["cull_ms"] = t.cull_ms;
-            d["tlas_ms"] = t.tlas_ms;
-            d["upload_ms"] = t.upload_ms;
-            d["ray_list_ms"] = t.ray_list_ms;
-            d["trace_ms"] = t.trace_ms;
-            d["readback_ms"] = t.readback_ms;
-            return d;
-          },
-          "where the render's time went, ms per stage (a trace of several views: the whole pass's)")
-      .def_prop_ro(
-          "top_level",
-          [](const PyGBuffer& g) {
-            nb::dict d;
-            d["scene_instances"] = g.top_level.scene_instances;
-            d["traced_instances"] = g.top_level.traced_instances;
-            d["out_of_range"] = g.top_level.out_of_range;
-            d["sah_cost"] = g.top_level.sah_cost;
-            return d;
-          },
-          "the top-level tree traced: the scene's renderable instances, those in the tree after culling (copies "
-          "per view and mirror included), those beyond the float range, its SAH cost")
-      .def_prop_ro(
-          "depth_kind",
-          [](const PyGBuffer& g) { return g.depth_kind == rayfold::Depth::planar ? "planar" : "distance"; },
-          "what depth measures: 'distance' along the pixel's ray or 'planar' along the camera's axis")
-      .def_prop_ro(
-          "exact_depth", [](const PyGBuffer& g) { return g.exact_depth; },
-          "whether depth came from each pixel's exact ray in double-float (render(exact_depth=True))")
-      .def(
-          "write_exr",
-          [](const PyGBuffer& g, const std::filesystem::path& path, const PyScene& scene,
-             const std::string& compression) {
-            const rayfold::ExrCompression method = rayfold::exr_compression(compression);
-            const rayfold::GBuffer core = from_python(g);
-            nb::gil_scoped_release release;
-            rayfold::write_exr(path.string(), core, g.camera, scene.scene, method);
-          },
-          "path"_a, "scene"_a, "compression"_a = "zip",
-          "Writes the planes this G-buffer has as `rayfold render -o` writes a view (channels Z, N.X, N.Y, N.Z, U, "
-          "V, InstanceID, PrimitiveID and those of the resolved planes, docs/channels.md; the camera and scene's "
-          "instance names in the header). The file appears "
-          "whole or not at all. compression: OpenEXR's lossless 'zip' (default), 'zips', 'piz', 'rle' or 'none' "
-          "(3 to 4 times faster to write, 10 times the bytes). Releases the GIL.");
+  auto gbuffer_class =
+      nb::class_<PyGBuffer>(m, "GBuffer",
+                            "One render's hit info: numpy planes, rows from the top; a plane not asked for (channels=) "
+                            "is None.")
+          .def_ro("width", &PyGBuffer::width)
+          .def_ro("height", &PyGBuffer::height)
+          .def_ro("fold", &PyGBuffer::fold,
+                  "the fold traced ('none', 'y', 'x', 'xy'): the one asked for, less what the "
+                  "camera's principal point cannot mirror")
+          .def_ro("rays", &PyGBuffer::rays)
+          .def_ro("hits", &PyGBuffer::hits)
+          .def_ro("trace_ms", &PyGBuffer::trace_ms)
+          .def_ro("frame_ms", &PyGBuffer::frame_ms)
+          .def_ro("views_in_trace", &PyGBuffer::views_in_trace,
+                  "views traced together with this one, itself included (Scene.render_views)")
+          .def_ro("warnings", &PyGBuffer::warnings)
+          .def_ro("camera", &PyGBuffer::camera)
+          .def_ro("kernel", &PyGBuffer::kernel, "the kernel that traced it: 'tile', 'single' or 'cpu reference'")
+          .def_ro("kernel_reason", &PyGBuffer::kernel_reason, "why that kernel ('CPU device', 'chosen', ...)")
+          .def_prop_ro(
+              "stages",
+              [](const PyGBuffer& g) {
+                const rayfold::StageTimes& t = g.stages;
+                nb::dict d;
+                d["cull_ms"] = t.cull_ms;
+                d["tlas_ms"] = t.tlas_ms;
+                d["upload_ms"] = t.upload_ms;
+                d["ray_list_ms"] = t.ray_list_ms;
+                d["trace_ms"] = t.trace_ms;
+                d["readback_ms"] = t.readback_ms;
+                return d;
+              },
+              "where the render's time went, ms per stage (a trace of several views: the whole pass's)")
+          .def_prop_ro(
+              "top_level",
+              [](const PyGBuffer& g) {
+                nb::dict d;
+                d["scene_instances"] = g.top_level.scene_instances;
+                d["traced_instances"] = g.top_level.traced_instances;
+                d["out_of_range"] = g.top_level.out_of_range;
+                d["sah_cost"] = g.top_level.sah_cost;
+                return d;
+              },
+              "the top-level tree traced: the scene's renderable instances, those in the tree after culling (copies "
+              "per view and mirror included), those beyond the float range, its SAH cost")
+          .def_prop_ro(
+              "depth_kind",
+              [](const PyGBuffer& g) { return g.depth_kind == rayfold::Depth::planar ? "planar" : "distance"; },
+              "what depth measures: 'distance' along the pixel's ray or 'planar' along the camera's axis")
+          .def_prop_ro(
+              "exact_depth", [](const PyGBuffer& g) { return g.exact_depth; },
+              "whether depth came from each pixel's exact ray in double-float (render(exact_depth=True))")
+          .def(
+              "write_exr",
+              [](const PyGBuffer& g, const std::filesystem::path& path, const PyScene& scene,
+                 const std::string& compression) {
+                const rayfold::ExrCompression method = rayfold::exr_compression(compression);
+                const rayfold::GBuffer core = from_python(g);
+                nb::gil_scoped_release release;
+                rayfold::write_exr(path.string(), core, g.camera, scene.scene, method);
+              },
+              "path"_a, "scene"_a, "compression"_a = "zip",
+              "Writes the planes this G-buffer has as `rayfold render -o` writes a view (channels Z, N.X, N.Y, N.Z, U, "
+              "V, InstanceID, PrimitiveID and those of the resolved planes, docs/channels.md; the camera and scene's "
+              "instance names in the header). The file appears "
+              "whole or not at all. compression: OpenEXR's lossless 'zip' (default), 'zips', 'piz', 'rle' or 'none' "
+              "(3 to 4 times faster to write, 10 times the bytes). Releases the GIL.");
 
   add_plane_properties(gbuffer_class);
 
@@ -963,8 +966,8 @@ NB_MODULE(_core, m) {
           if (!(g.channels & spec.bit)) continue;
           const std::initializer_list<size_t> flat = {h, w}, deep = {h, w, size_t(spec.components)};
           const auto shape = spec.components == 1 ? flat : deep;
-          out[spec.name] = spec.floats ? to_numpy(std::move(g.*spec.floats), shape)
-                                       : to_numpy(std::move(g.*spec.ids), shape);
+          out[spec.name] =
+              spec.floats ? to_numpy(std::move(g.*spec.floats), shape) : to_numpy(std::move(g.*spec.ids), shape);
           // The barycentrics under their older name too, as GBuffer.uv.
           if (spec.bit == rayfold::kBarycentrics) out["uv"] = out[spec.name];
         }

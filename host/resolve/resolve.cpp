@@ -80,13 +80,13 @@ void resolve(const Scene& scene, const HitPlanes& in, const ResolvedPlanes& out,
         bool flat = n.empty() || zero(n[i0]) || zero(n[i1]) || zero(n[i2]);
         glm::dvec3 w(0.0);
         if (!flat) {
-          w = x.normal_from_object *
-              interpolate(glm::dvec3(n[i0]), glm::dvec3(n[i1]), glm::dvec3(n[i2]), b0, u, v);
+          w = x.normal_from_object * interpolate(glm::dvec3(n[i0]), glm::dvec3(n[i1]), glm::dvec3(n[i2]), b0, u, v);
           const double length = std::sqrt(w.x * w.x + w.y * w.y + w.z * w.z);
           flat = !(length > 0.0) || !std::isfinite(length);
           w /= length;
         }
-        for (int k = 0; k < 3; ++k) out.shading_normal[3 * p + k] = flat ? in.normal[3 * p + k] : static_cast<float>(w[k]);
+        for (int k = 0; k < 3; ++k)
+          out.shading_normal[3 * p + k] = flat ? in.normal[3 * p + k] : static_cast<float>(w[k]);
       }
       for (int set = 0; set < 2; ++set) {
         if (!out.texcoord[set]) continue;

@@ -34,9 +34,9 @@ constexpr uint32_t kDefaultMaterial = 0xFFFFFFFEu;
 // the triangle's geometric normal, as glTF says of a primitive without
 // normals), texture coordinates (0, 0).
 struct MeshAttributes {
-  unsigned loaded = 0;   // Attribute bits read for this mesh
-  unsigned missing = 0;  // Attribute bits some primitive of it lacked
-  unsigned present = 0;  // Attribute bits some primitive of it had
+  unsigned loaded = 0;                  // Attribute bits read for this mesh
+  unsigned missing = 0;                 // Attribute bits some primitive of it lacked
+  unsigned present = 0;                 // Attribute bits some primitive of it had
   std::vector<glm::vec3> normals;       // object space, as the file gives them (unit length there)
   std::vector<glm::vec2> texcoords[2];  // TEXCOORD_0 and TEXCOORD_1, as the file gives them (v downward)
   std::vector<uint32_t> materials;      // per triangle: the glTF material index, or kDefaultMaterial

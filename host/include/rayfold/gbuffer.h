@@ -34,18 +34,18 @@ inline const char* fold_name(Fold f) {
 // render that asks for them.
 enum Channels : unsigned {
   kDepth = 1u,
-  kNormal = 2u,           // the geometric normal
-  kUv = 4u,               // the barycentrics (GBuffer::uv), not texture coordinates
-  kBarycentrics = 4u,     // kUv's name that says what it holds
+  kNormal = 2u,        // the geometric normal
+  kUv = 4u,            // the barycentrics (GBuffer::uv), not texture coordinates
+  kBarycentrics = 4u,  // kUv's name that says what it holds
   kInstanceId = 8u,
   kPrimitiveId = 16u,
-  kAllChannels = 31u,     // the visibility buffer: every channel above, the default
-  kShadingNormal = 32u,   // NORMAL interpolated, in world space
-  kTexcoord = 64u,        // TEXCOORD_0 interpolated
-  kTexcoord1 = 128u,      // TEXCOORD_1 interpolated
-  kPosition = 256u,       // world-space position
-  kObjectPosition = 512u, // position in the mesh's own space
-  kMaterialId = 1024u,    // the glTF material's index
+  kAllChannels = 31u,      // the visibility buffer: every channel above, the default
+  kShadingNormal = 32u,    // NORMAL interpolated, in world space
+  kTexcoord = 64u,         // TEXCOORD_0 interpolated
+  kTexcoord1 = 128u,       // TEXCOORD_1 interpolated
+  kPosition = 256u,        // world-space position
+  kObjectPosition = 512u,  // position in the mesh's own space
+  kMaterialId = 1024u,     // the glTF material's index
   kEveryChannel = 2047u,
 };
 

@@ -39,8 +39,7 @@ int Loader::convert_mesh(int mi, const std::vector<double>& weights, int skin) {
     const uint32_t base = static_cast<uint32_t>(mesh.positions.size());
     std::vector<glm::vec3> positions = read_vec3(pos->second, where + ": POSITION");
     const size_t first_normal = mesh.attributes.normals.size();
-    if (options_.attributes & kAttributeNormal)
-      read_normals(mi, pi, where, positions.size(), weights, mesh.attributes);
+    if (options_.attributes & kAttributeNormal) read_normals(mi, pi, where, positions.size(), weights, mesh.attributes);
     apply_morph_targets(mi, pi, weights, where, positions);
     if (skin >= 0) {
       std::vector<glm::vec3> normals;

@@ -50,8 +50,7 @@ int run_info(cli::Args& args) {
     const rayfold::View& v = c.view;
     if (!v.orthographic)
       std::printf("  camera %-4zu node %d '%s': eye (%g, %g, %g), looking at (%g, %g, %g), vfov %g\n", i, c.node,
-                  c.name.c_str(), v.eye[0], v.eye[1], v.eye[2], v.target[0], v.target[1], v.target[2],
-                  v.vfov_degrees);
+                  c.name.c_str(), v.eye[0], v.eye[1], v.eye[2], v.target[0], v.target[1], v.target[2], v.vfov_degrees);
     else
       std::printf("  camera %-4zu node %d '%s': eye (%g, %g, %g), looking at (%g, %g, %g), orthographic, ymag %g\n", i,
                   c.node, c.name.c_str(), v.eye[0], v.eye[1], v.eye[2], v.target[0], v.target[1], v.target[2],
