@@ -369,7 +369,7 @@ void Renderer::render_into(GBuffer& g, const Camera& camera, Fold fold, unsigned
   check_channels(asked);
   const auto t0 = core::Clock::now();
   const std::vector<std::string> attribute_warnings =
-      detail::load_attributes(*impl_->state, detail::attributes_for(asked));
+      detail::load_attributes(*impl_->state, asked);
   const unsigned channels = detail::trace_channels(asked);
   core::FrameOptions frame =
       frame_options(fold, impl_->moved(), channels, impl_->planar_depth, impl_->exact_depth, impl_->cull);
@@ -389,7 +389,7 @@ void Renderer::render_into(GBuffer& g, const Camera& camera, Fold fold, unsigned
   impl_->core->render_into(r, camera.core(), 1, frame);
   fill_gbuffer(g, r, 0, r.warnings, camera.width(), camera.height(), impl_->options.threads, channels,
                impl_->planar_depth ? Depth::planar : Depth::distance, frame.exact_depth);
-  detail::resolve_gbuffer(g, impl_->state->scene, asked, impl_->options.threads);
+  detail::resolve_gbuffer(g, impl_->state->scene, camera.core(), asked, impl_->options.threads);
   g.warnings.insert(g.warnings.end(), attribute_warnings.begin(), attribute_warnings.end());
   g.frame_ms = core::ms_since(t0);
 }
@@ -435,7 +435,7 @@ void Renderer::render_views(const std::vector<Camera>& cameras, const std::funct
   check_channels(asked);
   check_align(align);
   if (cameras.empty()) return;
-  std::vector<std::string> attribute_warnings = detail::load_attributes(*impl_->state, detail::attributes_for(asked));
+  std::vector<std::string> attribute_warnings = detail::load_attributes(*impl_->state, asked);
   const unsigned channels = detail::trace_channels(asked);
   const core::FrameOptions frame =
       frame_options(fold, impl_->moved(), channels, impl_->planar_depth, impl_->exact_depth, impl_->cull);
@@ -467,7 +467,7 @@ void Renderer::render_views(const std::vector<Camera>& cameras, const std::funct
         fill_gbuffer(g, r, k, r.view_warnings.at(k), cameras[pass[k]].width(), cameras[pass[k]].height(),
                      impl_->options.threads, channels, impl_->planar_depth ? Depth::planar : Depth::distance,
                      frame.exact_depth);
-        detail::resolve_gbuffer(g, impl_->state->scene, asked, impl_->options.threads);
+        detail::resolve_gbuffer(g, impl_->state->scene, views[pass[k]], asked, impl_->options.threads);
         // The attributes' warnings go with the first view handed on.
         g.warnings.insert(g.warnings.end(), attribute_warnings.begin(), attribute_warnings.end());
         attribute_warnings.clear();

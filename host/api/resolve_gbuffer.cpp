@@ -8,10 +8,19 @@ namespace rayfold::detail {
 static_assert(kDefaultMaterial == core::kDefaultMaterial, "one default material id");
 
 unsigned attributes_for(unsigned channels) {
-  return ((channels & kShadingNormal) ? core::kAttributeNormal : 0u) |
-         ((channels & kTexcoord) ? core::kAttributeTexcoord0 : 0u) |
-         ((channels & kTexcoord1) ? core::kAttributeTexcoord1 : 0u) |
-         ((channels & kMaterialId) ? core::kAttributeMaterial : 0u);
+  // The resolve's own account of what its planes read, with a stand-in plane per channel.
+  core::ResolvedPlanes asked;
+  float f = 0.0f;
+  uint32_t id = 0;
+  if (channels & kShadingNormal) asked.shading_normal = &f;
+  if (channels & kTexcoord) asked.texcoord[0] = &f;
+  if (channels & kTexcoord1) asked.texcoord[1] = &f;
+  if (channels & kMaterialId) asked.material = &id;
+  if (channels & kBaseColor) asked.base_color = &f;
+  if (channels & kMetallicRoughness) asked.metallic_roughness = &f;
+  if (channels & kEmissive) asked.emissive = &f;
+  if (channels & kLabel) asked.label = &id;
+  return core::attributes_read(asked);
 }
 
 unsigned trace_channels(unsigned channels) {
@@ -21,7 +30,8 @@ unsigned trace_channels(unsigned channels) {
   return trace;
 }
 
-std::vector<std::string> load_attributes(SceneState& s, unsigned attributes) {
+std::vector<std::string> load_attributes(SceneState& s, unsigned channels) {
+  const unsigned attributes = attributes_for(channels);
   if (attributes == 0) return {};
   if (s.file && (s.file->attributes() & attributes) != attributes) {
     s.file->set_attributes(s.file->attributes() | attributes);
@@ -33,15 +43,28 @@ std::vector<std::string> load_attributes(SceneState& s, unsigned attributes) {
                   "the file posed again has another mesh");
       s.scene.meshes[m].attributes = std::move(posed.meshes[m].attributes);
     }
+    s.scene.materials = std::move(posed.materials);
+    s.scene.images = std::move(posed.images);
+    if (attributes & core::kAttributeLabel) {
+      RF_CHECK_LE(posed.instances.size(), s.scene.instances.size(), "the file posed again has more instances");
+      for (size_t i = 0; i < posed.instances.size(); ++i) s.scene.instances[i].label = posed.instances[i].label;
+      s.scene.labels = std::move(posed.labels);
+    }
   }
-  const unsigned unnamed = attributes & ~s.attributes_named;
-  s.attributes_named |= attributes;
+  // A texture coordinate set the material channels read but no texcoord
+  // channel asked for is named by their own warning (the textures').
+  unsigned warned = attributes;
+  if (!(channels & kTexcoord)) warned &= ~core::kAttributeTexcoord0;
+  if (!(channels & kTexcoord1)) warned &= ~core::kAttributeTexcoord1;
+  const unsigned unnamed = warned & ~s.attributes_named;
+  s.attributes_named |= warned;
   std::vector<std::string> lines = core::missing_attribute_warnings(s.scene, unnamed);
   s.warnings.insert(s.warnings.end(), lines.begin(), lines.end());
   return lines;
 }
 
-void resolve_gbuffer(GBuffer& g, const core::Scene& scene, unsigned channels, unsigned threads) {
+void resolve_gbuffer(GBuffer& g, const core::Scene& scene, const core::Camera& camera, unsigned channels,
+                     unsigned threads) {
   const size_t n = static_cast<size_t>(g.width) * g.height;
   auto plane = [&](auto& v, unsigned bit, size_t per_pixel) -> decltype(v.data()) {
     if (!(channels & bit)) {
@@ -58,6 +81,10 @@ void resolve_gbuffer(GBuffer& g, const core::Scene& scene, unsigned channels, un
   out.position = plane(g.position, kPosition, 3);
   out.object_position = plane(g.object_position, kObjectPosition, 3);
   out.material = plane(g.material_id, kMaterialId, 1);
+  out.base_color = plane(g.base_color, kBaseColor, 4);
+  out.metallic_roughness = plane(g.metallic_roughness, kMetallicRoughness, 2);
+  out.emissive = plane(g.emissive, kEmissive, 3);
+  out.label = plane(g.label, kLabel, 1);
   if (channels & kResolvedChannels) {
     core::HitPlanes in;
     in.pixels = n;
@@ -65,7 +92,7 @@ void resolve_gbuffer(GBuffer& g, const core::Scene& scene, unsigned channels, un
     in.primitive = g.primitive_id.data();
     in.barycentrics = g.uv.data();
     in.normal = g.normal.empty() ? nullptr : g.normal.data();
-    core::resolve(scene, in, out, threads);
+    core::resolve(scene, in, core::ray_cone(camera), out, threads);
   }
   auto drop = [&](auto& v, unsigned bit) {
     if (!(channels & bit)) {

@@ -20,14 +20,17 @@ unsigned attributes_for(unsigned channels);
 // barycentrics and geometric normal the resolved ones are made from.
 unsigned trace_channels(unsigned channels);
 
-// Reads the attributes the scene lacks from its file (posed as it is now),
-// once; returns one line for each mesh that lacks one of them and was not
-// named before (also added to the scene's warnings).
-std::vector<std::string> load_attributes(SceneState& s, unsigned attributes);
+// Reads the attributes `channels` read (attributes_for) that the scene
+// lacks from its file (posed as it is now), once; returns one line for each
+// mesh that lacks one of them and was not named before (also added to the
+// scene's warnings).
+std::vector<std::string> load_attributes(SceneState& s, unsigned channels);
 
 // Fills g's resolved planes that `channels` asks for from its visibility
 // planes, then empties the visibility planes `channels` did not ask for and
 // sets g.channels to it.
-void resolve_gbuffer(GBuffer& g, const core::Scene& scene, unsigned channels, unsigned threads);
+// `camera` is the view's (the material channels' ray cones).
+void resolve_gbuffer(GBuffer& g, const core::Scene& scene, const core::Camera& camera, unsigned channels,
+                     unsigned threads);
 
 }  // namespace rayfold::detail

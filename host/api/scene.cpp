@@ -60,7 +60,8 @@ Scene Scene::load(const std::string& path, const LoadOptions& options) {
     char head[16] = {};
     if (in && in.read(head, sizeof(head)) && core::is_scene_file(head, sizeof(head))) {
       const LoadOptions defaults;
-      if (options.scene != defaults.scene || options.camera != defaults.camera || !std::isnan(options.time))
+      if (options.scene != defaults.scene || options.camera != defaults.camera || !std::isnan(options.time) ||
+          options.label_key != defaults.label_key)
         throw InputError(path, "is a rayfold scene file: it holds one posed scene, so scene, camera and time "
                                "options do not apply (set them when saving it from the glTF file)");
       std::ostringstream bytes;
@@ -77,6 +78,7 @@ Scene Scene::load(const std::string& path, const LoadOptions& options) {
   lo.time = options.time;
   lo.threads = options.threads;
   lo.attributes = detail::attributes_for(options.channels);
+  lo.label_key = options.label_key;
   s.state_->time = options.time;
   s.state_->file = std::make_shared<core::GltfFile>(path, lo);
   s.state_->scene = s.state_->file->scene_at(options.time);
@@ -241,6 +243,11 @@ std::vector<std::string> Scene::mesh_names() const {
   names.reserve(state_->scene.meshes.size());
   for (const core::Mesh& m : state_->scene.meshes) names.push_back(m.name);
   return names;
+}
+
+std::vector<std::string> Scene::labels() const {
+  detail::load_attributes(*state_, kLabel);
+  return state_->scene.labels.empty() ? std::vector<std::string>{""} : state_->scene.labels;
 }
 
 const std::string& Scene::path() const { return state_->path; }

@@ -10,8 +10,9 @@ const std::vector<PlaneSpec>& plane_specs() {
   // EXR names: Z, N, InstanceID and PrimitiveID as Nuke and Blender read
   // them (N here the geometric normal, as rayfold always wrote it); U, V
   // the barycentrics (the name rayfold always wrote); RenderMan's Ns for the
-  // shading normal, P and Pref for world and object position; TexCoord and
-  // MaterialID say what they hold.
+  // shading normal, P and Pref for world and object position; Blender's
+  // Emission; TexCoord, MaterialID, BaseColor, MetallicRoughness and Label
+  // say what they hold.
   static const std::vector<PlaneSpec> kSpecs = {
       {kDepth, "depth", "t", "Z", 1, {"Z"}, &GBuffer::depth, nullptr},
       {kNormal, "normal", nullptr, "N", 3, {"N.X", "N.Y", "N.Z"}, &GBuffer::normal, nullptr},
@@ -31,6 +32,25 @@ const std::vector<PlaneSpec>& plane_specs() {
        &GBuffer::object_position,
        nullptr},
       {kMaterialId, "material_id", nullptr, "MaterialID", 1, {"MaterialID"}, nullptr, &GBuffer::material_id},
+      {kBaseColor,
+       "base_color",
+       nullptr,
+       "BaseColor",
+       4,
+       {"BaseColor.R", "BaseColor.G", "BaseColor.B", "BaseColor.A"},
+       &GBuffer::base_color,
+       nullptr},
+      {kMetallicRoughness,
+       "metallic_roughness",
+       nullptr,
+       "MetallicRoughness",
+       2,
+       {"MetallicRoughness.Metallic", "MetallicRoughness.Roughness"},
+       &GBuffer::metallic_roughness,
+       nullptr},
+      {kEmissive, "emissive", nullptr, "Emission", 3, {"Emission.R", "Emission.G", "Emission.B"}, &GBuffer::emissive,
+       nullptr},
+      {kLabel, "label", nullptr, "Label", 1, {"Label"}, nullptr, &GBuffer::label},
   };
   return kSpecs;
 }

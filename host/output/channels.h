@@ -17,7 +17,7 @@ struct PlaneSpec {
   const char* alias;      // another name accepted (an older one), or nullptr
   const char* exr_layer;  // the EXR's name for the whole plane, also accepted by --channels
   int components;         // values per pixel
-  const char* exr[3];     // the EXR channel of each component
+  const char* exr[4];     // the EXR channel of each component
   // Where a GBuffer holds it: floats (FLOAT in an EXR) or ids (UINT).
   std::vector<float> GBuffer::*floats;
   std::vector<uint32_t> GBuffer::*ids;

@@ -104,6 +104,7 @@ void add_metadata(Imf::Header& header, const ExrMetadata& meta, int width, int h
   }
   if (!meta.instance_names.empty())
     header.insert("rayfold:instanceNames", Imf::StringVectorAttribute(meta.instance_names));
+  if (!meta.labels.empty()) header.insert("rayfold:labels", Imf::StringVectorAttribute(meta.labels));
   for (const auto& [name, value] : meta.strings) header.insert("rayfold:" + name, Imf::StringAttribute(value));
 }
 
@@ -152,6 +153,7 @@ ExrMetadata view_metadata(const Camera& camera, const Scene& scene, const std::s
   const Intrinsics k = intrinsics(camera);
   m.view = ExrMetadata::View{camera.world_from_camera, k.fx, k.fy, k.cx, k.cy, is_orthographic(camera)};
   for (const Instance& i : scene.instances) m.instance_names.push_back(i.name);
+  m.labels = scene.labels;
   m.strings = {{"version", version},
                {"scene", scene_label},
                {"fold", fold},
@@ -163,7 +165,7 @@ ExrMetadata view_metadata(const Camera& camera, const Scene& scene, const std::s
                                             "double-float, rounded once (--exact-depth)"
                                           : "")},
                {"miss",
-                "InstanceID, PrimitiveID and MaterialID are 4294967295 on a miss (MaterialID 4294967294 "
+                "InstanceID, PrimitiveID, MaterialID and Label are 4294967295 on a miss (MaterialID 4294967294 "
                 "where the triangle has no material); Z is +inf, every other channel 0"}};
   return m;
 }

@@ -28,6 +28,7 @@ struct ExrMetadata {
   };
   std::optional<View> view;
   std::vector<std::string> instance_names;                   // by InstanceID
+  std::vector<std::string> labels;                           // by Label (rayfold:labels); empty: not read
   std::vector<std::pair<std::string, std::string>> strings;  // more string attributes, named "rayfold:<first>"
 };
 

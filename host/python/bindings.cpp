@@ -292,6 +292,12 @@ void add_plane_properties(Class& cls) {
       "(H, W, 3) float32: world-space position of the hit (the triangle's point at the barycentrics); 0 on a miss",
       "(H, W, 3) float32: the hit in the mesh's own (object) space; 0 on a miss",
       "(H, W) uint32: the glTF material index; DEFAULT_MATERIAL where the primitive names none; MISS",
+      "(H, W, 4) float32: linear RGBA base colour, baseColorFactor * COLOR_0 * baseColorTexture sampled at the "
+      "pixel's ray-cone level of detail; 0 on a miss",
+      "(H, W, 2) float32: metallic and roughness, factors times the metallicRoughnessTexture's B and G; 0 on a "
+      "miss",
+      "(H, W, 3) float32: linear RGB emission, emissiveFactor * emissiveTexture * emissive strength; 0 on a miss",
+      "(H, W) uint32: index into Scene.labels (0: no label) from the instance's node extras; MISS",
   };
   const std::vector<rayfold::core::PlaneSpec>& specs = rayfold::core::plane_specs();
   RF_CHECK_EQ(specs.size(), sizeof(kDocs) / sizeof(kDocs[0]), "a doc per plane");
@@ -681,7 +687,7 @@ NB_MODULE(_core, m) {
       .def(
           "__init__",
           [](PyScene* self, std::optional<std::filesystem::path> path, int scene, int camera,
-             std::optional<double> time) {
+             std::optional<double> time, const std::string& label_key) {
             // Constructed only once loading succeeded: a throwing __init__
             // leaves nothing behind to destroy.
             rayfold::Scene loaded;
@@ -690,15 +696,17 @@ NB_MODULE(_core, m) {
               o.scene = scene;
               o.camera = camera;
               o.time = time ? *time : NAN;
+              o.label_key = label_key;
               nb::gil_scoped_release release;
               loaded = rayfold::Scene::load(path->string(), o);
             }
             new (self) PyScene();
             self->scene = std::move(loaded);
           },
-          "path"_a = nb::none(), "scene"_a = -1, "camera"_a = -1, "time"_a = nb::none(),
-          "Loads a .gltf or .glb file (scene, camera: the file's indices; time: seconds into its animations), or "
-          "a scene file Scene.save wrote, trees and all; without a path, makes an empty scene.")
+          "path"_a = nb::none(), "scene"_a = -1, "camera"_a = -1, "time"_a = nb::none(), "label_key"_a = "",
+          "Loads a .gltf or .glb file (scene, camera: the file's indices; time: seconds into its animations; "
+          "label_key: the member of a node's extras that labels it for the label channel, '' for the whole "
+          "extras), or a scene file Scene.save wrote, trees and all; without a path, makes an empty scene.")
       .def(
           "to_bytes",
           [](PyScene& s) {
@@ -801,6 +809,10 @@ NB_MODULE(_core, m) {
           },
           "mesh"_a, "(M, 3) uint32 vertex indices; primitive_id indexes the rows")
       .def_prop_ro("instance_names", [](PyScene& s) { return s.scene.instance_names(); })
+      .def_prop_ro(
+          "labels", [](PyScene& s) { return locked(s, [&] { return s.scene.labels(); }); },
+          "The label channel's table: label i's text (Scene.load's label_key value of the node's extras, a string "
+          "as is, anything else as JSON); labels[0] is '', no label. Read from the file on first use.")
       .def_prop_ro("camera_names", [](PyScene& s) { return s.scene.camera_names(); })
       .def_prop_ro("warnings", [](PyScene& s) { return s.scene.warnings(); })
       .def_prop_ro("path", [](PyScene& s) { return s.scene.path(); })

@@ -1,12 +1,15 @@
 #include "resolve/resolve.h"
 
 #include <cmath>
+#include <set>
 
 #include <glm/mat3x3.hpp>
 #include <glm/mat4x4.hpp>
+#include <glm/geometric.hpp>
 #include <glm/matrix.hpp>
 
 #include "device_layout.h"
+#include "resolve/texture_sampling.h"
 #include "util/errors.h"
 #include "util/parallel.h"
 
@@ -26,14 +29,66 @@ V interpolate(const V& a0, const V& a1, const V& a2, double b0, double u, double
 
 bool zero(const glm::vec3& n) { return n.x == 0.0f && n.y == 0.0f && n.z == 0.0f; }
 
+// What a material channel reads of a hit's triangle: its corners in world
+// space and the cone's footprint there.
+struct Footprint {
+  double world_area2;  // twice the triangle's world-space area
+  double width;        // W / |cos theta| (resolve.h's RayCone)
+};
+
+Footprint footprint(const RayCone& cone, const glm::dvec3 w[3], const glm::dvec3& hit) {
+  const glm::dvec3 n = glm::cross(w[1] - w[0], w[2] - w[0]);
+  const double area2 = glm::length(n);
+  glm::dvec3 dir = cone.forward;
+  double width = cone.width;
+  if (!cone.orthographic) {
+    const double t = glm::length(hit - cone.eye);
+    width = cone.spread * t;
+    dir = (hit - cone.eye) / t;
+  }
+  return {area2, width / std::abs(glm::dot(dir, n) / area2)};
+}
+
+// The texture's value at the hit: its texture coordinates interpolated
+// and transformed, at the footprint's level of detail; (1, 1, 1, 1)
+// without a texture.
+glm::dvec4 lookup(const Scene& scene, const Mesh& mesh, const TextureRef& ref, const uint32_t i[3], double b0, double u,
+                  double v, const Footprint& f) {
+  if (ref.image < 0) return glm::dvec4(1.0);
+  const TextureImage& image = *scene.images[ref.image];
+  const std::vector<glm::vec2>& t = mesh.attributes.texcoords[ref.texcoord];
+  glm::dvec2 c[3] = {glm::dvec2(0.0), glm::dvec2(0.0), glm::dvec2(0.0)};
+  if (!t.empty())
+    for (int k = 0; k < 3; ++k) c[k] = glm::dvec2(ref.uv_transform * glm::dvec3(glm::dvec2(t[i[k]]), 1.0));
+  const glm::dvec2 e1 = c[1] - c[0], e2 = c[2] - c[0];
+  const double texels = std::abs(e1.x * e2.y - e1.y * e2.x) * image.levels[0].width * image.levels[0].height;
+  const double lod = 0.5 * std::log2(texels / f.world_area2) + std::log2(f.width);
+  return sample_texture(image, ref.sampler, interpolate(c[0], c[1], c[2], b0, u, v), lod);
+}
+
 }  // namespace
 
 unsigned attributes_read(const ResolvedPlanes& out) {
+  const bool material_data = out.base_color || out.metallic_roughness || out.emissive;
   return (out.shading_normal ? kAttributeNormal : 0u) | (out.texcoord[0] ? kAttributeTexcoord0 : 0u) |
-         (out.texcoord[1] ? kAttributeTexcoord1 : 0u) | (out.material ? kAttributeMaterial : 0u);
+         (out.texcoord[1] ? kAttributeTexcoord1 : 0u) | (out.material ? kAttributeMaterial : 0u) |
+         (material_data ? kAttributeMaterial | kAttributeMaterialData | kAttributeTexcoord0 | kAttributeTexcoord1 : 0u) |
+         (out.base_color ? kAttributeColor0 : 0u) | (out.label ? kAttributeLabel : 0u);
 }
 
-void resolve(const Scene& scene, const HitPlanes& in, const ResolvedPlanes& out, unsigned threads) {
+RayCone ray_cone(const Camera& camera) {
+  RayCone cone;
+  cone.orthographic = is_orthographic(camera);
+  cone.eye = glm::dvec3(camera.world_from_camera * glm::dvec4(0.0, 0.0, 0.0, 1.0));
+  cone.forward = glm::normalize(glm::dvec3(camera.world_from_camera * glm::dvec4(0.0, 0.0, -1.0, 0.0)));
+  cone.spread = pixel_angle(camera);
+  const int x = camera.width / 2, y = camera.height / 2;
+  cone.width = glm::length(exact_origin(camera, x + 1, y) - exact_origin(camera, x, y));
+  return cone;
+}
+
+void resolve(const Scene& scene, const HitPlanes& in, const RayCone& cone, const ResolvedPlanes& out,
+             unsigned threads) {
   RF_CHECK(in.instance && in.primitive && in.barycentrics, "the resolve needs the hits' ids and barycentrics");
   RF_CHECK(!out.shading_normal || in.normal, "shading normals need the geometric normal as their stand-in");
   std::vector<InstanceXforms> xforms(scene.instances.size());
@@ -54,7 +109,11 @@ void resolve(const Scene& scene, const HitPlanes& in, const ResolvedPlanes& out,
         clear(out.shading_normal, 3);
         clear(out.texcoord[0], 2);
         clear(out.texcoord[1], 2);
+        clear(out.base_color, 4);
+        clear(out.metallic_roughness, 2);
+        clear(out.emissive, 3);
         if (out.material) out.material[p] = RF_INVALID;
+        if (out.label) out.label[p] = RF_INVALID;
         continue;
       }
       RF_CHECK_LT(inst, scene.instances.size(), "a hit on an instance the scene does not have");
@@ -96,8 +155,35 @@ void resolve(const Scene& scene, const HitPlanes& in, const ResolvedPlanes& out,
         out.texcoord[set][2 * p] = static_cast<float>(tc.x);
         out.texcoord[set][2 * p + 1] = static_cast<float>(tc.y);
       }
-      if (out.material)
-        out.material[p] = mesh.attributes.materials.empty() ? kDefaultMaterial : mesh.attributes.materials[tri];
+      const uint32_t material =
+          mesh.attributes.materials.empty() ? kDefaultMaterial : mesh.attributes.materials[tri];
+      if (out.material) out.material[p] = material;
+      if (out.label) out.label[p] = scene.instances[inst].label;
+      if (out.base_color || out.metallic_roughness || out.emissive) {
+        const Material& m = material < scene.materials.size() ? scene.materials[material] : default_material();
+        const uint32_t corners[3] = {i0, i1, i2};
+        glm::dvec3 w[3];
+        for (int k = 0; k < 3; ++k)
+          w[k] = glm::dvec3(x.world_from_object * glm::dvec4(glm::dvec3(mesh.positions[corners[k]]), 1.0));
+        const Footprint f = footprint(cone, w, interpolate(w[0], w[1], w[2], b0, u, v));
+        if (out.base_color) {
+          const std::vector<glm::vec4>& c = mesh.attributes.colors;
+          const glm::dvec4 color =
+              c.empty() ? glm::dvec4(1.0) : interpolate(glm::dvec4(c[i0]), glm::dvec4(c[i1]), glm::dvec4(c[i2]), b0, u, v);
+          const glm::dvec4 rgba = m.base_color_factor * color * lookup(scene, mesh, m.base_color, corners, b0, u, v, f);
+          for (int k = 0; k < 4; ++k) out.base_color[4 * p + k] = static_cast<float>(rgba[k]);
+        }
+        if (out.metallic_roughness) {
+          const glm::dvec4 t = lookup(scene, mesh, m.metallic_roughness, corners, b0, u, v, f);
+          out.metallic_roughness[2 * p] = static_cast<float>(m.metallic_factor * t[2]);
+          out.metallic_roughness[2 * p + 1] = static_cast<float>(m.roughness_factor * t[1]);
+        }
+        if (out.emissive) {
+          const glm::dvec3 e =
+              m.emissive_factor * glm::dvec3(lookup(scene, mesh, m.emissive, corners, b0, u, v, f)) * m.emissive_strength;
+          for (int k = 0; k < 3; ++k) out.emissive[3 * p + k] = static_cast<float>(e[k]);
+        }
+      }
     }
   });
 }
@@ -117,6 +203,22 @@ std::vector<std::string> missing_attribute_warnings(const Scene& scene, unsigned
   for (size_t m = 0; m < scene.meshes.size(); ++m) {
     const Mesh& mesh = scene.meshes[m];
     const std::string name = "mesh " + std::to_string(m) + (mesh.name.empty() ? "" : " ('" + mesh.name + "')");
+    if (attributes & kAttributeMaterialData) {
+      // A texture reading a coordinate set the mesh lacks samples (0, 0).
+      std::set<uint32_t> used(mesh.attributes.materials.begin(), mesh.attributes.materials.end());
+      for (uint32_t mi : used) {
+        if (mi >= scene.materials.size()) continue;
+        const Material& mat = scene.materials[mi];
+        for (const TextureRef* t : {&mat.base_color, &mat.metallic_roughness, &mat.emissive}) {
+          const unsigned bit = t->texcoord == 0 ? kAttributeTexcoord0 : kAttributeTexcoord1;
+          if (t->image < 0 || ((mesh.attributes.present & bit) && !(mesh.attributes.missing & bit))) continue;
+          out.push_back(name + " lacks TEXCOORD_" + std::to_string(t->texcoord) + " (in part or whole), which material " +
+                        std::to_string(mi) + (mat.name.empty() ? "" : " ('" + mat.name + "')") +
+                        "'s textures read: they are sampled at (0, 0) there");
+          break;
+        }
+      }
+    }
     for (const Stand& s : kStands) {
       if (!(attributes & s.bit)) continue;
       const bool none = !(mesh.attributes.loaded & s.bit) || !(mesh.attributes.present & s.bit);

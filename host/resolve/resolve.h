@@ -10,6 +10,9 @@
 #include <string>
 #include <vector>
 
+#include <glm/vec3.hpp>
+
+#include "scene/camera.h"
 #include "scene/scene.h"
 
 namespace rayfold::core {
@@ -22,6 +25,24 @@ struct HitPlanes {
   const float* barycentrics = nullptr;  // 2 per pixel: the weights u, v of the second and third vertex
   const float* normal = nullptr;        // 3 per pixel: the geometric normal (shading normals' stand-in); may be null
 };
+
+// The view's rays as cones, for the texture lookups' level of detail
+// (Akenine-Moller et al., "Texture Level of Detail Strategies for
+// Real-Time Ray Tracing", Ray Tracing Gems, 2019): a pixel's footprint at
+// the hit is W = spread * |hit - eye| wide (orthographic: `width`), seen
+// at the angle theta between its ray and the triangle's normal, and the
+// level is lod = 1/2 log2(texel area / world area of the triangle) +
+// log2(W / |cos theta|), both areas from the triangle's corners (texture
+// coordinates after KHR_texture_transform, times the image's size; world
+// positions in double).
+struct RayCone {
+  bool orthographic = false;
+  glm::dvec3 eye{0.0};                // perspective: every ray's origin
+  glm::dvec3 forward{0.0, 0.0, -1.0};  // orthographic: every ray's direction
+  double spread = 0.0;                // perspective: the angle between neighbouring rays at the image centre
+  double width = 0.0;                 // orthographic: a pixel's width, world units
+};
+RayCone ray_cone(const Camera& camera);
 
 // Where the resolved channels go, each null when not asked for; every one
 // is 0 on a miss but material (RF_INVALID). Every float is computed in
@@ -38,6 +59,14 @@ struct ResolvedPlanes {
   float* shading_normal = nullptr;
   float* texcoord[2] = {nullptr, nullptr};  // 2: TEXCOORD_0 and _1 interpolated; (0, 0) where the mesh has none
   uint32_t* material = nullptr;             // 1: the glTF material index, kDefaultMaterial where none is named
+  // The material's values at the hit (glTF 2.0, 3.9; glTF's default
+  // material where the primitive names none), each texture sampled with
+  // its sampler at the ray cone's level of detail (texture_sampling.h),
+  // sRGB textures decoded to linear first:
+  float* base_color = nullptr;          // 4: baseColorFactor * COLOR_0 * baseColorTexture, linear RGBA
+  float* metallic_roughness = nullptr;  // 2: metallicFactor * texture B, roughnessFactor * texture G
+  float* emissive = nullptr;            // 3: emissiveFactor * emissiveTexture * emissiveStrength, linear RGB
+  uint32_t* label = nullptr;            // 1: the instance's index into Scene::labels (RF_INVALID on a miss)
 };
 
 // The attributes the planes of `out` read (Attribute bits).
@@ -46,7 +75,9 @@ unsigned attributes_read(const ResolvedPlanes& out);
 // Resolves every pixel of `in` into `out` on `threads` threads (0: every
 // core). The scene's meshes hold the attributes attributes_read names
 // (LoadOptions::attributes); a mesh lacking one gets the stand-ins above.
-void resolve(const Scene& scene, const HitPlanes& in, const ResolvedPlanes& out, unsigned threads);
+// The material channels read `cone`.
+void resolve(const Scene& scene, const HitPlanes& in, const RayCone& cone, const ResolvedPlanes& out,
+             unsigned threads);
 
 // One line for each mesh that lacks, in part or whole, an attribute among
 // `attributes` (Attribute bits), saying what its pixels get instead.

@@ -12,6 +12,7 @@
 
 #include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
+#include <glm/vec4.hpp>
 
 namespace rayfold::core {
 
@@ -21,6 +22,12 @@ enum Attribute : unsigned {
   kAttributeTexcoord0 = 2u,  // TEXCOORD_0
   kAttributeTexcoord1 = 4u,  // TEXCOORD_1
   kAttributeMaterial = 8u,   // each primitive's material index
+  kAttributeColor0 = 16u,    // COLOR_0
+  // The materials' factors and textures with their images decoded
+  // (scene/materials.h; Scene::materials, Scene::images), and the texture
+  // coordinate sets their textures read.
+  kAttributeMaterialData = 32u,
+  kAttributeLabel = 64u,  // each instance's label from its node's extras (Scene::labels)
 };
 
 // A triangle's material where its primitive names none (glTF's default
@@ -32,13 +39,15 @@ constexpr uint32_t kDefaultMaterial = 0xFFFFFFFEu;
 // vertex of a primitive without the attribute holds the documented stand-in
 // and its bit in `missing`: a normal of (0, 0, 0) (the resolve then takes
 // the triangle's geometric normal, as glTF says of a primitive without
-// normals), texture coordinates (0, 0).
+// normals), texture coordinates (0, 0), a colour (1, 1, 1, 1) (glTF: a
+// primitive without COLOR_0 is white).
 struct MeshAttributes {
   unsigned loaded = 0;                  // Attribute bits read for this mesh
   unsigned missing = 0;                 // Attribute bits some primitive of it lacked
   unsigned present = 0;                 // Attribute bits some primitive of it had
   std::vector<glm::vec3> normals;       // object space, as the file gives them (unit length there)
   std::vector<glm::vec2> texcoords[2];  // TEXCOORD_0 and TEXCOORD_1, as the file gives them (v downward)
+  std::vector<glm::vec4> colors;        // COLOR_0, linear RGBA (a VEC3's alpha 1)
   std::vector<uint32_t> materials;      // per triangle: the glTF material index, or kDefaultMaterial
 };
 

@@ -25,6 +25,10 @@ struct LoadOptions {
   // The attributes to keep (scene/attributes.h, Attribute bits): none by
   // default, what hit info alone needs.
   unsigned attributes = 0;
+  // The member of a node's `extras` whose value is its label
+  // (kAttributeLabel), e.g. "category"; empty: the whole extras value. A
+  // node without one takes its nearest labelled ancestor's.
+  std::string label_key;
 };
 
 // A glTF file read once and posed at any time: each frame of its

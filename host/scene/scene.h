@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -12,6 +13,7 @@
 
 #include "scene/aabb.h"
 #include "scene/attributes.h"
+#include "scene/materials.h"
 #include "scene/transform.h"
 
 namespace rayfold::core {
@@ -29,6 +31,7 @@ struct Instance {
   Xform world_from_object{1.0};
   std::string name;  // the glTF node's name, "node N" when it has none
   int node = -1;     // the glTF node it comes from; -1 for one built in memory
+  uint32_t label = 0;  // index into Scene::labels (kAttributeLabel); 0: none
 };
 
 // A camera; +y of the image is `up` projected onto the view plane.
@@ -52,6 +55,13 @@ constexpr double kMaxWorldCoordinate = 0x1p126;
 struct Scene {
   std::vector<Mesh> meshes;
   std::vector<Instance> instances;
+  // Read when a render asks (scene/attributes.h): every glTF material, by
+  // its index (kAttributeMaterialData), the images their textures read,
+  // and the distinct labels of the instances' nodes (kAttributeLabel; the
+  // first is always "", no label).
+  std::vector<Material> materials;
+  std::vector<std::shared_ptr<const TextureImage>> images;
+  std::vector<std::string> labels;
   std::optional<CameraSpec> camera;  // the chosen camera (LoadOptions), by default the file's first
 
   // What the file holds besides the scene shown, for `rayfold info`.

@@ -46,17 +46,28 @@ enum Channels : unsigned {
   kPosition = 256u,        // world-space position
   kObjectPosition = 512u,  // position in the mesh's own space
   kMaterialId = 1024u,     // the glTF material's index
-  kEveryChannel = 2047u,
+  kBaseColor = 2048u,          // linear RGBA: factor, vertex colour and texture
+  kMetallicRoughness = 4096u,  // metallic, roughness
+  kEmissive = 8192u,           // linear RGB
+  kLabel = 16384u,             // the instance's label from its node's extras (Scene::labels)
+  kEveryChannel = 32767u,
 };
 
 // A comma-separated list of channel names as Channels, as the CLI's
 // --channels and Python's channels= take them: depth, normal,
 // barycentrics, instance_id, primitive_id, shading_normal, texcoord,
-// texcoord1, position, object_position, material_id, or the EXR's names for
-// them (Z, N, UV, InstanceID, PrimitiveID, Ns, TexCoord, TexCoord1, P,
-// Pref, MaterialID); uv is barycentrics' older name. InputError naming an
+// texcoord1, position, object_position, material_id, base_color,
+// metallic_roughness, emissive, label, or the EXR's names for them (Z, N,
+// UV, InstanceID, PrimitiveID, Ns, TexCoord, TexCoord1, P, Pref,
+// MaterialID, BaseColor, MetallicRoughness, Emission, Label); uv is
+// barycentrics' older name. InputError naming an
 // unknown name, or for none.
 unsigned parse_channels(const std::string& list);
+
+struct GBuffer;
+// The pixels where any plane of two G-buffers of one size and the same
+// channels differs in its bits (0: identical, every plane, every pixel).
+size_t count_differing_pixels(const GBuffer& a, const GBuffer& b);
 
 // A triangle's material_id where its primitive names no material (glTF's
 // default material); kMiss on a miss.
@@ -113,6 +124,12 @@ struct GBuffer {
   std::vector<float> position;         // world space; height * width * 3
   std::vector<float> object_position;  // the mesh's own space; height * width * 3
   std::vector<uint32_t> material_id;   // glTF material index, kDefaultMaterial for none, kMiss on a miss
+  // The material at the hit, each texture sampled with its sampler at the
+  // pixel's ray-cone level of detail (docs/channels.md), linear values.
+  std::vector<float> base_color;          // RGBA: baseColorFactor * COLOR_0 * texture; height * width * 4
+  std::vector<float> metallic_roughness;  // metallic, roughness; height * width * 2
+  std::vector<float> emissive;            // RGB: emissiveFactor * texture * strength; height * width * 3
+  std::vector<uint32_t> label;            // index into Scene::labels (0: no label), kMiss on a miss
   unsigned channels = kAllChannels;    // the planes filled (Channels); the others are empty
   Depth depth_kind = Depth::distance;  // what `depth` measures (RendererOptions::depth)
   bool exact_depth = false;            // depth from the exact ray in double-float (RendererOptions::exact_depth)

@@ -27,6 +27,11 @@ struct LoadOptions {
   // (normals, texture coordinates, materials) are read now rather than on
   // the first render that asks for them. 0: none yet.
   unsigned channels = 0;
+  // The member of a node's `extras` whose value labels it for the label
+  // channel (kLabel), e.g. "category" for {"category": "chair"}; empty: the
+  // whole extras value. A node without one takes its nearest labelled
+  // ancestor's.
+  std::string label_key;
 };
 
 // Where Scene::default_view's view comes from.
@@ -105,6 +110,10 @@ class Scene {
   // when unnamed, as add_mesh was given it otherwise).
   std::vector<int> instance_nodes() const;
   std::vector<std::string> mesh_names() const;
+  // The label channel's table (kLabel): label i's text, a string value as
+  // is, any other as JSON; label 0 is "", no label. Read from the file on
+  // the first call or render that asks.
+  std::vector<std::string> labels() const;
   const std::string& path() const;  // the file loaded; empty for a scene built in memory
   const std::vector<std::string>& warnings() const;
 

@@ -29,8 +29,16 @@ size_t json_bytes(std::string_view file) {
   return chunk_length;
 }
 
-// Hit info needs no pixels: images are neither decoded nor required.
-bool skip_image(tinygltf::Image*, const int, std::string*, std::string*, int, int, const unsigned char*, int, void*) {
+// Hit info needs no pixels: images are decoded only when a render asks for
+// a material channel (materials.cpp), from their buffer view or file then;
+// only a data: URI's bytes, which tinygltf keeps nowhere else, are kept
+// here, encoded.
+bool skip_image(tinygltf::Image* image, const int, std::string*, std::string*, int, int, const unsigned char* bytes,
+                int size, void*) {
+  if (image->bufferView < 0 && image->uri.empty() && bytes && size > 0) {
+    image->image.assign(bytes, bytes + size);
+    image->as_is = true;
+  }
   return true;
 }
 
@@ -326,8 +334,9 @@ void Loader::read_model() {
     }
     fail(what);
   }
-  // Images are never decoded, so a missing image file is no concern of
-  // rayfold's (tinygltf reports one; a missing buffer is an error).
+  // Images are decoded only for material channels, which report a missing
+  // image file then (materials.cpp); tinygltf's warning is no concern of a
+  // render without them. A missing buffer is an error.
   std::istringstream lines(warn);
   for (std::string line; std::getline(lines, line);) {
     if (line.empty() || line.rfind("File not found : ", 0) == 0 ||

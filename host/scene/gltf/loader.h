@@ -184,6 +184,25 @@ class Loader {
   // (0, 0) and the missing bit.
   void read_attributes(int mi, size_t pi, const std::string& where, size_t vertex_count, size_t triangles,
                        MeshAttributes& out);
+  // COLOR_0 (VEC3 or VEC4 of FLOAT or normalized unsigned byte or short)
+  // as linear RGBA.
+  std::vector<glm::vec4> read_colors(int ai, const std::string& what) const;
+
+  // materials.cpp: the materials and their decoded images, once
+  // (materials_, images_), and the scene's labels, put into scene_ as
+  // options_.attributes asks (kAttributeMaterialData, kAttributeLabel).
+  void add_material_data();
+  void read_materials();
+  // A textureInfo as a TextureRef, decoding its image (as sRGB or linear) on
+  // first use; `where` names the material and texture for errors.
+  TextureRef texture_ref(int index, int texcoord, const tinygltf::ExtensionMap& extensions, bool srgb,
+                         const std::string& where);
+  std::string image_name(int ii) const;
+  // The image's encoded bytes: from its buffer view, its data: URI or its file.
+  std::vector<uint8_t> image_bytes(int ii) const;
+  // Per node, its label (LoadOptions::label_key) or its nearest labelled
+  // ancestor's; "" for none.
+  std::vector<std::string> node_labels() const;
 
   // Converts a glTF mesh (all its triangle primitives) into one Mesh; returns
   // its index in scene_.meshes, or -1 when it has no triangles.
@@ -264,6 +283,10 @@ class Loader {
   bool cache_meshes_ = false;                         // animated: poses reuse unskinned meshes (mesh_for)
   std::map<MeshKey, std::optional<Mesh>> converted_;  // static meshes of earlier poses; none: no triangles
   std::vector<int> parent_;
+  bool materials_read_ = false;
+  std::vector<Material> materials_;
+  std::vector<std::shared_ptr<const TextureImage>> images_;
+  std::map<std::pair<int, bool>, int> image_slot_;  // (glTF image, sRGB) -> images_ index
   std::vector<Xform> world_;
   std::vector<char> world_known_;
 };

@@ -46,6 +46,7 @@ Scene Loader::build(double time) {
     for (auto it = node.children.rbegin(); it != node.children.rend(); ++it)
       stack.push_back({*it, world_from_node, false});
   }
+  add_material_data();
   choose_camera();
   if (scene_.triangle_count() == 0) warn("the scene has no triangles; every pixel will miss");
   flush_warnings();

@@ -76,7 +76,10 @@ const char* kRenderUsage =
     "  --channels C,...       the planes written (default: the visibility buffer, Z, N,\n"
     "                         UV, InstanceID, PrimitiveID); also the G-buffer's Ns\n"
     "                         (shading_normal), TexCoord, TexCoord1, P (position),\n"
-    "                         Pref (object_position), MaterialID: docs/channels.md\n"
+    "                         Pref (object_position), MaterialID, BaseColor,\n"
+    "                         MetallicRoughness, Emission, Label: docs/channels.md\n"
+    "  --label-key KEY        the member of a node's extras that labels it for Label\n"
+    "                         (default: the whole extras value); labels in the EXR header\n"
     "  --exr-compression M    zip (default), zips, piz, rle or none: OpenEXR's lossless\n"
     "                         methods; none writes 3 to 4 times faster, 10x the bytes\n"
     "  --png F.png            normal-shaded preview, misses black\n"
@@ -159,6 +162,8 @@ RenderArgs parse_render(cli::Args& args) {
       r.load.scene = cli::parse_int(a, args.value(a), 0, 1 << 30);
     } else if (a == "--camera") {
       r.load.camera = cli::parse_int(a, args.value(a), 0, 1 << 30);
+    } else if (a == "--label-key") {
+      r.load.label_key = args.value(a);
     } else if (a == "--time") {
       r.load.time = cli::parse_double(a, args.value(a));
     } else if (parse_renderer_option(a, args, r.options)) {
@@ -625,7 +630,7 @@ int run_render(cli::Args& args) {
     if (r.exr.empty() && r.png.empty() && r.stats.empty() && r.ids.empty())
       std::printf("  nothing written (-o F.exr, --png F.png or --stats F.json write the results)\n");
   }
-  if (unfolded && count_differing_pixels(*unfolded, g) != 0) {
+  if (unfolded && rayfold::count_differing_pixels(*unfolded, g) != 0) {
     std::fprintf(stderr, "error: the folded render differs from the unfolded one\n");
     return 3;
   }

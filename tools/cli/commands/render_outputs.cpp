@@ -110,38 +110,12 @@ rayfold::StageTimes median_stages(const std::vector<rayfold::StageTimes>& frames
           of(&S::ray_list_ms), of(&S::trace_ms), of(&S::readback_ms)};
 }
 
-size_t count_differing_pixels(const rayfold::GBuffer& a, const rayfold::GBuffer& b) {
-  RF_CHECK(a.width == b.width && a.height == b.height && a.channels == b.channels,
-           "comparing G-buffers of another size or other planes");
-  const size_t n = static_cast<size_t>(a.width) * a.height;
-  std::vector<char> differs(n, 0);
-  auto compare = [&](const auto& x, const auto& y) {
-    if (x.empty()) return;
-    const size_t per_pixel = x.size() / n;
-    for (size_t i = 0; i < x.size(); ++i)
-      if (std::memcmp(&x[i], &y[i], sizeof x[i]) != 0) differs[i / per_pixel] = 1;
-  };
-  // Every plane the G-buffer has, the resolved ones too.
-  compare(a.depth, b.depth);
-  compare(a.normal, b.normal);
-  compare(a.uv, b.uv);
-  compare(a.instance_id, b.instance_id);
-  compare(a.primitive_id, b.primitive_id);
-  compare(a.shading_normal, b.shading_normal);
-  compare(a.texcoord, b.texcoord);
-  compare(a.texcoord1, b.texcoord1);
-  compare(a.position, b.position);
-  compare(a.object_position, b.object_position);
-  compare(a.material_id, b.material_id);
-  return static_cast<size_t>(std::count(differs.begin(), differs.end(), 1));
-}
-
 void print_comparison(const rayfold::GBuffer& none, const rayfold::StageTimes& none_times,
                       const rayfold::GBuffer& folded, const rayfold::StageTimes& folded_times) {
   auto total = [](const rayfold::StageTimes& t) { return t.ray_list_ms + t.trace_ms + t.readback_ms; };
   auto update = [](const rayfold::StageTimes& t) { return t.cull_ms + t.tlas_ms + t.upload_ms; };
   const double pixels = static_cast<double>(none.width) * none.height;
-  const size_t differ = count_differing_pixels(none, folded);
+  const size_t differ = rayfold::count_differing_pixels(none, folded);
   const std::string folded_name = std::string("folded ") + fold_name(folded.fold);
   std::printf("\n  %-28s %14s %14s\n", "", "unfolded", folded_name.c_str());
   std::printf("  %-28s %14s %14s\n", "rays traced", with_commas(none.rays).c_str(), with_commas(folded.rays).c_str());

@@ -36,9 +36,7 @@ void write_stats(const std::string& path, const RenderArgs& args, const rayfold:
 // Each stage's median over frames.
 rayfold::StageTimes median_stages(const std::vector<rayfold::StageTimes>& frames);
 
-// Pixels whose planes differ in any bit between two G-buffers of one size
-// and the same planes.
-size_t count_differing_pixels(const rayfold::GBuffer& a, const rayfold::GBuffer& b);
+
 
 // The folded and unfolded renders of one view side by side, with each one's
 // median stage times.
