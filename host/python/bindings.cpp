@@ -23,6 +23,7 @@
 
 #include "plane_pool.h"
 #include "rayfold/rayfold.h"
+#include "api/resolve_gbuffer.h"
 #include "output/channels.h"
 #include "scene/dataset_cameras.h"
 
@@ -401,9 +402,35 @@ void take_planes(size_t n, unsigned channels, std::vector<float>& depth, std::ve
   if (channels & rayfold::kPrimitiveId) primitive_id = pool.take<uint32_t>(n);
 }
 
+// The planes a render of `asked` fills: those asked for and those the
+// trace makes for the resolved ones (api/resolve_gbuffer.h). Asked of the
+// renderer as such, they come from plane_pool() and keep_asked gives the
+// extra ones back, instead of being allocated and freed every render.
+unsigned planes_for(unsigned asked) { return asked | rayfold::detail::trace_channels(asked); }
+
 void take_planes(rayfold::GBuffer& g, const rayfold::Camera& camera, unsigned channels) {
-  take_planes(static_cast<size_t>(camera.width()) * camera.height(), channels, g.depth, g.normal, g.uv, g.instance_id,
-              g.primitive_id);
+  const size_t n = static_cast<size_t>(camera.width()) * camera.height();
+  rayfold::python::PlanePool& pool = plane_pool();
+  for (const rayfold::core::PlaneSpec& spec : rayfold::core::plane_specs()) {
+    if (!(channels & spec.bit)) continue;
+    if (spec.floats)
+      g.*spec.floats = pool.take<float>(spec.components * n);
+    else
+      g.*spec.ids = pool.take<uint32_t>(spec.components * n);
+  }
+}
+
+// The planes of g that `asked` left out back to the pool; g then holds what was asked.
+void keep_asked(rayfold::GBuffer& g, unsigned asked) {
+  rayfold::python::PlanePool& pool = plane_pool();
+  for (const rayfold::core::PlaneSpec& spec : rayfold::core::plane_specs()) {
+    if (asked & spec.bit) continue;
+    if (spec.floats)
+      pool.give(std::move(g.*spec.floats));
+    else
+      pool.give(std::move(g.*spec.ids));
+  }
+  g.channels &= asked;
 }
 
 // Renders with the renderer `pick` returns (called under the scene's lock).
@@ -413,11 +440,12 @@ PyGBuffer render_locked(PyScene& s, Pick&& pick, const rayfold::Camera& camera, 
                         unsigned channels, AutoPlans& plans) {
   if (fold != "auto") parse_fold(fold);  // a bad name refused before the planes are taken
   rayfold::GBuffer g;
-  take_planes(g, camera, channels);
+  take_planes(g, camera, planes_for(channels));
   locked(s, [&] {
     rayfold::Renderer& r = pick();
-    r.render_into(g, camera, plans.plan(r, {camera}, fold, 1).first, channels);
+    r.render_into(g, camera, plans.plan(r, {camera}, fold, 1).first, planes_for(channels));
   });
+  keep_asked(g, channels);
   return to_python(std::move(g), camera);
 }
 
@@ -869,11 +897,14 @@ NB_MODULE(_core, m) {
               if (!r) r = std::make_unique<rayfold::Renderer>(s.scene, o);
               const auto [f, a] = s.plans[key].plan(*r, cameras, fold, align);
               r->render_views(
-                  cameras, [&](size_t i, rayfold::GBuffer&& g) { gs[i] = std::move(g); }, f, a, mask,
-                  [&](size_t i, rayfold::GBuffer& g) { take_planes(g, cameras[i], mask); });
+                  cameras, [&](size_t i, rayfold::GBuffer&& g) { gs[i] = std::move(g); }, f, a, planes_for(mask),
+                  [&](size_t i, rayfold::GBuffer& g) { take_planes(g, cameras[i], planes_for(mask)); });
             });
             std::vector<PyGBuffer> out;
-            for (size_t i = 0; i < gs.size(); ++i) out.push_back(to_python(std::move(gs[i]), cameras[i]));
+            for (size_t i = 0; i < gs.size(); ++i) {
+              keep_asked(gs[i], mask);
+              out.push_back(to_python(std::move(gs[i]), cameras[i]));
+            }
             return out;
           },
           "cameras"_a, "fold"_a = "none", "align"_a = 0, "backend"_a = "opencl", "device"_a = "", "kernel"_a = "auto",

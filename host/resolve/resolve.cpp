@@ -50,11 +50,9 @@ Footprint footprint(const RayCone& cone, const glm::dvec3 w[3], const glm::dvec3
 }
 
 // The texture's value at the hit: its texture coordinates interpolated
-// and transformed, at the footprint's level of detail; (1, 1, 1, 1)
-// without a texture.
-glm::dvec4 lookup(const Scene& scene, const Mesh& mesh, const TextureRef& ref, const uint32_t i[3], double b0, double u,
-                  double v, const Footprint& f) {
-  if (ref.image < 0) return glm::dvec4(1.0);
+// and transformed, at the footprint's level of detail.
+glm::dvec4 sample_at(const Scene& scene, const Mesh& mesh, const TextureRef& ref, const uint32_t i[3], double b0,
+                     double u, double v, const Footprint& f) {
   const TextureImage& image = *scene.images[ref.image];
   const std::vector<glm::vec2>& t = mesh.attributes.texcoords[ref.texcoord];
   glm::dvec2 c[3] = {glm::dvec2(0.0), glm::dvec2(0.0), glm::dvec2(0.0)};
@@ -64,6 +62,22 @@ glm::dvec4 lookup(const Scene& scene, const Mesh& mesh, const TextureRef& ref, c
   const double texels = std::abs(e1.x * e2.y - e1.y * e2.x) * image.levels[0].width * image.levels[0].height;
   const double lod = 0.5 * std::log2(texels / f.world_area2) + std::log2(f.width);
   return sample_texture(image, ref.sampler, interpolate(c[0], c[1], c[2], b0, u, v), lod);
+}
+
+// Whether the triangle's material reads a texture.
+bool textured(const Scene& scene, const Mesh& mesh, uint32_t tri) {
+  if (mesh.attributes.materials.empty()) return false;
+  const uint32_t m = mesh.attributes.materials[tri];
+  if (m >= scene.materials.size()) return false;
+  const Material& mat = scene.materials[m];
+  return mat.base_color.image >= 0 || mat.metallic_roughness.image >= 0 || mat.emissive.image >= 0;
+}
+
+// sample_at, or (1, 1, 1, 1) without a texture: checked here, inline,
+// since most materials have none.
+inline glm::dvec4 lookup(const Scene& scene, const Mesh& mesh, const TextureRef& ref, const uint32_t i[3], double b0,
+                         double u, double v, const Footprint& f) {
+  return ref.image < 0 ? glm::dvec4(1.0) : sample_at(scene, mesh, ref, i, b0, u, v, f);
 }
 
 }  // namespace
@@ -96,6 +110,8 @@ void resolve(const Scene& scene, const HitPlanes& in, const RayCone& cone, const
     const Xform& m = scene.instances[i].world_from_object;
     xforms[i] = {m, glm::transpose(glm::inverse(glm::dmat3(m)))};
   }
+  const bool per_vertex =
+      out.position || out.object_position || out.shading_normal || out.texcoord[0] || out.texcoord[1];
   parallel_for(in.pixels, threads, size_t{1} << 13, [&](size_t begin, size_t end) {
     for (size_t p = begin; p < end; ++p) {
       const uint32_t inst = in.instance[p];
@@ -120,7 +136,13 @@ void resolve(const Scene& scene, const HitPlanes& in, const RayCone& cone, const
       const Mesh& mesh = scene.meshes[scene.instances[inst].mesh];
       const uint32_t tri = in.primitive[p];
       RF_CHECK_LT(tri, mesh.triangle_count(), "a hit on a triangle its mesh does not have");
-      const uint32_t i0 = mesh.indices[3 * tri], i1 = mesh.indices[3 * tri + 1], i2 = mesh.indices[3 * tri + 2];
+      // The triangle's vertices are read only by the channels that need
+      // them: a scattered read that costs more than the rest of a material
+      // channel whose factors alone make it.
+      const bool vertices = per_vertex || out.base_color ||
+                            ((out.metallic_roughness || out.emissive) && textured(scene, mesh, tri));
+      const uint32_t i0 = vertices ? mesh.indices[3 * tri] : 0, i1 = vertices ? mesh.indices[3 * tri + 1] : 0,
+                     i2 = vertices ? mesh.indices[3 * tri + 2] : 0;
       const double u = in.barycentrics[2 * p], v = in.barycentrics[2 * p + 1];
       const double b0 = (1.0 - u) - v;
       const InstanceXforms& x = xforms[inst];
@@ -162,10 +184,14 @@ void resolve(const Scene& scene, const HitPlanes& in, const RayCone& cone, const
       if (out.base_color || out.metallic_roughness || out.emissive) {
         const Material& m = material < scene.materials.size() ? scene.materials[material] : default_material();
         const uint32_t corners[3] = {i0, i1, i2};
-        glm::dvec3 w[3];
-        for (int k = 0; k < 3; ++k)
-          w[k] = glm::dvec3(x.world_from_object * glm::dvec4(glm::dvec3(mesh.positions[corners[k]]), 1.0));
-        const Footprint f = footprint(cone, w, interpolate(w[0], w[1], w[2], b0, u, v));
+        // The footprint only where a texture is read: factors alone need none.
+        Footprint f{0.0, 0.0};
+        if (m.base_color.image >= 0 || m.metallic_roughness.image >= 0 || m.emissive.image >= 0) {
+          glm::dvec3 w[3];
+          for (int k = 0; k < 3; ++k)
+            w[k] = glm::dvec3(x.world_from_object * glm::dvec4(glm::dvec3(mesh.positions[corners[k]]), 1.0));
+          f = footprint(cone, w, interpolate(w[0], w[1], w[2], b0, u, v));
+        }
         if (out.base_color) {
           const std::vector<glm::vec4>& c = mesh.attributes.colors;
           const glm::dvec4 color =

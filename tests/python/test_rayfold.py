@@ -912,3 +912,34 @@ def test_resolved_planes_equal_a_float64_resolve_of_the_file(tmp_path):
                  "object_position", "material_id"]:
         np.testing.assert_array_equal(bits(back[name]), bits(getattr(g, name)), err_msg=name)
     assert "normal" not in back and "texcoord1" not in back
+
+
+def test_material_planes_and_labels_from_the_file(tmp_path):
+    import json
+    path = tmp_path / "quad.gltf"
+    write_quad_gltf(path)
+    doc = json.loads(path.read_text())
+    doc["materials"][1].update({
+        "pbrMetallicRoughness": {"baseColorFactor": [0.9, 0.5, 0.25, 0.75], "metallicFactor": 0.2,
+                                 "roughnessFactor": 0.6},
+        "emissiveFactor": [0.1, 0.2, 0.3]})
+    doc["nodes"] = [{"children": [1], "extras": {"category": "floor", "note": "tiles"}}, dict(doc["nodes"][0])]
+    path.write_text(json.dumps(doc))
+    scene = rayfold.Scene(str(path), label_key="category")
+    camera = rayfold.Camera.look_at((0, 0, 0), (0, 0, -4), (0, 1, 0), 60.0, 64, 48)
+    g = scene.render(camera, channels="instance_id,base_color,metallic_roughness,emissive,label")
+    hit = g.instance_id != rayfold.MISS
+    assert hit.sum() > 500
+    assert scene.labels == ["", "floor"]
+    assert (g.label[hit] == 1).all() and (g.label[~hit] == rayfold.MISS).all()
+    want = {"base_color": [0.9, 0.5, 0.25, 0.75], "metallic_roughness": [0.2, 0.6], "emissive": [0.1, 0.2, 0.3]}
+    for name, value in want.items():
+        plane = getattr(g, name)
+        np.testing.assert_array_equal(plane[hit], np.broadcast_to(np.float32(value), plane[hit].shape), err_msg=name)
+        assert (plane[~hit] == 0).all(), name
+    # The whole extras value without a key; the planes through an EXR, bit for bit.
+    assert rayfold.Scene(str(path)).labels == ["", '{"category":"floor","note":"tiles"}']
+    g.write_exr(tmp_path / "quad.exr", scene)
+    back = rayfold.read_exr(tmp_path / "quad.exr")
+    for name in ["base_color", "metallic_roughness", "emissive", "label"]:
+        np.testing.assert_array_equal(bits(back[name]), bits(getattr(g, name)), err_msg=name)
