@@ -4,12 +4,14 @@
 
 #include <algorithm>
 #include <cmath>
+#include <exception>
 #include <cstdlib>
 #include <cstring>
 #include <functional>
 
 #include "api/pipeline_options.h"
 #include "api/resolve_gbuffer.h"
+#include "resolve/flow.h"
 #include "api/scene_state.h"
 #include "fold/view_passes.h"
 #include "pipeline/pipeline.h"
@@ -117,14 +119,18 @@ Renderer& Renderer::operator=(Renderer&&) noexcept = default;
 
 namespace {
 
-void check_channels(unsigned channels, unsigned allowed = kEveryChannel) {
+constexpr unsigned kFlowChannels = kFlow | kFlowVisible;
+
+void check_channels(unsigned channels, unsigned allowed = kEveryChannel & ~kFlowChannels) {
+  if ((channels & kFlowChannels) && !(allowed & kFlowChannels) && !(channels & ~kEveryChannel))
+    throw InputError("", "flow and flow_visible need the view they flow to: render(camera, fold, channels, FlowTo{...})");
   if (channels == 0u || (channels & ~allowed) != 0u)
     throw InputError("", allowed == kAllChannels
                              ? "channels must be a nonzero combination of kDepth, kNormal, kUv, kInstanceId and "
                                "kPrimitiveId, not " +
                                    std::to_string(channels)
                              : "channels must be a nonzero combination of the Channels flags (kDepth to "
-                               "kMaterialId), not " +
+                               "kFlowVisible), not " +
                                    std::to_string(channels));
 }
 
@@ -263,6 +269,95 @@ GBuffer Renderer::render(const Camera& camera, Fold fold, unsigned channels) {
   GBuffer g;
   render_into(g, camera, fold, channels);
   return g;
+}
+
+GBuffer Renderer::render(const Camera& camera, Fold fold, unsigned channels, const FlowTo& to) {
+  GBuffer g;
+  render_into(g, camera, fold, channels, to);
+  return g;
+}
+
+void Renderer::render_into(GBuffer& g, const Camera& camera, Fold fold, unsigned asked, const FlowTo& to) {
+  check_channels(asked, kEveryChannel);
+  const unsigned hits = kInstanceId | kPrimitiveId | kBarycentrics;
+  const unsigned rest = (asked & ~kFlowChannels) | ((asked & kFlowChannels) ? hits : 0u);
+  render_into(g, camera, fold, rest);
+  if (!(asked & kFlowChannels)) return;
+  detail::SceneState& s = *impl_->state;
+  const double now = s.time;
+  // Posed for the other view, and put back however this ends.
+  const bool repose = !std::isnan(to.time) && !(to.time == now);
+  if (repose) detail::pose_at(s, to.time, "flow to another time");
+  struct PutBack {
+    detail::SceneState& s;
+    double now;
+    bool repose;
+    ~PutBack() noexcept(false) {
+      if (!repose) return;
+      if (std::uncaught_exceptions() == 0) {
+        detail::pose_at(s, now, "flow");
+        return;
+      }
+      try {  // already failing: that error is the one reported
+        detail::pose_at(s, now, "flow");
+      } catch (...) {
+      }
+    }
+  } put_back{s, now, repose};
+  const size_t n = static_cast<size_t>(g.width) * g.height;
+  core::HitPlanes in;
+  in.pixels = n;
+  in.instance = g.instance_id.data();
+  in.primitive = g.primitive_id.data();
+  in.barycentrics = g.uv.data();
+  std::vector<glm::dvec3> points(n);
+  if (asked & kFlow) g.flow.resize(2 * n);
+  core::resolve_flow(s.scene, in, g.width, to.camera.core(), (asked & kFlow) ? g.flow.data() : nullptr, points.data(),
+                     impl_->options.threads);
+  if (asked & kFlowVisible) {
+    // Seen from the other view: inside its image, and nothing on the
+    // segment from its eye (an orthographic view's image plane) short of
+    // the point by more than 1e-4 of the segment (t = 1 at the point).
+    const core::Camera& other = to.camera.core();
+    const glm::dvec3 eye = glm::dvec3(other.world_from_camera * glm::dvec4(0.0, 0.0, 0.0, 1.0));
+    std::vector<float> origins, directions;
+    std::vector<size_t> asked_pixels;
+    g.flow_visible.assign(n, 0u);
+    for (size_t p = 0; p < n; ++p) {
+      if (g.instance_id[p] == kMiss) {
+        g.flow_visible[p] = kMiss;
+        continue;
+      }
+      const glm::dvec2 at = core::project(other, points[p]);
+      if (!(at.x > -0.5 && at.x < other.width - 0.5 && at.y > -0.5 && at.y < other.height - 0.5)) continue;
+      glm::dvec3 o = eye;
+      if (core::is_orthographic(other)) {
+        glm::dvec3 c = glm::dvec3(other.camera_from_world * glm::dvec4(points[p], 1.0));
+        o = glm::dvec3(other.world_from_camera * glm::dvec4(c.x, c.y, 0.0, 1.0));
+      }
+      const glm::dvec3 d = points[p] - o;
+      for (int k = 0; k < 3; ++k) {
+        origins.push_back(static_cast<float>(o[k]));
+        directions.push_back(static_cast<float>(d[k]));
+      }
+      asked_pixels.push_back(p);
+    }
+    if (!asked_pixels.empty()) {
+      const std::vector<uint8_t> blocked =
+          occluded(origins.data(), directions.data(), asked_pixels.size(), 0.0f, 1.0f - 1e-4f);
+      for (size_t k = 0; k < asked_pixels.size(); ++k) g.flow_visible[asked_pixels[k]] = blocked[k] ? 0u : 1u;
+    }
+  }
+  auto drop = [&](auto& v, unsigned bit) {
+    if (!(asked & bit)) {
+      v.clear();
+      v.shrink_to_fit();
+    }
+  };
+  drop(g.uv, kBarycentrics);
+  drop(g.instance_id, kInstanceId);
+  drop(g.primitive_id, kPrimitiveId);
+  g.channels = asked;
 }
 
 namespace {

@@ -179,9 +179,12 @@ void Scene::set_transform(uint32_t instance, const Matrix4& world_from_object) {
   state_->moved_at[instance] = ++state_->clock;
 }
 
-void Scene::set_time(double seconds) {
-  detail::SceneState& s = *state_;
-  if (!s.file) throw InputError("", "set_time: the scene was not loaded from a file, so it has no animations");
+void Scene::set_time(double seconds) { detail::pose_at(*state_, seconds, "set_time"); }
+
+namespace detail {
+
+void pose_at(SceneState& s, double seconds, const char* caller) {
+  if (!s.file) throw InputError("", std::string(caller) + ": the scene was not loaded from a file, so it has no animations");
   std::vector<uint32_t> moved;
   core::Scene posed = s.file->scene_at(seconds);
   s.time = seconds;
@@ -193,6 +196,9 @@ void Scene::set_time(double seconds) {
   for (uint32_t i : moved) s.moved_at[i] = ++s.clock;
 }
 
+}  // namespace detail
+
+double Scene::time() const { return state_->time; }
 bool Scene::animated() const { return state_->file && state_->file->animated(); }
 double Scene::animation_end() const { return state_->file ? state_->file->animation_end() : 0.0; }
 

@@ -55,4 +55,8 @@ struct SceneState {
 // and set_time put it): s.trees, built first if the scene changed since.
 std::shared_ptr<const core::SceneData> current_trees(SceneState& s);
 
+// Poses the file's scene at `seconds` (Scene::set_time); InputError naming
+// `caller` for a scene without a file.
+void pose_at(SceneState& s, double seconds, const char* caller);
+
 }  // namespace rayfold::detail

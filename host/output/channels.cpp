@@ -51,6 +51,8 @@ const std::vector<PlaneSpec>& plane_specs() {
       {kEmissive, "emissive", nullptr, "Emission", 3, {"Emission.R", "Emission.G", "Emission.B"}, &GBuffer::emissive,
        nullptr},
       {kLabel, "label", nullptr, "Label", 1, {"Label"}, nullptr, &GBuffer::label},
+      {kFlow, "flow", nullptr, "Flow", 2, {"Flow.X", "Flow.Y"}, &GBuffer::flow, nullptr},
+      {kFlowVisible, "flow_visible", nullptr, "FlowVisible", 1, {"FlowVisible"}, nullptr, &GBuffer::flow_visible},
   };
   return kSpecs;
 }

@@ -299,6 +299,10 @@ void add_plane_properties(Class& cls) {
       "miss",
       "(H, W, 3) float32: linear RGB emission, emissiveFactor * emissiveTexture * emissive strength; 0 on a miss",
       "(H, W) uint32: index into Scene.labels (0: no label) from the instance's node extras; MISS",
+      "(H, W, 2) float32: optical flow to flow_to's view: where the pixel's surface point lands there, minus "
+      "the pixel, in pixels (+x right, +y down); NaN behind the other eye; 0 on a miss",
+      "(H, W) uint32: 1 where the surface point is seen in flow_to's view (inside its image, unoccluded), else "
+      "0; MISS on a miss",
   };
   const std::vector<rayfold::core::PlaneSpec>& specs = rayfold::core::plane_specs();
   RF_CHECK_EQ(specs.size(), sizeof(kDocs) / sizeof(kDocs[0]), "a doc per plane");
@@ -437,13 +441,31 @@ void keep_asked(rayfold::GBuffer& g, unsigned asked) {
 // fold: a fold's name or "auto" (plans' choice).
 template <class Pick>
 PyGBuffer render_locked(PyScene& s, Pick&& pick, const rayfold::Camera& camera, const std::string& fold,
-                        unsigned channels, AutoPlans& plans) {
+                        unsigned channels, AutoPlans& plans, const std::optional<rayfold::FlowTo>& flow_to = {},
+                        std::optional<double> time = {}) {
   if (fold != "auto") parse_fold(fold);  // a bad name refused before the planes are taken
+  if ((channels & (rayfold::kFlow | rayfold::kFlowVisible)) && !flow_to)
+    throw rayfold::InputError("", "channels flow and flow_visible need flow_to: the camera (or (camera, time)) "
+                                  "the flow goes to");
   rayfold::GBuffer g;
   take_planes(g, camera, planes_for(channels));
   locked(s, [&] {
     rayfold::Renderer& r = pick();
-    r.render_into(g, camera, plans.plan(r, {camera}, fold, 1).first, planes_for(channels));
+    const rayfold::Fold f = plans.plan(r, {camera}, fold, 1).first;
+    // time: this render's pose, the scene's put back after it.
+    const double before = s.scene.time();
+    const bool repose = time && !(*time == before);
+    if (repose) s.scene.set_time(*time);
+    try {
+      if (flow_to)
+        r.render_into(g, camera, f, planes_for(channels), *flow_to);
+      else
+        r.render_into(g, camera, f, planes_for(channels));
+    } catch (...) {
+      if (repose) s.scene.set_time(before);
+      throw;
+    }
+    if (repose) s.scene.set_time(before);
   });
   keep_asked(g, channels);
   return to_python(std::move(g), camera);
@@ -858,9 +880,21 @@ NB_MODULE(_core, m) {
           "render",
           [](PyScene& s, const rayfold::Camera& camera, const std::string& fold, const std::string& backend,
              const std::string& device, const std::string& kernel, unsigned threads, nb::handle channels,
-             const std::string& depth, bool exact_depth) {
+             const std::string& depth, bool exact_depth, nb::handle flow_to, std::optional<double> time) {
             const rayfold::RendererOptions o = renderer_options(backend, device, kernel, threads, depth, exact_depth);
             const unsigned mask = parse_channels(channels);
+            // flow_to: a Camera, or (Camera, time).
+            std::optional<rayfold::FlowTo> to;
+            if (!flow_to.is_none()) {
+              if (nb::isinstance<rayfold::Camera>(flow_to)) {
+                to = rayfold::FlowTo{nb::cast<rayfold::Camera>(flow_to)};
+              } else {
+                const nb::tuple t = nb::cast<nb::tuple>(flow_to);
+                if (t.size() != 2 || !nb::isinstance<rayfold::Camera>(t[0]))
+                  throw rayfold::InputError("", "flow_to must be a Camera or (Camera, time)");
+                to = rayfold::FlowTo{nb::cast<rayfold::Camera>(t[0]), t[1].is_none() ? NAN : nb::cast<double>(t[1])};
+              }
+            }
             const std::string key = backend + "|" + device + "|" + kernel + "|" + std::to_string(threads) + "|" +
                                     depth + (exact_depth ? "|exact" : "");
             auto cached = [&]() -> rayfold::Renderer& {
@@ -868,10 +902,11 @@ NB_MODULE(_core, m) {
               if (!r) r = std::make_unique<rayfold::Renderer>(s.scene, o);
               return *r;
             };
-            return render_locked(s, cached, camera, fold, mask, s.plans[key]);
+            return render_locked(s, cached, camera, fold, mask, s.plans[key], to, time);
           },
           "camera"_a, "fold"_a = "none", "backend"_a = "opencl", "device"_a = "", "kernel"_a = "auto", "threads"_a = 0,
-          "channels"_a = nb::none(), "depth"_a = "distance", "exact_depth"_a = false,
+          "channels"_a = nb::none(), "depth"_a = "distance", "exact_depth"_a = false, "flow_to"_a = nb::none(),
+          "time"_a = nb::none(),
           "Renders a G-buffer. The trees and kernels for these options are built on first use and kept. fold: "
           "'none', 'y', 'x', 'xy' (the same bits, less work), or 'auto': the fold (and, with kernel='auto', the "
           "kernel) the cost model predicts fastest from a probe of sampled tiles (docs/cost_model.md), chosen on "
@@ -879,7 +914,8 @@ NB_MODULE(_core, m) {
           "the planes to fill (a list or 'depth,instance_id'; default all), the others None. depth: 'distance' "
           "along each pixel's ray, or 'planar' along the camera's axis. exact_depth: each depth from the pixel's "
           "exact ray in double-float, within 2^-24 of the exact value (slower: about 1.2x to 1.5x the frame). "
-          "Releases the GIL.")
+          "flow_to: the Camera, or (Camera, time), that the channels flow and flow_visible go to. time: the "
+          "scene posed at this time for this render (seconds), put back after it. Releases the GIL.")
       .def(
           "render_views",
           [](PyScene& s, const std::vector<rayfold::Camera>& cameras, const std::string& fold, nb::handle align_arg,

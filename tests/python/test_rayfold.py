@@ -943,3 +943,28 @@ def test_material_planes_and_labels_from_the_file(tmp_path):
     back = rayfold.read_exr(tmp_path / "quad.exr")
     for name in ["base_color", "metallic_roughness", "emissive", "label"]:
         np.testing.assert_array_equal(bits(back[name]), bits(getattr(g, name)), err_msg=name)
+
+
+def test_flow_to_another_camera_is_the_projection_of_each_hit(tmp_path):
+    path = tmp_path / "quad.gltf"
+    write_quad_gltf(path)
+    scene = rayfold.Scene(str(path))
+    a = rayfold.Camera.look_at((0, 0, 0), (0, 0, -4), (0, 1, 0), 60.0, 64, 48)
+    b = rayfold.Camera.look_at((0.5, 0.3, 0.2), (0.1, 0, -4), (0, 1, 0), 50.0, 80, 60)
+    g = scene.render(a, channels="depth,instance_id,flow,flow_visible", flow_to=b)
+    hit = g.instance_id != rayfold.MISS
+    assert hit.sum() > 500
+    # Each hit's point from its ray and depth, into b by its pose and intrinsics (pixel centres at integers).
+    points = (a.ray_origins() + g.depth[..., None] * a.ray_directions())[hit]
+    w2c = np.linalg.inv(b.camera_to_world_in("opencv"))
+    cam = points @ w2c[:3, :3].T + w2c[:3, 3]
+    fx, fy, cx, cy = b.intrinsics
+    at = np.stack([fx * cam[:, 0] / cam[:, 2] + cx - 0.5, fy * cam[:, 1] / cam[:, 2] + cy - 0.5], 1)
+    ys, xs = np.nonzero(hit)
+    np.testing.assert_allclose(g.flow[hit], at - np.stack([xs, ys], 1), atol=2e-3)
+    assert set(np.unique(g.flow_visible[hit])) <= {0, 1} and (g.flow_visible[~hit] == rayfold.MISS).all()
+    # (camera, time) on a file without animations: the same pose, the same bits; flow needs flow_to.
+    same = scene.render(a, channels="depth,instance_id,flow,flow_visible", flow_to=(b, 0.0), time=0.0)
+    np.testing.assert_array_equal(bits(same.flow), bits(g.flow))
+    with pytest.raises(ValueError, match="flow_to"):
+        scene.render(a, channels="flow")

@@ -50,7 +50,9 @@ enum Channels : unsigned {
   kMetallicRoughness = 4096u,  // metallic, roughness
   kEmissive = 8192u,           // linear RGB
   kLabel = 16384u,             // the instance's label from its node's extras (Scene::labels)
-  kEveryChannel = 32767u,
+  kFlow = 32768u,              // where the surface point is in another view, minus the pixel (FlowTo)
+  kFlowVisible = 65536u,       // whether it is seen there (FlowTo)
+  kEveryChannel = 131071u,
 };
 
 // A comma-separated list of channel names as Channels, as the CLI's
@@ -59,8 +61,8 @@ enum Channels : unsigned {
 // texcoord1, position, object_position, material_id, base_color,
 // metallic_roughness, emissive, label, or the EXR's names for them (Z, N,
 // UV, InstanceID, PrimitiveID, Ns, TexCoord, TexCoord1, P, Pref,
-// MaterialID, BaseColor, MetallicRoughness, Emission, Label); uv is
-// barycentrics' older name. InputError naming an
+// MaterialID, BaseColor, MetallicRoughness, Emission, Label), flow and
+// flow_visible (Flow, FlowVisible); uv is barycentrics' older name. InputError naming an
 // unknown name, or for none.
 unsigned parse_channels(const std::string& list);
 
@@ -130,6 +132,16 @@ struct GBuffer {
   std::vector<float> metallic_roughness;  // metallic, roughness; height * width * 2
   std::vector<float> emissive;            // RGB: emissiveFactor * texture * strength; height * width * 3
   std::vector<uint32_t> label;            // index into Scene::labels (0: no label), kMiss on a miss
+  // Optical flow to another view (Renderer::render with a FlowTo): the
+  // pixel's surface point (the same barycentrics on the same triangle,
+  // posed at the other view's time) projected into the other image, minus
+  // the pixel, in pixels, +x right, +y down (docs/channels.md); NaN where
+  // it is behind the other eye, 0 on a miss. height * width * 2.
+  std::vector<float> flow;
+  // 1 where that point is seen in the other view (inside its image, and
+  // nothing on the segment from its eye closer than 1e-4 of the segment's
+  // length short of it), else 0; kMiss on a miss.
+  std::vector<uint32_t> flow_visible;
   unsigned channels = kAllChannels;    // the planes filled (Channels); the others are empty
   Depth depth_kind = Depth::distance;  // what `depth` measures (RendererOptions::depth)
   bool exact_depth = false;            // depth from the exact ray in double-float (RendererOptions::exact_depth)

@@ -86,6 +86,14 @@ struct RayHits {
   unsigned channels = 0;  // the planes filled (Channels, kDepth for t; none until a query fills them)
 };
 
+// The view a render's flow goes to (kFlow, kFlowVisible): its camera, and
+// the time the scene is posed at for it (seconds, as Scene::set_time; NaN:
+// the scene's pose now, a second camera on the same scene).
+struct FlowTo {
+  Camera camera;
+  double time = std::numeric_limits<double>::quiet_NaN();
+};
+
 // The most views one trace answers unfolded (32 transform groups).
 constexpr int kMaxAlignedViews = 32;
 
@@ -107,6 +115,12 @@ class Renderer {
   GBuffer render(const Camera& camera, Fold fold = Fold::none, unsigned channels = kAllChannels);
   // The same into `out`, reusing its planes when the size matches.
   void render_into(GBuffer& out, const Camera& camera, Fold fold = Fold::none, unsigned channels = kAllChannels);
+  // The same with the flow to another view: channels may name kFlow and
+  // kFlowVisible (the others refuse them). With to.time set the scene is
+  // posed at that time for the flow, then put back as it was; InputError for
+  // a scene without a file, or a pose whose triangles differ.
+  GBuffer render(const Camera& camera, Fold fold, unsigned channels, const FlowTo& to);
+  void render_into(GBuffer& out, const Camera& camera, Fold fold, unsigned channels, const FlowTo& to);
   // Traces several views, one GBuffer each in the same order. Views with the
   // same image size and intrinsics are traced together, up to `align` per
   // trace (alignment: one traversal answers every view of it); each view's

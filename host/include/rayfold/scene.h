@@ -89,6 +89,7 @@ class Scene {
   // and the next render rebuilds the trees. Throws InputError for a scene not
   // loaded from a file, or animation data that is broken.
   void set_time(double seconds);
+  double time() const;           // the pose's time (set_time, LoadOptions::time); NaN: the rest pose
   bool animated() const;         // the file animates nodes
   double animation_end() const;  // its last keyframe, seconds; 0 when not animated
 

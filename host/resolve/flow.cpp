@@ -1,0 +1,66 @@
+#include "resolve/flow.h"
+
+#include <cmath>
+#include <limits>
+
+#include <glm/mat4x4.hpp>
+
+#include "device_layout.h"
+#include "util/errors.h"
+#include "util/parallel.h"
+
+namespace rayfold::core {
+
+glm::dvec2 project(const Camera& c, const glm::dvec3& world) {
+  const glm::dvec3 p = glm::dvec3(c.camera_from_world * glm::dvec4(world, 1.0));
+  double a = p.x, b = p.y;
+  if (!c.params.ortho) {
+    if (!(p.z < 0.0)) return glm::dvec2(std::numeric_limits<double>::quiet_NaN());
+    a = p.x / -p.z;
+    b = p.y / -p.z;
+  }
+  // exact_direction's pixel (x, y): a = scale_x (2x + kx0 + frac_x), b = scale_y (ky0 - 2y + frac_y).
+  const double x = (a / c.scale_x - static_cast<double>(c.params.kx0) - c.frac_x) / 2.0;
+  const double y = (static_cast<double>(c.params.ky0) + c.frac_y - b / c.scale_y) / 2.0;
+  return glm::dvec2(x, y);
+}
+
+void resolve_flow(const Scene& other, const HitPlanes& in, int width, const Camera& to, float* flow,
+                  glm::dvec3* points, unsigned threads) {
+  RF_CHECK(in.instance && in.primitive && in.barycentrics, "flow needs the hits' ids and barycentrics");
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  parallel_for(in.pixels, threads, size_t{1} << 13, [&](size_t begin, size_t end) {
+    for (size_t p = begin; p < end; ++p) {
+      const uint32_t inst = in.instance[p];
+      if (inst == RF_INVALID) {
+        if (flow) flow[2 * p] = flow[2 * p + 1] = 0.0f;
+        if (points) points[p] = glm::dvec3(nan);
+        continue;
+      }
+      if (inst >= other.instances.size())
+        throw InputError("", "flow: the other view's pose has " + std::to_string(other.instances.size()) +
+                                 " instances, not instance " + std::to_string(inst));
+      const Instance& instance = other.instances[inst];
+      const Mesh& mesh = other.meshes[instance.mesh];
+      const uint32_t tri = in.primitive[p];
+      if (tri >= mesh.triangle_count())
+        throw InputError("", "flow: in the other view's pose instance " + std::to_string(inst) + "'s mesh has " +
+                                 std::to_string(mesh.triangle_count()) + " triangles, not triangle " +
+                                 std::to_string(tri));
+      const uint32_t* i = &mesh.indices[3 * tri];
+      const double u = in.barycentrics[2 * p], v = in.barycentrics[2 * p + 1];
+      const double b0 = (1.0 - u) - v;
+      const glm::dvec3 o =
+          b0 * glm::dvec3(mesh.positions[i[0]]) + u * glm::dvec3(mesh.positions[i[1]]) + v * glm::dvec3(mesh.positions[i[2]]);
+      const glm::dvec3 w = glm::dvec3(instance.world_from_object * glm::dvec4(o, 1.0));
+      if (points) points[p] = w;
+      if (flow) {
+        const glm::dvec2 at = project(to, w);
+        flow[2 * p] = static_cast<float>(at.x - static_cast<double>(p % width));
+        flow[2 * p + 1] = static_cast<float>(at.y - static_cast<double>(p / width));
+      }
+    }
+  });
+}
+
+}  // namespace rayfold::core
