@@ -119,11 +119,10 @@ Renderer& Renderer::operator=(Renderer&&) noexcept = default;
 
 namespace {
 
-constexpr unsigned kFlowChannels = kFlow | kFlowVisible;
-
-void check_channels(unsigned channels, unsigned allowed = kEveryChannel & ~kFlowChannels) {
-  if ((channels & kFlowChannels) && !(allowed & kFlowChannels) && !(channels & ~kEveryChannel))
-    throw InputError("", "flow and flow_visible need the view they flow to: render(camera, fold, channels, FlowTo{...})");
+void check_channels(unsigned channels, unsigned allowed = kEveryChannel) {
+  if ((channels & kFlowChannels) && !(allowed & kFlowChannels) && !(channels & ~kAnyChannel))
+    throw InputError("", "flow and flow_visible need the view the flow goes to: a single view's render with it "
+                         "(Python: render's flow_to=; C++: render(camera, fold, channels, FlowTo{...}))");
   if (channels == 0u || (channels & ~allowed) != 0u)
     throw InputError("", allowed == kAllChannels
                              ? "channels must be a nonzero combination of kDepth, kNormal, kUv, kInstanceId and "
@@ -278,7 +277,7 @@ GBuffer Renderer::render(const Camera& camera, Fold fold, unsigned channels, con
 }
 
 void Renderer::render_into(GBuffer& g, const Camera& camera, Fold fold, unsigned asked, const FlowTo& to) {
-  check_channels(asked, kEveryChannel);
+  check_channels(asked, kAnyChannel);
   const unsigned hits = kInstanceId | kPrimitiveId | kBarycentrics;
   const unsigned rest = (asked & ~kFlowChannels) | ((asked & kFlowChannels) ? hits : 0u);
   render_into(g, camera, fold, rest);

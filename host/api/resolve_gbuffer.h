@@ -12,7 +12,7 @@
 
 namespace rayfold::detail {
 
-constexpr unsigned kResolvedChannels = kEveryChannel & ~static_cast<unsigned>(kAllChannels);
+constexpr unsigned kResolvedChannels = kAnyChannel & ~static_cast<unsigned>(kAllChannels);
 
 // The scene attributes (core::Attribute bits) the channels read.
 unsigned attributes_for(unsigned channels);

@@ -254,6 +254,12 @@ std::vector<std::string> missing_attribute_warnings(const Scene& scene, unsigned
                                                            "keeps positions only)"
                                                          : ""));
     }
+    // A primitive without a material has glTF's default one, said by
+    // material_id; a mesh that kept no materials at all is named.
+    if ((attributes & kAttributeMaterial) && mesh.attributes.loaded == 0)
+      out.push_back(name + " has no materials (a mesh built in memory or read from a scene file keeps positions "
+                           "only): its material_id is DEFAULT_MATERIAL and its material channels glTF's default "
+                           "material's");
   }
   return out;
 }

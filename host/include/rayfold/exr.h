@@ -21,7 +21,7 @@ namespace rayfold {
 // (Channels): g's planes that it also names are written (the CLI's
 // --channels); InputError when it names none of them.
 void write_exr(const std::string& path, const GBuffer& g, const Camera& camera, const Scene& scene,
-               ExrCompression compression = ExrCompression::zip, unsigned channels = kEveryChannel);
+               ExrCompression compression = ExrCompression::zip, unsigned channels = kAnyChannel);
 
 // A preview of g as the CLI's --png writes it: normals mapped to colour
 // ((n + 1) / 2, 8 bits), misses black. Needs g's normal and instance_id

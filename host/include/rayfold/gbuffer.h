@@ -50,9 +50,11 @@ enum Channels : unsigned {
   kMetallicRoughness = 4096u,  // metallic, roughness
   kEmissive = 8192u,           // linear RGB
   kLabel = 16384u,             // the instance's label from its node's extras (Scene::labels)
+  kEveryChannel = 32767u,      // every channel one view's render makes
   kFlow = 32768u,              // where the surface point is in another view, minus the pixel (FlowTo)
   kFlowVisible = 65536u,       // whether it is seen there (FlowTo)
-  kEveryChannel = 131071u,
+  kFlowChannels = 98304u,      // kFlow | kFlowVisible: a render with a FlowTo only
+  kAnyChannel = 131071u,       // every plane a GBuffer may hold
 };
 
 // A comma-separated list of channel names as Channels, as the CLI's
