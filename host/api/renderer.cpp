@@ -32,6 +32,8 @@ struct Renderer::Impl {
   core::RenderResult result;   // its hit buffer is reused render to render
   core::RenderResult second_result;  // the pass in flight beside it (render_views, packed readback)
   std::vector<rf_pixel_hit> query_hits;  // a query chunk's answers, kept from query to query
+  std::vector<float> flow_origins, flow_directions;  // flow_visible's segments, kept from render to render
+  std::vector<uint32_t> flow_pixels;                 // the pixel of each segment
   bool planar_depth = false;   // RendererOptions::depth
   bool exact_depth = false;    // RendererOptions::exact_depth
   bool cull = true;            // RendererOptions::cull
@@ -309,42 +311,65 @@ void Renderer::render_into(GBuffer& g, const Camera& camera, Fold fold, unsigned
   in.instance = g.instance_id.data();
   in.primitive = g.primitive_id.data();
   in.barycentrics = g.uv.data();
-  std::vector<glm::dvec3> points(n);
+  // The points in the other pose, for the visibility's segments.
+  std::vector<glm::dvec3> points((asked & kFlowVisible) ? n : 0);
   if (asked & kFlow) g.flow.resize(2 * n);
-  core::resolve_flow(s.scene, in, g.width, to.camera.core(), (asked & kFlow) ? g.flow.data() : nullptr, points.data(),
-                     impl_->options.threads);
+  core::resolve_flow(s.scene, in, g.width, to.camera.core(), (asked & kFlow) ? g.flow.data() : nullptr,
+                     points.empty() ? nullptr : points.data(), impl_->options.threads);
   if (asked & kFlowVisible) {
     // Seen from the other view: inside its image, and nothing on the
     // segment from its eye (an orthographic view's image plane) short of
     // the point by more than 1e-4 of the segment (t = 1 at the point).
     const core::Camera& other = to.camera.core();
+    const core::Projection project_to(other);
     const glm::dvec3 eye = glm::dvec3(other.world_from_camera * glm::dvec4(0.0, 0.0, 0.0, 1.0));
-    std::vector<float> origins, directions;
-    std::vector<size_t> asked_pixels;
-    g.flow_visible.assign(n, 0u);
-    for (size_t p = 0; p < n; ++p) {
-      if (g.instance_id[p] == kMiss) {
-        g.flow_visible[p] = kMiss;
-        continue;
+    std::vector<float>& origins = impl_->flow_origins;
+    std::vector<float>& directions = impl_->flow_directions;
+    std::vector<uint32_t>& pixels = impl_->flow_pixels;
+    origins.resize(3 * n);
+    directions.resize(3 * n);
+    pixels.resize(n);
+    g.flow_visible.resize(n);
+    // Each chunk writes its segments from its first pixel on, then they are
+    // moved together: the order stays the pixels', which keeps neighbouring
+    // segments in one vector of the query's lanes.
+    constexpr size_t kChunk = size_t{1} << 14;
+    std::vector<size_t> counts((n + kChunk - 1) / kChunk, 0);
+    core::parallel_for(n, impl_->options.threads, kChunk, [&](size_t begin, size_t end) {
+      RF_CHECK_EQ(begin % kChunk, 0u, "parallel_for hands out whole chunks");
+      size_t k = begin;
+      for (size_t p = begin; p < end; ++p) {
+        g.flow_visible[p] = g.instance_id[p] == kMiss ? kMiss : 0u;
+        if (g.instance_id[p] == kMiss) continue;
+        const glm::dvec2 at = project_to(points[p]);
+        if (!(at.x > -0.5 && at.x < other.width - 0.5 && at.y > -0.5 && at.y < other.height - 0.5)) continue;
+        glm::dvec3 o = eye;
+        if (core::is_orthographic(other)) {
+          const glm::dvec3 c = glm::dvec3(other.camera_from_world * glm::dvec4(points[p], 1.0));
+          o = glm::dvec3(other.world_from_camera * glm::dvec4(c.x, c.y, 0.0, 1.0));
+        }
+        const glm::dvec3 d = points[p] - o;
+        for (int c = 0; c < 3; ++c) {
+          origins[3 * k + c] = static_cast<float>(o[c]);
+          directions[3 * k + c] = static_cast<float>(d[c]);
+        }
+        pixels[k++] = static_cast<uint32_t>(p);
       }
-      const glm::dvec2 at = core::project(other, points[p]);
-      if (!(at.x > -0.5 && at.x < other.width - 0.5 && at.y > -0.5 && at.y < other.height - 0.5)) continue;
-      glm::dvec3 o = eye;
-      if (core::is_orthographic(other)) {
-        glm::dvec3 c = glm::dvec3(other.camera_from_world * glm::dvec4(points[p], 1.0));
-        o = glm::dvec3(other.world_from_camera * glm::dvec4(c.x, c.y, 0.0, 1.0));
+      counts[begin / kChunk] = k - begin;
+    });
+    size_t m = 0;
+    for (size_t c = 0; c < counts.size(); ++c) {
+      const size_t from = c * kChunk;
+      if (from != m) {
+        std::copy_n(&origins[3 * from], 3 * counts[c], &origins[3 * m]);
+        std::copy_n(&directions[3 * from], 3 * counts[c], &directions[3 * m]);
+        std::copy_n(&pixels[from], counts[c], &pixels[m]);
       }
-      const glm::dvec3 d = points[p] - o;
-      for (int k = 0; k < 3; ++k) {
-        origins.push_back(static_cast<float>(o[k]));
-        directions.push_back(static_cast<float>(d[k]));
-      }
-      asked_pixels.push_back(p);
+      m += counts[c];
     }
-    if (!asked_pixels.empty()) {
-      const std::vector<uint8_t> blocked =
-          occluded(origins.data(), directions.data(), asked_pixels.size(), 0.0f, 1.0f - 1e-4f);
-      for (size_t k = 0; k < asked_pixels.size(); ++k) g.flow_visible[asked_pixels[k]] = blocked[k] ? 0u : 1u;
+    if (m > 0) {
+      const std::vector<uint8_t> blocked = occluded(origins.data(), directions.data(), m, 0.0f, 1.0f - 1e-4f);
+      for (size_t k = 0; k < m; ++k) g.flow_visible[pixels[k]] = blocked[k] ? 0u : 1u;
     }
   }
   auto drop = [&](auto& v, unsigned bit) {

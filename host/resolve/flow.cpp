@@ -11,24 +11,33 @@
 
 namespace rayfold::core {
 
-glm::dvec2 project(const Camera& c, const glm::dvec3& world) {
-  const glm::dvec3 p = glm::dvec3(c.camera_from_world * glm::dvec4(world, 1.0));
+Projection::Projection(const Camera& c)
+    : camera_from_world(c.camera_from_world),
+      orthographic(c.params.ortho != 0),
+      half_inverse_scale(0.5 / c.scale_x, 0.5 / c.scale_y),
+      offset(-(static_cast<double>(c.params.kx0) + c.frac_x) / 2.0,
+             (static_cast<double>(c.params.ky0) + c.frac_y) / 2.0) {}
+
+glm::dvec2 Projection::operator()(const glm::dvec3& world) const {
+  const glm::dvec3 p = glm::dvec3(camera_from_world * glm::dvec4(world, 1.0));
   double a = p.x, b = p.y;
-  if (!c.params.ortho) {
+  if (!orthographic) {
     if (!(p.z < 0.0)) return glm::dvec2(std::numeric_limits<double>::quiet_NaN());
-    a = p.x / -p.z;
-    b = p.y / -p.z;
+    const double inverse_depth = -1.0 / p.z;
+    a *= inverse_depth;
+    b *= inverse_depth;
   }
   // exact_direction's pixel (x, y): a = scale_x (2x + kx0 + frac_x), b = scale_y (ky0 - 2y + frac_y).
-  const double x = (a / c.scale_x - static_cast<double>(c.params.kx0) - c.frac_x) / 2.0;
-  const double y = (static_cast<double>(c.params.ky0) + c.frac_y - b / c.scale_y) / 2.0;
-  return glm::dvec2(x, y);
+  return glm::dvec2(a * half_inverse_scale.x + offset.x, offset.y - b * half_inverse_scale.y);
 }
+
+glm::dvec2 project(const Camera& camera, const glm::dvec3& world) { return Projection(camera)(world); }
 
 void resolve_flow(const Scene& other, const HitPlanes& in, int width, const Camera& to, float* flow,
                   glm::dvec3* points, unsigned threads) {
   RF_CHECK(in.instance && in.primitive && in.barycentrics, "flow needs the hits' ids and barycentrics");
   const double nan = std::numeric_limits<double>::quiet_NaN();
+  const Projection project_to(to);
   parallel_for(in.pixels, threads, size_t{1} << 13, [&](size_t begin, size_t end) {
     for (size_t p = begin; p < end; ++p) {
       const uint32_t inst = in.instance[p];
@@ -55,7 +64,7 @@ void resolve_flow(const Scene& other, const HitPlanes& in, int width, const Came
       const glm::dvec3 w = glm::dvec3(instance.world_from_object * glm::dvec4(o, 1.0));
       if (points) points[p] = w;
       if (flow) {
-        const glm::dvec2 at = project(to, w);
+        const glm::dvec2 at = project_to(w);
         flow[2 * p] = static_cast<float>(at.x - static_cast<double>(p % width));
         flow[2 * p + 1] = static_cast<float>(at.y - static_cast<double>(p / width));
       }

@@ -6,6 +6,7 @@
 #pragma once
 
 #include <glm/vec2.hpp>
+#include <glm/mat4x4.hpp>
 #include <glm/vec3.hpp>
 
 #include "resolve/resolve.h"
@@ -17,6 +18,15 @@ namespace rayfold::core {
 // +y down), inverting exactly the rays the camera traces; NaN where a
 // perspective camera has the point at or behind its eye's plane.
 glm::dvec2 project(const Camera& camera, const glm::dvec3& world);
+// The same with the camera's constants worked out once, for many points
+// (one division a point).
+struct Projection {
+  explicit Projection(const Camera& camera);
+  glm::dvec2 operator()(const glm::dvec3& world) const;
+  glm::dmat4 camera_from_world;
+  bool orthographic;
+  glm::dvec2 half_inverse_scale, offset;
+};
 
 // For each pixel of `in` (a view `width` pixels wide) that hits: flow (2
 // per pixel) is project(to, point) minus the pixel's own (x, y) (NaN where
