@@ -28,7 +28,8 @@ std::string quads_file(const std::string& name, const std::vector<std::pair<doub
   const std::vector<glm::vec3> p = {{-1, -1, 0}, {1, -1, 0}, {1, 1, 0}, {-1, 1, 0}};
   static const uint16_t kIdx[6] = {0, 1, 2, 0, 2, 3};
   const int pos = f.positions(p);
-  f.j["meshes"] = {{{"primitives", {rayfold::core::testing::prim(pos, f.accessor(f.view(kIdx, 12), 5123, "SCALAR", 6))}}}};
+  f.j["meshes"] = {
+      {{"primitives", {rayfold::core::testing::prim(pos, f.accessor(f.view(kIdx, 12), 5123, "SCALAR", 6))}}}};
   f.j["nodes"] = nlohmann::json::array();
   for (size_t i = 0; i < quads.size(); ++i)
     f.j["nodes"].push_back({{"mesh", 0},
@@ -109,8 +110,9 @@ TEST(Flow, ToAnotherCameraIsTheProjectionByHand) {
   rayfold::RendererOptions cpu;
   cpu.backend = rayfold::Backend::cpu;
   rayfold::Renderer reference(scene, cpu);
-  EXPECT_EQ(rayfold::count_differing_pixels(reference.render(a, rayfold::Fold::none, kFlowPlanes, rayfold::FlowTo{b}), g),
-            0u);
+  EXPECT_EQ(
+      rayfold::count_differing_pixels(reference.render(a, rayfold::Fold::none, kFlowPlanes, rayfold::FlowTo{b}), g),
+      0u);
 }
 
 TEST(Flow, AQuadInFrontHidesWhatItCoversFromTheOtherEye) {

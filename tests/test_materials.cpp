@@ -155,7 +155,8 @@ TEST(Materials, TexelsFactorsAndVertexColoursAtLevelZero) {
       }
       expect_close(g.metallic_roughness[2 * i], 0.5 * (d[2] / 255.0), "metallic", i);
       expect_close(g.metallic_roughness[2 * i + 1], 0.75 * (d[1] / 255.0), "roughness", i);
-      for (int k = 0; k < 3; ++k) expect_close(g.emissive[3 * i + k], emissive[k] * srgb_decoded(c[k]) * 4.0, "emissive", i);
+      for (int k = 0; k < 3; ++k)
+        expect_close(g.emissive[3 * i + k], emissive[k] * srgb_decoded(c[k]) * 4.0, "emissive", i);
     }
   // Misses are 0; the default material (white, metallic and rough) where
   // a primitive names none.
@@ -224,8 +225,8 @@ TEST(Materials, TextureTransformAndWrapModes) {
   // quad reads the image twice over, mirrored along u, clamped along v.
   TexturedQuad q;
   const Texels colour = pattern(8, 8, 3);
-  const int tex = q.texture(q.image(png(colour)),
-                            {{"magFilter", 9728}, {"minFilter", 9728}, {"wrapS", 33648}, {"wrapT", 33071}});
+  const int tex =
+      q.texture(q.image(png(colour)), {{"magFilter", 9728}, {"minFilter", 9728}, {"wrapS", 33648}, {"wrapT", 33071}});
   q.f.j["extensionsUsed"] = {"KHR_texture_transform"};
   nlohmann::json info = {{"index", tex}};
   info["extensions"]["KHR_texture_transform"] = {{"offset", {0.3, 0.3}}, {"scale", {2.0, 2.0}}};

@@ -2,8 +2,8 @@
 #include <cstring>
 
 #include "output/channels.h"
-#include "rayfold/gbuffer.h"
 #include "rayfold/errors.h"
+#include "rayfold/gbuffer.h"
 
 namespace rayfold {
 

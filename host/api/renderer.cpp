@@ -4,19 +4,19 @@
 
 #include <algorithm>
 #include <cmath>
-#include <exception>
 #include <cstdlib>
 #include <cstring>
+#include <exception>
 #include <functional>
 
 #include "api/pipeline_options.h"
 #include "api/resolve_gbuffer.h"
-#include "resolve/flow.h"
 #include "api/scene_state.h"
 #include "fold/view_passes.h"
 #include "pipeline/pipeline.h"
 #include "rayfold/errors.h"
 #include "rays/ray_queries.h"
+#include "resolve/flow.h"
 #include "util/errors.h"
 #include "util/parallel.h"
 #include "util/timer.h"
@@ -123,8 +123,9 @@ namespace {
 
 void check_channels(unsigned channels, unsigned allowed = kEveryChannel) {
   if ((channels & kFlowChannels) && !(allowed & kFlowChannels) && !(channels & ~kAnyChannel))
-    throw InputError("", "flow and flow_visible need the view the flow goes to: a single view's render with it "
-                         "(Python: render's flow_to=; C++: render(camera, fold, channels, FlowTo{...}))");
+    throw InputError("",
+                     "flow and flow_visible need the view the flow goes to: a single view's render with it "
+                     "(Python: render's flow_to=; C++: render(camera, fold, channels, FlowTo{...}))");
   if (channels == 0u || (channels & ~allowed) != 0u)
     throw InputError("", allowed == kAllChannels
                              ? "channels must be a nonzero combination of kDepth, kNormal, kUv, kInstanceId and "
@@ -372,16 +373,7 @@ void Renderer::render_into(GBuffer& g, const Camera& camera, Fold fold, unsigned
       for (size_t k = 0; k < m; ++k) g.flow_visible[pixels[k]] = blocked[k] ? 0u : 1u;
     }
   }
-  auto drop = [&](auto& v, unsigned bit) {
-    if (!(asked & bit)) {
-      v.clear();
-      v.shrink_to_fit();
-    }
-  };
-  drop(g.uv, kBarycentrics);
-  drop(g.instance_id, kInstanceId);
-  drop(g.primitive_id, kPrimitiveId);
-  g.channels = asked;
+  detail::keep_planes(g, asked);
 }
 
 namespace {
@@ -487,8 +479,7 @@ static_assert(kDepth == RF_PLANE_DEPTH && kNormal == RF_PLANE_NORMAL && kUv == R
 void Renderer::render_into(GBuffer& g, const Camera& camera, Fold fold, unsigned asked) {
   check_channels(asked);
   const auto t0 = core::Clock::now();
-  const std::vector<std::string> attribute_warnings =
-      detail::load_attributes(*impl_->state, asked);
+  const std::vector<std::string> attribute_warnings = detail::load_attributes(*impl_->state, asked);
   const unsigned channels = detail::trace_channels(asked);
   core::FrameOptions frame =
       frame_options(fold, impl_->moved(), channels, impl_->planar_depth, impl_->exact_depth, impl_->cull);

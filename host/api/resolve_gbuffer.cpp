@@ -1,5 +1,6 @@
 #include "api/resolve_gbuffer.h"
 
+#include "output/channels.h"
 #include "resolve/resolve.h"
 #include "util/errors.h"
 
@@ -94,17 +95,19 @@ void resolve_gbuffer(GBuffer& g, const core::Scene& scene, const core::Camera& c
     in.normal = g.normal.empty() ? nullptr : g.normal.data();
     core::resolve(scene, in, core::ray_cone(camera), out, threads);
   }
-  auto drop = [&](auto& v, unsigned bit) {
-    if (!(channels & bit)) {
+  keep_planes(g, channels);
+}
+
+void keep_planes(GBuffer& g, unsigned channels) {
+  for (const core::PlaneSpec& spec : core::plane_specs()) {
+    if (channels & spec.bit) continue;
+    auto drop = [](auto& v) {
       v.clear();
       v.shrink_to_fit();
-    }
-  };
-  drop(g.depth, kDepth);
-  drop(g.normal, kNormal);
-  drop(g.uv, kUv);
-  drop(g.instance_id, kInstanceId);
-  drop(g.primitive_id, kPrimitiveId);
+    };
+    if (spec.floats) drop(g.*spec.floats);
+    if (spec.ids) drop(g.*spec.ids);
+  }
   g.channels = channels;
 }
 

@@ -27,10 +27,13 @@ unsigned trace_channels(unsigned channels);
 std::vector<std::string> load_attributes(SceneState& s, unsigned channels);
 
 // Fills g's resolved planes that `channels` asks for from its visibility
-// planes, then empties the visibility planes `channels` did not ask for and
-// sets g.channels to it.
+// planes, then keep_planes(g, channels).
 // `camera` is the view's (the material channels' ray cones).
 void resolve_gbuffer(GBuffer& g, const core::Scene& scene, const core::Camera& camera, unsigned channels,
                      unsigned threads);
+
+// Frees every plane of g that `channels` does not name and sets g.channels
+// to it.
+void keep_planes(GBuffer& g, unsigned channels);
 
 }  // namespace rayfold::detail

@@ -184,7 +184,8 @@ void Scene::set_time(double seconds) { detail::pose_at(*state_, seconds, "set_ti
 namespace detail {
 
 void pose_at(SceneState& s, double seconds, const char* caller) {
-  if (!s.file) throw InputError("", std::string(caller) + ": the scene was not loaded from a file, so it has no animations");
+  if (!s.file)
+    throw InputError("", std::string(caller) + ": the scene was not loaded from a file, so it has no animations");
   std::vector<uint32_t> moved;
   core::Scene posed = s.file->scene_at(seconds);
   s.time = seconds;

@@ -21,10 +21,10 @@
 #include <mutex>
 #include <sstream>
 
-#include "plane_pool.h"
-#include "rayfold/rayfold.h"
 #include "api/resolve_gbuffer.h"
 #include "output/channels.h"
+#include "plane_pool.h"
+#include "rayfold/rayfold.h"
 #include "scene/dataset_cameras.h"
 
 namespace nb = nanobind;
@@ -445,8 +445,9 @@ PyGBuffer render_locked(PyScene& s, Pick&& pick, const rayfold::Camera& camera, 
                         std::optional<double> time = {}) {
   if (fold != "auto") parse_fold(fold);  // a bad name refused before the planes are taken
   if ((channels & (rayfold::kFlow | rayfold::kFlowVisible)) && !flow_to)
-    throw rayfold::InputError("", "channels flow and flow_visible need flow_to: the camera (or (camera, time)) "
-                                  "the flow goes to");
+    throw rayfold::InputError("",
+                              "channels flow and flow_visible need flow_to: the camera (or (camera, time)) "
+                              "the flow goes to");
   rayfold::GBuffer g;
   take_planes(g, camera, planes_for(channels));
   locked(s, [&] {

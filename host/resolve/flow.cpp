@@ -33,8 +33,8 @@ glm::dvec2 Projection::operator()(const glm::dvec3& world) const {
 
 glm::dvec2 project(const Camera& camera, const glm::dvec3& world) { return Projection(camera)(world); }
 
-void resolve_flow(const Scene& other, const HitPlanes& in, int width, const Camera& to, float* flow,
-                  glm::dvec3* points, unsigned threads) {
+void resolve_flow(const Scene& other, const HitPlanes& in, int width, const Camera& to, float* flow, glm::dvec3* points,
+                  unsigned threads) {
   RF_CHECK(in.instance && in.primitive && in.barycentrics, "flow needs the hits' ids and barycentrics");
   const double nan = std::numeric_limits<double>::quiet_NaN();
   const Projection project_to(to);
@@ -59,8 +59,8 @@ void resolve_flow(const Scene& other, const HitPlanes& in, int width, const Came
       const uint32_t* i = &mesh.indices[3 * tri];
       const double u = in.barycentrics[2 * p], v = in.barycentrics[2 * p + 1];
       const double b0 = (1.0 - u) - v;
-      const glm::dvec3 o =
-          b0 * glm::dvec3(mesh.positions[i[0]]) + u * glm::dvec3(mesh.positions[i[1]]) + v * glm::dvec3(mesh.positions[i[2]]);
+      const glm::dvec3 o = b0 * glm::dvec3(mesh.positions[i[0]]) + u * glm::dvec3(mesh.positions[i[1]]) +
+                           v * glm::dvec3(mesh.positions[i[2]]);
       const glm::dvec3 w = glm::dvec3(instance.world_from_object * glm::dvec4(o, 1.0));
       if (points) points[p] = w;
       if (flow) {

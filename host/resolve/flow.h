@@ -5,8 +5,8 @@
 // move the triangle.
 #pragma once
 
-#include <glm/vec2.hpp>
 #include <glm/mat4x4.hpp>
+#include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
 
 #include "resolve/resolve.h"
@@ -35,7 +35,7 @@ struct Projection {
 // posed for the other view, its instances and meshes those of the scene the
 // hits are from (InputError otherwise: a file whose pose changes its
 // triangles). Each in double, flow rounded once.
-void resolve_flow(const Scene& other, const HitPlanes& in, int width, const Camera& to, float* flow,
-                  glm::dvec3* points, unsigned threads);
+void resolve_flow(const Scene& other, const HitPlanes& in, int width, const Camera& to, float* flow, glm::dvec3* points,
+                  unsigned threads);
 
 }  // namespace rayfold::core

@@ -3,9 +3,9 @@
 #include <cmath>
 #include <set>
 
+#include <glm/geometric.hpp>
 #include <glm/mat3x3.hpp>
 #include <glm/mat4x4.hpp>
-#include <glm/geometric.hpp>
 #include <glm/matrix.hpp>
 
 #include "device_layout.h"
@@ -86,7 +86,8 @@ unsigned attributes_read(const ResolvedPlanes& out) {
   const bool material_data = out.base_color || out.metallic_roughness || out.emissive;
   return (out.shading_normal ? kAttributeNormal : 0u) | (out.texcoord[0] ? kAttributeTexcoord0 : 0u) |
          (out.texcoord[1] ? kAttributeTexcoord1 : 0u) | (out.material ? kAttributeMaterial : 0u) |
-         (material_data ? kAttributeMaterial | kAttributeMaterialData | kAttributeTexcoord0 | kAttributeTexcoord1 : 0u) |
+         (material_data ? kAttributeMaterial | kAttributeMaterialData | kAttributeTexcoord0 | kAttributeTexcoord1
+                        : 0u) |
          (out.base_color ? kAttributeColor0 : 0u) | (out.label ? kAttributeLabel : 0u);
 }
 
@@ -139,8 +140,8 @@ void resolve(const Scene& scene, const HitPlanes& in, const RayCone& cone, const
       // The triangle's vertices are read only by the channels that need
       // them: a scattered read that costs more than the rest of a material
       // channel whose factors alone make it.
-      const bool vertices = per_vertex || out.base_color ||
-                            ((out.metallic_roughness || out.emissive) && textured(scene, mesh, tri));
+      const bool vertices =
+          per_vertex || out.base_color || ((out.metallic_roughness || out.emissive) && textured(scene, mesh, tri));
       const uint32_t i0 = vertices ? mesh.indices[3 * tri] : 0, i1 = vertices ? mesh.indices[3 * tri + 1] : 0,
                      i2 = vertices ? mesh.indices[3 * tri + 2] : 0;
       const double u = in.barycentrics[2 * p], v = in.barycentrics[2 * p + 1];
@@ -177,8 +178,7 @@ void resolve(const Scene& scene, const HitPlanes& in, const RayCone& cone, const
         out.texcoord[set][2 * p] = static_cast<float>(tc.x);
         out.texcoord[set][2 * p + 1] = static_cast<float>(tc.y);
       }
-      const uint32_t material =
-          mesh.attributes.materials.empty() ? kDefaultMaterial : mesh.attributes.materials[tri];
+      const uint32_t material = mesh.attributes.materials.empty() ? kDefaultMaterial : mesh.attributes.materials[tri];
       if (out.material) out.material[p] = material;
       if (out.label) out.label[p] = scene.instances[inst].label;
       if (out.base_color || out.metallic_roughness || out.emissive) {
@@ -194,8 +194,9 @@ void resolve(const Scene& scene, const HitPlanes& in, const RayCone& cone, const
         }
         if (out.base_color) {
           const std::vector<glm::vec4>& c = mesh.attributes.colors;
-          const glm::dvec4 color =
-              c.empty() ? glm::dvec4(1.0) : interpolate(glm::dvec4(c[i0]), glm::dvec4(c[i1]), glm::dvec4(c[i2]), b0, u, v);
+          const glm::dvec4 color = c.empty()
+                                       ? glm::dvec4(1.0)
+                                       : interpolate(glm::dvec4(c[i0]), glm::dvec4(c[i1]), glm::dvec4(c[i2]), b0, u, v);
           const glm::dvec4 rgba = m.base_color_factor * color * lookup(scene, mesh, m.base_color, corners, b0, u, v, f);
           for (int k = 0; k < 4; ++k) out.base_color[4 * p + k] = static_cast<float>(rgba[k]);
         }
@@ -205,8 +206,8 @@ void resolve(const Scene& scene, const HitPlanes& in, const RayCone& cone, const
           out.metallic_roughness[2 * p + 1] = static_cast<float>(m.roughness_factor * t[1]);
         }
         if (out.emissive) {
-          const glm::dvec3 e =
-              m.emissive_factor * glm::dvec3(lookup(scene, mesh, m.emissive, corners, b0, u, v, f)) * m.emissive_strength;
+          const glm::dvec3 e = m.emissive_factor * glm::dvec3(lookup(scene, mesh, m.emissive, corners, b0, u, v, f)) *
+                               m.emissive_strength;
           for (int k = 0; k < 3; ++k) out.emissive[3 * p + k] = static_cast<float>(e[k]);
         }
       }
@@ -238,8 +239,9 @@ std::vector<std::string> missing_attribute_warnings(const Scene& scene, unsigned
         for (const TextureRef* t : {&mat.base_color, &mat.metallic_roughness, &mat.emissive}) {
           const unsigned bit = t->texcoord == 0 ? kAttributeTexcoord0 : kAttributeTexcoord1;
           if (t->image < 0 || ((mesh.attributes.present & bit) && !(mesh.attributes.missing & bit))) continue;
-          out.push_back(name + " lacks TEXCOORD_" + std::to_string(t->texcoord) + " (in part or whole), which material " +
-                        std::to_string(mi) + (mat.name.empty() ? "" : " ('" + mat.name + "')") +
+          out.push_back(name + " lacks TEXCOORD_" + std::to_string(t->texcoord) +
+                        " (in part or whole), which material " + std::to_string(mi) +
+                        (mat.name.empty() ? "" : " ('" + mat.name + "')") +
                         "'s textures read: they are sampled at (0, 0) there");
           break;
         }
@@ -257,9 +259,10 @@ std::vector<std::string> missing_attribute_warnings(const Scene& scene, unsigned
     // A primitive without a material has glTF's default one, said by
     // material_id; a mesh that kept no materials at all is named.
     if ((attributes & kAttributeMaterial) && mesh.attributes.loaded == 0)
-      out.push_back(name + " has no materials (a mesh built in memory or read from a scene file keeps positions "
-                           "only): its material_id is DEFAULT_MATERIAL and its material channels glTF's default "
-                           "material's");
+      out.push_back(name +
+                    " has no materials (a mesh built in memory or read from a scene file keeps positions "
+                    "only): its material_id is DEFAULT_MATERIAL and its material channels glTF's default "
+                    "material's");
   }
   return out;
 }

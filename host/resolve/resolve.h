@@ -37,10 +37,10 @@ struct HitPlanes {
 // positions in double).
 struct RayCone {
   bool orthographic = false;
-  glm::dvec3 eye{0.0};                // perspective: every ray's origin
+  glm::dvec3 eye{0.0};                 // perspective: every ray's origin
   glm::dvec3 forward{0.0, 0.0, -1.0};  // orthographic: every ray's direction
-  double spread = 0.0;                // perspective: the angle between neighbouring rays at the image centre
-  double width = 0.0;                 // orthographic: a pixel's width, world units
+  double spread = 0.0;                 // perspective: the angle between neighbouring rays at the image centre
+  double width = 0.0;                  // orthographic: a pixel's width, world units
 };
 RayCone ray_cone(const Camera& camera);
 
@@ -76,8 +76,7 @@ unsigned attributes_read(const ResolvedPlanes& out);
 // core). The scene's meshes hold the attributes attributes_read names
 // (LoadOptions::attributes); a mesh lacking one gets the stand-ins above.
 // The material channels read `cone`.
-void resolve(const Scene& scene, const HitPlanes& in, const RayCone& cone, const ResolvedPlanes& out,
-             unsigned threads);
+void resolve(const Scene& scene, const HitPlanes& in, const RayCone& cone, const ResolvedPlanes& out, unsigned threads);
 
 // One line for each mesh that lacks, in part or whole, an attribute among
 // `attributes` (Attribute bits), saying what its pixels get instead.

@@ -95,8 +95,8 @@ void Loader::read_attributes(int mi, size_t pi, const std::string& where, size_t
     } else {
       const std::vector<glm::vec4> read = read_colors(c->second, where + ": COLOR_0");
       if (read.size() != vertex_count)
-        fail(where + ": COLOR_0 has " + std::to_string(read.size()) + " elements for " +
-             std::to_string(vertex_count) + " positions");
+        fail(where + ": COLOR_0 has " + std::to_string(read.size()) + " elements for " + std::to_string(vertex_count) +
+             " positions");
       out.colors.insert(out.colors.end(), read.begin(), read.end());
       out.present |= kAttributeColor0;
     }

@@ -72,8 +72,7 @@ std::vector<uint8_t> Loader::image_bytes(int ii) const {
   const std::filesystem::path file = std::filesystem::path(path_).parent_path() / percent_decoded(im.uri);
   std::error_code ec;
   if (!std::filesystem::is_regular_file(file, ec))
-    fail(name + ": file \"" + im.uri + "\" does not exist or is not a regular file (looked for " + file.string() +
-         ")");
+    fail(name + ": file \"" + im.uri + "\" does not exist or is not a regular file (looked for " + file.string() + ")");
   std::ifstream in(file, std::ios::binary);
   std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   if (!in && !in.eof()) fail(name + ": reading " + file.string() + " failed: " + std::strerror(errno));

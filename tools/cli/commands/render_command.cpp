@@ -140,8 +140,9 @@ RenderArgs parse_render(cli::Args& args) {
       try {
         r.channels = rayfold::parse_channels(args.value(a));
         if (r.channels & rayfold::kFlowChannels)
-          throw UsageError("--channels: flow and flow_visible pair each view with another, which the CLI does not "
-                           "do yet; render them from Python (flow_to=) or C++ (FlowTo)");
+          throw UsageError(
+              "--channels: flow and flow_visible pair each view with another, which the CLI does not "
+              "do yet; render them from Python (flow_to=) or C++ (FlowTo)");
       } catch (const InputError& e) {
         throw UsageError(e.what());
       }

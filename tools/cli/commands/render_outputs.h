@@ -36,8 +36,6 @@ void write_stats(const std::string& path, const RenderArgs& args, const rayfold:
 // Each stage's median over frames.
 rayfold::StageTimes median_stages(const std::vector<rayfold::StageTimes>& frames);
 
-
-
 // The folded and unfolded renders of one view side by side, with each one's
 // median stage times.
 void print_comparison(const rayfold::GBuffer& none, const rayfold::StageTimes& none_times,
