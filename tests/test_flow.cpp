@@ -162,9 +162,31 @@ TEST(Flow, AMovingNodeIsFollowedAcrossTimeAndThePoseIsPutBack) {
     ASSERT_EQ(g.flow_visible[i], 1u) << i;
   }
   EXPECT_EQ(hits, 256u);  // the quad is 1 wide: 16 x 16 pixels
+  // Put back as it was, a move made by hand included; render_at poses one render alone.
+  rayfold::Matrix4 moved = before;
+  moved[3] += 0.25;
+  scene.set_transform(0, moved);
+  const rayfold::GBuffer by_hand =
+      renderer.render(c, rayfold::Fold::none, rayfold::kFlow | rayfold::kInstanceId, rayfold::FlowTo{c, 1.0});
+  EXPECT_EQ(scene.transform(0), moved);
+  for (size_t i = 0; i < by_hand.instance_id.size(); ++i)
+    if (by_hand.instance_id[i] != rayfold::kMiss) ASSERT_NEAR(by_hand.flow[2 * i], 12.0, 1e-4) << i;  // 0.75 of 1
+  const rayfold::GBuffer at_one = renderer.render_at(1.0, c, rayfold::Fold::none, rayfold::kInstanceId);
+  EXPECT_EQ(scene.transform(0), moved);
+  EXPECT_EQ(scene.time(), 0.0);
+  scene.set_transform(0, before);
   // The next render sees the scene as it was.
   const rayfold::GBuffer again = renderer.render(c, rayfold::Fold::none, rayfold::kInstanceId);
   EXPECT_EQ(again.instance_id, g.instance_id);
+  EXPECT_NE(at_one.instance_id, g.instance_id) << "render_at(1) sees the node moved";
+  // Seen by an orthographic camera facing it from behind its image plane, nothing is visible.
+  const rayfold::Camera behind = rayfold::Camera::orthographic({0.3, 0, -5}, {0.3, 0, -10}, {0, 1, 0}, 2.0, 64, 64);
+  const rayfold::GBuffer away = renderer.render(c, rayfold::Fold::none, kFlowPlanes, rayfold::FlowTo{behind});
+  for (size_t i = 0; i < away.flow_visible.size(); ++i)
+    if (away.instance_id[i] != rayfold::kMiss) {
+      ASSERT_EQ(away.flow_visible[i], 0u) << i;
+      ASSERT_TRUE(std::isnan(away.flow[2 * i])) << i;
+    }
   // Flow is asked of a render with a view to flow to, and time of a file.
   EXPECT_THROW(renderer.render(c, rayfold::Fold::none, rayfold::kFlow), rayfold::InputError);
   rayfold::Scene made;

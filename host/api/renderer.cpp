@@ -6,7 +6,6 @@
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
-#include <exception>
 #include <functional>
 
 #include "api/pipeline_options.h"
@@ -286,26 +285,16 @@ void Renderer::render_into(GBuffer& g, const Camera& camera, Fold fold, unsigned
   render_into(g, camera, fold, rest);
   if (!(asked & kFlowChannels)) return;
   detail::SceneState& s = *impl_->state;
-  const double now = s.time;
-  // Posed for the other view, and put back however this ends.
-  const bool repose = !std::isnan(to.time) && !(to.time == now);
-  if (repose) detail::pose_at(s, to.time, "flow to another time");
-  struct PutBack {
-    detail::SceneState& s;
-    double now;
-    bool repose;
-    ~PutBack() noexcept(false) {
-      if (!repose) return;
-      if (std::uncaught_exceptions() == 0) {
-        detail::pose_at(s, now, "flow");
-        return;
-      }
-      try {  // already failing: that error is the one reported
-        detail::pose_at(s, now, "flow");
-      } catch (...) {
-      }
-    }
-  } put_back{s, now, repose};
+  // Posed for the other view, and put back as it was however this ends.
+  if (!std::isnan(to.time) && !(to.time == s.time))
+    detail::at_pose(s, to.time, "flow to another time", [&] { add_flow(g, to, asked); });
+  else
+    add_flow(g, to, asked);
+  detail::keep_planes(g, asked);
+}
+
+void Renderer::add_flow(GBuffer& g, const FlowTo& to, unsigned asked) {
+  detail::SceneState& s = *impl_->state;
   const size_t n = static_cast<size_t>(g.width) * g.height;
   core::HitPlanes in;
   in.pixels = n;
@@ -316,7 +305,7 @@ void Renderer::render_into(GBuffer& g, const Camera& camera, Fold fold, unsigned
   std::vector<glm::dvec3> points((asked & kFlowVisible) ? n : 0);
   if (asked & kFlow) g.flow.resize(2 * n);
   core::resolve_flow(s.scene, in, g.width, to.camera.core(), (asked & kFlow) ? g.flow.data() : nullptr,
-                     points.empty() ? nullptr : points.data(), impl_->options.threads);
+                     points.empty() ? nullptr : points.data(), impl_->options.threads, s.path);
   if (asked & kFlowVisible) {
     // Seen from the other view: inside its image, and nothing on the
     // segment from its eye (an orthographic view's image plane) short of
@@ -373,7 +362,27 @@ void Renderer::render_into(GBuffer& g, const Camera& camera, Fold fold, unsigned
       for (size_t k = 0; k < m; ++k) g.flow_visible[pixels[k]] = blocked[k] ? 0u : 1u;
     }
   }
-  detail::keep_planes(g, asked);
+}
+
+GBuffer Renderer::render_at(double time, const Camera& camera, Fold fold, unsigned channels, const FlowTo* to) {
+  GBuffer g;
+  render_into_at(g, time, camera, fold, channels, to);
+  return g;
+}
+
+void Renderer::render_into_at(GBuffer& g, double time, const Camera& camera, Fold fold, unsigned channels,
+                              const FlowTo* to) {
+  auto render = [&] {
+    if (to)
+      render_into(g, camera, fold, channels, *to);
+    else
+      render_into(g, camera, fold, channels);
+  };
+  detail::SceneState& s = *impl_->state;
+  if (!(time == s.time) && !(std::isnan(time) && std::isnan(s.time)))
+    detail::at_pose(s, time, "render_at", render);
+  else
+    render();
 }
 
 namespace {

@@ -35,8 +35,17 @@ std::vector<std::string> load_attributes(SceneState& s, unsigned channels) {
   const unsigned attributes = attributes_for(channels);
   if (attributes == 0) return {};
   if (s.file && (s.file->attributes() & attributes) != attributes) {
-    s.file->set_attributes(s.file->attributes() | attributes);
-    core::Scene posed = s.file->scene_at(s.time);
+    // A read that fails (a missing image) leaves the file as it was, so
+    // that the next render asking tries again and fails the same way.
+    const unsigned before = s.file->attributes();
+    s.file->set_attributes(before | attributes);
+    core::Scene posed;
+    try {
+      posed = s.file->scene_at(s.time);
+    } catch (...) {
+      s.file->set_attributes(before);
+      throw;
+    }
     // The file's meshes come first (add_mesh appends), posed as they are.
     RF_CHECK_LE(posed.meshes.size(), s.scene.meshes.size(), "the file posed again has more meshes");
     for (size_t m = 0; m < posed.meshes.size(); ++m) {

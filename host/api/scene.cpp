@@ -35,6 +35,30 @@ std::shared_ptr<const core::SceneData> current_trees(SceneState& s) {
   return s.trees;
 }
 
+void at_pose(SceneState& s, double seconds, const char* caller, const std::function<void()>& body) {
+  core::Scene saved = s.scene;
+  const double saved_time = s.time;
+  const std::vector<uint64_t> saved_moved = s.moved_at;
+  auto put_back = [&] {
+    std::vector<uint32_t> moved;
+    s.time = saved_time;
+    if (core::apply_pose(s.scene, std::move(saved), &moved)) {
+      s.structure_version++;
+      s.moved_at = saved_moved;
+      return;
+    }
+    for (uint32_t i : moved) s.moved_at[i] = ++s.clock;
+  };
+  try {
+    pose_at(s, seconds, caller);
+    body();
+  } catch (...) {
+    put_back();
+    throw;
+  }
+  put_back();
+}
+
 }  // namespace detail
 namespace {
 

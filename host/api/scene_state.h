@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -58,5 +59,11 @@ std::shared_ptr<const core::SceneData> current_trees(SceneState& s);
 // Poses the file's scene at `seconds` (Scene::set_time); InputError naming
 // `caller` for a scene without a file.
 void pose_at(SceneState& s, double seconds, const char* caller);
+
+// Runs body with the scene posed at `seconds`, then puts the scene back as it
+// was however body ends: its instances and transforms (set_transform's moves,
+// instances added), meshes and time. Renderers see the moves as moves, or
+// rebuild where the meshes changed.
+void at_pose(SceneState& s, double seconds, const char* caller, const std::function<void()>& body);
 
 }  // namespace rayfold::detail

@@ -453,20 +453,14 @@ PyGBuffer render_locked(PyScene& s, Pick&& pick, const rayfold::Camera& camera, 
   locked(s, [&] {
     rayfold::Renderer& r = pick();
     const rayfold::Fold f = plans.plan(r, {camera}, fold, 1).first;
-    // time: this render's pose, the scene's put back after it.
-    const double before = s.scene.time();
-    const bool repose = time && !(*time == before);
-    if (repose) s.scene.set_time(*time);
-    try {
-      if (flow_to)
-        r.render_into(g, camera, f, planes_for(channels), *flow_to);
-      else
-        r.render_into(g, camera, f, planes_for(channels));
-    } catch (...) {
-      if (repose) s.scene.set_time(before);
-      throw;
-    }
-    if (repose) s.scene.set_time(before);
+    // time: this render's pose alone (Renderer::render_at).
+    const rayfold::FlowTo* to = flow_to ? &*flow_to : nullptr;
+    if (time)
+      r.render_into_at(g, *time, camera, f, planes_for(channels), to);
+    else if (to)
+      r.render_into(g, camera, f, planes_for(channels), *to);
+    else
+      r.render_into(g, camera, f, planes_for(channels));
   });
   keep_asked(g, channels);
   return to_python(std::move(g), camera);
@@ -887,13 +881,21 @@ NB_MODULE(_core, m) {
             // flow_to: a Camera, or (Camera, time).
             std::optional<rayfold::FlowTo> to;
             if (!flow_to.is_none()) {
+              if (!(mask & (rayfold::kFlow | rayfold::kFlowVisible)))
+                throw rayfold::InputError("", "flow_to is given, but channels name neither flow nor flow_visible");
               if (nb::isinstance<rayfold::Camera>(flow_to)) {
                 to = rayfold::FlowTo{nb::cast<rayfold::Camera>(flow_to)};
               } else {
-                const nb::tuple t = nb::cast<nb::tuple>(flow_to);
-                if (t.size() != 2 || !nb::isinstance<rayfold::Camera>(t[0]))
-                  throw rayfold::InputError("", "flow_to must be a Camera or (Camera, time)");
-                to = rayfold::FlowTo{nb::cast<rayfold::Camera>(t[0]), t[1].is_none() ? NAN : nb::cast<double>(t[1])};
+                // A (Camera, time) pair, as a tuple or a list.
+                const bool pair = (nb::isinstance<nb::tuple>(flow_to) || nb::isinstance<nb::list>(flow_to)) &&
+                                  nb::len(flow_to) == 2 && nb::isinstance<rayfold::Camera>(flow_to[0]);
+                double t = NAN;
+                if (pair && !flow_to[1].is_none() && !nb::try_cast<double>(flow_to[1], t))
+                  throw rayfold::InputError("", "flow_to's time must be a number of seconds or None");
+                if (!pair)
+                  throw rayfold::InputError("", "flow_to must be a Camera or (Camera, time), not " +
+                                                    nb::cast<std::string>(nb::str(nb::type_name(flow_to.type()))));
+                to = rayfold::FlowTo{nb::cast<rayfold::Camera>(flow_to[0]), t};
               }
             }
             const std::string key = backend + "|" + device + "|" + kernel + "|" + std::to_string(threads) + "|" +

@@ -21,8 +21,9 @@ Projection::Projection(const Camera& c)
 glm::dvec2 Projection::operator()(const glm::dvec3& world) const {
   const glm::dvec3 p = glm::dvec3(camera_from_world * glm::dvec4(world, 1.0));
   double a = p.x, b = p.y;
+  // Behind the eye, or an orthographic view's image plane, where its rays start.
+  if (orthographic ? !(p.z <= 0.0) : !(p.z < 0.0)) return glm::dvec2(std::numeric_limits<double>::quiet_NaN());
   if (!orthographic) {
-    if (!(p.z < 0.0)) return glm::dvec2(std::numeric_limits<double>::quiet_NaN());
     const double inverse_depth = -1.0 / p.z;
     a *= inverse_depth;
     b *= inverse_depth;
@@ -34,7 +35,7 @@ glm::dvec2 Projection::operator()(const glm::dvec3& world) const {
 glm::dvec2 project(const Camera& camera, const glm::dvec3& world) { return Projection(camera)(world); }
 
 void resolve_flow(const Scene& other, const HitPlanes& in, int width, const Camera& to, float* flow, glm::dvec3* points,
-                  unsigned threads) {
+                  unsigned threads, const std::string& file) {
   RF_CHECK(in.instance && in.primitive && in.barycentrics, "flow needs the hits' ids and barycentrics");
   const double nan = std::numeric_limits<double>::quiet_NaN();
   const Projection project_to(to);
@@ -47,15 +48,15 @@ void resolve_flow(const Scene& other, const HitPlanes& in, int width, const Came
         continue;
       }
       if (inst >= other.instances.size())
-        throw InputError("", "flow: the other view's pose has " + std::to_string(other.instances.size()) +
-                                 " instances, not instance " + std::to_string(inst));
+        throw InputError(file, "flow: the other view's pose has " + std::to_string(other.instances.size()) +
+                                   " instances, not instance " + std::to_string(inst));
       const Instance& instance = other.instances[inst];
       const Mesh& mesh = other.meshes[instance.mesh];
       const uint32_t tri = in.primitive[p];
       if (tri >= mesh.triangle_count())
-        throw InputError("", "flow: in the other view's pose instance " + std::to_string(inst) + "'s mesh has " +
-                                 std::to_string(mesh.triangle_count()) + " triangles, not triangle " +
-                                 std::to_string(tri));
+        throw InputError(file, "flow: in the other view's pose instance " + std::to_string(inst) + "'s mesh has " +
+                                   std::to_string(mesh.triangle_count()) + " triangles, not triangle " +
+                                   std::to_string(tri));
       const uint32_t* i = &mesh.indices[3 * tri];
       const double u = in.barycentrics[2 * p], v = in.barycentrics[2 * p + 1];
       const double b0 = (1.0 - u) - v;

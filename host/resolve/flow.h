@@ -6,6 +6,8 @@
 #pragma once
 
 #include <glm/mat4x4.hpp>
+#include <string>
+
 #include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
 
@@ -16,7 +18,8 @@ namespace rayfold::core {
 // The continuous pixel coordinates of a world-space point in the camera's
 // image, in the units of its pixel indices (pixel (x, y)'s centre is (x, y),
 // +y down), inverting exactly the rays the camera traces; NaN where a
-// perspective camera has the point at or behind its eye's plane.
+// perspective camera has the point at or behind its eye's plane, or an
+// orthographic one behind its image plane.
 glm::dvec2 project(const Camera& camera, const glm::dvec3& world);
 // The same with the camera's constants worked out once, for many points
 // (one division a point).
@@ -33,9 +36,9 @@ struct Projection {
 // project is), and points (per pixel) the surface point in `other`'s pose,
 // world space. On a miss flow is 0 and the point NaN. `other` is the scene
 // posed for the other view, its instances and meshes those of the scene the
-// hits are from (InputError otherwise: a file whose pose changes its
+// hits are from (InputError naming `file` otherwise: a file whose pose changes its
 // triangles). Each in double, flow rounded once.
 void resolve_flow(const Scene& other, const HitPlanes& in, int width, const Camera& to, float* flow, glm::dvec3* points,
-                  unsigned threads);
+                  unsigned threads, const std::string& file);
 
 }  // namespace rayfold::core

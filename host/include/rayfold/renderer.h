@@ -117,10 +117,18 @@ class Renderer {
   void render_into(GBuffer& out, const Camera& camera, Fold fold = Fold::none, unsigned channels = kAllChannels);
   // The same with the flow to another view: channels may name kFlow and
   // kFlowVisible (the others refuse them). With to.time set the scene is
-  // posed at that time for the flow, then put back as it was; InputError for
-  // a scene without a file, or a pose whose triangles differ.
+  // posed at that time for the flow, then put back as it was (render_at);
+  // InputError for a scene without a file, or a pose whose triangles differ.
   GBuffer render(const Camera& camera, Fold fold, unsigned channels, const FlowTo& to);
   void render_into(GBuffer& out, const Camera& camera, Fold fold, unsigned channels, const FlowTo& to);
+  // The same with the scene posed at `time` (seconds, as Scene::set_time;
+  // NaN: the rest pose) for this render alone: put back as it was after it,
+  // set_transform's moves and added instances too. `to`: the flow's view, or
+  // null.
+  GBuffer render_at(double time, const Camera& camera, Fold fold = Fold::none, unsigned channels = kAllChannels,
+                    const FlowTo* to = nullptr);
+  void render_into_at(GBuffer& out, double time, const Camera& camera, Fold fold, unsigned channels,
+                      const FlowTo* to = nullptr);
   // Traces several views, one GBuffer each in the same order. Views with the
   // same image size and intrinsics are traced together, up to `align` per
   // trace (alignment: one traversal answers every view of it); each view's
@@ -199,6 +207,9 @@ class Renderer {
   unsigned tile_lanes() const;      // rays per vector of the tile kernel, 8 or 16 (8 for dense meshes); 0 for the CPU backend
 
  private:
+  // The flow planes `asked` names, for g's hits, against the scene as it is posed now.
+  void add_flow(GBuffer& g, const FlowTo& to, unsigned asked);
+
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };

@@ -193,6 +193,7 @@ class Loader {
   // options_.attributes asks (kAttributeMaterialData, kAttributeLabel).
   void add_material_data();
   void read_materials();
+  void read_every_material();  // read_materials' work, which may throw half-way
   // A textureInfo as a TextureRef, decoding its image (as sRGB or linear) on
   // first use; `where` names the material and texture for errors.
   TextureRef texture_ref(int index, int texcoord, const tinygltf::ExtensionMap& extensions, bool srgb,

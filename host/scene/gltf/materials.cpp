@@ -152,7 +152,19 @@ TextureRef Loader::texture_ref(int index, int texcoord, const tinygltf::Extensio
 
 void Loader::read_materials() {
   if (materials_read_) return;
+  try {
+    read_every_material();
+  } catch (...) {
+    // Nothing half-read is kept: the next build reads them again.
+    materials_.clear();
+    images_.clear();
+    image_slot_.clear();
+    throw;
+  }
   materials_read_ = true;
+}
+
+void Loader::read_every_material() {
   for (size_t mi = 0; mi < model_.materials.size(); ++mi) {
     const tinygltf::Material& m = model_.materials[mi];
     const std::string where = "material " + std::to_string(mi) + (m.name.empty() ? "" : " ('" + m.name + "')");
