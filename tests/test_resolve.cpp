@@ -209,6 +209,33 @@ TEST(Resolve, ChannelNamesAndTheExrRoundTrip) {
   EXPECT_EQ(back.object_position, g.object_position);
   EXPECT_EQ(back.material_id, g.material_id);
   EXPECT_EQ(back.hits, g.hits);
+  EXPECT_EQ(rayfold::count_differing_pixels(back, g), 0u);
+  // The header gives the camera back (its rays, to double precision), the
+  // depth's kind and the names; also for orthographic and planar views.
+  auto same_rays = [](const rayfold::Camera& a, const rayfold::Camera& b) {
+    ASSERT_EQ(a.width(), b.width());
+    for (int y = 0; y < a.height(); y += 7)
+      for (int x = 0; x < a.width(); x += 5)
+        for (int k = 0; k < 3; ++k) {
+          ASSERT_NEAR(a.ray_direction(x, y)[k], b.ray_direction(x, y)[k], 1e-12) << x << ", " << y;
+          ASSERT_NEAR(a.ray_origin(x, y)[k], b.ray_origin(x, y)[k], 1e-12) << x << ", " << y;
+        }
+  };
+  const rayfold::ExrHeader h = rayfold::read_exr_header(path);
+  EXPECT_EQ(h.instance_names, scene.instance_names());
+  EXPECT_EQ(h.depth_kind, rayfold::Depth::distance);
+  EXPECT_EQ(h.fold, "none");
+  ASSERT_TRUE(h.camera.has_value());
+  same_rays(*h.camera, camera);
+  rayfold::RendererOptions planar;
+  planar.depth = rayfold::Depth::planar;
+  rayfold::Renderer flat(scene, planar);
+  const rayfold::Camera ortho = rayfold::Camera::orthographic({0.2, 0.1, 1}, {0, 0, -5.5}, {0, 1, 0}, 3.0, 40, 30);
+  rayfold::write_exr(path, flat.render(ortho, rayfold::Fold::xy, rayfold::kDepth), ortho, scene);
+  const rayfold::ExrHeader o = rayfold::read_exr_header(path);
+  EXPECT_EQ(o.depth_kind, rayfold::Depth::planar);
+  ASSERT_TRUE(o.camera.has_value() && o.camera->is_orthographic());
+  same_rays(*o.camera, ortho);
 }
 
 }  // namespace

@@ -77,6 +77,34 @@ void write_png(const std::string& path, const GBuffer& g) {
   core::write_png(path, preview_hits(g), g.width, g.height);
 }
 
+ExrHeader read_exr_header(const std::string& path) {
+  ExrHeader h;
+  const core::ExrMetadata m = core::read_exr_metadata(path, &h.width, &h.height);
+  h.instance_names = m.instance_names;
+  h.labels = m.labels;
+  for (const auto& [name, value] : m.strings) {
+    if (name == "fold") h.fold = value;
+    if (name == "scene") h.scene = value;
+    if (name == "version") h.version = value;
+    // Files from before rayfold:depthKind say it in words only.
+    if (name == "depthKind" ? value == "planar" : name == "depth" && value.rfind("Z is the depth along", 0) == 0)
+      h.depth_kind = Depth::planar;
+  }
+  if (m.view) {
+    const core::ExrMetadata::View& v = *m.view;
+    if (v.orthographic) {
+      const glm::dvec3 eye(v.world_from_camera[3]), forward(-v.world_from_camera[2]), up(v.world_from_camera[1]);
+      const glm::dvec3 target = eye + forward;
+      h.camera = Camera::orthographic({eye.x, eye.y, eye.z}, {target.x, target.y, target.z}, {up.x, up.y, up.z},
+                                      0.5 * h.height / v.fy, h.width, h.height);
+    } else {
+      h.camera = Camera::from_matrix(detail::to_matrix(v.world_from_camera), Intrinsics{v.fx, v.fy, v.cx, v.cy},
+                                     h.width, h.height, CameraConvention::opengl);
+    }
+  }
+  return h;
+}
+
 GBuffer read_exr(const std::string& path) {
   GBuffer g = core::read_exr_planes(path);
   if (g.channels & kInstanceId)

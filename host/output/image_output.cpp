@@ -157,6 +157,7 @@ ExrMetadata view_metadata(const Camera& camera, const Scene& scene, const std::s
   m.strings = {{"version", version},
                {"scene", scene_label},
                {"fold", fold},
+               {"depthKind", planar_depth ? "planar" : "distance"},
                {"depth", std::string(planar_depth ? "Z is the depth along the camera's axis (camera-space -z, "
                                                     "--depth planar); +inf on a miss"
                                                   : "Z is the distance from the eye along the pixel's ray (not "
@@ -270,6 +271,49 @@ void write_exr(const std::string& path, const GBuffer& g, unsigned channels, con
       slices.push_back({p.exr[k], p.floats ? Imf::FLOAT : Imf::UINT, base + k * sizeof(uint32_t), x, x * w});
   }
   write_slices(path, g.width, g.height, slices, metadata, compression);
+}
+
+ExrMetadata read_exr_metadata(const std::string& path, int* width, int* height) {
+  try {
+    Imf::InputFile in(path.c_str());
+    const Imf::Header& h = in.header();
+    const Imath::Box2i dw = h.dataWindow();
+    *width = dw.max.x - dw.min.x + 1;
+    *height = dw.max.y - dw.min.y + 1;
+    ExrMetadata m;
+    const auto* pose = h.findTypedAttribute<Imf::M44dAttribute>("rayfold:cameraToWorld");
+    if (pose) {
+      ExrMetadata::View v;
+      for (int r = 0; r < 4; ++r)
+        for (int c = 0; c < 4; ++c) v.world_from_camera[c][r] = pose->value()[c][r];
+      auto number = [&](const char* name) {
+        const auto* a = h.findTypedAttribute<Imf::DoubleAttribute>(name);
+        if (!a) throw InputError(path, std::string("has rayfold:cameraToWorld but no ") + name);
+        return a->value();
+      };
+      v.fx = number("rayfold:fx");
+      v.fy = number("rayfold:fy");
+      v.cx = number("rayfold:cx");
+      v.cy = number("rayfold:cy");
+      const auto* projection = h.findTypedAttribute<Imf::StringAttribute>("rayfold:projection");
+      v.orthographic = projection && projection->value() == "orthographic";
+      m.view = v;
+    }
+    if (const auto* a = h.findTypedAttribute<Imf::StringVectorAttribute>("rayfold:instanceNames"))
+      m.instance_names = a->value();
+    if (const auto* a = h.findTypedAttribute<Imf::StringVectorAttribute>("rayfold:labels")) m.labels = a->value();
+    for (auto it = h.begin(); it != h.end(); ++it) {
+      const std::string name = it.name();
+      const auto* text = dynamic_cast<const Imf::StringAttribute*>(&it.attribute());
+      if (text && name.rfind("rayfold:", 0) == 0 && name != "rayfold:projection")
+        m.strings.emplace_back(name.substr(8), text->value());
+    }
+    return m;
+  } catch (const InputError&) {
+    throw;
+  } catch (const std::exception& e) {
+    throw InputError(path, std::string("cannot read the EXR file: ") + e.what());
+  }
 }
 
 GBuffer read_exr_planes(const std::string& path) {

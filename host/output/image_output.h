@@ -70,6 +70,10 @@ void write_exr(const std::string& path, const GBuffer& g, unsigned channels, con
 // Every plane of output/channels.h whose EXR channels the file has, bit for
 // bit (g.channels says which); InputError naming the file on failure.
 GBuffer read_exr_planes(const std::string& path);
+// The header's rayfold metadata as view_metadata wrote it (strings without
+// their "rayfold:" prefix), and the image's size; InputError naming the
+// file on failure.
+ExrMetadata read_exr_metadata(const std::string& path, int* width, int* height);
 // The lossless methods by name ("none, rle, zips, zip, piz"), for messages.
 const char* exr_compressions();
 // "none", "rle", "zips", "zip" or "piz" as ExrCompression; InputError

@@ -1061,6 +1061,30 @@ NB_MODULE(_core, m) {
       "shading_normal, texcoord, texcoord1, position, object_position, material_id), holding the planes the file "
       "has. InputError naming the file otherwise.");
   m.def(
+      "read_exr_header",
+      [](const std::filesystem::path& path) {
+        const rayfold::ExrHeader h = [&] {
+          nb::gil_scoped_release release;
+          return rayfold::read_exr_header(path.string());
+        }();
+        nb::dict out;
+        out["width"] = h.width;
+        out["height"] = h.height;
+        out["camera"] = h.camera ? nb::cast(*h.camera) : nb::none();
+        out["depth_kind"] = h.depth_kind == rayfold::Depth::planar ? "planar" : "distance";
+        out["instance_names"] = h.instance_names;
+        out["labels"] = h.labels;
+        out["fold"] = h.fold;
+        out["scene"] = h.scene;
+        out["version"] = h.version;
+        return out;
+      },
+      "path"_a,
+      "The header of an EXR rayfold wrote, as a dict: width, height, camera (a Camera with the view's pose and "
+      "intrinsics, None in another EXR: camera.ray_origins() + depth * camera.ray_directions() are the hits, "
+      "for depth_kind 'distance'), depth_kind ('distance' or 'planar'), instance_names (by instance_id), labels "
+      "(by label), fold, scene, version. InputError naming the file when it cannot be read.");
+  m.def(
       "_plane_specs",
       [] {
         nb::list out;

@@ -939,6 +939,16 @@ def test_material_planes_and_labels_from_the_file(tmp_path):
         assert (plane[~hit] == 0).all(), name
     # The whole extras value without a key; the planes through an EXR, bit for bit.
     assert rayfold.Scene(str(path)).labels == ["", '{"category":"floor","note":"tiles"}']
+    # The header turns a saved view back into points and names.
+    g2 = scene.render(camera, channels="depth,instance_id,position,label")
+    g2.write_exr(tmp_path / "points.exr", scene)
+    header = rayfold.read_exr_header(tmp_path / "points.exr")
+    planes = rayfold.read_exr(tmp_path / "points.exr")
+    assert (header["width"], header["height"], header["depth_kind"]) == (64, 48, "distance")
+    assert header["labels"] == ["", "floor"] and len(header["instance_names"]) == 1
+    c = header["camera"]
+    points = (c.ray_origins() + planes["depth"][..., None] * c.ray_directions())[hit]
+    np.testing.assert_allclose(points, g2.position[hit], rtol=1e-5, atol=1e-5)
     g.write_exr(tmp_path / "quad.exr", scene)
     back = rayfold.read_exr(tmp_path / "quad.exr")
     for name in ["base_color", "metallic_roughness", "emissive", "label"]:

@@ -3,7 +3,9 @@
 // PrimitiveID, and the camera and instance names in the header).
 #pragma once
 
+#include <optional>
 #include <string>
+#include <vector>
 
 #include "rayfold/camera.h"
 #include "rayfold/gbuffer.h"
@@ -35,5 +37,18 @@ ExrCompression exr_compression(const std::string& name);
 // Reads what write_exr or the CLI wrote: the planes the file has
 // (channels), bit for bit. InputError naming the file otherwise.
 GBuffer read_exr(const std::string& path);
+
+// The header of an EXR write_exr or the CLI wrote: what turns its planes
+// into points and names.
+struct ExrHeader {
+  int width = 0, height = 0;
+  std::optional<Camera> camera;             // the view's camera, from its pose and intrinsics; none in another EXR
+  Depth depth_kind = Depth::distance;       // what Z measures
+  std::vector<std::string> instance_names;  // by InstanceID
+  std::vector<std::string> labels;          // by Label (Scene::labels); empty when not written
+  std::string fold, scene, version;
+};
+// InputError naming the file when it cannot be read.
+ExrHeader read_exr_header(const std::string& path);
 
 }  // namespace rayfold

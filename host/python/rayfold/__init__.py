@@ -25,6 +25,7 @@ from ._core import (
     Scene,
     __version__,
     read_exr,
+    read_exr_header,
 )
 
 from ._geometry import WorldTriangles
@@ -43,4 +44,4 @@ Scene.iter_views = _iter_views
 Scene.world_triangles = _world_triangles
 
 __all__ = ["MISS", "Camera", "GBuffer", "InputError", "Renderer", "RuntimeFailure", "Scene", "WorldTriangles",
-           "__version__", "read_exr"]
+           "__version__", "read_exr", "read_exr_header"]
