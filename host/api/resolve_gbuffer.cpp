@@ -76,11 +76,9 @@ std::vector<std::string> load_attributes(SceneState& s, unsigned channels) {
 void resolve_gbuffer(GBuffer& g, const core::Scene& scene, const core::Camera& camera, unsigned channels,
                      unsigned threads) {
   const size_t n = static_cast<size_t>(g.width) * g.height;
+  // A plane not asked for is left to keep_planes to free.
   auto plane = [&](auto& v, unsigned bit, size_t per_pixel) -> decltype(v.data()) {
-    if (!(channels & bit)) {
-      v.clear();
-      return nullptr;
-    }
+    if (!(channels & bit)) return nullptr;
     v.resize(per_pixel * n);
     return v.data();
   };

@@ -444,10 +444,6 @@ PyGBuffer render_locked(PyScene& s, Pick&& pick, const rayfold::Camera& camera, 
                         unsigned channels, AutoPlans& plans, const std::optional<rayfold::FlowTo>& flow_to = {},
                         std::optional<double> time = {}) {
   if (fold != "auto") parse_fold(fold);  // a bad name refused before the planes are taken
-  if ((channels & (rayfold::kFlow | rayfold::kFlowVisible)) && !flow_to)
-    throw rayfold::InputError("",
-                              "channels flow and flow_visible need flow_to: the camera (or (camera, time)) "
-                              "the flow goes to");
   rayfold::GBuffer g;
   take_planes(g, camera, planes_for(channels));
   locked(s, [&] {
@@ -881,7 +877,7 @@ NB_MODULE(_core, m) {
             // flow_to: a Camera, or (Camera, time).
             std::optional<rayfold::FlowTo> to;
             if (!flow_to.is_none()) {
-              if (!(mask & (rayfold::kFlow | rayfold::kFlowVisible)))
+              if (!(mask & rayfold::kFlowChannels))
                 throw rayfold::InputError("", "flow_to is given, but channels name neither flow nor flow_visible");
               if (nb::isinstance<rayfold::Camera>(flow_to)) {
                 to = rayfold::FlowTo{nb::cast<rayfold::Camera>(flow_to)};

@@ -69,8 +69,7 @@ bool textured(const Scene& scene, const Mesh& mesh, uint32_t tri) {
   if (mesh.attributes.materials.empty()) return false;
   const uint32_t m = mesh.attributes.materials[tri];
   if (m >= scene.materials.size()) return false;
-  const Material& mat = scene.materials[m];
-  return mat.base_color.image >= 0 || mat.metallic_roughness.image >= 0 || mat.emissive.image >= 0;
+  return scene.materials[m].textured();
 }
 
 // sample_at, or (1, 1, 1, 1) without a texture: checked here, inline,
@@ -186,7 +185,7 @@ void resolve(const Scene& scene, const HitPlanes& in, const RayCone& cone, const
         const uint32_t corners[3] = {i0, i1, i2};
         // The footprint only where a texture is read: factors alone need none.
         Footprint f{0.0, 0.0};
-        if (m.base_color.image >= 0 || m.metallic_roughness.image >= 0 || m.emissive.image >= 0) {
+        if (m.textured()) {
           glm::dvec3 w[3];
           for (int k = 0; k < 3; ++k)
             w[k] = glm::dvec3(x.world_from_object * glm::dvec4(glm::dvec3(mesh.positions[corners[k]]), 1.0));
@@ -236,7 +235,7 @@ std::vector<std::string> missing_attribute_warnings(const Scene& scene, unsigned
       for (uint32_t mi : used) {
         if (mi >= scene.materials.size()) continue;
         const Material& mat = scene.materials[mi];
-        for (const TextureRef* t : {&mat.base_color, &mat.metallic_roughness, &mat.emissive}) {
+        for (const TextureRef* t : mat.textures()) {
           const unsigned bit = t->texcoord == 0 ? kAttributeTexcoord0 : kAttributeTexcoord1;
           if (t->image < 0 || ((mesh.attributes.present & bit) && !(mesh.attributes.missing & bit))) continue;
           out.push_back(name + " lacks TEXCOORD_" + std::to_string(t->texcoord) +

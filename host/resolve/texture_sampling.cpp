@@ -9,6 +9,8 @@ namespace rayfold::core {
 namespace {
 
 int wrap(long long i, int n, int mode) {
+  // Inside the image every mode leaves the index as it is: no division.
+  if (i >= 0 && i < n) return static_cast<int>(i);
   switch (mode) {
     case kClampToEdge: return static_cast<int>(std::clamp<long long>(i, 0, n - 1));
     case kMirroredRepeat: {

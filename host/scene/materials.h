@@ -4,6 +4,7 @@
 // metallic_roughness or emissive (kAttributeMaterialData).
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -74,6 +75,14 @@ struct Material {
   glm::dvec3 emissive_factor{0.0};
   double emissive_strength = 1.0;  // KHR_materials_emissive_strength
   TextureRef emissive;             // sRGB-encoded, RGB
+
+  // Its textures, each maybe without an image; whether any has one.
+  std::array<const TextureRef*, 3> textures() const { return {&base_color, &metallic_roughness, &emissive}; }
+  bool textured() const {
+    for (const TextureRef* t : textures())
+      if (t->image >= 0) return true;
+    return false;
+  }
 };
 
 // glTF's default material (3.9.6): white, fully metallic and rough, no

@@ -12,18 +12,6 @@
 namespace rayfold::core {
 namespace {
 
-const std::array<double, 256>& srgb_table() {
-  static const std::array<double, 256> kTable = [] {
-    std::array<double, 256> t{};
-    for (int i = 0; i < 256; ++i) {
-      const double c = i / 255.0;
-      t[i] = c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4);
-    }
-    return t;
-  }();
-  return kTable;
-}
-
 // What the first bytes say the format is, for the error that refuses it.
 std::string sniff_format(const uint8_t* b, size_t n) {
   auto starts = [&](const char* magic, size_t at = 0) {
@@ -42,10 +30,17 @@ std::string sniff_format(const uint8_t* b, size_t n) {
 
 }  // namespace
 
-double srgb_to_linear(uint8_t encoded) { return srgb_table()[encoded]; }
+const std::array<double, 256> kSrgbToLinear = [] {
+  std::array<double, 256> t{};
+  for (int i = 0; i < 256; ++i) {
+    const double c = i / 255.0;
+    t[i] = c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4);
+  }
+  return t;
+}();
 
 uint8_t linear_to_srgb(double linear) {
-  const std::array<double, 256>& t = srgb_table();
+  const std::array<double, 256>& t = kSrgbToLinear;
   if (!(linear > 0.0)) return 0;
   if (linear >= 1.0) return 255;
   // The nearest of the 256 linear values: the first not below, or the one before it.

@@ -2,6 +2,7 @@
 // TextureImage), and the sRGB transfer function both ways.
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <string>
@@ -10,8 +11,10 @@
 
 namespace rayfold::core {
 
-// The sRGB-encoded byte's linear value (IEC 61966-2-1), exact in double.
-double srgb_to_linear(uint8_t encoded);
+// The sRGB-encoded bytes' linear values (IEC 61966-2-1), exact in double,
+// made before main: a texel's decode is one load, inline.
+extern const std::array<double, 256> kSrgbToLinear;
+inline double srgb_to_linear(uint8_t encoded) { return kSrgbToLinear[encoded]; }
 // The byte whose linear value is nearest `linear` (clamped to [0, 1]).
 uint8_t linear_to_srgb(double linear);
 
