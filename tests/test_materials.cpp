@@ -13,43 +13,18 @@
 #include <string>
 #include <vector>
 
-#include <stb_image_write.h>
-
 #include "api/scene_state.h"
 #include "gltf_fixture.h"
 #include "rayfold/rayfold.h"
 #include "test_util.h"
+#include "texture_fixture.h"
 
 namespace {
 
 using rayfold::core::testing::GltfFile;
-
-// An image's texels, RGBA, rows top first.
-struct Texels {
-  int width = 0, height = 0;
-  std::vector<uint8_t> rgba;
-  const uint8_t* at(int x, int y) const { return &rgba[(static_cast<size_t>(y) * width + x) * 4]; }
-};
-
-Texels pattern(int width, int height, uint32_t seed) {
-  Texels t{width, height, std::vector<uint8_t>(static_cast<size_t>(width) * height * 4)};
-  for (uint8_t& b : t.rgba) {
-    seed = seed * 1664525u + 1013904223u;
-    b = static_cast<uint8_t>(seed >> 24);
-  }
-  return t;
-}
-
-std::vector<uint8_t> png(const Texels& t) {
-  std::vector<uint8_t> out;
-  stbi_write_png_to_func(
-      [](void* context, void* data, int size) {
-        auto* o = static_cast<std::vector<uint8_t>*>(context);
-        o->insert(o->end(), static_cast<uint8_t*>(data), static_cast<uint8_t*>(data) + size);
-      },
-      &out, t.width, t.height, 4, t.rgba.data(), t.width * 4);
-  return out;
-}
+using rayfold::core::testing::pattern;
+using rayfold::core::testing::png;
+using rayfold::core::testing::Texels;
 
 std::string base64(const std::vector<uint8_t>& bytes) {
   static const char* kDigits = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";

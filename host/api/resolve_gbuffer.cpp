@@ -21,13 +21,15 @@ unsigned attributes_for(unsigned channels) {
   if (channels & kMetallicRoughness) asked.metallic_roughness = &f;
   if (channels & kEmissive) asked.emissive = &f;
   if (channels & kLabel) asked.label = &id;
+  if (channels & kTangent) asked.tangent = &f;
+  if (channels & kMappedNormal) asked.mapped_normal = &f;
   return core::attributes_read(asked);
 }
 
 unsigned trace_channels(unsigned channels) {
   unsigned trace = channels & kAllChannels;
   if (channels & kResolvedChannels) trace |= kInstanceId | kPrimitiveId | kBarycentrics;
-  if (channels & kShadingNormal) trace |= kNormal;
+  if (channels & (kShadingNormal | kTangent | kMappedNormal)) trace |= kNormal;  // the flat stand-in
   return trace;
 }
 
@@ -93,6 +95,8 @@ void resolve_gbuffer(GBuffer& g, const core::Scene& scene, const core::Camera& c
   out.metallic_roughness = plane(g.metallic_roughness, kMetallicRoughness, 2);
   out.emissive = plane(g.emissive, kEmissive, 3);
   out.label = plane(g.label, kLabel, 1);
+  out.tangent = plane(g.tangent, kTangent, 4);
+  out.mapped_normal = plane(g.mapped_normal, kMappedNormal, 3);
   if (channels & kResolvedChannels) {
     core::HitPlanes in;
     in.pixels = n;

@@ -59,6 +59,22 @@ const std::vector<PlaneSpec>& plane_specs() {
       {kLabel, "label", nullptr, "Label", 1, {"Label"}, nullptr, &GBuffer::label},
       {kFlow, "flow", nullptr, "Flow", 2, {"Flow.X", "Flow.Y"}, &GBuffer::flow, nullptr},
       {kFlowVisible, "flow_visible", nullptr, "FlowVisible", 1, {"FlowVisible"}, nullptr, &GBuffer::flow_visible},
+      {kTangent,
+       "tangent",
+       nullptr,
+       "Tangent",
+       4,
+       {"Tangent.X", "Tangent.Y", "Tangent.Z", "Tangent.W"},
+       &GBuffer::tangent,
+       nullptr},
+      {kMappedNormal,
+       "mapped_normal",
+       nullptr,
+       "MappedNormal",
+       3,
+       {"MappedNormal.X", "MappedNormal.Y", "MappedNormal.Z"},
+       &GBuffer::mapped_normal,
+       nullptr},
   };
   return kSpecs;
 }

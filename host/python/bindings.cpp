@@ -303,6 +303,11 @@ void add_plane_properties(Class& cls) {
       "the pixel, in pixels (+x right, +y down); NaN behind the other eye; 0 on a miss",
       "(H, W) uint32: 1 where the surface point is seen in flow_to's view (inside its image, unoccluded), else "
       "0; MISS on a miss",
+      "(H, W, 4) float32: world-space unit tangent orthogonal to shading_normal (the file's TANGENT, else "
+      "MikkTSpace's from the normal texture's coordinates), then the bitangent sign w: bitangent = w * "
+      "cross(shading_normal, tangent); 0 on a miss",
+      "(H, W, 3) float32: world-space unit shading normal with the material's normalTexture applied in the "
+      "tangent frame (shading_normal where there is none); 0 on a miss",
   };
   const std::vector<rayfold::core::PlaneSpec>& specs = rayfold::core::plane_specs();
   RF_CHECK_EQ(specs.size(), sizeof(kDocs) / sizeof(kDocs[0]), "a doc per plane");

@@ -20,6 +20,7 @@ namespace {
 struct InstanceXforms {
   Xform world_from_object;
   glm::dmat3 normal_from_object;  // the inverse transpose of the linear part
+  double handedness;              // the linear part's determinant's sign (-1: it mirrors)
 };
 
 template <class V>
@@ -79,12 +80,42 @@ inline glm::dvec4 lookup(const Scene& scene, const Mesh& mesh, const TextureRef&
   return ref.image < 0 ? glm::dvec4(1.0) : sample_at(scene, mesh, ref, i, b0, u, v, f);
 }
 
+// Duff et al. 2017's perpendicular of the unit vector n.
+glm::dvec3 perpendicular(const glm::dvec3& n) {
+  const double sign = std::copysign(1.0, n.z);
+  const double a = -1.0 / (sign + n.z), b = n.x * n.y * a;
+  return glm::dvec3(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x);
+}
+
+// The tangent plane's value at the hit (resolve.h's ResolvedPlanes::tangent).
+// `found`: whether the tangent came from the mesh's, not the stand-in.
+glm::dvec4 tangent_at(const Mesh& mesh, uint32_t tri, double b0, double u, double v, const InstanceXforms& x,
+                      const glm::dvec3& normal, bool* found) {
+  const std::vector<glm::vec4>& t = mesh.attributes.tangents;
+  glm::dvec4 corner(0.0, 0.0, 0.0, 1.0);
+  if (!t.empty())
+    corner = interpolate(glm::dvec4(t[3 * tri]), glm::dvec4(t[3 * tri + 1]), glm::dvec4(t[3 * tri + 2]), b0, u, v);
+  const glm::dvec3 world = glm::dmat3(x.world_from_object) * glm::dvec3(corner);
+  glm::dvec3 tangent = world - normal * glm::dot(normal, world);
+  const double length = glm::length(tangent);
+  *found = length > 0.0 && std::isfinite(length);
+  if (*found)
+    tangent /= length;
+  else
+    tangent = perpendicular(normal);
+  return glm::dvec4(tangent, (corner.w < 0.0 ? -1.0 : 1.0) * x.handedness);
+}
+
 }  // namespace
 
 unsigned attributes_read(const ResolvedPlanes& out) {
   const bool material_data = out.base_color || out.metallic_roughness || out.emissive;
-  return (out.shading_normal ? kAttributeNormal : 0u) | (out.texcoord[0] ? kAttributeTexcoord0 : 0u) |
-         (out.texcoord[1] ? kAttributeTexcoord1 : 0u) | (out.material ? kAttributeMaterial : 0u) |
+  const unsigned frame = out.tangent || out.mapped_normal ? kAttributeNormal | kAttributeTangent : 0u;
+  const unsigned normal_texture =
+      out.mapped_normal ? kAttributeMaterial | kAttributeNormalTexture | kAttributeTexcoord0 | kAttributeTexcoord1 : 0u;
+  return frame | normal_texture | (out.shading_normal ? kAttributeNormal : 0u) |
+         (out.texcoord[0] ? kAttributeTexcoord0 : 0u) | (out.texcoord[1] ? kAttributeTexcoord1 : 0u) |
+         (out.material ? kAttributeMaterial : 0u) |
          (material_data ? kAttributeMaterial | kAttributeMaterialData | kAttributeTexcoord0 | kAttributeTexcoord1
                         : 0u) |
          (out.base_color ? kAttributeColor0 : 0u) | (out.label ? kAttributeLabel : 0u);
@@ -104,14 +135,16 @@ RayCone ray_cone(const Camera& camera) {
 void resolve(const Scene& scene, const HitPlanes& in, const RayCone& cone, const ResolvedPlanes& out,
              unsigned threads) {
   RF_CHECK(in.instance && in.primitive && in.barycentrics, "the resolve needs the hits' ids and barycentrics");
-  RF_CHECK(!out.shading_normal || in.normal, "shading normals need the geometric normal as their stand-in");
+  RF_CHECK(!(out.shading_normal || out.tangent || out.mapped_normal) || in.normal,
+           "shading normals need the geometric normal as their stand-in");
   std::vector<InstanceXforms> xforms(scene.instances.size());
   for (size_t i = 0; i < xforms.size(); ++i) {
     const Xform& m = scene.instances[i].world_from_object;
-    xforms[i] = {m, glm::transpose(glm::inverse(glm::dmat3(m)))};
+    xforms[i] = {m, glm::transpose(glm::inverse(glm::dmat3(m))), glm::determinant(glm::dmat3(m)) < 0.0 ? -1.0 : 1.0};
   }
+  const bool frame = out.tangent || out.mapped_normal;
   const bool per_vertex =
-      out.position || out.object_position || out.shading_normal || out.texcoord[0] || out.texcoord[1];
+      out.position || out.object_position || out.shading_normal || frame || out.texcoord[0] || out.texcoord[1];
   parallel_for(in.pixels, threads, size_t{1} << 13, [&](size_t begin, size_t end) {
     for (size_t p = begin; p < end; ++p) {
       const uint32_t inst = in.instance[p];
@@ -128,6 +161,8 @@ void resolve(const Scene& scene, const HitPlanes& in, const RayCone& cone, const
         clear(out.base_color, 4);
         clear(out.metallic_roughness, 2);
         clear(out.emissive, 3);
+        clear(out.tangent, 4);
+        clear(out.mapped_normal, 3);
         if (out.material) out.material[p] = RF_INVALID;
         if (out.label) out.label[p] = RF_INVALID;
         continue;
@@ -156,18 +191,28 @@ void resolve(const Scene& scene, const HitPlanes& in, const RayCone& cone, const
           for (int k = 0; k < 3; ++k) out.position[3 * p + k] = static_cast<float>(w[k]);
         }
       }
-      if (out.shading_normal) {
+      // The shading normal, in double for the tangent frame.
+      glm::dvec3 shading(0.0);
+      if (out.shading_normal || frame) {
         const std::vector<glm::vec3>& n = mesh.attributes.normals;
         bool flat = n.empty() || zero(n[i0]) || zero(n[i1]) || zero(n[i2]);
-        glm::dvec3 w(0.0);
         if (!flat) {
-          w = x.normal_from_object * interpolate(glm::dvec3(n[i0]), glm::dvec3(n[i1]), glm::dvec3(n[i2]), b0, u, v);
-          const double length = std::sqrt(w.x * w.x + w.y * w.y + w.z * w.z);
+          shading =
+              x.normal_from_object * interpolate(glm::dvec3(n[i0]), glm::dvec3(n[i1]), glm::dvec3(n[i2]), b0, u, v);
+          const double length = std::sqrt(shading.x * shading.x + shading.y * shading.y + shading.z * shading.z);
           flat = !(length > 0.0) || !std::isfinite(length);
-          w /= length;
+          shading /= length;
         }
-        for (int k = 0; k < 3; ++k)
-          out.shading_normal[3 * p + k] = flat ? in.normal[3 * p + k] : static_cast<float>(w[k]);
+        if (flat) shading = glm::dvec3(in.normal[3 * p], in.normal[3 * p + 1], in.normal[3 * p + 2]);
+        if (out.shading_normal)
+          for (int k = 0; k < 3; ++k) out.shading_normal[3 * p + k] = static_cast<float>(shading[k]);
+      }
+      glm::dvec4 tangent(0.0);
+      bool has_tangent = false;
+      if (frame) {
+        tangent = tangent_at(mesh, tri, b0, u, v, x, shading, &has_tangent);
+        if (out.tangent)
+          for (int k = 0; k < 4; ++k) out.tangent[4 * p + k] = static_cast<float>(tangent[k]);
       }
       for (int set = 0; set < 2; ++set) {
         if (!out.texcoord[set]) continue;
@@ -180,7 +225,7 @@ void resolve(const Scene& scene, const HitPlanes& in, const RayCone& cone, const
       const uint32_t material = mesh.attributes.materials.empty() ? kDefaultMaterial : mesh.attributes.materials[tri];
       if (out.material) out.material[p] = material;
       if (out.label) out.label[p] = scene.instances[inst].label;
-      if (out.base_color || out.metallic_roughness || out.emissive) {
+      if (out.base_color || out.metallic_roughness || out.emissive || out.mapped_normal) {
         const Material& m = material < scene.materials.size() ? scene.materials[material] : default_material();
         const uint32_t corners[3] = {i0, i1, i2};
         // The footprint only where a texture is read: factors alone need none.
@@ -209,6 +254,19 @@ void resolve(const Scene& scene, const HitPlanes& in, const RayCone& cone, const
                                m.emissive_strength;
           for (int k = 0; k < 3; ++k) out.emissive[3 * p + k] = static_cast<float>(e[k]);
         }
+        if (out.mapped_normal) {
+          glm::dvec3 mapped = shading;
+          if (m.normal.image >= 0 && has_tangent) {
+            const glm::dvec3 t = 2.0 * glm::dvec3(sample_at(scene, mesh, m.normal, corners, b0, u, v, f)) - 1.0;
+            const glm::dvec3 tangent3(tangent);
+            const glm::dvec3 bitangent = tangent.w * glm::cross(shading, tangent3);
+            const glm::dvec3 sum =
+                tangent3 * (t.x * m.normal_scale) + bitangent * (t.y * m.normal_scale) + shading * t.z;
+            const double length = glm::length(sum);
+            if (length > 0.0 && std::isfinite(length)) mapped = sum / length;
+          }
+          for (int k = 0; k < 3; ++k) out.mapped_normal[3 * p + k] = static_cast<float>(mapped[k]);
+        }
       }
     }
   });
@@ -224,12 +282,14 @@ std::vector<std::string> missing_attribute_warnings(const Scene& scene, unsigned
       {kAttributeNormal, "NORMAL", "shading_normal is the geometric normal there"},
       {kAttributeTexcoord0, "TEXCOORD_0", "texcoord is (0, 0) there"},
       {kAttributeTexcoord1, "TEXCOORD_1", "texcoord1 is (0, 0) there"},
+      {kAttributeTangent, "TANGENT nor the texture coordinates to make them from",
+       "tangent is a perpendicular of the shading normal there and mapped_normal the shading normal"},
   };
   std::vector<std::string> out;
   for (size_t m = 0; m < scene.meshes.size(); ++m) {
     const Mesh& mesh = scene.meshes[m];
     const std::string name = "mesh " + std::to_string(m) + (mesh.name.empty() ? "" : " ('" + mesh.name + "')");
-    if (attributes & kAttributeMaterialData) {
+    if (attributes & (kAttributeMaterialData | kAttributeNormalTexture)) {
       // A texture reading a coordinate set the mesh lacks samples (0, 0).
       std::set<uint32_t> used(mesh.attributes.materials.begin(), mesh.attributes.materials.end());
       for (uint32_t mi : used) {

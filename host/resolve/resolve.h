@@ -67,6 +67,19 @@ struct ResolvedPlanes {
   float* metallic_roughness = nullptr;  // 2: metallicFactor * texture B, roughnessFactor * texture G
   float* emissive = nullptr;            // 3: emissiveFactor * emissiveTexture * emissiveStrength, linear RGB
   uint32_t* label = nullptr;            // 1: the instance's index into Scene::labels (RF_INVALID on a miss)
+  // 4: the corners' tangents (MeshAttributes::tangents) interpolated, through
+  // world_from_object's linear part, less their part along the shading
+  // normal, unit length; where that leaves no length (no tangent), the
+  // perpendicular of Duff et al. 2017 ("Building an Orthonormal Basis,
+  // Revisited"). Then w: the sign of the interpolated w times that of the
+  // linear part's determinant (a mirroring transform flips the frame).
+  float* tangent = nullptr;
+  // 3: with B = w cross(N, T) from the shading normal N and that tangent
+  // frame, the normalTexture's (r, g, b) sampled as the material channels'
+  // textures: normalize(T x s + B y s + N z) with (x, y, z) = 2 (r, g, b) -
+  // 1 and s the texture's scale; N where the material has no normal
+  // texture or the sum no length.
+  float* mapped_normal = nullptr;
 };
 
 // The attributes the planes of `out` read (Attribute bits).

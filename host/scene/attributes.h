@@ -23,11 +23,18 @@ enum Attribute : unsigned {
   kAttributeTexcoord1 = 4u,  // TEXCOORD_1
   kAttributeMaterial = 8u,   // each primitive's material index
   kAttributeColor0 = 16u,    // COLOR_0
-  // The materials' factors and textures with their images decoded
-  // (scene/materials.h; Scene::materials, Scene::images), and the texture
-  // coordinate sets their textures read.
+  // The materials' factors and their base colour, metallic-roughness and
+  // emissive textures with their images decoded (scene/materials.h;
+  // Scene::materials, Scene::images), and the texture coordinate sets their
+  // textures read.
   kAttributeMaterialData = 32u,
   kAttributeLabel = 64u,  // each instance's label from its node's extras (Scene::labels)
+  // TANGENT (its morph targets, skinned), and MikkTSpace's tangents where a
+  // primitive has none (scene/tangents.h): MeshAttributes::tangents.
+  kAttributeTangent = 128u,
+  // The materials (their factors) with their normalTexture's image
+  // decoded: read only for the channels that apply it.
+  kAttributeNormalTexture = 256u,
 };
 
 // A triangle's material where its primitive names none (glTF's default
@@ -48,6 +55,12 @@ struct MeshAttributes {
   std::vector<glm::vec3> normals;       // object space, as the file gives them (unit length there)
   std::vector<glm::vec2> texcoords[2];  // TEXCOORD_0 and TEXCOORD_1, as the file gives them (v downward)
   std::vector<glm::vec4> colors;        // COLOR_0, linear RGBA (a VEC3's alpha 1)
+  // Per triangle corner (3 per triangle, as `indices`): the tangent xyz and
+  // the bitangent's sign w in object space. Per corner, since MikkTSpace
+  // gives the corners of one vertex on either side of a mirrored UV seam
+  // different tangents; a corner without one (no texture coordinates, a
+  // degenerate triangle alone at its vertex) holds (0, 0, 0, 1).
+  std::vector<glm::vec4> tangents;
   std::vector<uint32_t> materials;      // per triangle: the glTF material index, or kDefaultMaterial
 };
 

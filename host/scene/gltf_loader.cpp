@@ -82,7 +82,8 @@ bool same_geometry(const Scene& a, const Scene& b) {
     if (a.instances[i].mesh != b.instances[i].mesh) return false;
   for (size_t m = 0; m < a.meshes.size(); ++m)
     if (a.meshes[m].positions != b.meshes[m].positions || a.meshes[m].indices != b.meshes[m].indices ||
-        a.meshes[m].attributes.normals != b.meshes[m].attributes.normals)
+        a.meshes[m].attributes.normals != b.meshes[m].attributes.normals ||
+        a.meshes[m].attributes.tangents != b.meshes[m].attributes.tangents)
       return false;
   return true;
 }

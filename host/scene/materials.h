@@ -75,9 +75,14 @@ struct Material {
   glm::dvec3 emissive_factor{0.0};
   double emissive_strength = 1.0;  // KHR_materials_emissive_strength
   TextureRef emissive;             // sRGB-encoded, RGB
+  // Linear, tangent-space XYZ in RGB as 2 * value - 1, its x and y scaled
+  // by normal_scale. The three above are read with kAttributeMaterialData,
+  // this one with kAttributeNormalTexture: each for the channels it feeds.
+  TextureRef normal;
+  double normal_scale = 1.0;
 
   // Its textures, each maybe without an image; whether any has one.
-  std::array<const TextureRef*, 3> textures() const { return {&base_color, &metallic_roughness, &emissive}; }
+  std::array<const TextureRef*, 4> textures() const { return {&base_color, &metallic_roughness, &emissive, &normal}; }
   bool textured() const {
     for (const TextureRef* t : textures())
       if (t->image >= 0) return true;

@@ -50,21 +50,24 @@ enum Channels : unsigned {
   kMetallicRoughness = 4096u,  // metallic, roughness
   kEmissive = 8192u,           // linear RGB
   kLabel = 16384u,             // the instance's label from its node's extras (Scene::labels)
-  kEveryChannel = 32767u,      // every channel one view's render makes
   kFlow = 32768u,              // where the surface point is in another view, minus the pixel (FlowTo)
   kFlowVisible = 65536u,       // whether it is seen there (FlowTo)
   kFlowChannels = 98304u,      // kFlow | kFlowVisible: a render with a FlowTo only
-  kAnyChannel = 131071u,       // every plane a GBuffer may hold
+  kTangent = 131072u,          // world-space tangent and bitangent sign (TANGENT, or MikkTSpace's)
+  kMappedNormal = 262144u,     // the shading normal with the material's normalTexture applied
+  kEveryChannel = 425983u,     // every channel one view's render makes (all but kFlowChannels)
+  kAnyChannel = 524287u,       // every plane a GBuffer may hold
 };
 
 // A comma-separated list of channel names as Channels, as the CLI's
 // --channels and Python's channels= take them: depth, normal,
 // barycentrics, instance_id, primitive_id, shading_normal, texcoord,
 // texcoord1, position, object_position, material_id, base_color,
-// metallic_roughness, emissive, label, or the EXR's names for them (Z, N,
-// UV, InstanceID, PrimitiveID, Ns, TexCoord, TexCoord1, P, Pref,
-// MaterialID, BaseColor, MetallicRoughness, Emission, Label), flow and
-// flow_visible (Flow, FlowVisible); uv is barycentrics' older name. InputError naming an
+// metallic_roughness, emissive, label, tangent, mapped_normal, or the EXR's
+// names for them (Z, N, UV, InstanceID, PrimitiveID, Ns, TexCoord,
+// TexCoord1, P, Pref, MaterialID, BaseColor, MetallicRoughness, Emission,
+// Label, Tangent, MappedNormal), flow and flow_visible (Flow, FlowVisible); uv is
+// barycentrics' older name. InputError naming an
 // unknown name, or for none.
 unsigned parse_channels(const std::string& list);
 
@@ -144,6 +147,17 @@ struct GBuffer {
   // nothing on the segment from its eye closer than 1e-4 of the segment's
   // length short of it), else 0; kMiss on a miss.
   std::vector<uint32_t> flow_visible;
+  // The surface's tangent frame at the hit (docs/channels.md): the
+  // tangent, world space, unit length, orthogonal to shading_normal, from
+  // the file's TANGENT interpolated or, where the mesh has none, MikkTSpace's
+  // tangents of the normal texture's coordinate set; then the bitangent's
+  // sign w (bitangent = w * cross(shading_normal, tangent), glTF's rule,
+  // a mirroring transform's sign included). height * width * 4.
+  std::vector<float> tangent;
+  // The shading normal with the material's normalTexture applied in that
+  // frame (glTF 3.9.3, its scale on x and y), unit length; shading_normal
+  // where the material has none. height * width * 3.
+  std::vector<float> mapped_normal;
   unsigned channels = kAllChannels;    // the planes filled (Channels); the others are empty
   Depth depth_kind = Depth::distance;  // what `depth` measures (RendererOptions::depth)
   bool exact_depth = false;            // depth from the exact ray in double-float (RendererOptions::exact_depth)

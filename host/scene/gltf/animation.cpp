@@ -160,9 +160,11 @@ std::vector<Xform> Loader::joint_matrices(int si) {
 }
 
 void Loader::apply_skin(const tinygltf::Primitive& prim, const std::vector<Xform>& joints, const std::string& where,
-                        std::vector<glm::vec3>& positions, std::vector<glm::vec3>* normals) const {
+                        std::vector<glm::vec3>& positions, std::vector<glm::vec3>* normals,
+                        std::vector<glm::vec4>* tangents) const {
   std::vector<glm::dvec3> sum(positions.size(), glm::dvec3(0.0));
   std::vector<glm::dvec3> normal_sum(normals ? normals->size() : 0, glm::dvec3(0.0));
+  std::vector<glm::dvec3> tangent_sum(tangents ? tangents->size() : 0, glm::dvec3(0.0));
   std::vector<glm::dmat3> normal_from_object;
   if (normals)
     for (const Xform& j : joints) normal_from_object.push_back(glm::transpose(glm::inverse(glm::dmat3(j))));
@@ -192,6 +194,9 @@ void Loader::apply_skin(const tinygltf::Primitive& prim, const std::vector<Xform
         sum[v] += weight * glm::dvec3(joints[static_cast<size_t>(joint)] * glm::dvec4(glm::dvec3(positions[v]), 1.0));
         if (normals)
           normal_sum[v] += weight * (normal_from_object[static_cast<size_t>(joint)] * glm::dvec3((*normals)[v]));
+        if (tangents)
+          tangent_sum[v] +=
+              weight * (glm::dmat3(joints[static_cast<size_t>(joint)]) * glm::dvec3(glm::vec3((*tangents)[v])));
         total[v] += weight;
       }
     ++sets;
@@ -203,6 +208,7 @@ void Loader::apply_skin(const tinygltf::Primitive& prim, const std::vector<Xform
     // (as 8-bit weights do) from shrinking the mesh.
     positions[v] = glm::vec3(sum[v] / total[v]);
     if (normals) (*normals)[v] = glm::vec3(normal_sum[v] / total[v]);
+    if (tangents) (*tangents)[v] = glm::vec4(glm::vec3(tangent_sum[v] / total[v]), (*tangents)[v].w);
   }
 }
 

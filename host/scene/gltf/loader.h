@@ -167,10 +167,12 @@ class Loader {
   // Linear blend skinning (glTF 2.0, 3.7.3): each vertex moved by the
   // weighted sum of its joints' matrices, from every JOINTS_n / WEIGHTS_n
   // set; summed in double and rounded once. normals, when given, move by
-  // the same weights of the joints' normal matrices (inverse transposes);
-  // their length is the resolve's to restore.
+  // the same weights of the joints' normal matrices (inverse transposes),
+  // tangents' xyz by their linear parts; their length is the resolve's to
+  // restore.
   void apply_skin(const tinygltf::Primitive& prim, const std::vector<Xform>& joints, const std::string& where,
-                  std::vector<glm::vec3>& positions, std::vector<glm::vec3>* normals = nullptr) const;
+                  std::vector<glm::vec3>& positions, std::vector<glm::vec3>* normals = nullptr,
+                  std::vector<glm::vec4>* tangents = nullptr) const;
 
   // A primitive's NORMALs (attributes.cpp), morphed by its targets' NORMAL,
   // appended to out.normals for its vertex_count vertices (the caller skins
@@ -184,6 +186,19 @@ class Loader {
   // (0, 0) and the missing bit.
   void read_attributes(int mi, size_t pi, const std::string& where, size_t vertex_count, size_t triangles,
                        MeshAttributes& out);
+  // A primitive's TANGENTs (VEC4: xyz and the bitangent's sign), xyz
+  // morphed by its targets' TANGENT.
+  std::vector<glm::vec4> read_tangents(int mi, size_t pi, const std::string& where, size_t vertex_count,
+                                       const std::vector<double>& weights) const;
+  // The primitive's tangents per corner of its triangles (from
+  // triangle_first on) into mesh.attributes.tangents: `file_tangents` (per
+  // vertex) when it has them, else MikkTSpace's (scene/tangents.h) from
+  // the posed positions, the normals from normal_first on and the normal
+  // texture's coordinate set (the missing bit where it has none).
+  void add_corner_tangents(int mi, size_t pi, const std::string& where, Mesh& mesh, uint32_t base, size_t vertex_count,
+                           size_t triangle_first, size_t normal_first, const std::vector<glm::vec4>& file_tangents);
+  // The texture coordinate set a material's normalTexture reads (0 without one).
+  int normal_texcoord_set(int material) const;
   // COLOR_0 (VEC3 or VEC4 of FLOAT or normalized unsigned byte or short)
   // as linear RGBA.
   std::vector<glm::vec4> read_colors(int ai, const std::string& what) const;
@@ -284,7 +299,8 @@ class Loader {
   bool cache_meshes_ = false;                         // animated: poses reuse unskinned meshes (mesh_for)
   std::map<MeshKey, std::optional<Mesh>> converted_;  // static meshes of earlier poses; none: no triangles
   std::vector<int> parent_;
-  bool materials_read_ = false;
+  unsigned materials_read_ =
+      0;  // the texture bits materials_ were read with (kAttributeMaterialData, ...NormalTexture)
   std::vector<Material> materials_;
   std::vector<std::shared_ptr<const TextureImage>> images_;
   std::map<std::pair<int, bool>, int> image_slot_;  // (glTF image, sRGB) -> images_ index

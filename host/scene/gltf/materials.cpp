@@ -151,7 +151,10 @@ TextureRef Loader::texture_ref(int index, int texcoord, const tinygltf::Extensio
 }
 
 void Loader::read_materials() {
-  if (materials_read_) return;
+  // Read again when more of their textures are asked for; decoded images are kept.
+  const unsigned asked = options_.attributes & (kAttributeMaterialData | kAttributeNormalTexture);
+  if ((materials_read_ & asked) == asked) return;
+  materials_.clear();
   try {
     read_every_material();
   } catch (...) {
@@ -159,9 +162,10 @@ void Loader::read_materials() {
     materials_.clear();
     images_.clear();
     image_slot_.clear();
+    materials_read_ = 0;
     throw;
   }
-  materials_read_ = true;
+  materials_read_ = asked;
 }
 
 void Loader::read_every_material() {
@@ -177,13 +181,22 @@ void Loader::read_every_material() {
     for (int c = 0; c < 3; ++c) out.emissive_factor[c] = m.emissiveFactor[c];
     out.metallic_factor = pbr.metallicFactor;
     out.roughness_factor = pbr.roughnessFactor;
-    out.base_color = texture_ref(pbr.baseColorTexture.index, pbr.baseColorTexture.texCoord,
-                                 pbr.baseColorTexture.extensions, true, where + "'s baseColorTexture");
-    out.metallic_roughness =
-        texture_ref(pbr.metallicRoughnessTexture.index, pbr.metallicRoughnessTexture.texCoord,
-                    pbr.metallicRoughnessTexture.extensions, false, where + "'s metallicRoughnessTexture");
-    out.emissive = texture_ref(m.emissiveTexture.index, m.emissiveTexture.texCoord, m.emissiveTexture.extensions, true,
-                               where + "'s emissiveTexture");
+    // Each texture decoded only for the channels that read it.
+    if (options_.attributes & kAttributeMaterialData) {
+      out.base_color = texture_ref(pbr.baseColorTexture.index, pbr.baseColorTexture.texCoord,
+                                   pbr.baseColorTexture.extensions, true, where + "'s baseColorTexture");
+      out.metallic_roughness =
+          texture_ref(pbr.metallicRoughnessTexture.index, pbr.metallicRoughnessTexture.texCoord,
+                      pbr.metallicRoughnessTexture.extensions, false, where + "'s metallicRoughnessTexture");
+      out.emissive = texture_ref(m.emissiveTexture.index, m.emissiveTexture.texCoord, m.emissiveTexture.extensions,
+                                 true, where + "'s emissiveTexture");
+    }
+    if (options_.attributes & kAttributeNormalTexture) {
+      out.normal = texture_ref(m.normalTexture.index, m.normalTexture.texCoord, m.normalTexture.extensions, false,
+                               where + "'s normalTexture");
+      out.normal_scale = m.normalTexture.scale;
+      if (!std::isfinite(out.normal_scale)) fail(where + ": normalTexture's scale must be a finite number");
+    }
     const auto strength = m.extensions.find("KHR_materials_emissive_strength");
     if (strength != m.extensions.end()) {
       const nlohmann::json x = to_json(strength->second);
@@ -233,7 +246,7 @@ std::vector<std::string> Loader::node_labels() const {
 }
 
 void Loader::add_material_data() {
-  if (options_.attributes & kAttributeMaterialData) {
+  if (options_.attributes & (kAttributeMaterialData | kAttributeNormalTexture)) {
     read_materials();
     scene_.materials = materials_;
     scene_.images = images_;

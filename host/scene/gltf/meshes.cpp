@@ -41,11 +41,17 @@ int Loader::convert_mesh(int mi, const std::vector<double>& weights, int skin) {
     const size_t first_normal = mesh.attributes.normals.size();
     if (options_.attributes & kAttributeNormal) read_normals(mi, pi, where, positions.size(), weights, mesh.attributes);
     apply_morph_targets(mi, pi, weights, where, positions);
+    // The file's tangents, morphed and skinned as its normals; none: made
+    // below from the posed mesh (scene/tangents.h).
+    std::vector<glm::vec4> tangents;
+    if ((options_.attributes & kAttributeTangent) && prim.attributes.count("TANGENT"))
+      tangents = read_tangents(mi, pi, where, positions.size(), weights);
     if (skin >= 0) {
       std::vector<glm::vec3> normals;
       const bool with_normals = (options_.attributes & kAttributeNormal) && prim.attributes.count("NORMAL");
       if (with_normals) normals.assign(mesh.attributes.normals.begin() + first_normal, mesh.attributes.normals.end());
-      apply_skin(prim, joints, where, positions, with_normals ? &normals : nullptr);
+      apply_skin(prim, joints, where, positions, with_normals ? &normals : nullptr,
+                 tangents.empty() ? nullptr : &tangents);
       if (with_normals) std::copy(normals.begin(), normals.end(), mesh.attributes.normals.begin() + first_normal);
     }
     const uint32_t vertex_count = static_cast<uint32_t>(positions.size());
@@ -67,6 +73,8 @@ int Loader::convert_mesh(int mi, const std::vector<double>& weights, int skin) {
     const size_t triangles_before = mesh.triangle_count();
     append_triangles(mode, std::move(seq), base, mesh.indices, &dropped);
     read_attributes(mi, pi, where, vertex_count, mesh.triangle_count() - triangles_before, mesh.attributes);
+    if (options_.attributes & kAttributeTangent)
+      add_corner_tangents(mi, pi, where, mesh, base, vertex_count, triangles_before, first_normal, tangents);
     if (dropped)
       warn(where + " has " + std::to_string(seq_size) + " triangle vertices, not a multiple of 3; the last " +
            std::to_string(dropped) + " are ignored");
