@@ -99,28 +99,30 @@ def test_one_zarr_store_holds_every_views_bits_and_resumes(atrium_path, tmp_path
     cameras = camera_list(tmp_path / "c.json", 20, intrinsics_every=4)
     store = tmp_path / "views.zarr"
     s = rayfold.batch.render(atrium_path, tmp_path / "c.json", store, workers=2, fold="xy",
-                             channels="Z,InstanceID,normal", progress=False)
+                             channels="Z,InstanceID,normal,uv", progress=False)
     assert (s.rendered, s.failed) == (20, [])
     g = zarr.open_group(str(store), mode="r")
-    assert sorted(g.keys()) == ["depth", "instance_id", "normal"]
+    # The barycentrics by the name that says what they hold, uv taken as their older name.
+    assert sorted(g.keys()) == ["barycentrics", "depth", "instance_id", "normal"]
+    assert "not texture coordinates" in g.attrs["barycentrics"]
     assert g["normal"].shape == (20, 48, 64, 3) and g["normal"].chunks == (1, 48, 64, 3)
     assert len(g.attrs["cameras"]) == 20 and g.attrs["instance_names"] == list(scene.instance_names)
     assert g.attrs["cameras"][4]["fx"] == cameras[4].intrinsics[0]
     expected = scene.render_views(cameras, fold="xy")
     for i, e in enumerate(expected):
-        for p in ("depth", "instance_id", "normal"):
+        for p in ("depth", "instance_id", "normal", "barycentrics"):
             assert g[p][i].tobytes() == getattr(e, p).tobytes(), f"view {i}, plane {p}"
     # A chunk gone: that view is rendered again, the others kept.
     chunk = [p for p in (store / "depth").rglob("*") if p.is_file() and p.name != "zarr.json"][0]
     chunk.unlink()
-    s = rayfold.batch.render(atrium_path, tmp_path / "c.json", store, fold="xy", channels="Z,InstanceID,normal",
-                             progress=False)
+    s = rayfold.batch.render(atrium_path, tmp_path / "c.json", store, fold="xy",
+                             channels="Z,InstanceID,normal,uv", progress=False)
     assert (s.rendered, s.kept) == (1, 19)
     assert not list(store.rglob("*.partial"))
     for i, e in enumerate(expected):
         assert g["depth"][i].tobytes() == e.depth.tobytes(), f"view {i}"
     with pytest.raises(rayfold.InputError, match="another scene, cameras or options"):
-        rayfold.batch.render(atrium_path, tmp_path / "c.json", store, fold="y", channels="Z,InstanceID,normal",
+        rayfold.batch.render(atrium_path, tmp_path / "c.json", store, fold="y", channels="Z,InstanceID,normal,uv",
                              progress=False)
     mixed = cameras[:2] + [rayfold.Camera.look_at((0, 1, 5), (0, 1, 0), (0, 1, 0), 60, 32, 24)]
     with pytest.raises(rayfold.InputError, match="views of one size"):

@@ -15,9 +15,9 @@ from ._core import MISS, InputError, __version__, _check_exr_compression, _plane
 
 
 def _store_name(spec):
-    """A plane's array in the store: its name, but the barycentrics keep the
-    store's older name, uv."""
-    return "uv" if spec["name"] == "barycentrics" else spec["name"]
+    """A plane's array in the store: its name ("barycentrics", not its older
+    name uv, which read as texture coordinates; the store's attributes say so)."""
+    return spec["name"]
 
 
 # A plane's trailing shape, dtype and the value of a view not yet written,
@@ -235,8 +235,11 @@ class ZarrOutput:
             "depth": ("distance along each pixel's ray" if options["depth"] == "distance"
                       else "depth along the camera's axis (planar)") +
                      (", exact (double-float, within 2^-24)" if options.get("exact_depth") else ""),
-            "unwritten": "depth, normal, uv NaN; ids 4294967295 (also a miss's id)",
-            "miss": "depth inf, normal and uv 0, instance_id and primitive_id 4294967295",
+            "unwritten": "float planes NaN; ids 4294967295 (also a miss's id)",
+            "miss": "depth inf, instance_id, primitive_id, material_id, label and flow_visible 4294967295, "
+                    "other planes 0 (docs/channels.md)",
+            "barycentrics": "the weights (u, v) of each hit triangle's 2nd and 3rd vertex, not texture "
+                            "coordinates (texcoord); stores of rayfold before 2026-12-07 named this array uv",
             "pixel_centres": "at (x + 0.5, y + 0.5) from the top-left corner, rows going down",
             "cameras": [None if c is None else _camera_attrs(c) for c in cameras],
         }
