@@ -141,6 +141,42 @@ TEST(Flow, AQuadInFrontHidesWhatItCoversFromTheOtherEye) {
   EXPECT_GT(seen, 500u);
 }
 
+TEST(Flow, AListOfViewsFlowsFromEachToTheNext) {
+  const rayfold::Scene scene = rayfold::Scene::load(quads_file("flow_list", {{1.0, 0.0}, {0.25, 0.5}}));
+  rayfold::Renderer renderer(scene);
+  std::vector<rayfold::Camera> views;
+  for (int k = 0; k < 5; ++k)
+    views.push_back(rayfold::Camera::look_at({0.3 * k - 0.6, 0.1 * k, 3}, {0, 0, 0}, {0, 1, 0}, 50, 48, 40));
+  const unsigned planes = kFlowPlanes | rayfold::kShadingNormal;
+  for (int align : {0, 1})
+    for (rayfold::Fold fold : {rayfold::Fold::none, rayfold::Fold::xy}) {
+      const std::vector<rayfold::GBuffer> got = renderer.render_views(views, fold, align, planes);
+      ASSERT_EQ(got.size(), views.size());
+      for (size_t k = 0; k + 1 < views.size(); ++k) {
+        // Each view's planes are its render with the flow to the next view.
+        const rayfold::GBuffer want = renderer.render(views[k], fold, planes, rayfold::FlowTo{views[k + 1]});
+        EXPECT_EQ(got[k].channels, planes);
+        EXPECT_EQ(rayfold::count_differing_pixels(got[k], want), 0u) << "view " << k << " align " << align;
+      }
+      // No view follows the last: NaN where it hits, flow_visible 0.
+      const rayfold::GBuffer& last = got.back();
+      size_t hits = 0;
+      for (size_t p = 0; p < last.instance_id.size(); ++p) {
+        const bool hit = last.instance_id[p] != rayfold::kMiss;
+        hits += hit;
+        ASSERT_EQ(std::isnan(last.flow[2 * p]) && std::isnan(last.flow[2 * p + 1]), hit) << "pixel " << p;
+        ASSERT_EQ(last.flow_visible[p], hit ? 0u : rayfold::kMiss) << "pixel " << p;
+      }
+      EXPECT_GT(hits, 500u);
+    }
+  // Without the ids asked for, the flow still finds its triangles; they are
+  // not handed back.
+  const std::vector<rayfold::GBuffer> flow_only = renderer.render_views(views, rayfold::Fold::none, 0, rayfold::kFlow);
+  EXPECT_TRUE(flow_only[0].instance_id.empty() && flow_only[0].uv.empty());
+  EXPECT_EQ(flow_only[0].flow,
+            renderer.render(views[0], rayfold::Fold::none, rayfold::kFlow, rayfold::FlowTo{views[1]}).flow);
+}
+
 TEST(Flow, AMovingNodeIsFollowedAcrossTimeAndThePoseIsPutBack) {
   // Node 0 moves by +1 in x from t = 0 to t = 1; seen straight on by an
   // orthographic camera whose pixels are 1/16 wide, its points move 16

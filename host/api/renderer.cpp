@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <functional>
+#include <limits>
 
 #include "api/pipeline_options.h"
 #include "api/resolve_gbuffer.h"
@@ -124,14 +125,15 @@ void check_channels(unsigned channels, unsigned allowed = kEveryChannel) {
   if ((channels & kFlowChannels) && !(allowed & kFlowChannels) && !(channels & ~kAnyChannel))
     throw InputError("",
                      "flow and flow_visible need the view the flow goes to: a single view's render with it "
-                     "(Python: render's flow_to=; C++: render(camera, fold, channels, FlowTo{...}))");
+                     "(Python: render's flow_to=; C++: render(camera, fold, channels, FlowTo{...})), or a "
+                     "list of views, each flowing to the next (render_views, iter_views)");
   if (channels == 0u || (channels & ~allowed) != 0u)
     throw InputError("", allowed == kAllChannels
                              ? "channels must be a nonzero combination of kDepth, kNormal, kUv, kInstanceId and "
                                "kPrimitiveId, not " +
                                    std::to_string(channels)
                              : "channels must be a nonzero combination of the Channels flags (kDepth to "
-                               "kFlowVisible), not " +
+                               "kMappedNormal), not " +
                                    std::to_string(channels));
 }
 
@@ -364,6 +366,19 @@ void Renderer::add_flow(GBuffer& g, const FlowTo& to, unsigned asked) {
   }
 }
 
+void Renderer::add_no_flow(GBuffer& g, unsigned asked) {
+  const size_t n = static_cast<size_t>(g.width) * g.height;
+  if (asked & kFlow) {
+    g.flow.resize(2 * n);
+    for (size_t p = 0; p < n; ++p)
+      g.flow[2 * p] = g.flow[2 * p + 1] = g.instance_id[p] == kMiss ? 0.0f : std::numeric_limits<float>::quiet_NaN();
+  }
+  if (asked & kFlowVisible) {
+    g.flow_visible.resize(n);
+    for (size_t p = 0; p < n; ++p) g.flow_visible[p] = g.instance_id[p] == kMiss ? kMiss : 0u;
+  }
+}
+
 GBuffer Renderer::render_at(double time, const Camera& camera, Fold fold, unsigned channels, const FlowTo* to) {
   GBuffer g;
   render_into_at(g, time, camera, fold, channels, to);
@@ -551,9 +566,12 @@ std::vector<std::vector<size_t>> Renderer::passes(const std::vector<Camera>& cam
 void Renderer::render_views(const std::vector<Camera>& cameras, const std::function<void(size_t, GBuffer&&)>& on_view,
                             Fold fold, int align, unsigned asked,
                             const std::function<void(size_t, GBuffer&)>& prepare) {
-  check_channels(asked);
+  // Flow goes from each view to the next in the list.
+  check_channels(asked, kAnyChannel);
   check_align(align);
   if (cameras.empty()) return;
+  const bool flow = (asked & kFlowChannels) != 0;
+  const unsigned resolved = flow ? (asked & ~kFlowChannels) | kInstanceId | kPrimitiveId | kBarycentrics : asked;
   std::vector<std::string> attribute_warnings = detail::load_attributes(*impl_->state, asked);
   const unsigned channels = detail::trace_channels(asked);
   const core::FrameOptions frame =
@@ -563,7 +581,8 @@ void Renderer::render_views(const std::vector<Camera>& cameras, const std::funct
   // Where the device reads packed planes back, pass p + 1 is submitted
   // before pass p's G-buffers are made and handed on, so that the host's
   // work overlaps the device's; elsewhere one pass at a time.
-  const size_t depth = impl_->core->packs_planes() ? 2 : 1;
+  // (Flow's visibility asks the device too: one pass at a time then.)
+  const size_t depth = impl_->core->packs_planes() && !flow ? 2 : 1;
   core::RenderResult* results[2] = {&impl_->result, &impl_->second_result};
   std::vector<core::Clock::time_point> started(passes.size());
   auto submit = [&](size_t p) {
@@ -586,7 +605,14 @@ void Renderer::render_views(const std::vector<Camera>& cameras, const std::funct
         fill_gbuffer(g, r, k, r.view_warnings.at(k), cameras[pass[k]].width(), cameras[pass[k]].height(),
                      impl_->options.threads, channels, impl_->planar_depth ? Depth::planar : Depth::distance,
                      frame.exact_depth);
-        detail::resolve_gbuffer(g, impl_->state->scene, views[pass[k]], asked, impl_->options.threads);
+        detail::resolve_gbuffer(g, impl_->state->scene, views[pass[k]], resolved, impl_->options.threads);
+        if (flow) {
+          if (pass[k] + 1 < cameras.size())
+            add_flow(g, FlowTo{cameras[pass[k] + 1]}, asked);
+          else
+            add_no_flow(g, asked);
+          detail::keep_planes(g, asked);
+        }
         // The attributes' warnings go with the first view handed on.
         g.warnings.insert(g.warnings.end(), attribute_warnings.begin(), attribute_warnings.end());
         attribute_warnings.clear();

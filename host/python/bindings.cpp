@@ -952,7 +952,8 @@ NB_MODULE(_core, m) {
           "Renders a list of views, one GBuffer each. Views of the same size and intrinsics are traced together, up "
           "to align per trace (0 or 'all': as many as one holds; 1: each alone; 'auto': as the cost model predicts "
           "fastest, chosen on the first list of this size and intrinsics and kept); every view's bits equal "
-          "render(view). fold, channels, depth and exact_depth as in render. Releases the GIL.");
+          "render(view). fold, channels, depth and exact_depth as in render; flow and flow_visible go from each view "
+          "to the next (render(view, flow_to=next)), the last view's NaN. Releases the GIL.");
 
   auto scene_renderer = [](PyScene& s, const std::string& backend, const std::string& device, unsigned threads)
       -> rayfold::Renderer& {

@@ -93,6 +93,28 @@ def test_a_scene_built_in_memory_and_moved_reaches_the_workers_as_trees(tmp_path
         rayfold.batch.render(scene, cameras, pattern, send="file")
 
 
+def test_flow_goes_from_each_view_to_the_next_across_workers(atrium_path, tmp_path):
+    scene = rayfold.Scene(atrium_path)
+    cameras = camera_list(tmp_path / "c.json", 12, intrinsics_every=5)
+    channels = "depth,instance_id,flow,flow_visible"
+    pattern = str(tmp_path / "out" / "v_%d.exr")
+    s = rayfold.batch.render(atrium_path, tmp_path / "c.json", pattern, workers=2, fold="xy", channels=channels,
+                             progress=False)
+    assert (s.rendered, s.failed) == (12, [])
+    expected = scene.render_views(cameras, fold="xy", channels=channels)
+    for i, e in enumerate(expected):
+        got = rayfold.read_exr(pattern % i)
+        for p in ("flow", "flow_visible", "depth"):
+            assert got[p].tobytes() == getattr(e, p).tobytes(), f"view {i}, plane {p}"
+    # A view moved: it and the view before it (which flows to it) are rendered again.
+    moved = json.loads((tmp_path / "c.json").read_text())
+    moved["cameras"][7]["eye"][0] += 0.25
+    (tmp_path / "c.json").write_text(json.dumps(moved))
+    s = rayfold.batch.render(atrium_path, tmp_path / "c.json", pattern, workers=2, fold="xy", channels=channels,
+                             progress=False)
+    assert (s.rendered, s.kept) == (2, 10)
+
+
 def test_one_zarr_store_holds_every_views_bits_and_resumes(atrium_path, tmp_path):
     zarr = pytest.importorskip("zarr", reason="zarr stores need zarr (tools/scripts/python-env.sh installs it)")
     scene = rayfold.Scene(atrium_path)

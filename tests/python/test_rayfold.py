@@ -986,3 +986,41 @@ def test_flow_to_another_camera_is_the_projection_of_each_hit(tmp_path):
             scene.render(a, channels="flow", flow_to=bad)
     with pytest.raises(ValueError, match="neither flow nor flow_visible"):
         scene.render(a, channels="depth", flow_to=b)
+
+
+def test_a_list_of_views_flows_from_each_to_the_next(tmp_path, cli):
+    path = tmp_path / "quad.gltf"
+    write_quad_gltf(path)
+    scene = rayfold.Scene(str(path))
+    # 40 views: iter_views reads 32 at a time, so one flows across its chunks.
+    cameras = [rayfold.Camera.look_at((0.01 * k, 0.005 * k, 0), (0.2, -0.1, -4), (0, 1, 0), 60.0, 48, 32)
+               for k in range(40)]
+    channels = "depth,instance_id,flow,flow_visible"
+    streamed = list(scene.iter_views(cameras, fold="xy", channels=channels))
+    listed = scene.render_views(cameras, fold="xy", channels=channels)
+    for k in (0, 30, 31, 32, 38):
+        want = scene.render(cameras[k], fold="xy", channels=channels, flow_to=cameras[k + 1])
+        for g in (streamed[k], listed[k]):
+            np.testing.assert_array_equal(bits(g.flow), bits(want.flow), err_msg=f"view {k}")
+            np.testing.assert_array_equal(g.flow_visible, want.flow_visible, err_msg=f"view {k}")
+    # The last view has none to go to.
+    last = streamed[-1]
+    hit = last.instance_id != rayfold.MISS
+    assert hit.sum() > 150 and np.isnan(last.flow[hit]).all() and (last.flow_visible[hit] == 0).all()
+    np.testing.assert_array_equal(bits(listed[-1].flow), bits(last.flow))
+    # The CLI's camera lists write the same flow into each view's EXR.
+    frames = [{"file_path": f"v{k}", "transform_matrix": c.camera_to_world_in("opengl").tolist()}
+              for k, c in enumerate(cameras[:3])]
+    fx = cameras[0].intrinsics[0]
+    (tmp_path / "t.json").write_text(json.dumps({"fl_x": fx, "fl_y": fx, "cx": 24.0, "cy": 16.0, "w": 48, "h": 32,
+                                                 "frames": frames}))
+    subprocess.run([cli, "render", str(path), "-q", "--cameras", str(tmp_path / "t.json"), "--channels",
+                    "Z,InstanceID,Flow,FlowVisible", "-o", str(tmp_path / "%s.exr")], check=True)
+    for k in range(2):
+        back = rayfold.read_exr(tmp_path / f"v{k}.exr")
+        np.testing.assert_array_equal(bits(back["flow"]), bits(listed[k].flow), err_msg=f"view {k}")
+    back = rayfold.read_exr(tmp_path / "v2.exr")  # the file's last view
+    assert np.isnan(back["flow"][back["instance_id"] != rayfold.MISS]).all()
+    single = subprocess.run([cli, "render", str(path), "-q", "--channels", "flow", "-o", str(tmp_path / "x.exr")],
+                            capture_output=True, text=True)
+    assert single.returncode == 2 and "from each view of a list to the next" in single.stderr, single.stderr

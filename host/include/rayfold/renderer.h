@@ -134,7 +134,10 @@ class Renderer {
   // trace (alignment: one traversal answers every view of it); each view's
   // bits are those of render(view) alone. align 1 traces each alone, 0 as
   // many as one trace holds (kMaxAlignedViews, divided by the fold's
-  // mirrors: 2 for y or x, 4 for xy). InputError for another align.
+  // mirrors: 2 for y or x, 4 for xy). InputError for another align. With
+  // kFlow or kFlowVisible, each view's flow goes to the next view of the
+  // list (its forward flow; the list reversed gives the backward flow), the
+  // last view's is NaN and flow_visible 0 where it hits (no view follows).
   std::vector<GBuffer> render_views(const std::vector<Camera>& cameras, Fold fold = Fold::none, int align = 0,
                                     unsigned channels = kAllChannels);
   // The same, handing each view to on_view (its index in cameras, its
@@ -209,6 +212,8 @@ class Renderer {
  private:
   // The flow planes `asked` names, for g's hits, against the scene as it is posed now.
   void add_flow(GBuffer& g, const FlowTo& to, unsigned asked);
+  // The flow planes of a view no view follows: NaN flow, flow_visible 0 where it hits.
+  void add_no_flow(GBuffer& g, unsigned asked);
 
   struct Impl;
   std::unique_ptr<Impl> impl_;

@@ -15,6 +15,14 @@ from ._core import Camera, InputError
 CHUNK_VIEWS = 32
 
 
+def asks_flow(channels):
+    """Whether channels (as render takes them) name flow or flow_visible."""
+    if channels is None:
+        return False
+    names = channels.split(",") if isinstance(channels, str) else list(channels)
+    return any(n.strip() in ("flow", "flow_visible", "Flow", "FlowVisible") for n in names)
+
+
 def iter_views(scene, cameras, fold="none", align=0, backend="opencl", device="", kernel="auto", threads=0,
                channels=None, depth="distance", exact_depth=False):
     """Yields the GBuffer of each camera, in the order given; each view's bits
@@ -24,19 +32,28 @@ def iter_views(scene, cameras, fold="none", align=0, backend="opencl", device=""
     time, and only those views' G-buffers are held, so memory stays flat
     however many views there are. align as in render_views (views of the same
     size and intrinsics within 32 of each other trace together), channels,
-    depth and exact_depth as in render. A GBuffer the caller keeps stays valid; the next ones are new
-    arrays."""
+    depth and exact_depth as in render; with flow or flow_visible each view's flow
+    goes to the next camera (the last one's is NaN), as in render_views. A
+    GBuffer the caller keeps stays valid; the next ones are new arrays."""
     it = iter(cameras)
     index = 0
+    # With flow each view flows to the next (render_views): a chunk's last
+    # view is rendered with the next chunk's first after it, and handed on
+    # with the next chunk.
+    flow = asks_flow(channels)
+    ahead = []
     while True:
-        chunk = list(itertools.islice(it, CHUNK_VIEWS))
+        chunk = ahead + list(itertools.islice(it, CHUNK_VIEWS - len(ahead)))
+        ahead = list(itertools.islice(it, 1)) if flow else []
         if not chunk:
             return
-        for k, c in enumerate(chunk):
+        for k, c in enumerate(chunk + ahead):
             if not isinstance(c, Camera):
                 raise TypeError(f"iter_views: camera {index + k} is a {type(c).__name__}, not a rayfold.Camera")
-        yield from scene.render_views(chunk, fold=fold, align=align, backend=backend, device=device, kernel=kernel,
-                                      threads=threads, channels=channels, depth=depth, exact_depth=exact_depth)
+        views = scene.render_views(chunk + ahead, fold=fold, align=align, backend=backend, device=device,
+                                   kernel=kernel, threads=threads, channels=channels, depth=depth,
+                                   exact_depth=exact_depth)
+        yield from views[:len(chunk)]
         index += len(chunk)
 
 

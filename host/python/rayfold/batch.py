@@ -32,7 +32,7 @@ import warnings
 
 from ._core import Camera, InputError, RuntimeFailure, Scene, __version__
 from ._batch_outputs import make_output, sha256_file
-from ._streams import read_views_lenient
+from ._streams import asks_flow, read_views_lenient
 
 MANIFEST_DIR = "rayfold-manifest"
 # Views a worker renders per call: a multiple of what one trace holds in
@@ -145,17 +145,27 @@ class _Worker:
         return list(g.warnings)
 
     def render(self, views):
-        """views: (index, camera, key) tuples of one size and intrinsics.
-        Returns (done indices, failures, warnings, peak RSS MB)."""
+        """views: (index, camera, key, next camera) tuples of one size and
+        intrinsics; the next camera is the one the view's flow goes to (None
+        without flow or after the last view). Returns (done indices,
+        failures, warnings, peak RSS MB)."""
         done, failures, warnings = [], [], []
-        try:
-            gbuffers = self.scene.render_views([v[1] for v in views], **self.options)
-        except (InputError, RuntimeFailure):
-            gbuffers = None  # one view spoils the trace: each alone, to name it
-        for k, (index, camera, key) in enumerate(views):
+        flow = asks_flow(self.options["channels"])
+        gbuffers = None
+        if not flow:  # with flow each view goes alone with its next one
             try:
-                g = gbuffers[k] if gbuffers is not None else self.scene.render(camera, **{
-                    o: v for o, v in self.options.items() if o != "align"})
+                gbuffers = self.scene.render_views([v[1] for v in views], **self.options)
+            except (InputError, RuntimeFailure):
+                pass  # one view spoils the trace: each alone, to name it
+        single = {o: v for o, v in self.options.items() if o != "align"}
+        for k, (index, camera, key, after) in enumerate(views):
+            try:
+                if gbuffers is not None:
+                    g = gbuffers[k]
+                elif flow and after is None:
+                    g = self.scene.render_views([camera], **self.options)[0]  # the last view: NaN flow
+                else:
+                    g = self.scene.render(camera, **single, **({"flow_to": after} if flow else {}))
                 warnings += [(index, w) for w in self._write(index, g, key)]
                 done.append(index)
             except (InputError, RuntimeFailure, OSError) as e:
@@ -276,7 +286,11 @@ def render(scene, cameras, out, *, workers=1, address=None, fold="none", align=0
     common = json.dumps([scene_digest, fold, str(channels), depth, __version__] +
                         ([exr_compression] if exr_compression not in (None, "zip") else []) +
                         (["exact_depth"] if exact_depth else [])).encode()
-    keys = [hashlib.sha256(common + c.__getstate__()).hexdigest() if c is not None else None for c in cameras]
+    # With flow a view's planes depend on the next view too (it flows there).
+    flow = asks_flow(channels)
+    keys = [hashlib.sha256(common + c.__getstate__() +
+                           (cameras[i + 1].__getstate__() if flow and i + 1 < len(cameras) and cameras[i + 1] else
+                            b"")).hexdigest() if c is not None else None for i, c in enumerate(cameras)]
 
     records = _read_manifest(manifest_dir)
     todo = [i for i in range(len(cameras))
@@ -335,7 +349,8 @@ def render(scene, cameras, out, *, workers=1, address=None, fold="none", align=0
         # Small jobs in smaller batches, so that every worker gets some: four
         # batches a worker at least, up to batch_views.
         size = max(1, min(batch_views, -(-len(todo) // (4 * len(pool)))))
-        pending = [[(i, cameras[i], keys[i]) for i in b] for b in _batches(cameras, todo, size)]
+        pending = [[(i, cameras[i], keys[i], cameras[i + 1] if flow and i + 1 < len(cameras) else None) for i in b]
+                   for b in _batches(cameras, todo, size)]
         pending.reverse()  # popped from the end: index order
         attempts = {}
         in_flight = {}
@@ -453,7 +468,9 @@ def main(argv=None):
     p.add_argument("--align", type=_align_arg, default=0, metavar="N|all|auto",
                    help="views traced together: N (1: each alone), all, the default: as many as a trace holds, "
                         "or auto: as the cost model predicts fastest")
-    p.add_argument("--channels", help="the planes written, for example depth,instance_id (default all)")
+    p.add_argument("--channels", help="the planes written, for example depth,instance_id (default the visibility "
+                                      "buffer: depth, normal, barycentrics, instance_id, primitive_id); flow and "
+                                      "flow_visible go from each view to the next (docs/channels.md)")
     p.add_argument("--depth", default="distance", choices=["distance", "planar"])
     p.add_argument("--exact-depth", action="store_true",
                    help="each depth from the pixel's exact ray in double-float, within 2^-24 of the exact value "

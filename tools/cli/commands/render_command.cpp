@@ -77,7 +77,10 @@ const char* kRenderUsage =
     "                         UV, InstanceID, PrimitiveID); also the G-buffer's Ns\n"
     "                         (shading_normal), TexCoord, TexCoord1, P (position),\n"
     "                         Pref (object_position), MaterialID, BaseColor,\n"
-    "                         MetallicRoughness, Emission, Label: docs/channels.md\n"
+    "                         MetallicRoughness, Emission, Label, Tangent,\n"
+    "                         MappedNormal: docs/channels.md; with a list of views\n"
+    "                         (--cameras, --colmap, --stereo) Flow and FlowVisible,\n"
+    "                         each view's optical flow to the next\n"
     "  --label-key KEY        the member of a node's extras that labels it for Label\n"
     "                         (default: the whole extras value); labels in the EXR header\n"
     "  --exr-compression M    zip (default), zips, piz, rle or none: OpenEXR's lossless\n"
@@ -139,10 +142,6 @@ RenderArgs parse_render(cli::Args& args) {
     } else if (a == "--channels") {
       try {
         r.channels = rayfold::parse_channels(args.value(a));
-        if (r.channels & rayfold::kFlowChannels)
-          throw UsageError(
-              "--channels: flow and flow_visible pair each view with another, which the CLI does not "
-              "do yet; render them from Python (flow_to=) or C++ (FlowTo)");
       } catch (const InputError& e) {
         throw UsageError(e.what());
       }
@@ -233,6 +232,11 @@ RenderArgs parse_render(cli::Args& args) {
     throw UsageError("--align: aligns the views of --cameras or --stereo");
   }
   if (r.fold_auto && r.compare) throw UsageError("--compare: compares a fold with none; name the fold");
+  if ((r.channels & rayfold::kFlowChannels) && r.cameras.empty() && r.colmap.empty() && !r.stereo)
+    throw UsageError(
+        "--channels: flow and flow_visible go from each view of a list to the next (--cameras, --colmap, "
+        "--stereo: the left view's flow is its disparity to the right); a single view has none to go to, "
+        "and --animate's frames do not yet (Python: render(..., flow_to=(camera, time)))");
   if (r.options.exact_depth && (r.channels & rayfold::kDepth) == 0)
     throw UsageError("--exact-depth: it is Z's; --channels leaves Z out");
   if (r.options.exact_depth && r.options.fast_math)
