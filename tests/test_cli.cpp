@@ -19,8 +19,9 @@
 
 #include "fixtures/gltf_writer.h"
 #include "gltf_fixture.h"
-#include "test_util.h"
 #include "output/image_output.h"
+#include "rayfold/rayfold.h"
+#include "test_util.h"
 
 namespace rayfold::core {
 namespace {
@@ -602,6 +603,32 @@ TEST(Cli, AnimateFramesEqualTheFilePosedAtTheirTimes) {
       EXPECT_GT(hits, 50);
     }
   }
+  // With Flow each frame flows to the next frame's pose: the library's
+  // render at its time with the flow to the next (the camera from the
+  // EXR's header); the last frame has none to go to.
+  const CliRun flowed =
+      rayfold("render " + path + view + "--animate --fps 2 --frames 4 --channels Z,InstanceID,Flow -o " +
+              (d / "flow_%d.exr").string());
+  ASSERT_EQ(flowed.code, 0) << flowed.err;
+  {
+    const rayfold::Scene scene = rayfold::Scene::load(path);
+    rayfold::Renderer renderer(scene);
+    const unsigned channels = rayfold::kDepth | rayfold::kInstanceId | rayfold::kFlow;
+    for (int k = 0; k < 4; ++k) {
+      const std::string exr = (d / ("flow_" + std::to_string(k) + ".exr")).string();
+      const rayfold::GBuffer got = rayfold::read_exr(exr);
+      const rayfold::Camera camera = *rayfold::read_exr_header(exr).camera;
+      if (k == 3) {
+        for (size_t p = 0; p < got.instance_id.size(); ++p)
+          ASSERT_EQ(std::isnan(got.flow[2 * p]), got.instance_id[p] != rayfold::kMiss) << "last frame, pixel " << p;
+        continue;
+      }
+      const rayfold::FlowTo next{camera, 0.5 * (k + 1)};
+      const rayfold::GBuffer want = renderer.render_at(0.5 * k, camera, rayfold::Fold::xy, channels, &next);
+      EXPECT_EQ(rayfold::count_differing_pixels(got, want), 0u) << "frame " << k;
+    }
+  }
+  EXPECT_EQ(rayfold("render " + path + view + "--animate --frames 2 --compare --channels Flow").code, 2);
   // Auto-framed: once --time T was framed at T and --animate at its first
   // frame, so the two disagreed; both now frame the pose at time 0.
   const std::string framed = " --size 48x36 --fold xy ";

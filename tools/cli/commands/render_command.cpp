@@ -79,8 +79,8 @@ const char* kRenderUsage =
     "                         Pref (object_position), MaterialID, BaseColor,\n"
     "                         MetallicRoughness, Emission, Label, Tangent,\n"
     "                         MappedNormal: docs/channels.md; with a list of views\n"
-    "                         (--cameras, --colmap, --stereo) Flow and FlowVisible,\n"
-    "                         each view's optical flow to the next\n"
+    "                         (--cameras, --colmap, --stereo) or --animate's frames,\n"
+    "                         Flow and FlowVisible: each one's optical flow to the next\n"
     "  --label-key KEY        the member of a node's extras that labels it for Label\n"
     "                         (default: the whole extras value); labels in the EXR header\n"
     "  --exr-compression M    zip (default), zips, piz, rle or none: OpenEXR's lossless\n"
@@ -232,11 +232,13 @@ RenderArgs parse_render(cli::Args& args) {
     throw UsageError("--align: aligns the views of --cameras or --stereo");
   }
   if (r.fold_auto && r.compare) throw UsageError("--compare: compares a fold with none; name the fold");
-  if ((r.channels & rayfold::kFlowChannels) && r.cameras.empty() && r.colmap.empty() && !r.stereo)
+  if ((r.channels & rayfold::kFlowChannels) && r.cameras.empty() && r.colmap.empty() && !r.stereo && !r.animate)
     throw UsageError(
-        "--channels: flow and flow_visible go from each view of a list to the next (--cameras, --colmap, "
-        "--stereo: the left view's flow is its disparity to the right); a single view has none to go to, "
-        "and --animate's frames do not yet (Python: render(..., flow_to=(camera, time)))");
+        "--channels: flow and flow_visible go from each view to the next: of a list (--cameras, --colmap, "
+        "--stereo: the left view's flow is its disparity to the right) or of --animate's frames; a single "
+        "view has none to go to");
+  if ((r.channels & rayfold::kFlowChannels) && r.compare)
+    throw UsageError("--channels: flow and --compare: --compare checks the visibility, render flow without it");
   if (r.options.exact_depth && (r.channels & rayfold::kDepth) == 0)
     throw UsageError("--exact-depth: it is Z's; --channels leaves Z out");
   if (r.options.exact_depth && r.options.fast_math)
@@ -465,6 +467,10 @@ int run_render(cli::Args& args) {
                  "motion for benchmarking updates)\n",
                  r.scene.c_str());
   std::optional<SyntheticMotion> motion;
+  if (r.animate && !play && (r.channels & rayfold::kFlowChannels))
+    throw InputError(r.scene,
+                     "--channels flow with --animate needs the file's own animations, which it has none of "
+                     "(the synthetic motion is for benchmarking updates)");
   if (r.animate && !play) {
     motion.emplace(scene);
     motion->pose(scene, 0);  // moved before the trees are built: they keep trees of their own
@@ -548,7 +554,13 @@ int run_render(cli::Args& args) {
   double write_ms = 0.0;  // the EXR and PNG writes (ZIP compression is most of it)
   for (int f = 0; f < r.frames; ++f) {
     pose_frame(f);
-    renderer.render_into(g, camera, r.fold, channels);
+    // Flow goes to the next frame's pose; the last frame has none to go to.
+    if (!(channels & rayfold::kFlowChannels))
+      renderer.render_into(g, camera, r.fold, channels);
+    else if (f + 1 < r.frames)
+      renderer.render_into(g, camera, r.fold, channels, rayfold::FlowTo{camera, start_time + (f + 1) / r.fps});
+    else
+      g = renderer.render_views({camera}, r.fold, 1, channels).front();
     times.push_back(g.stages);
     const bool last = f + 1 == r.frames;
     if (sequence || last) {
