@@ -80,6 +80,42 @@ inline glm::dvec4 lookup(const Scene& scene, const Mesh& mesh, const TextureRef&
   return ref.image < 0 ? glm::dvec4(1.0) : sample_at(scene, mesh, ref, i, b0, u, v, f);
 }
 
+// What the pixels on one triangle of one instance read of its corners,
+// worked out once for a run of them.
+struct CornerWants {
+  bool object = false, world = false, normals = false, texcoord[2] = {false, false};
+};
+struct Corners {
+  uint32_t inst = RF_INVALID, tri = RF_INVALID;
+  const Mesh* mesh = nullptr;
+  bool vertices = false;  // the rest is filled (fill_corners)
+  uint32_t i[3] = {0, 0, 0};
+  glm::dvec3 object[3], world[3];  // positions: the mesh's own, world_from_object's of them
+  glm::dvec3 normal[3];            // NORMAL through normal_from_object (not unit)
+  bool flat = true;                // a corner without a normal: the geometric normal stands in
+  glm::dvec2 texcoord[2][3];       // (0, 0) where the mesh has none
+};
+
+void fill_corners(Corners& c, const InstanceXforms& x, const CornerWants& wants) {
+  const Mesh& mesh = *c.mesh;
+  for (int k = 0; k < 3; ++k) c.i[k] = mesh.indices[3 * c.tri + k];
+  for (int k = 0; k < 3; ++k) {
+    if (wants.object || wants.world) c.object[k] = glm::dvec3(mesh.positions[c.i[k]]);
+    if (wants.world) c.world[k] = glm::dvec3(x.world_from_object * glm::dvec4(c.object[k], 1.0));
+  }
+  if (wants.normals) {
+    const std::vector<glm::vec3>& n = mesh.attributes.normals;
+    c.flat = n.empty() || zero(n[c.i[0]]) || zero(n[c.i[1]]) || zero(n[c.i[2]]);
+    if (!c.flat)
+      for (int k = 0; k < 3; ++k) c.normal[k] = x.normal_from_object * glm::dvec3(n[c.i[k]]);
+  }
+  for (int set = 0; set < 2; ++set) {
+    if (!wants.texcoord[set]) continue;
+    const std::vector<glm::vec2>& t = mesh.attributes.texcoords[set];
+    for (int k = 0; k < 3; ++k) c.texcoord[set][k] = t.empty() ? glm::dvec2(0.0) : glm::dvec2(t[c.i[k]]);
+  }
+}
+
 // Duff et al. 2017's perpendicular of the unit vector n.
 glm::dvec3 perpendicular(const glm::dvec3& n) {
   const double sign = std::copysign(1.0, n.z);
@@ -145,7 +181,14 @@ void resolve(const Scene& scene, const HitPlanes& in, const RayCone& cone, const
   const bool frame = out.tangent || out.mapped_normal;
   const bool per_vertex =
       out.position || out.object_position || out.shading_normal || frame || out.texcoord[0] || out.texcoord[1];
+  CornerWants wants;
+  wants.object = out.position || out.object_position;
+  wants.world = out.position || out.base_color || out.metallic_roughness || out.emissive || out.mapped_normal;
+  wants.normals = out.shading_normal || frame;
+  wants.texcoord[0] = out.texcoord[0] != nullptr;
+  wants.texcoord[1] = out.texcoord[1] != nullptr;
   parallel_for(in.pixels, threads, size_t{1} << 13, [&](size_t begin, size_t end) {
+    Corners c;
     for (size_t p = begin; p < end; ++p) {
       const uint32_t inst = in.instance[p];
       if (inst == RF_INVALID) {
@@ -167,38 +210,40 @@ void resolve(const Scene& scene, const HitPlanes& in, const RayCone& cone, const
         if (out.label) out.label[p] = RF_INVALID;
         continue;
       }
-      RF_CHECK_LT(inst, scene.instances.size(), "a hit on an instance the scene does not have");
-      const Mesh& mesh = scene.meshes[scene.instances[inst].mesh];
-      const uint32_t tri = in.primitive[p];
-      RF_CHECK_LT(tri, mesh.triangle_count(), "a hit on a triangle its mesh does not have");
-      // The triangle's vertices are read only by the channels that need
-      // them: a scattered read that costs more than the rest of a material
-      // channel whose factors alone make it.
-      const bool vertices =
-          per_vertex || out.base_color || ((out.metallic_roughness || out.emissive) && textured(scene, mesh, tri));
-      const uint32_t i0 = vertices ? mesh.indices[3 * tri] : 0, i1 = vertices ? mesh.indices[3 * tri + 1] : 0,
-                     i2 = vertices ? mesh.indices[3 * tri + 2] : 0;
+      // Neighbouring pixels mostly hit one triangle: its corners, moved to
+      // world space, are worked out once for the run of pixels on it.
+      if (inst != c.inst || in.primitive[p] != c.tri) {
+        RF_CHECK_LT(inst, scene.instances.size(), "a hit on an instance the scene does not have");
+        c.mesh = &scene.meshes[scene.instances[inst].mesh];
+        c.tri = in.primitive[p];
+        c.inst = inst;
+        RF_CHECK_LT(c.tri, c.mesh->triangle_count(), "a hit on a triangle its mesh does not have");
+        // The triangle's vertices are read only by the channels that need
+        // them: a scattered read that costs more than the rest of a material
+        // channel whose factors alone make it.
+        c.vertices = per_vertex || out.base_color ||
+                     ((out.metallic_roughness || out.emissive || out.mapped_normal) && textured(scene, *c.mesh, c.tri));
+        if (c.vertices) fill_corners(c, xforms[inst], wants);
+      }
+      const Mesh& mesh = *c.mesh;
+      const uint32_t tri = c.tri;
       const double u = in.barycentrics[2 * p], v = in.barycentrics[2 * p + 1];
       const double b0 = (1.0 - u) - v;
       const InstanceXforms& x = xforms[inst];
-      if (out.position || out.object_position) {
-        const glm::dvec3 o = interpolate(glm::dvec3(mesh.positions[i0]), glm::dvec3(mesh.positions[i1]),
-                                         glm::dvec3(mesh.positions[i2]), b0, u, v);
-        if (out.object_position)
-          for (int k = 0; k < 3; ++k) out.object_position[3 * p + k] = static_cast<float>(o[k]);
-        if (out.position) {
-          const glm::dvec3 w = glm::dvec3(x.world_from_object * glm::dvec4(o, 1.0));
-          for (int k = 0; k < 3; ++k) out.position[3 * p + k] = static_cast<float>(w[k]);
-        }
+      if (out.object_position) {
+        const glm::dvec3 o = interpolate(c.object[0], c.object[1], c.object[2], b0, u, v);
+        for (int k = 0; k < 3; ++k) out.object_position[3 * p + k] = static_cast<float>(o[k]);
+      }
+      if (out.position) {
+        const glm::dvec3 w = interpolate(c.world[0], c.world[1], c.world[2], b0, u, v);
+        for (int k = 0; k < 3; ++k) out.position[3 * p + k] = static_cast<float>(w[k]);
       }
       // The shading normal, in double for the tangent frame.
       glm::dvec3 shading(0.0);
       if (out.shading_normal || frame) {
-        const std::vector<glm::vec3>& n = mesh.attributes.normals;
-        bool flat = n.empty() || zero(n[i0]) || zero(n[i1]) || zero(n[i2]);
+        bool flat = c.flat;
         if (!flat) {
-          shading =
-              x.normal_from_object * interpolate(glm::dvec3(n[i0]), glm::dvec3(n[i1]), glm::dvec3(n[i2]), b0, u, v);
+          shading = interpolate(c.normal[0], c.normal[1], c.normal[2], b0, u, v);
           const double length = std::sqrt(shading.x * shading.x + shading.y * shading.y + shading.z * shading.z);
           flat = !(length > 0.0) || !std::isfinite(length);
           shading /= length;
@@ -216,9 +261,7 @@ void resolve(const Scene& scene, const HitPlanes& in, const RayCone& cone, const
       }
       for (int set = 0; set < 2; ++set) {
         if (!out.texcoord[set]) continue;
-        const std::vector<glm::vec2>& t = mesh.attributes.texcoords[set];
-        glm::dvec2 tc(0.0);
-        if (!t.empty()) tc = interpolate(glm::dvec2(t[i0]), glm::dvec2(t[i1]), glm::dvec2(t[i2]), b0, u, v);
+        const glm::dvec2 tc = interpolate(c.texcoord[set][0], c.texcoord[set][1], c.texcoord[set][2], b0, u, v);
         out.texcoord[set][2 * p] = static_cast<float>(tc.x);
         out.texcoord[set][2 * p + 1] = static_cast<float>(tc.y);
       }
@@ -227,20 +270,16 @@ void resolve(const Scene& scene, const HitPlanes& in, const RayCone& cone, const
       if (out.label) out.label[p] = scene.instances[inst].label;
       if (out.base_color || out.metallic_roughness || out.emissive || out.mapped_normal) {
         const Material& m = material < scene.materials.size() ? scene.materials[material] : default_material();
-        const uint32_t corners[3] = {i0, i1, i2};
+        const uint32_t* corners = c.i;
+        const uint32_t i0 = c.i[0], i1 = c.i[1], i2 = c.i[2];
         // The footprint only where a texture is read: factors alone need none.
         Footprint f{0.0, 0.0};
-        if (m.textured()) {
-          glm::dvec3 w[3];
-          for (int k = 0; k < 3; ++k)
-            w[k] = glm::dvec3(x.world_from_object * glm::dvec4(glm::dvec3(mesh.positions[corners[k]]), 1.0));
-          f = footprint(cone, w, interpolate(w[0], w[1], w[2], b0, u, v));
-        }
+        if (m.textured()) f = footprint(cone, c.world, interpolate(c.world[0], c.world[1], c.world[2], b0, u, v));
         if (out.base_color) {
-          const std::vector<glm::vec4>& c = mesh.attributes.colors;
-          const glm::dvec4 color = c.empty()
-                                       ? glm::dvec4(1.0)
-                                       : interpolate(glm::dvec4(c[i0]), glm::dvec4(c[i1]), glm::dvec4(c[i2]), b0, u, v);
+          const std::vector<glm::vec4>& colors = mesh.attributes.colors;
+          const glm::dvec4 color = colors.empty() ? glm::dvec4(1.0)
+                                                  : interpolate(glm::dvec4(colors[i0]), glm::dvec4(colors[i1]),
+                                                                glm::dvec4(colors[i2]), b0, u, v);
           const glm::dvec4 rgba = m.base_color_factor * color * lookup(scene, mesh, m.base_color, corners, b0, u, v, f);
           for (int k = 0; k < 4; ++k) out.base_color[4 * p + k] = static_cast<float>(rgba[k]);
         }

@@ -50,12 +50,14 @@ RayCone ray_cone(const Camera& camera);
 // vertex's weight b0 = (1 - u) - v (the interpolation b0 a0 + u a1 + v a2,
 // summed in that order):
 struct ResolvedPlanes {
-  float* position = nullptr;         // 3: world_from_object times the interpolated object position
+  // 3: the corners' world positions (world_from_object times each, in
+  // double) interpolated: once per triangle for the run of pixels on it.
+  float* position = nullptr;
   float* object_position = nullptr;  // 3: the interpolated position in the mesh's own space
-  // 3: the interpolated NORMAL through world_from_object's inverse
-  // transpose, unit length; the geometric normal (HitPlanes::normal) where a
-  // vertex of the triangle has none (glTF: flat shading) or the result has
-  // no length.
+  // 3: the corners' NORMALs through world_from_object's inverse transpose,
+  // interpolated, unit length; the geometric normal (HitPlanes::normal)
+  // where a vertex of the triangle has none (glTF: flat shading) or the
+  // result has no length.
   float* shading_normal = nullptr;
   float* texcoord[2] = {nullptr, nullptr};  // 2: TEXCOORD_0 and _1 interpolated; (0, 0) where the mesh has none
   uint32_t* material = nullptr;             // 1: the glTF material index, kDefaultMaterial where none is named

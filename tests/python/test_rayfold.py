@@ -1023,4 +1023,4 @@ def test_a_list_of_views_flows_from_each_to_the_next(tmp_path, cli):
     assert np.isnan(back["flow"][back["instance_id"] != rayfold.MISS]).all()
     single = subprocess.run([cli, "render", str(path), "-q", "--channels", "flow", "-o", str(tmp_path / "x.exr")],
                             capture_output=True, text=True)
-    assert single.returncode == 2 and "from each view of a list to the next" in single.stderr, single.stderr
+    assert single.returncode == 2 and "a single view has none to go to" in single.stderr, single.stderr

@@ -32,9 +32,11 @@ SETS = {
     "visibility": "depth,normal,barycentrics,instance_id,primitive_id",
     "depth, ids, shading normal": "depth,instance_id,primitive_id,shading_normal",
     "materials": "instance_id,base_color,metallic_roughness,emissive",
+    "position": "depth,instance_id,position",
+    "tangent frame": "depth,instance_id,shading_normal,tangent,mapped_normal",
     "every channel but flow": "depth,normal,barycentrics,instance_id,primitive_id,shading_normal,texcoord,"
                               "texcoord1,position,object_position,material_id,base_color,metallic_roughness,"
-                              "emissive,label",
+                              "emissive,label,tangent,mapped_normal",
     "flow, flow_visible": "depth,instance_id,flow,flow_visible",
 }
 
