@@ -45,17 +45,32 @@ RF_INLINE rf_camera rf_make_camera(float scale_x, float scale_y, int kx0, int ky
   rf_make_camera(scale_x, scale_y, kx0, ky0, width, height, xpair, ypair, frac_x, frac_y, ortho, views, group_shift, \
                  slot_mirrors, view_rep, write_flags)
 
+/* A masked scene's kernels (RF_ALPHA, rf_alpha.h) take its masks last. */
+#ifdef RF_ALPHA
+#define RF_ALPHA_KERNEL_ARGS                                                                                     \
+  , __global const uint *alpha_index, __global const rf_alpha_tri *alpha_tris,                                   \
+      __global const rf_alpha_image *alpha_images, __global const uchar *alpha_texels
+#define RF_ALPHA_TABLES()                                                                        \
+  const rf_alpha_tables alpha_tables = {alpha_index, alpha_tris, alpha_images, alpha_texels};     \
+  const rf_alpha_tables* alpha = &alpha_tables
+#else
+#define RF_ALPHA_KERNEL_ARGS
+#define RF_ALPHA_TABLES() (void)0
+#endif
+
 /* The single-ray kernel: one work-item per ray-list entry. */
 __kernel void rf_trace_primary(__global const rf_node* nodes, __global const rf_tri* tris,
                                __global const rf_instance* instances, __global const rf_normal_xform* normal_xforms,
                                uint tlas_root, __global const uint* rays, uint ray_count, RF_CAMERA_ARGS,
-                               RF_ANSWER_ARGS) {
+                               RF_ANSWER_ARGS RF_ALPHA_KERNEL_ARGS) {
   const uint i = get_global_id(0);
   if (i >= ray_count) return;
+  RF_ALPHA_TABLES();
   const rf_camera cam = RF_MAKE_CAMERA();
   const rf_depth_table depths = {depth_xforms, depth_instances};
   const rf_answers answers = RF_MAKE_ANSWERS();
-  rf_trace_entry(rays[i], &cam, depth_scales, &depths, nodes, tris, instances, normal_xforms, tlas_root, &answers);
+  rf_trace_entry(rays[i], &cam, depth_scales, &depths, nodes, tris, instances, normal_xforms, tlas_root,
+                 &answers RF_ALPHA_ARG);
 }
 
 /* Ray queries: one work-item per ray, through the 8-wide trees, the top
@@ -73,11 +88,12 @@ __kernel void rf_trace_queries(__global const rf_node* nodes, __global const rf_
                                __global const uint* wide_roots, __global const rf_tri* tris,
                                __global const rf_instance* instances, __global const rf_normal_xform* normal_xforms,
                                uint tlas_root, __global const rf_query_ray* rays, uint ray_count, uint any_hit,
-                               uint write_flags, __global rf_pixel_hit* out) {
+                               uint write_flags, __global rf_pixel_hit* out RF_ALPHA_KERNEL_ARGS) {
   const uint k = get_global_id(0);
   if (k >= ray_count) return;
+  RF_ALPHA_TABLES();
   rf_trace_query(&rays[k], nodes, wide, tlas_wide, tlas_wide_root, wide_roots, tris, instances, normal_xforms, tlas_root,
-                 any_hit != 0u, write_flags, &out[k]);
+                 any_hit != 0u, write_flags, &out[k] RF_ALPHA_ARG);
 }
 
 /* Ray queries that share their origin, a tile of up to RF_TILE_RAYS per
@@ -91,9 +107,10 @@ __kernel void rf_trace_query_tiles(__global const rf_node* nodes, __global const
                                    __global const float* origins, __global const float* directions, float tmin,
                                    float tmax, int exponent, __global const uint* tiles, uint tile_count,
                                    uint write_flags, __global const uint* order, uint ordered,
-                                   __global rf_pixel_hit* out) {
+                                   __global rf_pixel_hit* out RF_ALPHA_KERNEL_ARGS) {
   const uint t = get_global_id(0);
   if (t >= tile_count) return;
+  RF_ALPHA_TABLES();
 #ifdef RF_TILE_STATS
   uint stats[RF_TILE_STAT_COUNT];
   for (int k = 0; k < RF_TILE_STAT_COUNT; ++k) stats[k] = 0u;
@@ -109,7 +126,7 @@ __kernel void rf_trace_query_tiles(__global const rf_node* nodes, __global const
   }
   const rf_query_arrays rays = {origins, directions, tmin, tmax, exponent};
   rf_trace_query_tile(&rays, begin, tiles[t + 1] - begin, nodes, wide, tris, instances, normal_xforms, tlas_root,
-                      write_flags, ordered ? order : 0, out RF_TSTAT_ARG);
+                      write_flags, ordered ? order : 0, out RF_TSTAT_ARG RF_ALPHA_ARG);
 }
 
 /* The tile kernel (rf_tile.h): one work-item per tile of the ray list; tile t
@@ -123,9 +140,10 @@ __kernel void rf_trace_tiles(__global const rf_node* nodes, __global const rf_wi
                              ,
                              __global uint* tile_stats
 #endif
-) {
+                                 RF_ALPHA_KERNEL_ARGS) {
   const uint t = get_global_id(0);
   if (t >= tile_count) return;
+  RF_ALPHA_TABLES();
   const rf_camera cam = RF_MAKE_CAMERA();
   const uint begin = tiles[t];
 #ifdef RF_TILE_STATS
@@ -135,7 +153,7 @@ __kernel void rf_trace_tiles(__global const rf_node* nodes, __global const rf_wi
   const rf_depth_table depths = {depth_xforms, depth_instances};
   const rf_answers answers = RF_MAKE_ANSWERS();
   rf_trace_tile(rays, begin, tiles[t + 1] - begin, &cam, depth_scales, &depths, nodes, wide, tris, instances,
-                normal_xforms, tlas_root, &answers RF_TSTAT_ARG);
+                normal_xforms, tlas_root, &answers RF_TSTAT_ARG RF_ALPHA_ARG);
 #ifdef RF_TILE_STATS
   for (int k = 0; k < RF_TILE_STAT_COUNT; ++k) tile_stats[t * RF_TILE_STAT_COUNT + k] = stats[k];
 #endif

@@ -43,7 +43,9 @@ typedef int rf_i32;
 #define RF_FMA(a, b, c) fma(a, b, c)
 #define RF_FABS(x) fabs(x)
 #define RF_COPYSIGN(x, y) copysign(x, y)
+#define RF_FLOOR(x) floor(x)
 #define RF_INF INFINITY
+typedef uchar rf_u8;
 #else
 #include <cmath>
 #include <cstddef>
@@ -58,7 +60,9 @@ typedef int32_t rf_i32;
 #define RF_FMA(a, b, c) std::fma((float)(a), (float)(b), (float)(c))
 #define RF_FABS(x) std::fabs((float)(x))
 #define RF_COPYSIGN(x, y) std::copysign((float)(x), (float)(y))
+#define RF_FLOOR(x) std::floor((float)(x))
 #define RF_INF INFINITY
+typedef uint8_t rf_u8;
 #endif
 
 /* Traversal counters for host diagnostics (tools/rayfold-stats); they compile

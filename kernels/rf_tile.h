@@ -203,6 +203,18 @@ RF_INLINE void rf_tile_to_object(rf_tile_ray* r, const RF_GLOBAL float* m, const
   r->kz = kz0;
 }
 
+#ifdef RF_ALPHA
+/* The lanes of `take` whose hit (u, v) on triangle ti its mask keeps
+ * (rf_alpha_keeps, lane by lane). */
+RF_INLINE rf_vi rf_tile_alpha(const rf_alpha_tables* alpha, rf_u32 ti, rf_vi take, rf_vf u, rf_vf v) {
+  rf_vi keep = take;
+  for (int l = 0; l < RF_LANES; ++l)
+    if (((const int*)&take)[l] != 0)
+      ((int*)&keep)[l] = rf_alpha_keeps(alpha, ti, ((const float*)&u)[l], ((const float*)&v)[l]) ? -1 : 0;
+  return keep;
+}
+#endif
+
 /* Tests one triangle on the lane groups in `lanes` (bit j: group j) and takes
  * the hit of every lane in lane_in (the lanes whose own slab tests reach the
  * leaf) that beats the lane's current one by the tie rule, at a distance no
@@ -211,9 +223,9 @@ RF_INLINE void rf_tile_to_object(rf_tile_ray* r, const RF_GLOBAL float* m, const
  * loop: PoCL kept it a call with a 1.5 KiB frame and its leaf-invariant
  * loads in the loop (with the loads above, random views of the dragon and
  * the armadillo 1.02x to 1.03x faster, interiors 1.01x to 1.03x). */
-RF_INLINE_ALWAYS int rf_tile_triangle(const RF_GLOBAL rf_tri* tri, rf_u32 ti, const rf_tile_ray* r,
-                                      rf_u32 instance_id, rf_u32 lanes, const rf_vi* lane_in, const rf_vf* leaf_t,
-                                      const rf_vf* tmin, rf_tile_hits* h RF_TSTAT_PARAM) {
+RF_INLINE_ALWAYS int rf_tile_triangle(const RF_GLOBAL rf_tri* tri, rf_u32 ti, const rf_tile_ray* r, rf_u32 instance_id,
+                                      rf_u32 lanes, const rf_vi* lane_in, const rf_vf* leaf_t, const rf_vf* tmin,
+                                      rf_tile_hits* h RF_TSTAT_PARAM RF_ALPHA_PARAM) {
   const float a0 = tri->v0[0] - r->o[0], a1 = tri->v0[1] - r->o[1], a2 = tri->v0[2] - r->o[2];
   const float b0 = tri->v1[0] - r->o[0], b1 = tri->v1[1] - r->o[1], b2 = tri->v1[2] - r->o[2];
   const float c0 = tri->v2[0] - r->o[0], c1 = tri->v2[1] - r->o[1], c2 = tri->v2[2] - r->o[2];
@@ -267,8 +279,16 @@ RF_INLINE_ALWAYS int rf_tile_triangle(const RF_GLOBAL rf_tri* tri, rf_u32 ti, co
     /* lane_in compared again rather than used as read: a mask the compiler
      * sees come from a comparison is tested in one instruction, a loaded
      * one through an OR tree (6% of the dragon's time). */
-    const rf_vi take = ok & positive & closer & (lane_in[j] != (rf_vi)(0));
+    rf_vi take = ok & positive & closer & (lane_in[j] != (rf_vi)(0));
     if (!rf_lanes_any(take)) continue;
+#ifdef RF_ALPHA
+    /* A masked triangle's lanes keep only the hits its alpha keeps, each
+     * lane's test that of the scalar trace (rf_alpha.h). */
+    if (alpha->index[ti] != RF_INVALID) {
+      take = rf_tile_alpha(alpha, ti, take, ev / det, ew / det);
+      if (!rf_lanes_any(take)) continue;
+    }
+#endif
     h->t[j] = select(bt, t, take);
     h->u[j] = select(h->u[j], ev / det, take);
     h->v[j] = select(h->v[j], ew / det, take);
@@ -392,7 +412,8 @@ RF_INLINE rf_u32 rf_tile_keep_groups(const float c0[3], const float c1[3], const
  * have a ray in the box, for the lanes in `entered`. */
 RF_INLINE void rf_tile_leaf(const float c0[3], const float c1[3], rf_u32 first_tri, rf_u32 count,
                             const RF_GLOBAL rf_tri* tris, const rf_tile_ray* r, rf_u32 instance_id,
-                            const rf_vi* entered, rf_u32 groups, const rf_vf* tmin, rf_tile_hits* h RF_TSTAT_PARAM) {
+                            const rf_vi* entered, rf_u32 groups, const rf_vf* tmin,
+                            rf_tile_hits* h RF_TSTAT_PARAM RF_ALPHA_PARAM) {
   rf_vi lane_in[RF_LANE_GROUPS];
   rf_vf leaf_t[RF_LANE_GROUPS];
   rf_u32 lanes = 0u;
@@ -408,7 +429,7 @@ RF_INLINE void rf_tile_leaf(const float c0[3], const float c1[3], rf_u32 first_t
   int taken = 0;
   for (rf_u32 k = 0; k < count; ++k) {
     const rf_u32 ti = first_tri + k;
-    taken |= rf_tile_triangle(&tris[ti], ti, r, instance_id, lanes, lane_in, leaf_t, tmin, h RF_TSTAT_ARG);
+    taken |= rf_tile_triangle(&tris[ti], ti, r, instance_id, lanes, lane_in, leaf_t, tmin, h RF_TSTAT_ARG RF_ALPHA_ARG);
   }
   if (taken) rf_tile_update_tmax(h);
 }
@@ -492,7 +513,7 @@ RF_INLINE int rf_tile_push_wide(const RF_GLOBAL rf_wide_node* wide, rf_u32 w, co
 RF_INLINE void rf_tile_trace_blas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_wide_node* wide,
                                   const RF_GLOBAL rf_tri* tris, rf_u32 root, rf_u32 wide_root, const rf_tile_ray* r,
                                   rf_u32 instance_id, const rf_vi* entered, rf_u32 range, const rf_vf* tmin,
-                                  rf_tile_hits* h RF_TSTAT_PARAM) {
+                                  rf_tile_hits* h RF_TSTAT_PARAM RF_ALPHA_PARAM) {
   rf_u32 groups = RF_RANGE_MASK(RF_RANGE_FIRST(range), RF_RANGE_LAST(range));
   {
     const RF_GLOBAL rf_node* n = &nodes[root];
@@ -502,7 +523,7 @@ RF_INLINE void rf_tile_trace_blas(const RF_GLOBAL rf_node* nodes, const RF_GLOBA
     RF_TSTAT(RF_TILE_STAT_BLAS_NODES, 1);
     if (wide_root == RF_INVALID) { /* the root is a leaf */
       rf_tile_leaf(c0, c1, n->first, n->meta & RF_NODE_COUNT_MASK, tris, r, instance_id, entered, groups, tmin,
-                   h RF_TSTAT_ARG);
+                   h RF_TSTAT_ARG RF_ALPHA_ARG);
       return;
     }
     groups = rf_tile_keep_groups(c0, c1, r, h, groups RF_TSTAT_ARG);
@@ -524,7 +545,8 @@ RF_INLINE void rf_tile_trace_blas(const RF_GLOBAL rf_node* nodes, const RF_GLOBA
     const rf_u32 groups = stack_groups[sp];
     const rf_u32 count = p->count[k];
     if (count != 0u) {
-      rf_tile_leaf(c0, c1, p->child[k], count, tris, r, instance_id, entered, groups, tmin, h RF_TSTAT_ARG);
+      rf_tile_leaf(c0, c1, p->child[k], count, tris, r, instance_id, entered, groups, tmin,
+                   h RF_TSTAT_ARG RF_ALPHA_ARG);
       continue;
     }
     /* Interior: go on with the lane groups that enter the box. */
@@ -554,10 +576,10 @@ RF_INLINE float rf_tile_group_bound(rf_u32 groups, const rf_tile_hits* hits) {
  * tile_groups: the groups some lane answers (the others' hits are not
  * set). */
 RF_INLINE void rf_tile_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_wide_node* wide,
-                                  const RF_GLOBAL rf_tri* tris,
-                                  const RF_GLOBAL rf_instance* instances, rf_u32 tlas_root, const rf_tile_camera* cam,
-                                  const rf_tile_query* q, rf_u32 tile_groups, rf_tile_ray* ro,
-                                  rf_tile_hits* hits RF_TSTAT_PARAM) {
+                                  const RF_GLOBAL rf_tri* tris, const RF_GLOBAL rf_instance* instances,
+                                  rf_u32 tlas_root, const rf_tile_camera* cam, const rf_tile_query* q,
+                                  rf_u32 tile_groups, rf_tile_ray* ro,
+                                  rf_tile_hits* hits RF_TSTAT_PARAM RF_ALPHA_PARAM) {
   /* Camera rays start at the trace-space origin; boxes less +0 keep their
    * bits, as the scalar code's box minus its origin does. */
   const float o0 = q ? q->o[0] : 0.0f, o1 = q ? q->o[1] : 0.0f, o2 = q ? q->o[2] : 0.0f;
@@ -609,7 +631,7 @@ RF_INLINE void rf_tile_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBA
         rf_tile_ray* r = &ro[g];
         rf_tile_to_object(r, inst->tree_from_trace, cam, q RF_TSTAT_ARG);
         rf_tile_trace_blas(nodes, wide, tris, inst->blas_root, inst->wide_root, r, inst->instance_id, entered, range,
-                           tmin, h RF_TSTAT_ARG);
+                           tmin, h RF_TSTAT_ARG RF_ALPHA_ARG);
       }
       continue;
     }
@@ -1106,7 +1128,7 @@ RF_INLINE void rf_trace_tile(const RF_GLOBAL rf_u32* rays, rf_u32 begin, rf_u32 
                              const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_wide_node* wide,
                              const RF_GLOBAL rf_tri* tris, const RF_GLOBAL rf_instance* instances,
                              const RF_GLOBAL rf_normal_xform* normal_xforms, rf_u32 tlas_root,
-                             const rf_answers* out RF_TSTAT_PARAM) {
+                             const rf_answers* out RF_TSTAT_PARAM RF_ALPHA_PARAM) {
   rf_tile_camera tc;
   rf_tile_hits hits[RF_MAX_GROUPS];
   rf_tile_ray ro[RF_TILE_SETUPS];
@@ -1173,7 +1195,8 @@ RF_INLINE void rf_trace_tile(const RF_GLOBAL rf_u32* rays, rf_u32 begin, rf_u32 
   for (int g = 0; g < RF_MAX_GROUPS; ++g) hits[g].tmax = ((tile_groups >> g) & 1u) ? RF_FAR : -1.0f;
 
   if (tlas_root != RF_INVALID)
-    rf_tile_trace_tlas(nodes, wide, tris, instances, tlas_root, &tc, 0, tile_groups, ro, hits RF_TSTAT_ARG);
+    rf_tile_trace_tlas(nodes, wide, tris, instances, tlas_root, &tc, 0, tile_groups, ro,
+                       hits RF_TSTAT_ARG RF_ALPHA_ARG);
 
   rf_tile_pixel_rays pixel_rays;
   pixel_rays.view = RF_INVALID;
@@ -1194,7 +1217,8 @@ RF_INLINE void rf_trace_query_tile(const rf_query_arrays* rays, rf_u32 begin, rf
                                    const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_wide_node* wide,
                                    const RF_GLOBAL rf_tri* tris, const RF_GLOBAL rf_instance* instances,
                                    const RF_GLOBAL rf_normal_xform* normal_xforms, rf_u32 tlas_root, rf_u32 write_flags,
-                                   const RF_GLOBAL rf_u32* order, RF_GLOBAL rf_pixel_hit* out RF_TSTAT_PARAM) {
+                                   const RF_GLOBAL rf_u32* order,
+                                   RF_GLOBAL rf_pixel_hit* out RF_TSTAT_PARAM RF_ALPHA_PARAM) {
   rf_tile_camera tc;
   rf_tile_query q;
   rf_tile_hits hits[1];
@@ -1242,7 +1266,7 @@ RF_INLINE void rf_trace_query_tile(const rf_query_arrays* rays, rf_u32 begin, rf
   tc.hi[2] = rf_lanes_hmax(hi2);
   rf_tile_update_tmax(&hits[0]);
   if (tlas_root != RF_INVALID)
-    rf_tile_trace_tlas(nodes, wide, tris, instances, tlas_root, &tc, &q, 1u, ro, hits RF_TSTAT_ARG);
+    rf_tile_trace_tlas(nodes, wide, tris, instances, tlas_root, &tc, &q, 1u, ro, hits RF_TSTAT_ARG RF_ALPHA_ARG);
 
   rf_vf nx[RF_LANE_GROUPS], ny[RF_LANE_GROUPS], nz[RF_LANE_GROUPS];
   rf_tile_normal_cache normal_cache;

@@ -5,6 +5,7 @@
 #define RF_TRACE_H
 
 #ifndef __OPENCL_C_VERSION__
+#include "rf_alpha.h"
 #include "rf_common.h"
 #include "rf_depth.h"
 #include "rf_geometry.h"
@@ -54,14 +55,14 @@ RF_INLINE float rf_hit_distance(float t, float leaf_entry) { return t < leaf_ent
  * enters at node_t, beyond tmin, into best; 1 when any_hit and a hit was
  * taken (the traversal stops). */
 RF_INLINE int rf_trace_leaf(const RF_GLOBAL rf_tri* tris, rf_u32 first, rf_u32 count, const rf_ray* r,
-                            rf_u32 instance_id, float tmin, float node_t, int any_hit, rf_hit* best) {
+                            rf_u32 instance_id, float tmin, float node_t, int any_hit, rf_hit* best RF_ALPHA_PARAM) {
   for (rf_u32 ti = first; ti < first + count; ++ti) {
     RF_STAT(triangles);
     float t, u, v;
     if (!rf_intersect_triangle(&tris[ti], r, &t, &u, &v) || !(t > tmin)) continue;
     t = rf_hit_distance(t, node_t);
     const rf_u32 instance = instance_id + tris[ti].inst;
-    if (rf_hit_is_closer(t, instance, tris[ti].prim, best)) {
+    if (rf_hit_is_closer(t, instance, tris[ti].prim, best) RF_ALPHA_KEEPS(ti, u, v)) {
       best->t = t;
       best->u = u;
       best->v = v;
@@ -122,12 +123,15 @@ RF_INLINE rf_u32 rf_leaf_candidates8(const RF_GLOBAL rf_tri* tris, rf_u32 first,
  * the armadillo and the dragon (4.7 triangles a leaf), 1.06x on the car,
  * 0.99x to 1.03x elsewhere. */
 RF_INLINE int rf_trace_leaf_wide(const RF_GLOBAL rf_tri* tris, rf_u32 first, rf_u32 count, const rf_ray* r,
-                                 rf_u32 instance_id, float tmin, float node_t, int any_hit, rf_hit* best) {
-  if (count < RF_LEAF_WIDE_MIN) return rf_trace_leaf(tris, first, count, r, instance_id, tmin, node_t, any_hit, best);
+                                 rf_u32 instance_id, float tmin, float node_t, int any_hit,
+                                 rf_hit* best RF_ALPHA_PARAM) {
+  if (count < RF_LEAF_WIDE_MIN)
+    return rf_trace_leaf(tris, first, count, r, instance_id, tmin, node_t, any_hit, best RF_ALPHA_ARG);
   for (rf_u32 chunk = first; chunk < first + count; chunk += 8u) {
     const rf_u32 n = min(8u, first + count - chunk);
     for (rf_u32 mask = rf_leaf_candidates8(tris, chunk, n, r); mask != 0u; mask &= mask - 1u)
-      if (rf_trace_leaf(tris, chunk + RF_CTZ(mask), 1u, r, instance_id, tmin, node_t, any_hit, best)) return 1;
+      if (rf_trace_leaf(tris, chunk + RF_CTZ(mask), 1u, r, instance_id, tmin, node_t, any_hit, best RF_ALPHA_ARG))
+        return 1;
   }
   return 0;
 }
@@ -136,7 +140,7 @@ RF_INLINE int rf_trace_leaf_wide(const RF_GLOBAL rf_tri* tris, rf_u32 first, rf_
 /* Closest hit of one object-space ray in one bottom-level tree, beyond
  * tmin (0 for camera rays); any_hit: stop at the first hit (occlusion). */
 RF_INLINE void rf_trace_blas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_tri* tris, rf_u32 root, const rf_ray* r,
-                             rf_u32 instance_id, float tmin, int any_hit, rf_hit* best) {
+                             rf_u32 instance_id, float tmin, int any_hit, rf_hit* best RF_ALPHA_PARAM) {
   rf_u32 stack_node[RF_STACK_SIZE];
   float stack_t[RF_STACK_SIZE];
   int sp = 0;
@@ -148,7 +152,7 @@ RF_INLINE void rf_trace_blas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_
     const rf_u32 count = n->meta & RF_NODE_COUNT_MASK;
     RF_STAT(blas_nodes);
     if (count != 0) {
-      if (rf_trace_leaf(tris, n->first, count, r, instance_id, tmin, node_t, any_hit, best)) return;
+      if (rf_trace_leaf(tris, n->first, count, r, instance_id, tmin, node_t, any_hit, best RF_ALPHA_ARG)) return;
     } else {
       const rf_u32 c = n->first;
       const float t0 = rf_intersect_box(&nodes[c], r, best->t);
@@ -302,7 +306,7 @@ RF_INLINE void rf_wide_prefetch_pushed(const rf_wide_stack* s, int from, int to,
  * rays 1.06x to 1.12x faster than through the 4-wide trees). */
 RF_INLINE void rf_trace_blas_wide(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_wide8_node* wide,
                                   const RF_GLOBAL rf_tri* tris, rf_u32 root, rf_u32 wide_root, const rf_ray* r,
-                                  rf_u32 instance_id, float tmin, int any_hit, rf_hit* best) {
+                                  rf_u32 instance_id, float tmin, int any_hit, rf_hit* best RF_ALPHA_PARAM) {
   const RF_GLOBAL rf_node* rn = &nodes[root];
   float t = rf_intersect_box(rn, r, best->t);
   if (t == RF_FAR) return;
@@ -319,7 +323,7 @@ RF_INLINE void rf_trace_blas_wide(const RF_GLOBAL rf_node* nodes, const RF_GLOBA
       const int before = size;
       if (rf_wide_step(&wide[child], r, best->t, &s, &size, &child, &count, &t)) continue;
       rf_wide_prefetch_pushed(&s, before, size - 1, wide, tris);
-    } else if (rf_trace_leaf_wide(tris, child, count, r, instance_id, tmin, t, any_hit, best)) {
+    } else if (rf_trace_leaf_wide(tris, child, count, r, instance_id, tmin, t, any_hit, best RF_ALPHA_ARG)) {
       return;
     }
     if (!rf_wide_pop(&s, &size, best->t, &child, &count, &t)) return;
@@ -364,7 +368,7 @@ RF_INLINE int rf_trace_instances(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL
                                  const RF_GLOBAL rf_u32* wide_roots, const RF_GLOBAL rf_tri* tris,
                                  const RF_GLOBAL rf_instance* instances, rf_u32 first, rf_u32 count, rf_i32 origin,
                                  float ox, float oy, float oz, float dx, float dy, float dz, float tmin, int any_hit,
-                                 rf_u32 ray_groups, rf_ray_cache* cache, rf_hit* hits) {
+                                 rf_u32 ray_groups, rf_ray_cache* cache, rf_hit* hits RF_ALPHA_PARAM) {
   for (rf_u32 k = 0; k < count; ++k) {
     const RF_GLOBAL rf_instance* inst = &instances[first + k];
     const rf_u32 g = inst->group;
@@ -388,13 +392,13 @@ RF_INLINE int rf_trace_instances(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL
 #ifdef __OPENCL_C_VERSION__
     if (wide)
       rf_trace_blas_wide(nodes, wide, tris, inst->blas_root, wide_roots[first + k], ro, inst->instance_id, tmin,
-                         any_hit, &hits[g]);
+                         any_hit, &hits[g] RF_ALPHA_ARG);
     else
 #else
     (void)wide;
     (void)wide_roots;
 #endif
-      rf_trace_blas(nodes, tris, inst->blas_root, ro, inst->instance_id, tmin, any_hit, &hits[g]);
+      rf_trace_blas(nodes, tris, inst->blas_root, ro, inst->instance_id, tmin, any_hit, &hits[g] RF_ALPHA_ARG);
     if (any_hit && hits[g].instance != RF_INVALID) return 1;
   }
   return 0;
@@ -407,7 +411,7 @@ RF_INLINE int rf_trace_instances(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL
 RF_INLINE void rf_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_tri* tris,
                              const RF_GLOBAL rf_instance* instances, rf_u32 tlas_root, rf_i32 origin, float ox,
                              float oy, float oz, float dx, float dy, float dz, float tmin, int any_hit,
-                             rf_u32 ray_groups, rf_hit* hits) {
+                             rf_u32 ray_groups, rf_hit* hits RF_ALPHA_PARAM) {
   rf_u32 stack_node[RF_STACK_SIZE];
   float stack_t[RF_STACK_SIZE];
   int sp = 0;
@@ -425,7 +429,7 @@ RF_INLINE void rf_trace_tlas(const RF_GLOBAL rf_node* nodes, const RF_GLOBAL rf_
     RF_STAT(tlas_nodes);
     if (count != 0) {
       if (rf_trace_instances(nodes, 0, 0, tris, instances, first, count, origin, ox, oy, oz, dx, dy, dz, tmin, any_hit,
-                             ray_groups, &cache, hits))
+                             ray_groups, &cache, hits RF_ALPHA_ARG))
         return;
     } else {
       const rf_u32 c = first;
@@ -466,7 +470,8 @@ RF_INLINE void rf_trace_query_tlas_wide(const RF_GLOBAL rf_node* nodes, const RF
                                         const RF_GLOBAL rf_wide8_node* tlas_wide, rf_u32 tlas_wide_root,
                                         const RF_GLOBAL rf_u32* wide_roots, const RF_GLOBAL rf_tri* tris,
                                         const RF_GLOBAL rf_instance* instances, rf_u32 tlas_root, float ox, float oy,
-                                        float oz, float dx, float dy, float dz, float tmin, int any_hit, rf_hit* hit) {
+                                        float oz, float dx, float dy, float dz, float tmin, int any_hit,
+                                        rf_hit* hit RF_ALPHA_PARAM) {
   const RF_GLOBAL rf_node* root = &nodes[tlas_root];
   /* A top level that is one leaf (a scene of a few trees, each entered
    * whole): its instances straight away, without the trace-space ray and
@@ -481,7 +486,7 @@ RF_INLINE void rf_trace_query_tlas_wide(const RF_GLOBAL rf_node* nodes, const RF
       rf_ray ro;
       rf_ray_to_object_at(&ro, inst->tree_from_trace, ox, oy, oz, dx, dy, dz);
       rf_trace_blas_wide(nodes, wide, tris, inst->blas_root, wide_roots[k], &ro, inst->instance_id, tmin, any_hit,
-                         hit);
+                         hit RF_ALPHA_ARG);
       if (any_hit && hit->instance != RF_INVALID) return;
     }
     return;
@@ -499,8 +504,8 @@ RF_INLINE void rf_trace_query_tlas_wide(const RF_GLOBAL rf_node* nodes, const RF
     if (count == 0u) {
       RF_STAT(tlas_nodes);
       if (rf_wide_step(&tlas_wide[child], &r, hit->t, &s, &size, &child, &count, &t)) continue;
-    } else if (rf_trace_instances(nodes, wide, wide_roots, tris, instances, child, count, RF_ORIGIN_ANY, ox, oy, oz,
-                                  dx, dy, dz, tmin, any_hit, 1u, &cache, hit)) {
+    } else if (rf_trace_instances(nodes, wide, wide_roots, tris, instances, child, count, RF_ORIGIN_ANY, ox, oy, oz, dx,
+                                  dy, dz, tmin, any_hit, 1u, &cache, hit RF_ALPHA_ARG)) {
       return;
     }
     if (!rf_wide_pop(&s, &size, hit->t, &child, &count, &t)) return;
@@ -631,14 +636,15 @@ RF_INLINE void rf_write_answers(const rf_camera_ray* ray, const rf_hit* hits, co
 RF_INLINE void rf_trace_entry(rf_u32 entry, const rf_camera* cam, const RF_GLOBAL float* depth_scales,
                               const rf_depth_table* depths, const RF_GLOBAL rf_node* nodes,
                               const RF_GLOBAL rf_tri* tris, const RF_GLOBAL rf_instance* instances,
-                              const RF_GLOBAL rf_normal_xform* normal_xforms, rf_u32 tlas_root, const rf_answers* out) {
+                              const RF_GLOBAL rf_normal_xform* normal_xforms, rf_u32 tlas_root,
+                              const rf_answers* out RF_ALPHA_PARAM) {
   const rf_camera_ray ray = rf_decode_entry(entry, cam);
   rf_hit hits[RF_MAX_GROUPS];
   RF_FOR_EACH_GROUP(g, ray.groups) { rf_hit_reset(&hits[g]); }
   if (tlas_root != RF_INVALID)
     rf_trace_tlas(nodes, tris, instances, tlas_root, cam->ortho ? RF_ORIGIN_PLANE : RF_ORIGIN_EYE,
                   cam->ortho ? ray.dx : 0.0f, cam->ortho ? ray.dy : 0.0f, 0.0f, cam->ortho ? 0.0f : ray.dx,
-                  cam->ortho ? 0.0f : ray.dy, -1.0f, 0.0f, 0, ray.groups, hits);
+                  cam->ortho ? 0.0f : ray.dy, -1.0f, 0.0f, 0, ray.groups, hits RF_ALPHA_ARG);
   rf_write_answers(&ray, hits, cam, depth_scales, depths, tris, normal_xforms, out);
 }
 
@@ -656,7 +662,8 @@ RF_INLINE void rf_trace_query(const RF_GLOBAL rf_query_ray* q, const RF_GLOBAL r
                               const RF_GLOBAL rf_wide8_node* wide, const RF_GLOBAL rf_wide8_node* tlas_wide,
                               rf_u32 tlas_wide_root, const RF_GLOBAL rf_u32* wide_roots, const RF_GLOBAL rf_tri* tris,
                               const RF_GLOBAL rf_instance* instances, const RF_GLOBAL rf_normal_xform* normal_xforms,
-                              rf_u32 tlas_root, int any_hit, rf_u32 write_flags, RF_GLOBAL rf_pixel_hit* out) {
+                              rf_u32 tlas_root, int any_hit, rf_u32 write_flags,
+                              RF_GLOBAL rf_pixel_hit* out RF_ALPHA_PARAM) {
   rf_hit hit;
   rf_hit_reset(&hit);
   hit.t = q->tmax;
@@ -664,7 +671,7 @@ RF_INLINE void rf_trace_query(const RF_GLOBAL rf_query_ray* q, const RF_GLOBAL r
 #ifdef __OPENCL_C_VERSION__
     if (wide && tlas_wide)
       rf_trace_query_tlas_wide(nodes, wide, tlas_wide, tlas_wide_root, wide_roots, tris, instances, tlas_root, q->o[0],
-                               q->o[1], q->o[2], q->d[0], q->d[1], q->d[2], q->tmin, any_hit, &hit);
+                               q->o[1], q->o[2], q->d[0], q->d[1], q->d[2], q->tmin, any_hit, &hit RF_ALPHA_ARG);
     else
 #else
     (void)wide;
@@ -673,7 +680,7 @@ RF_INLINE void rf_trace_query(const RF_GLOBAL rf_query_ray* q, const RF_GLOBAL r
     (void)wide_roots;
 #endif
       rf_trace_tlas(nodes, tris, instances, tlas_root, RF_ORIGIN_ANY, q->o[0], q->o[1], q->o[2], q->d[0], q->d[1],
-                    q->d[2], q->tmin, any_hit, 1u, &hit);
+                    q->d[2], q->tmin, any_hit, 1u, &hit RF_ALPHA_ARG);
   }
   rf_pixel_hit answer;
   rf_write_pixel(&answer, &hit, 1.0f, 1.0f, tris, normal_xforms, write_flags);

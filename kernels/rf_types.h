@@ -184,6 +184,42 @@ typedef struct {
   float m[9];
 } rf_normal_xform;
 
+/* Alpha masks (glTF alphaMode MASK; rf_alpha.h). Per triangle of a mesh
+ * with a masked primitive, 48 bytes (host/bvh/alpha_tables.h makes them):
+ *   bytes  0..23  uv      the corners' texture coordinates (u, v) of the
+ *                         base colour texture's set, KHR_texture_transform
+ *                         applied (in double, rounded once)
+ *   bytes 24..35  alpha   the corners' alpha: baseColorFactor's times COLOR_0's
+ *   bytes 36..39  cutoff  alphaCutoff; -inf for an opaque triangle (a
+ *                         primitive of the mesh whose material is not MASK)
+ *   bytes 40..43  image   its base colour texture's rf_alpha_image,
+ *                         RF_INVALID for none
+ *   bytes 44..47  unused */
+typedef struct {
+  float uv[6];
+  float alpha[3];
+  float cutoff;
+  rf_u32 image;
+  rf_u32 unused;
+} rf_alpha_tri;
+
+/* A base colour texture's alpha at level 0, 16 bytes:
+ *   bytes  0..3   offset  its first texel in the texel array (one byte a
+ *                         texel, rows top first)
+ *   bytes  4..11  width, height
+ *   bytes 12..15  wrap    bits 0..1 wrapS, 2..3 wrapT: 0 repeat, 1 clamp to
+ *                         edge, 2 mirrored repeat */
+typedef struct {
+  rf_u32 offset;
+  rf_u32 width;
+  rf_u32 height;
+  rf_u32 wrap;
+} rf_alpha_image;
+
+#define RF_WRAP_REPEAT 0u
+#define RF_WRAP_CLAMP 1u
+#define RF_WRAP_MIRROR 2u
+
 /* The exact-depth transform (rf_depth.h) of one scene instance in one view,
  * 96 bytes: the pixel's exact ray in the instance's tree space as
  * double-float pairs, each a value hi + lo (hi the float nearest the double,

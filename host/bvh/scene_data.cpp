@@ -118,6 +118,7 @@ SceneData prepare_scene(const Scene& scene, unsigned threads, const BraidOptions
     data.wide_nodes = std::move(wide.nodes);
     data.braid_wide = std::move(wide.roots);
   });
+  data.alpha = build_alpha_tables(scene, data.blas);
   return data;
 }
 

@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "bvh/alpha_tables.h"
 #include "bvh/blas.h"
 #include "device_layout.h"
 #include "scene/scene.h"
@@ -64,6 +65,7 @@ struct SceneData {
   // unit, as a power of two (frame.h's trace exponent keeps it in range).
   int max_tree_scale = INT_MIN;
   size_t hidden_instances = 0;
+  AlphaTables alpha;  // the masked triangles' tables (empty for a scene without masks)
 };
 
 SceneData prepare_scene(const Scene& scene, unsigned threads = 0, const BraidOptions& braid = {},

@@ -172,6 +172,7 @@ double ClQueryTracer::trace_queries(const QueryRays& rays, bool any_hit, unsigne
       kernel.setArg(a++, ordered ? order_ : tiles_);  // read only when ordered
       kernel.setArg(a++, static_cast<uint32_t>(ordered ? 1u : 0u));
       kernel.setArg(a++, hits_buf);
+      frames_.set_alpha_args(kernel, a);
       // One tile per work-group, as the camera tile kernel.
       q.enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(tiles->size() - 1), cl::NDRange(1));
     } else {
@@ -192,6 +193,7 @@ double ClQueryTracer::trace_queries(const QueryRays& rays, bool any_hit, unsigne
       kernel.setArg(a++, static_cast<uint32_t>(any_hit ? 1u : 0u));
       kernel.setArg(a++, static_cast<uint32_t>(write_flags));
       kernel.setArg(a++, hits_buf);
+      frames_.set_alpha_args(kernel, a);
       constexpr size_t kGroup = 64;
       const size_t global = (n + kGroup - 1) / kGroup * kGroup;
       q.enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(global), cl::NDRange(kGroup));

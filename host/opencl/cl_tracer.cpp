@@ -49,6 +49,7 @@ ClTracer::Programs& ClTracer::programs_for(int groups) {
   if (tile_stats_) defines += " -DRF_TILE_STATS";
   if (!tuning_.defines.empty()) defines += " " + tuning_.defines;
   if (compiles_with_clang_builtins(device_.info())) defines += " -DRF_CLANG_BUILTINS";
+  if (tuning_.alpha_masks) defines += " -DRF_ALPHA";
   Programs p;
   p.groups = size;
   const auto start = Clock::now();
@@ -82,6 +83,14 @@ void ClTracer::upload_scene(const SceneData& data, size_t max_tlas_nodes, size_t
       // Grown by the first frame that asks for the exact depth (upload_frame).
       {"depth_xforms", sizeof(rf_depth_xform)},
   };
+  const AlphaTables& alpha = data.alpha;
+  RF_CHECK(tuning_.alpha_masks == !alpha.empty(), "a tracer's programs were built for another scene's masks");
+  if (tuning_.alpha_masks) {
+    buffer_info_.push_back({"alpha_index", alpha.index.size() * sizeof(uint32_t)});
+    buffer_info_.push_back({"alpha_triangles", alpha.tris.size() * sizeof(rf_alpha_tri)});
+    buffer_info_.push_back({"alpha_images", alpha.images.size() * sizeof(rf_alpha_image)});
+    buffer_info_.push_back({"alpha_texels", alpha.texels.size()});
+  }
   const DeviceInfo& info = device_.info();
   for (const BufferInfo& b : buffer_info_) {
     if (b.bytes > info.max_alloc_bytes) {
@@ -111,6 +120,16 @@ void ClTracer::upload_scene(const SceneData& data, size_t max_tlas_nodes, size_t
     hits_ = cl::Buffer(ctx, CL_MEM_WRITE_ONLY, buffer_info_[5].bytes);
     wide_nodes_ = host_array_buffer(device_, data.wide_nodes, buffer_info_[6].bytes);
     depth_xforms_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, buffer_info_[7].bytes);
+    if (tuning_.alpha_masks) {
+      auto upload = [&](cl::Buffer& buf, const void* bytes, size_t size) {
+        buf = cl::Buffer(ctx, CL_MEM_READ_ONLY, size);
+        q.enqueueWriteBuffer(buf, CL_FALSE, 0, size, bytes);
+      };
+      upload(alpha_bufs_[0], alpha.index.data(), buffer_info_[8].bytes);
+      upload(alpha_bufs_[1], alpha.tris.data(), buffer_info_[9].bytes);
+      upload(alpha_bufs_[2], alpha.images.data(), buffer_info_[10].bytes);
+      upload(alpha_bufs_[3], alpha.texels.data(), buffer_info_[11].bytes);
+    }
     depth_xforms_capacity_ = buffer_info_[7].bytes;
     if (!blas.nodes.empty())
       q.enqueueWriteBuffer(nodes_, CL_FALSE, 0, blas.nodes.size() * sizeof(rf_node), blas.nodes.data());
@@ -275,6 +294,7 @@ void ClTracer::enqueue_trace(const rf_camera& cam, KernelKind kind) {
                           std::max<size_t>(r.tile_count, 1) * RF_TILE_STAT_COUNT * sizeof(uint32_t));
       kernel.setArg(a++, stats_);
     }
+    a = set_alpha_args(kernel, a);
     if (kind == KernelKind::tile) {
       // One tile per work-group: the SIMD is inside the work-item.
       device_.queue().enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(r.tile_count), cl::NDRange(1),
@@ -492,6 +512,12 @@ std::vector<uint32_t> ClTracer::read_tile_stats() {
   std::vector<uint32_t> out(static_cast<size_t>(slots_[slot_].tile_count) * RF_TILE_STAT_COUNT);
   if (!out.empty()) device_.queue().enqueueReadBuffer(stats_, CL_TRUE, 0, out.size() * sizeof(uint32_t), out.data());
   return out;
+}
+
+int ClTracer::set_alpha_args(cl::Kernel& kernel, int a) const {
+  if (tuning_.alpha_masks)
+    for (const cl::Buffer& b : alpha_bufs_) kernel.setArg(a++, b);
+  return a;
 }
 
 ClTracer::SceneBuffers ClTracer::scene_buffers() const {

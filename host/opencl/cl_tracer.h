@@ -33,6 +33,9 @@ struct KernelTuning {
   // The scene renders a mesh the builder treats as dense (BuildOptions::
   // dense_triangles): its tile vectors default to 8 lanes (tile_lanes).
   bool dense_scene = false;
+  // The scene has alpha-masked triangles (Mesh::alpha): the programs are
+  // built with RF_ALPHA and take its tables (upload_scene checks it).
+  bool alpha_masks = false;
 };
 
 // Rays per vector in the tile kernel: `requested` when it is 8 or 16, else
@@ -117,6 +120,10 @@ class ClTracer {
     uint32_t tlas_root = RF_INVALID;
   };
   SceneBuffers scene_buffers() const;
+  // A masked scene's tables (rf_alpha.h) as the last arguments of `kernel`
+  // from argument a on; returns the next argument. Nothing without masks:
+  // its kernels are built without them.
+  int set_alpha_args(cl::Kernel& kernel, int a) const;
   uint64_t scene_uploads() const { return scene_uploads_; }
   uint64_t frame_uploads() const { return frame_uploads_; }
   // The program built for up to `groups` transform groups (built here on
@@ -166,6 +173,7 @@ class ClTracer {
   // The frame's exact-depth table (Frame::depth_xforms): one entry until a
   // frame asks for the exact depth, then grown to what a pass needs.
   cl::Buffer depth_xforms_;
+  cl::Buffer alpha_bufs_[4];  // index, records, images, texels (bvh/alpha_tables.h), with tuning_.alpha_masks
   size_t depth_xforms_capacity_ = 0;
   uint32_t depth_instances_ = 0;
   // One uploaded ray list and its tile table. Slot 0's rays buffer is made

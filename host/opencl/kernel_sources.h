@@ -9,6 +9,7 @@ extern const char* const rf_common;
 extern const char* const rf_types;
 extern const char* const rf_geometry;
 extern const char* const rf_depth;
+extern const char* const rf_alpha;
 extern const char* const rf_trace;
 extern const char* const rf_lanes;
 extern const char* const rf_tile;
@@ -20,7 +21,8 @@ extern const char* const rf_unit_tests_cl;
 // headers, then the kernels.
 inline std::string trace_program_source() {
   using namespace kernel_text;
-  return std::string(rf_common) + rf_types + rf_geometry + rf_depth + rf_trace + rf_lanes + rf_tile + rayfold_cl;
+  return std::string(rf_common) + rf_types + rf_geometry + rf_depth + rf_alpha + rf_trace + rf_lanes + rf_tile +
+         rayfold_cl;
 }
 
 // The same plus the single-function wrappers that the unit tests run.

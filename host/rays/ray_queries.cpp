@@ -301,7 +301,7 @@ void trace_queries_cpu(const TraceInputs& in, const std::vector<rf_query_ray>& r
     for (size_t k = begin; k < end; ++k) {
       const size_t i = order.empty() ? k : order[k];
       rf_trace_query(&rays[k], in.nodes, nullptr, nullptr, RF_INVALID, nullptr, in.tris, in.instances, in.normal_xforms,
-                     in.tlas_root, any_hit ? 1 : 0, write_flags, &out[i]);
+                     in.tlas_root, any_hit ? 1 : 0, write_flags, &out[i], in.alpha_tables());
     }
   });
 }

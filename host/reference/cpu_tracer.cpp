@@ -15,7 +15,7 @@ void trace_cpu(const TraceInputs& in, const RayList& rays, const rf_camera& came
   parallel_for(rays.entries.size(), threads, 256, [&](size_t begin, size_t end) {
     for (size_t i = begin; i < end; ++i)
       rf_trace_entry(rays.entries[i], &camera, depth_scales, &depths, in.nodes, in.tris, in.instances, in.normal_xforms,
-                     in.tlas_root, &answers);
+                     in.tlas_root, &answers, in.alpha_tables());
   });
 }
 

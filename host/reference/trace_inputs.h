@@ -6,6 +6,7 @@
 #include <cstdint>
 
 #include "device_layout.h"
+#include "rf_alpha.h"
 #include "rf_depth.h"
 
 namespace rayfold::core {
@@ -25,6 +26,9 @@ struct TraceInputs {
   const rf_depth_xform* depth_xforms = nullptr;
   uint32_t depth_instances = 0;
   rf_depth_table depth_table() const { return rf_depth_table{depth_xforms, depth_instances}; }
+  // The alpha masks (SceneData::alpha); all null for a scene without.
+  rf_alpha_tables alpha{nullptr, nullptr, nullptr, nullptr};
+  const rf_alpha_tables* alpha_tables() const { return alpha.index ? &alpha : nullptr; }
 };
 
 }  // namespace rayfold::core

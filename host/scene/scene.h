@@ -12,6 +12,7 @@
 #include <glm/vec3.hpp>
 
 #include "scene/aabb.h"
+#include "scene/alpha_mask.h"
 #include "scene/attributes.h"
 #include "scene/materials.h"
 #include "scene/transform.h"
@@ -23,6 +24,9 @@ struct Mesh {
   std::vector<glm::vec3> positions;
   std::vector<uint32_t> indices;  // three per triangle, in the file's winding
   MeshAttributes attributes;      // those loaded (LoadOptions::attributes)
+  // Per triangle where a primitive's material is alphaMode MASK (all of
+  // the mesh's triangles then, the others always kept); empty otherwise.
+  std::vector<AlphaTriangle> alpha;
   size_t triangle_count() const { return indices.size() / 3; }
 };
 
@@ -62,6 +66,7 @@ struct Scene {
   std::vector<Material> materials;
   std::vector<std::shared_ptr<const TextureImage>> images;
   std::vector<std::string> labels;
+  std::vector<AlphaImage> alpha_images;  // the masked materials' base colour textures (Mesh::alpha)
   std::optional<CameraSpec> camera;  // the chosen camera (LoadOptions), by default the file's first
 
   // What the file holds besides the scene shown, for `rayfold info`.

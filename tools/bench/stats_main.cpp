@@ -147,9 +147,11 @@ int main(int argc, char** argv) {
     const std::vector<float> depth_scales = frame.depth_scales();
     const rf_depth_table depths{frame.depth_xforms.data(), frame.depth_instances};
     const rf_answers answers = rf_answers_in(out.data());
+    const rf_alpha_tables alpha = data.alpha.view();
     for (uint32_t e : rays.entries)
       rf_trace_entry(e, &traced, depth_scales.data(), &depths, nodes.data(), data.blas.tris.data(),
-                     frame.instances.data(), data.normal_xforms.data(), frame.tlas_root, &answers);
+                     frame.instances.data(), data.normal_xforms.data(), frame.tlas_root, &answers,
+                     data.alpha.empty() ? nullptr : &alpha);
     const double n = static_cast<double>(rays.entries.size());
     const double px = static_cast<double>(rays.pixels);
     std::printf("%s (fold %s, %zu rays for %zu pixels; BLAS SAH %.1f, TLAS SAH %.1f, %zu instances kept)\n", argv[1],

@@ -199,6 +199,20 @@ class Loader {
                            size_t triangle_first, size_t normal_first, const std::vector<glm::vec4>& file_tangents);
   // The texture coordinate set a material's normalTexture reads (0 without one).
   int normal_texcoord_set(int material) const;
+  // alpha_masks.cpp: a material's alpha mask, read on first use (its base
+  // colour texture's alpha into alpha_images_); null for a material that is
+  // not alphaMode MASK (BLEND: one warning, traced as opaque).
+  struct AlphaMaterial {
+    double cutoff = 0.5;
+    double factor = 1.0;  // baseColorFactor's alpha
+    TextureRef texture;   // its image an index into alpha_images_
+  };
+  const AlphaMaterial* mask_of(int material);
+  // The primitive's triangles (from triangle_first on) appended to
+  // mesh.alpha: their corners' texture coordinates and alpha under its
+  // material's mask, or always kept.
+  void add_alpha_masks(int mi, size_t pi, const std::string& where, Mesh& mesh, uint32_t base, size_t vertex_count,
+                       size_t triangle_first);
   // COLOR_0 (VEC3 or VEC4 of FLOAT or normalized unsigned byte or short)
   // as linear RGBA.
   std::vector<glm::vec4> read_colors(int ai, const std::string& what) const;
@@ -299,8 +313,11 @@ class Loader {
   bool cache_meshes_ = false;                         // animated: poses reuse unskinned meshes (mesh_for)
   std::map<MeshKey, std::optional<Mesh>> converted_;  // static meshes of earlier poses; none: no triangles
   std::vector<int> parent_;
-  unsigned materials_read_ =
-      0;  // the texture bits materials_ were read with (kAttributeMaterialData, ...NormalTexture)
+  std::map<int, std::optional<AlphaMaterial>> alpha_materials_;  // mask_of's, by material
+  std::vector<AlphaImage> alpha_images_;                         // the masks' images (Scene::alpha_images)
+  std::map<std::tuple<int, int, int>, int> alpha_image_slot_;    // glTF image, wrapS, wrapT -> alpha_images_ index
+  // The texture bits materials_ were read with (kAttributeMaterialData, kAttributeNormalTexture).
+  unsigned materials_read_ = 0;
   std::vector<Material> materials_;
   std::vector<std::shared_ptr<const TextureImage>> images_;
   std::map<std::pair<int, bool>, int> image_slot_;  // (glTF image, sRGB) -> images_ index

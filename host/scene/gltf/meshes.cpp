@@ -23,6 +23,9 @@ int Loader::convert_mesh(int mi, const std::vector<double>& weights, int skin) {
   Mesh mesh;
   mesh.name = gm.name;
   mesh.attributes.loaded = options_.attributes;
+  // A mesh with a masked primitive gets a mask per triangle (the others' kept).
+  bool masked = false;
+  for (const tinygltf::Primitive& prim : gm.primitives) masked |= mask_of(prim.material) != nullptr;
   for (size_t pi = 0; pi < gm.primitives.size(); ++pi) {
     const tinygltf::Primitive& prim = gm.primitives[pi];
     const std::string where = "mesh " + std::to_string(mi) + " primitive " + std::to_string(pi);
@@ -75,6 +78,7 @@ int Loader::convert_mesh(int mi, const std::vector<double>& weights, int skin) {
     read_attributes(mi, pi, where, vertex_count, mesh.triangle_count() - triangles_before, mesh.attributes);
     if (options_.attributes & kAttributeTangent)
       add_corner_tangents(mi, pi, where, mesh, base, vertex_count, triangles_before, first_normal, tangents);
+    if (masked) add_alpha_masks(mi, pi, where, mesh, base, vertex_count, triangles_before);
     if (dropped)
       warn(where + " has " + std::to_string(seq_size) + " triangle vertices, not a multiple of 3; the last " +
            std::to_string(dropped) + " are ignored");

@@ -47,6 +47,7 @@ Scene Loader::build(double time) {
       stack.push_back({*it, world_from_node, false});
   }
   add_material_data();
+  scene_.alpha_images = alpha_images_;
   choose_camera();
   if (scene_.triangle_count() == 0) warn("the scene has no triangles; every pixel will miss");
   flush_warnings();
