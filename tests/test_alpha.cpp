@@ -96,6 +96,30 @@ TEST(Alpha, ATextureMaskShowsTheQuadBehindItsClearTexels) {
               [](int x, int y) { return (x / 4 + y / 4) % 2 == 0 ? 1u : 0u; });
 }
 
+TEST(Alpha, MergedTreesAndMixedMeshesFindTheirMasks) {
+  // The front quad written at z = 0.5 in its own mesh and both nodes left
+  // where they are: the two instances share one merged tree, the front's
+  // triangles known by rf_tri::inst. The front mesh's second primitive, an
+  // opaque quad over the bottom quarter at z = 0.75, keeps every hit (a
+  // mesh of masked and opaque primitives).
+  MaskedQuads q(false);
+  q.checkerboard(0.5);
+  const std::vector<glm::vec3> front = {{-1, 1, 0.5f}, {1, 1, 0.5f}, {1, -1, 0.5f}, {-1, -1, 0.5f}};
+  const std::vector<glm::vec3> strip = {{-1, -0.5f, 0.75f}, {1, -0.5f, 0.75f}, {1, -1, 0.75f}, {-1, -1, 0.75f}};
+  static const uint16_t kIdx[6] = {0, 3, 2, 0, 2, 1};
+  nlohmann::json masked = q.f.j["meshes"][1]["primitives"][0];
+  masked["attributes"]["POSITION"] = q.f.positions(front);
+  nlohmann::json opaque =
+      rayfold::core::testing::prim(q.f.positions(strip), q.f.accessor(q.f.view(kIdx, 12), 5123, "SCALAR", 6));
+  opaque["material"] = 1;
+  q.f.j["meshes"][1]["primitives"] = {masked, opaque};
+  q.f.j["materials"].push_back({{"name", "opaque"}});
+  q.f.j["nodes"][1].erase("translation");
+  // Rows from 12 on lie below y = -0.5 (row 12's centre at -0.5625).
+  expect_seen(q.f.write("alpha_merged"), square_view(),
+              [](int x, int y) { return y >= 12 || (x / 4 + y / 4) % 2 == 0 ? 1u : 0u; });
+}
+
 TEST(Alpha, VertexAlphaTimesTheFactorAgainstTheCutoff) {
   // No texture: alpha = factor * COLOR_0's, (x + 1) / 2 across the quad.
   MaskedQuads q(true);

@@ -426,7 +426,7 @@ TEST(Api, ChannelsFillOnlyThePlanesAskedFor) {
   EXPECT_EQ(views[1].primitive_id, all.primitive_id);
   EXPECT_TRUE(views[1].depth.empty());
   EXPECT_THROW(renderer.render(cam, Fold::none, 0u), InputError);
-  EXPECT_THROW(renderer.render(cam, Fold::none, kEveryChannel + 1u), InputError);  // past kLabel
+  EXPECT_THROW(renderer.render(cam, Fold::none, kAnyChannel + 1u), InputError);  // past every channel
   // Without the normal plane the tracers skip the normal: every other plane
   // is still the full render's, on each backend and kernel, in every fold.
   const unsigned no_normal = kAllChannels & ~static_cast<unsigned>(kNormal);

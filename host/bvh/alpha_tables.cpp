@@ -59,6 +59,10 @@ AlphaTables build_alpha_tables(const Scene& scene, const BlasSet& blas) {
   if (out.tris.empty()) return out;
   for (const AlphaImage& im : scene.alpha_images) {
     RF_CHECK_EQ(im.alpha.size(), static_cast<size_t>(im.width) * im.height, "an alpha image's texels");
+    if (out.texels.size() + im.alpha.size() > UINT32_MAX)
+      throw InputError("",
+                       "the alpha masks' textures hold more than 2^32 texels together, more than the trace "
+                       "indexes");
     out.images.push_back({static_cast<uint32_t>(out.texels.size()), im.width, im.height,
                           wrap_code(im.wrap_s) | (wrap_code(im.wrap_t) << 2)});
     out.texels.insert(out.texels.end(), im.alpha.begin(), im.alpha.end());

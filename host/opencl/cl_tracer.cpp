@@ -84,7 +84,11 @@ void ClTracer::upload_scene(const SceneData& data, size_t max_tlas_nodes, size_t
       {"depth_xforms", sizeof(rf_depth_xform)},
   };
   const AlphaTables& alpha = data.alpha;
-  RF_CHECK(tuning_.alpha_masks == !alpha.empty(), "a tracer's programs were built for another scene's masks");
+  // The programs follow the scene's masks (built with RF_ALPHA or not).
+  if (tuning_.alpha_masks != !alpha.empty()) {
+    tuning_.alpha_masks = !alpha.empty();
+    programs_.clear();
+  }
   if (tuning_.alpha_masks) {
     buffer_info_.push_back({"alpha_index", alpha.index.size() * sizeof(uint32_t)});
     buffer_info_.push_back({"alpha_triangles", alpha.tris.size() * sizeof(rf_alpha_tri)});

@@ -34,7 +34,8 @@ struct KernelTuning {
   // dense_triangles): its tile vectors default to 8 lanes (tile_lanes).
   bool dense_scene = false;
   // The scene has alpha-masked triangles (Mesh::alpha): the programs are
-  // built with RF_ALPHA and take its tables (upload_scene checks it).
+  // built with RF_ALPHA and take its tables (upload_scene sets it from the
+  // scene; set ahead, the first program is built for it).
   bool alpha_masks = false;
 };
 

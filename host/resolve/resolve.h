@@ -80,7 +80,8 @@ struct ResolvedPlanes {
   // frame, the normalTexture's (r, g, b) sampled as the material channels'
   // textures: normalize(T x s + B y s + N z) with (x, y, z) = 2 (r, g, b) -
   // 1 and s the texture's scale; N where the material has no normal
-  // texture or the sum no length.
+  // texture, the mesh no tangent there (the stand-in above), or the sum no
+  // length.
   float* mapped_normal = nullptr;
 };
 

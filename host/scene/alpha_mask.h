@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 #include <glm/vec2.hpp>
@@ -17,7 +18,7 @@ struct AlphaTriangle {
   float alpha[3] = {1, 1, 1};  // baseColorFactor's alpha times COLOR_0's, per corner
   // alphaCutoff; -infinity for a triangle of a primitive that is not MASK
   // (always kept).
-  float cutoff = -1.0f / 0.0f;
+  float cutoff = -std::numeric_limits<float>::infinity();
   int32_t image = -1;  // Scene::alpha_images, -1 for a material without a base colour texture
 };
 

@@ -49,8 +49,9 @@ std::vector<glm::vec4> mikktspace_tangents(const glm::vec3* positions, const glm
   for (size_t c = 0; c < corners; ++c) {
     const uint32_t i = indices[c];
     const glm::vec3 n = normals ? normals[i] : glm::vec3(0.0f);
-    const VertexKey key{
-        {positions[i].x, positions[i].y, positions[i].z, n.x, n.y, n.z, texcoords[i].x, texcoords[i].y}};
+    // + 0.0f: -0 and +0 are one value (MikkTSpace compares values, not bits).
+    const VertexKey key{{positions[i].x + 0.0f, positions[i].y + 0.0f, positions[i].z + 0.0f, n.x + 0.0f, n.y + 0.0f,
+                         n.z + 0.0f, texcoords[i].x + 0.0f, texcoords[i].y + 0.0f}};
     vertex[c] = ids.emplace(key, static_cast<uint32_t>(ids.size())).first->second;
   }
   auto position = [&](size_t c) { return glm::dvec3(positions[indices[c]]); };

@@ -127,6 +127,10 @@ def test_one_zarr_store_holds_every_views_bits_and_resumes(atrium_path, tmp_path
     # The barycentrics by the name that says what they hold, uv taken as their older name.
     assert sorted(g.keys()) == ["barycentrics", "depth", "instance_id", "normal"]
     assert "not texture coordinates" in g.attrs["barycentrics"]
+    old = zarr.open_group(str(tmp_path / "old.zarr"), mode="w")  # a store of before the rename
+    old.create_array("uv", shape=(1,), dtype="float32")
+    with pytest.raises(rayfold.InputError, match="named the barycentrics uv"):
+        rayfold.batch.render(atrium_path, tmp_path / "c.json", tmp_path / "old.zarr", channels="uv", progress=False)
     assert g["normal"].shape == (20, 48, 64, 3) and g["normal"].chunks == (1, 48, 64, 3)
     assert len(g.attrs["cameras"]) == 20 and g.attrs["instance_names"] == list(scene.instance_names)
     assert g.attrs["cameras"][4]["fx"] == cameras[4].intrinsics[0]

@@ -7,7 +7,9 @@ sample per pixel centre and writes its EXR. Same machine, same run, the two taki
 turns view by view; medians over the views (each view's time once warm).
 
 Mitsuba reads no glTF: trimesh (PyPI) loads the file, and each mesh goes to Mitsuba
-in world space with the file's normals and texture coordinates where it has them.
+in world space with the file's normals and texture coordinates where it has them
+(read from trimesh's cache: it makes normals only when asked). Mitsuba's meshes carry
+no alpha masks: on a scene with alphaMode MASK the hit-point check below fails.
 Before any time is reported, each view's hit points are compared: where both hit, they
 agree within 1e-4 of the distance on at least 99% of the pixels, or the view is named
 and the run fails (a camera or scene mismatch would make the timing meaningless).

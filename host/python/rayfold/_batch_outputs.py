@@ -245,6 +245,9 @@ class ZarrOutput:
         }
         if os.path.exists(self.store):
             group = zarr.open_group(self.store, mode="r+")
+            if "uv" in group and "barycentrics" not in group:
+                raise InputError(f"{self.store}: was written by a rayfold before 2026-12-07, which named the "
+                                 "barycentrics uv: remove it or write another store")
             for p in planes:
                 extra, dtype, _ = PLANES[p]
                 want = (len(cameras), height, width) + extra

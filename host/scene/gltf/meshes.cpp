@@ -25,7 +25,12 @@ int Loader::convert_mesh(int mi, const std::vector<double>& weights, int skin) {
   mesh.attributes.loaded = options_.attributes;
   // A mesh with a masked primitive gets a mask per triangle (the others' kept).
   bool masked = false;
-  for (const tinygltf::Primitive& prim : gm.primitives) masked |= mask_of(prim.material) != nullptr;
+  for (const tinygltf::Primitive& prim : gm.primitives) {
+    const int mode = prim.mode < 0 ? TINYGLTF_MODE_TRIANGLES : prim.mode;
+    const bool triangles =
+        mode == TINYGLTF_MODE_TRIANGLES || mode == TINYGLTF_MODE_TRIANGLE_STRIP || mode == TINYGLTF_MODE_TRIANGLE_FAN;
+    masked |= triangles && mask_of(prim.material) != nullptr;
+  }
   for (size_t pi = 0; pi < gm.primitives.size(); ++pi) {
     const tinygltf::Primitive& prim = gm.primitives[pi];
     const std::string where = "mesh " + std::to_string(mi) + " primitive " + std::to_string(pi);
