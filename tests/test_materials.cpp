@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "api/scene_state.h"
+#include "api_fixture.h"
 #include "gltf_fixture.h"
 #include "rayfold/rayfold.h"
 #include "test_util.h"
@@ -373,20 +374,11 @@ TEST(Materials, EveryBackendAndFoldGivesTheReferencesBits) {
                          {"emissiveFactor", {1, 1, 1}}}};
   const rayfold::Scene scene = rayfold::Scene::load(q.f.write("materials_bits"));
   const rayfold::Camera camera = rayfold::Camera::look_at({0.4, -2.5, 1.2}, {0, 0.3, 0}, {0, 0, 1}, 60.0, 64, 48);
-  rayfold::RendererOptions cpu;
-  cpu.backend = rayfold::Backend::cpu;
-  rayfold::Renderer reference(scene, cpu), opencl(scene);
-  const unsigned channels = kMaterialChannels | rayfold::kLabel;
-  const rayfold::GBuffer want = reference.render(camera, rayfold::Fold::none, channels);
+  const rayfold::GBuffer want =
+      rayfold::testing::same_bits_on_every_backend_and_fold(scene, camera, kMaterialChannels | rayfold::kLabel);
   size_t hits = 0;
   for (size_t i = 0; i < want.label.size(); ++i) hits += want.label[i] != rayfold::kMiss;
-  ASSERT_GT(hits, 400u);
-  for (rayfold::Fold fold : {rayfold::Fold::none, rayfold::Fold::y, rayfold::Fold::x, rayfold::Fold::xy})
-    for (rayfold::Renderer* r : {&reference, &opencl}) {
-      const rayfold::GBuffer got = r->render(camera, fold, channels);
-      EXPECT_EQ(rayfold::count_differing_pixels(got, want), 0u)
-          << (r == &opencl ? "opencl" : "cpu") << " fold " << rayfold::fold_name(fold);
-    }
+  EXPECT_GT(hits, 400u);
 }
 
 }  // namespace

@@ -11,6 +11,7 @@
 
 #include <glm/geometric.hpp>
 
+#include "api_fixture.h"
 #include "gltf_fixture.h"
 #include "rayfold/rayfold.h"
 #include "scene/tangents.h"
@@ -253,20 +254,11 @@ TEST(Tangents, EveryBackendAndFoldGivesTheReferencesBits) {
   f.j["nodes"] = {{{"mesh", 0}}};
   const rayfold::Scene scene = rayfold::Scene::load(f.write("tangent_bits"));
   const rayfold::Camera camera = rayfold::Camera::look_at({2.5, -3.0, 1.5}, {0, 0, 0.5}, {0, 0, 1}, 50.0, 48, 40);
-  rayfold::RendererOptions cpu;
-  cpu.backend = rayfold::Backend::cpu;
-  rayfold::Renderer reference(scene, cpu), opencl(scene);
-  const unsigned channels = rayfold::kTangent | rayfold::kMappedNormal | rayfold::kInstanceId;
-  const rayfold::GBuffer want = reference.render(camera, rayfold::Fold::none, channels);
+  const rayfold::GBuffer want = rayfold::testing::same_bits_on_every_backend_and_fold(
+      scene, camera, rayfold::kTangent | rayfold::kMappedNormal | rayfold::kInstanceId);
   size_t hits = 0;
   for (size_t p = 0; p < want.instance_id.size(); ++p) hits += want.instance_id[p] != rayfold::kMiss;
-  ASSERT_GT(hits, 300u);
-  for (rayfold::Fold fold : {rayfold::Fold::none, rayfold::Fold::y, rayfold::Fold::x, rayfold::Fold::xy})
-    for (rayfold::Renderer* r : {&reference, &opencl}) {
-      const rayfold::GBuffer got = r->render(camera, fold, channels);
-      EXPECT_EQ(rayfold::count_differing_pixels(got, want), 0u)
-          << (r == &opencl ? "opencl" : "cpu") << " fold " << rayfold::fold_name(fold);
-    }
+  EXPECT_GT(hits, 300u);
 }
 
 }  // namespace
