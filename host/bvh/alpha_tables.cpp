@@ -34,6 +34,7 @@ void each_leaf(const BlasSet& blas, uint32_t root, Visit&& visit) {
 
 AlphaTables build_alpha_tables(const Scene& scene, const BlasSet& blas) {
   AlphaTables out;
+  if (!has_alpha_masks(scene.meshes)) return out;
   // Per mesh, the record of each masked triangle (RF_INVALID: kept).
   std::vector<std::vector<uint32_t>> records(scene.meshes.size());
   for (size_t m = 0; m < scene.meshes.size(); ++m) {
@@ -43,7 +44,7 @@ AlphaTables build_alpha_tables(const Scene& scene, const BlasSet& blas) {
     records[m].assign(mesh.alpha.size(), RF_INVALID);
     for (size_t k = 0; k < mesh.alpha.size(); ++k) {
       const AlphaTriangle& a = mesh.alpha[k];
-      if (a.cutoff == -INFINITY) continue;
+      if (a.cutoff == -std::numeric_limits<float>::infinity()) continue;
       rf_alpha_tri t{};
       for (int c = 0; c < 3; ++c) {
         t.uv[2 * c] = a.uv[c].x;

@@ -46,14 +46,6 @@ bool renders_dense_mesh(const Scene& scene) {
   return false;
 }
 
-// Whether a mesh has a masked triangle (what build_alpha_tables makes tables of).
-bool has_alpha_masks(const Scene& scene) {
-  for (const Mesh& m : scene.meshes)
-    for (const AlphaTriangle& a : m.alpha)
-      if (a.cutoff != -INFINITY) return true;
-  return false;
-}
-
 }  // namespace
 
 std::future<Pipeline::OpenedDevice> Pipeline::open_device(const Scene& scene, const PipelineOptions& options,
@@ -65,7 +57,7 @@ std::future<Pipeline::OpenedDevice> Pipeline::open_device(const Scene& scene, co
   }
   KernelTuning tuning = options.tuning;
   tuning.dense_scene = renders_dense_mesh(scene);
-  tuning.alpha_masks = has_alpha_masks(scene);
+  tuning.alpha_masks = has_alpha_masks(scene.meshes);
   return std::async(when, [hint = options.device_hint, precision = options.precision, tuning] {
     OpenedDevice d;
     d.device = std::make_unique<ClDevice>(hint);

@@ -29,4 +29,11 @@ struct AlphaImage {
   std::vector<uint8_t> alpha;
 };
 
+// Whether any of the triangles is masked (not always kept).
+inline bool any_masked(const std::vector<AlphaTriangle>& triangles) {
+  for (const AlphaTriangle& a : triangles)
+    if (a.cutoff != -std::numeric_limits<float>::infinity()) return true;
+  return false;
+}
+
 }  // namespace rayfold::core

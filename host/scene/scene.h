@@ -30,6 +30,14 @@ struct Mesh {
   size_t triangle_count() const { return indices.size() / 3; }
 };
 
+// Whether a mesh has a masked triangle: what the trace's tables
+// (bvh/alpha_tables.h) and RF_ALPHA kernels are made for.
+inline bool has_alpha_masks(const std::vector<Mesh>& meshes) {
+  for (const Mesh& m : meshes)
+    if (any_masked(m.alpha)) return true;
+  return false;
+}
+
 struct Instance {
   uint32_t mesh = 0;
   Xform world_from_object{1.0};

@@ -7,7 +7,7 @@ import warnings
 
 import numpy as np
 
-from ._core import Camera, InputError
+from ._core import Camera, InputError, _plane_specs
 
 # Views handed to one render_views call: a multiple of what one trace holds
 # in every fold (32 unfolded, 16 folded once, 8 folded twice), so that the
@@ -15,12 +15,17 @@ from ._core import Camera, InputError
 CHUNK_VIEWS = 32
 
 
+# Every name (plane, alias, EXR layer) of the planes that pair a view with the next.
+_FLOW_NAMES = {n for s in _plane_specs() if s["name"] in ("flow", "flow_visible")
+               for n in (s["name"], s["alias"], s["exr_layer"]) if n}
+
+
 def asks_flow(channels):
     """Whether channels (as render takes them) name flow or flow_visible."""
     if channels is None:
         return False
     names = channels.split(",") if isinstance(channels, str) else list(channels)
-    return any(n.strip() in ("flow", "flow_visible", "Flow", "FlowVisible") for n in names)
+    return any(n.strip() in _FLOW_NAMES for n in names)
 
 
 def iter_views(scene, cameras, fold="none", align=0, backend="opencl", device="", kernel="auto", threads=0,
