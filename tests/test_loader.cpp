@@ -152,6 +152,34 @@ TEST(Loader, IndexTypesStridesStripsFansAndTransforms) {
   EXPECT_NEAR(p2.y, 1.0, 1e-9);
 }
 
+TEST(Loader, AnAttributeNoPrimitiveHasIsKeptAsNone) {
+  // Mesh 0: one primitive with COLOR_0 and one without (the second's
+  // vertices white); mesh 1: none has NORMAL, TEXCOORD_0 or COLOR_0.
+  GltfFile f;
+  const int pos = f.positions({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}});
+  const std::vector<glm::vec4> red(3, glm::vec4(1, 0, 0, 1));
+  const int colour = f.accessor(f.view(red.data(), red.size() * 16), 5126, "VEC4", 3);
+  json coloured = prim(pos);
+  coloured["attributes"]["COLOR_0"] = colour;
+  f.j["meshes"] = json::array({mesh({coloured, prim(pos)}), mesh({prim(pos)})});
+  f.j["nodes"] = json::array({node_with_mesh(0), node_with_mesh(1)});
+  f.j["scenes"] = json::array({json{{"nodes", {0, 1}}}});
+  LoadOptions o;
+  o.attributes = kAttributeNormal | kAttributeTexcoord0 | kAttributeTexcoord1 | kAttributeColor0;
+  const Scene s = load_gltf(f.write("absent_attributes"), nullptr, o);
+  ASSERT_EQ(s.meshes.size(), 2u);
+  const MeshAttributes& some = s.meshes[0].attributes;
+  ASSERT_EQ(some.colors.size(), 6u);
+  EXPECT_EQ(some.colors[0], glm::vec4(1, 0, 0, 1));
+  EXPECT_EQ(some.colors[5], glm::vec4(1.0f)) << "a primitive without COLOR_0 among others: white per vertex";
+  const MeshAttributes& none = s.meshes[1].attributes;
+  EXPECT_TRUE(none.colors.empty()) << none.colors.size();
+  EXPECT_TRUE(none.normals.empty()) << none.normals.size();
+  EXPECT_TRUE(none.texcoords[0].empty()) << none.texcoords[0].size();
+  EXPECT_TRUE(none.texcoords[1].empty()) << none.texcoords[1].size();
+  EXPECT_EQ(none.missing & kAttributeColor0, kAttributeColor0) << "still named as missing for the warnings";
+}
+
 TEST(Loader, ListsOfTrianglesDropAPartialLastTriangleWithAWarning) {
   // 7 indices: two triangles, and one index that makes none, ignored and said.
   GltfFile f;

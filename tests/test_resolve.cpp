@@ -81,10 +81,12 @@ void expect_near(float got, double want, double ulps, const char* what, size_t p
 TEST(Resolve, ChannelsEqualAFloat64ResolveOfTheFile) {
   const QuadFile quad("resolve_quad");
   const rayfold::Scene scene = rayfold::Scene::load(quad.path);
-  const rayfold::Camera camera = rayfold::Camera::look_at({0, 0, 1}, {0, 0, -5.5}, {0, 1, 0}, 50.0, 96, 64);
+  // 24576 pixels: the resolve's runs of pixels on one triangle cross its
+  // threads' chunks of 8192.
+  const rayfold::Camera camera = rayfold::Camera::look_at({0, 0, 1}, {0, 0, -5.5}, {0, 1, 0}, 50.0, 192, 128);
   rayfold::Renderer renderer(scene);
   const rayfold::GBuffer g = renderer.render(camera, rayfold::Fold::none, kResolved | rayfold::kAllChannels);
-  ASSERT_GT(g.hits, 700u);
+  ASSERT_GT(g.hits, 2800u);
   size_t seen[2] = {0, 0};
   for (size_t i = 0; i < static_cast<size_t>(g.width) * g.height; ++i) {
     const uint32_t inst = g.instance_id[i];
@@ -115,6 +117,11 @@ TEST(Resolve, ChannelsEqualAFloat64ResolveOfTheFile) {
       expect_near(g.texcoord1[2 * i + k], t1, 2, "texcoord1", i);
     }
     EXPECT_EQ(g.material_id[i], tri == 0 ? 1u : rayfold::kDefaultMaterial) << i;
+    // No COLOR_0, no texture, default factors: white, fully metallic and
+    // rough, exactly (a mesh without COLOR_0 keeps no colours to interpolate).
+    for (int k = 0; k < 4; ++k) ASSERT_EQ(g.base_color[4 * i + k], 1.0f) << "base_color at pixel " << i;
+    ASSERT_EQ(g.metallic_roughness[2 * i], 1.0f) << i;
+    ASSERT_EQ(g.metallic_roughness[2 * i + 1], 1.0f) << i;
     // The position is where the pixel's ray meets the surface: the depth
     // along the ray's unit direction from the eye.
     const size_t x = i % g.width, y = i / g.width;
@@ -122,8 +129,8 @@ TEST(Resolve, ChannelsEqualAFloat64ResolveOfTheFile) {
     const glm::dvec3 along = glm::dvec3(0, 0, 1) + double(g.depth[i]) * glm::dvec3(d[0], d[1], d[2]);
     for (int k = 0; k < 3; ++k) ASSERT_NEAR(g.position[3 * i + k], along[k], 1e-5) << "position against the ray, " << i;
   }
-  EXPECT_GT(seen[0], 300u);
-  EXPECT_GT(seen[1], 300u);  // the mirrored instance: its normals through a negative determinant
+  EXPECT_GT(seen[0], 1200u);
+  EXPECT_GT(seen[1], 1200u);  // the mirrored instance: its normals through a negative determinant
 }
 
 TEST(Resolve, EveryBackendAndFoldGivesTheReferencesBits) {

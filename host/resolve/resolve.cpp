@@ -1,5 +1,6 @@
 #include "resolve/resolve.h"
 
+#include <algorithm>
 #include <cmath>
 #include <set>
 
@@ -83,7 +84,7 @@ inline glm::dvec4 lookup(const Scene& scene, const Mesh& mesh, const TextureRef&
 // What the pixels on one triangle of one instance read of its corners,
 // worked out once for a run of them.
 struct CornerWants {
-  bool object = false, world = false, normals = false, texcoord[2] = {false, false};
+  bool object = false, world = false, normals = false, tangents = false, texcoord[2] = {false, false};
 };
 struct Corners {
   uint32_t inst = RF_INVALID, tri = RF_INVALID;
@@ -93,6 +94,7 @@ struct Corners {
   glm::dvec3 object[3], world[3];  // positions: the mesh's own, world_from_object's of them
   glm::dvec3 normal[3];            // NORMAL through normal_from_object (not unit)
   bool flat = true;                // a corner without a normal: the geometric normal stands in
+  glm::dvec4 tangent[3];           // the corners' tangents through world_from_object's linear part, and w
   glm::dvec2 texcoord[2][3];       // (0, 0) where the mesh has none
 };
 
@@ -109,6 +111,14 @@ void fill_corners(Corners& c, const InstanceXforms& x, const CornerWants& wants)
     if (!c.flat)
       for (int k = 0; k < 3; ++k) c.normal[k] = x.normal_from_object * glm::dvec3(n[c.i[k]]);
   }
+  if (wants.tangents) {
+    const std::vector<glm::vec4>& t = mesh.attributes.tangents;
+    const glm::dmat3 linear(x.world_from_object);
+    for (int k = 0; k < 3; ++k) {
+      const glm::dvec4 corner = t.empty() ? glm::dvec4(0.0, 0.0, 0.0, 1.0) : glm::dvec4(t[3 * c.tri + k]);
+      c.tangent[k] = glm::dvec4(linear * glm::dvec3(corner), corner.w);
+    }
+  }
   for (int set = 0; set < 2; ++set) {
     if (!wants.texcoord[set]) continue;
     const std::vector<glm::vec2>& t = mesh.attributes.texcoords[set];
@@ -123,23 +133,20 @@ glm::dvec3 perpendicular(const glm::dvec3& n) {
   return glm::dvec3(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x);
 }
 
-// The tangent plane's value at the hit (resolve.h's ResolvedPlanes::tangent).
-// `found`: whether the tangent came from the mesh's, not the stand-in.
-glm::dvec4 tangent_at(const Mesh& mesh, uint32_t tri, double b0, double u, double v, const InstanceXforms& x,
-                      const glm::dvec3& normal, bool* found) {
-  const std::vector<glm::vec4>& t = mesh.attributes.tangents;
-  glm::dvec4 corner(0.0, 0.0, 0.0, 1.0);
-  if (!t.empty())
-    corner = interpolate(glm::dvec4(t[3 * tri]), glm::dvec4(t[3 * tri + 1]), glm::dvec4(t[3 * tri + 2]), b0, u, v);
-  const glm::dvec3 world = glm::dmat3(x.world_from_object) * glm::dvec3(corner);
-  glm::dvec3 tangent = world - normal * glm::dot(normal, world);
+// The tangent plane's value at the hit (resolve.h's ResolvedPlanes::tangent)
+// from the corners' (Corners::tangent). `found`: whether the tangent came
+// from the mesh's, not the stand-in.
+glm::dvec4 tangent_at(const Corners& c, double b0, double u, double v, double handedness, const glm::dvec3& normal,
+                      bool* found) {
+  const glm::dvec4 world = interpolate(c.tangent[0], c.tangent[1], c.tangent[2], b0, u, v);
+  glm::dvec3 tangent = glm::dvec3(world) - normal * glm::dot(normal, glm::dvec3(world));
   const double length = glm::length(tangent);
   *found = length > 0.0 && std::isfinite(length);
   if (*found)
     tangent /= length;
   else
     tangent = perpendicular(normal);
-  return glm::dvec4(tangent, (corner.w < 0.0 ? -1.0 : 1.0) * x.handedness);
+  return glm::dvec4(tangent, (world.w < 0.0 ? -1.0 : 1.0) * handedness);
 }
 
 }  // namespace
@@ -168,145 +175,209 @@ RayCone ray_cone(const Camera& camera) {
   return cone;
 }
 
+namespace {
+
+// The shading normal at (b0, u, v): the corners' normals interpolated, unit
+// length; `geometric` (the hit's) where a corner has none or the sum no length.
+inline glm::dvec3 shading_at(const Corners& c, double b0, double u, double v, const float* geometric) {
+  if (!c.flat) {
+    const glm::dvec3 s = interpolate(c.normal[0], c.normal[1], c.normal[2], b0, u, v);
+    const double length = std::sqrt(s.x * s.x + s.y * s.y + s.z * s.z);
+    if (length > 0.0 && std::isfinite(length)) return s / length;
+  }
+  return glm::dvec3(geometric[0], geometric[1], geometric[2]);
+}
+
+template <int N, class V>
+inline void store(float* plane, size_t p, const V& value) {
+  for (int k = 0; k < N; ++k) plane[N * p + k] = static_cast<float>(value[k]);
+}
+
+// One call's resolve: the scene, the hits and the planes, and what each
+// run of pixels on one triangle reads.
+struct Resolver {
+  const Scene& scene;
+  const HitPlanes& in;
+  const RayCone& cone;
+  const ResolvedPlanes& out;
+  std::vector<InstanceXforms> xforms;
+  CornerWants wants;
+  bool frame = false, per_vertex = false, material_data = false;
+
+  Resolver(const Scene& s, const HitPlanes& h, const RayCone& r, const ResolvedPlanes& o)
+      : scene(s), in(h), cone(r), out(o), xforms(s.instances.size()) {
+    for (size_t i = 0; i < xforms.size(); ++i) {
+      const Xform& m = scene.instances[i].world_from_object;
+      xforms[i] = {m, glm::transpose(glm::inverse(glm::dmat3(m))), glm::determinant(glm::dmat3(m)) < 0.0 ? -1.0 : 1.0};
+    }
+    frame = out.tangent || out.mapped_normal;
+    per_vertex =
+        out.position || out.object_position || out.shading_normal || frame || out.texcoord[0] || out.texcoord[1];
+    material_data = out.base_color || out.metallic_roughness || out.emissive;
+    wants.object = out.position || out.object_position;
+    wants.normals = out.shading_normal || frame;
+    wants.tangents = frame;
+    wants.texcoord[0] = out.texcoord[0] != nullptr;
+    wants.texcoord[1] = out.texcoord[1] != nullptr;
+  }
+
+  double u(size_t p) const { return in.barycentrics[2 * p]; }
+  double v(size_t p) const { return in.barycentrics[2 * p + 1]; }
+
+  // Pixels [a, b) that hit nothing: 0, and RF_INVALID for the ids.
+  void clear(size_t a, size_t b) const {
+    auto zero = [&](float* plane, size_t n) {
+      if (plane) std::fill(plane + n * a, plane + n * b, 0.0f);
+    };
+    zero(out.position, 3);
+    zero(out.object_position, 3);
+    zero(out.shading_normal, 3);
+    zero(out.texcoord[0], 2);
+    zero(out.texcoord[1], 2);
+    zero(out.base_color, 4);
+    zero(out.metallic_roughness, 2);
+    zero(out.emissive, 3);
+    zero(out.tangent, 4);
+    zero(out.mapped_normal, 3);
+    if (out.material) std::fill(out.material + a, out.material + b, RF_INVALID);
+    if (out.label) std::fill(out.label + a, out.label + b, RF_INVALID);
+  }
+
+  // Pixels [a, b), every one on triangle c.tri of instance c.inst: each
+  // channel in a loop of its own over them.
+  void run(const Corners& c, size_t a, size_t b) const {
+    const Mesh& mesh = *c.mesh;
+    const uint32_t material =
+        mesh.attributes.materials.empty() ? kDefaultMaterial : mesh.attributes.materials[c.tri];
+    if (out.material) std::fill(out.material + a, out.material + b, material);
+    if (out.label) std::fill(out.label + a, out.label + b, scene.instances[c.inst].label);
+    if (out.object_position)
+      for (size_t p = a; p < b; ++p)
+        store<3>(out.object_position, p,
+                 interpolate(c.object[0], c.object[1], c.object[2], (1.0 - u(p)) - v(p), u(p), v(p)));
+    if (out.position)
+      for (size_t p = a; p < b; ++p)
+        store<3>(out.position, p, interpolate(c.world[0], c.world[1], c.world[2], (1.0 - u(p)) - v(p), u(p), v(p)));
+    for (int set = 0; set < 2; ++set)
+      if (out.texcoord[set])
+        for (size_t p = a; p < b; ++p)
+          store<2>(out.texcoord[set], p,
+                   interpolate(c.texcoord[set][0], c.texcoord[set][1], c.texcoord[set][2], (1.0 - u(p)) - v(p), u(p),
+                               v(p)));
+    if (out.shading_normal && !frame) {
+      if (c.flat)  // the geometric normal, floats to floats
+        std::copy(in.normal + 3 * a, in.normal + 3 * b, out.shading_normal + 3 * a);
+      else
+        for (size_t p = a; p < b; ++p)
+          store<3>(out.shading_normal, p, shading_at(c, (1.0 - u(p)) - v(p), u(p), v(p), in.normal + 3 * p));
+    }
+    if (!frame && !material_data) return;
+    const Material& m = material < scene.materials.size() ? scene.materials[material] : default_material();
+    // Without a texture or vertex colours a material channel's value is
+    // the same on the whole run: worked out at its first pixel.
+    const bool texture = m.textured();
+    const bool varies = frame || texture || (out.base_color && !mesh.attributes.colors.empty());
+    const size_t last = varies ? b : a + 1;
+    for (size_t p = a; p < last; ++p) pixel(c, m, texture, p);
+    for (size_t p = last; p < b; ++p) {
+      if (out.base_color) std::copy_n(out.base_color + 4 * a, 4, out.base_color + 4 * p);
+      if (out.metallic_roughness) std::copy_n(out.metallic_roughness + 2 * a, 2, out.metallic_roughness + 2 * p);
+      if (out.emissive) std::copy_n(out.emissive + 3 * a, 3, out.emissive + 3 * p);
+    }
+  }
+
+  // One pixel's tangent frame and material channels; `texture`: whether m
+  // reads one.
+  void pixel(const Corners& c, const Material& m, bool texture, size_t p) const {
+    const Mesh& mesh = *c.mesh;
+    const double u = this->u(p), v = this->v(p);
+    const double b0 = (1.0 - u) - v;
+    // The shading normal, in double for the tangent frame.
+    glm::dvec3 shading(0.0);
+    glm::dvec4 tangent(0.0);
+    bool has_tangent = false;
+    if (frame) {
+      shading = shading_at(c, b0, u, v, in.normal + 3 * p);
+      if (out.shading_normal) store<3>(out.shading_normal, p, shading);
+      tangent = tangent_at(c, b0, u, v, xforms[c.inst].handedness, shading, &has_tangent);
+      if (out.tangent) store<4>(out.tangent, p, tangent);
+    }
+    if (!material_data && !out.mapped_normal) return;
+    const uint32_t* corners = c.i;
+    // The footprint only where a texture is read: factors alone need none.
+    Footprint f{0.0, 0.0};
+    if (texture) f = footprint(cone, c.world, interpolate(c.world[0], c.world[1], c.world[2], b0, u, v));
+    if (out.base_color) {
+      const std::vector<glm::vec4>& colors = mesh.attributes.colors;
+      const glm::dvec4 color = colors.empty() ? glm::dvec4(1.0)
+                                              : interpolate(glm::dvec4(colors[c.i[0]]), glm::dvec4(colors[c.i[1]]),
+                                                            glm::dvec4(colors[c.i[2]]), b0, u, v);
+      store<4>(out.base_color, p, m.base_color_factor * color * lookup(scene, mesh, m.base_color, corners, b0, u, v, f));
+    }
+    if (out.metallic_roughness) {
+      const glm::dvec4 t = lookup(scene, mesh, m.metallic_roughness, corners, b0, u, v, f);
+      out.metallic_roughness[2 * p] = static_cast<float>(m.metallic_factor * t[2]);
+      out.metallic_roughness[2 * p + 1] = static_cast<float>(m.roughness_factor * t[1]);
+    }
+    if (out.emissive)
+      store<3>(out.emissive, p,
+               m.emissive_factor * glm::dvec3(lookup(scene, mesh, m.emissive, corners, b0, u, v, f)) *
+                   m.emissive_strength);
+    if (out.mapped_normal) {
+      glm::dvec3 mapped = shading;
+      if (m.normal.image >= 0 && has_tangent) {
+        const glm::dvec3 t = 2.0 * glm::dvec3(sample_at(scene, mesh, m.normal, corners, b0, u, v, f)) - 1.0;
+        const glm::dvec3 tangent3(tangent);
+        const glm::dvec3 bitangent = tangent.w * glm::cross(shading, tangent3);
+        const glm::dvec3 sum = tangent3 * (t.x * m.normal_scale) + bitangent * (t.y * m.normal_scale) + shading * t.z;
+        const double length = glm::length(sum);
+        if (length > 0.0 && std::isfinite(length)) mapped = sum / length;
+      }
+      store<3>(out.mapped_normal, p, mapped);
+    }
+  }
+};
+
+}  // namespace
+
 void resolve(const Scene& scene, const HitPlanes& in, const RayCone& cone, const ResolvedPlanes& out,
              unsigned threads) {
   RF_CHECK(in.instance && in.primitive && in.barycentrics, "the resolve needs the hits' ids and barycentrics");
   RF_CHECK(!(out.shading_normal || out.tangent || out.mapped_normal) || in.normal,
            "shading normals need the geometric normal as their stand-in");
-  std::vector<InstanceXforms> xforms(scene.instances.size());
-  for (size_t i = 0; i < xforms.size(); ++i) {
-    const Xform& m = scene.instances[i].world_from_object;
-    xforms[i] = {m, glm::transpose(glm::inverse(glm::dmat3(m))), glm::determinant(glm::dmat3(m)) < 0.0 ? -1.0 : 1.0};
-  }
-  const bool frame = out.tangent || out.mapped_normal;
-  const bool per_vertex =
-      out.position || out.object_position || out.shading_normal || frame || out.texcoord[0] || out.texcoord[1];
-  CornerWants wants;
-  wants.object = out.position || out.object_position;
-  wants.world = out.position || out.base_color || out.metallic_roughness || out.emissive || out.mapped_normal;
-  wants.normals = out.shading_normal || frame;
-  wants.texcoord[0] = out.texcoord[0] != nullptr;
-  wants.texcoord[1] = out.texcoord[1] != nullptr;
+  const Resolver r(scene, in, cone, out);
   parallel_for(in.pixels, threads, size_t{1} << 13, [&](size_t begin, size_t end) {
     Corners c;
-    for (size_t p = begin; p < end; ++p) {
-      const uint32_t inst = in.instance[p];
+    // Neighbouring pixels mostly hit one triangle: a run of them shares
+    // its corners, moved to world space once, and each channel is a loop
+    // of its own over the run.
+    for (size_t a = begin, b; a < end; a = b) {
+      const uint32_t inst = in.instance[a];
+      b = a + 1;
       if (inst == RF_INVALID) {
-        auto clear = [&](float* plane, int n) {
-          if (plane)
-            for (int k = 0; k < n; ++k) plane[n * p + k] = 0.0f;
-        };
-        clear(out.position, 3);
-        clear(out.object_position, 3);
-        clear(out.shading_normal, 3);
-        clear(out.texcoord[0], 2);
-        clear(out.texcoord[1], 2);
-        clear(out.base_color, 4);
-        clear(out.metallic_roughness, 2);
-        clear(out.emissive, 3);
-        clear(out.tangent, 4);
-        clear(out.mapped_normal, 3);
-        if (out.material) out.material[p] = RF_INVALID;
-        if (out.label) out.label[p] = RF_INVALID;
+        while (b < end && in.instance[b] == RF_INVALID) ++b;
+        r.clear(a, b);
         continue;
       }
-      // Neighbouring pixels mostly hit one triangle: its corners, moved to
-      // world space, are worked out once for the run of pixels on it.
-      if (inst != c.inst || in.primitive[p] != c.tri) {
+      const uint32_t tri = in.primitive[a];
+      while (b < end && in.instance[b] == inst && in.primitive[b] == tri) ++b;
+      if (inst != c.inst || tri != c.tri) {
         RF_CHECK_LT(inst, scene.instances.size(), "a hit on an instance the scene does not have");
         c.mesh = &scene.meshes[scene.instances[inst].mesh];
-        c.tri = in.primitive[p];
+        c.tri = tri;
         c.inst = inst;
         RF_CHECK_LT(c.tri, c.mesh->triangle_count(), "a hit on a triangle its mesh does not have");
         // The triangle's vertices are read only by the channels that need
         // them: a scattered read that costs more than the rest of a material
-        // channel whose factors alone make it.
-        c.vertices = per_vertex || out.base_color ||
-                     ((out.metallic_roughness || out.emissive || out.mapped_normal) && textured(scene, *c.mesh, c.tri));
-        if (c.vertices) fill_corners(c, xforms[inst], wants);
+        // channel whose factors alone make it; world positions only for a
+        // texture's footprint or the position plane.
+        const bool texture = (r.material_data || out.mapped_normal) && textured(scene, *c.mesh, c.tri);
+        CornerWants wants = r.wants;
+        wants.world = out.position || texture;
+        c.vertices = r.per_vertex || texture || (out.base_color && !c.mesh->attributes.colors.empty());
+        if (c.vertices) fill_corners(c, r.xforms[inst], wants);
       }
-      const Mesh& mesh = *c.mesh;
-      const uint32_t tri = c.tri;
-      const double u = in.barycentrics[2 * p], v = in.barycentrics[2 * p + 1];
-      const double b0 = (1.0 - u) - v;
-      const InstanceXforms& x = xforms[inst];
-      if (out.object_position) {
-        const glm::dvec3 o = interpolate(c.object[0], c.object[1], c.object[2], b0, u, v);
-        for (int k = 0; k < 3; ++k) out.object_position[3 * p + k] = static_cast<float>(o[k]);
-      }
-      if (out.position) {
-        const glm::dvec3 w = interpolate(c.world[0], c.world[1], c.world[2], b0, u, v);
-        for (int k = 0; k < 3; ++k) out.position[3 * p + k] = static_cast<float>(w[k]);
-      }
-      // The shading normal, in double for the tangent frame.
-      glm::dvec3 shading(0.0);
-      if (out.shading_normal || frame) {
-        bool flat = c.flat;
-        if (!flat) {
-          shading = interpolate(c.normal[0], c.normal[1], c.normal[2], b0, u, v);
-          const double length = std::sqrt(shading.x * shading.x + shading.y * shading.y + shading.z * shading.z);
-          flat = !(length > 0.0) || !std::isfinite(length);
-          shading /= length;
-        }
-        if (flat) shading = glm::dvec3(in.normal[3 * p], in.normal[3 * p + 1], in.normal[3 * p + 2]);
-        if (out.shading_normal)
-          for (int k = 0; k < 3; ++k) out.shading_normal[3 * p + k] = static_cast<float>(shading[k]);
-      }
-      glm::dvec4 tangent(0.0);
-      bool has_tangent = false;
-      if (frame) {
-        tangent = tangent_at(mesh, tri, b0, u, v, x, shading, &has_tangent);
-        if (out.tangent)
-          for (int k = 0; k < 4; ++k) out.tangent[4 * p + k] = static_cast<float>(tangent[k]);
-      }
-      for (int set = 0; set < 2; ++set) {
-        if (!out.texcoord[set]) continue;
-        const glm::dvec2 tc = interpolate(c.texcoord[set][0], c.texcoord[set][1], c.texcoord[set][2], b0, u, v);
-        out.texcoord[set][2 * p] = static_cast<float>(tc.x);
-        out.texcoord[set][2 * p + 1] = static_cast<float>(tc.y);
-      }
-      const uint32_t material = mesh.attributes.materials.empty() ? kDefaultMaterial : mesh.attributes.materials[tri];
-      if (out.material) out.material[p] = material;
-      if (out.label) out.label[p] = scene.instances[inst].label;
-      if (out.base_color || out.metallic_roughness || out.emissive || out.mapped_normal) {
-        const Material& m = material < scene.materials.size() ? scene.materials[material] : default_material();
-        const uint32_t* corners = c.i;
-        const uint32_t i0 = c.i[0], i1 = c.i[1], i2 = c.i[2];
-        // The footprint only where a texture is read: factors alone need none.
-        Footprint f{0.0, 0.0};
-        if (m.textured()) f = footprint(cone, c.world, interpolate(c.world[0], c.world[1], c.world[2], b0, u, v));
-        if (out.base_color) {
-          const std::vector<glm::vec4>& colors = mesh.attributes.colors;
-          const glm::dvec4 color = colors.empty() ? glm::dvec4(1.0)
-                                                  : interpolate(glm::dvec4(colors[i0]), glm::dvec4(colors[i1]),
-                                                                glm::dvec4(colors[i2]), b0, u, v);
-          const glm::dvec4 rgba = m.base_color_factor * color * lookup(scene, mesh, m.base_color, corners, b0, u, v, f);
-          for (int k = 0; k < 4; ++k) out.base_color[4 * p + k] = static_cast<float>(rgba[k]);
-        }
-        if (out.metallic_roughness) {
-          const glm::dvec4 t = lookup(scene, mesh, m.metallic_roughness, corners, b0, u, v, f);
-          out.metallic_roughness[2 * p] = static_cast<float>(m.metallic_factor * t[2]);
-          out.metallic_roughness[2 * p + 1] = static_cast<float>(m.roughness_factor * t[1]);
-        }
-        if (out.emissive) {
-          const glm::dvec3 e = m.emissive_factor * glm::dvec3(lookup(scene, mesh, m.emissive, corners, b0, u, v, f)) *
-                               m.emissive_strength;
-          for (int k = 0; k < 3; ++k) out.emissive[3 * p + k] = static_cast<float>(e[k]);
-        }
-        if (out.mapped_normal) {
-          glm::dvec3 mapped = shading;
-          if (m.normal.image >= 0 && has_tangent) {
-            const glm::dvec3 t = 2.0 * glm::dvec3(sample_at(scene, mesh, m.normal, corners, b0, u, v, f)) - 1.0;
-            const glm::dvec3 tangent3(tangent);
-            const glm::dvec3 bitangent = tangent.w * glm::cross(shading, tangent3);
-            const glm::dvec3 sum =
-                tangent3 * (t.x * m.normal_scale) + bitangent * (t.y * m.normal_scale) + shading * t.z;
-            const double length = glm::length(sum);
-            if (length > 0.0 && std::isfinite(length)) mapped = sum / length;
-          }
-          for (int k = 0; k < 3; ++k) out.mapped_normal[3 * p + k] = static_cast<float>(mapped[k]);
-        }
-      }
+      r.run(c, a, b);
     }
   });
 }

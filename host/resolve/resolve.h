@@ -69,8 +69,8 @@ struct ResolvedPlanes {
   float* metallic_roughness = nullptr;  // 2: metallicFactor * texture B, roughnessFactor * texture G
   float* emissive = nullptr;            // 3: emissiveFactor * emissiveTexture * emissiveStrength, linear RGB
   uint32_t* label = nullptr;            // 1: the instance's index into Scene::labels (RF_INVALID on a miss)
-  // 4: the corners' tangents (MeshAttributes::tangents) interpolated, through
-  // world_from_object's linear part, less their part along the shading
+  // 4: the corners' tangents (MeshAttributes::tangents) through
+  // world_from_object's linear part, interpolated, less their part along the shading
   // normal, unit length; where that leaves no length (no tangent), the
   // perpendicular of Duff et al. 2017 ("Building an Orthonormal Basis,
   // Revisited"). Then w: the sign of the interpolated w times that of the

@@ -47,7 +47,9 @@ constexpr uint32_t kDefaultMaterial = 0xFFFFFFFEu;
 // and its bit in `missing`: a normal of (0, 0, 0) (the resolve then takes
 // the triangle's geometric normal, as glTF says of a primitive without
 // normals), texture coordinates (0, 0), a colour (1, 1, 1, 1) (glTF: a
-// primitive without COLOR_0 is white).
+// primitive without COLOR_0 is white). Where no primitive of the mesh has
+// the attribute (`present` lacks its bit) the vector is empty: the stand-in
+// everywhere.
 struct MeshAttributes {
   unsigned loaded = 0;                  // Attribute bits read for this mesh
   unsigned missing = 0;                 // Attribute bits some primitive of it lacked

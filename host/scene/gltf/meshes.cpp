@@ -88,6 +88,19 @@ int Loader::convert_mesh(int mi, const std::vector<double>& weights, int skin) {
       warn(where + " has " + std::to_string(seq_size) + " triangle vertices, not a multiple of 3; the last " +
            std::to_string(dropped) + " are ignored");
   }
+  // An attribute no primitive of the mesh has is its stand-in everywhere:
+  // kept as none (attributes.h), not a copy per vertex, so that white is
+  // exactly white and the resolve sees a constant over each triangle.
+  MeshAttributes& a = mesh.attributes;
+  auto drop_unless_present = [&](auto& values, unsigned bit) {
+    if (a.present & bit) return;
+    values.clear();
+    values.shrink_to_fit();
+  };
+  drop_unless_present(a.normals, kAttributeNormal);
+  drop_unless_present(a.texcoords[0], kAttributeTexcoord0);
+  drop_unless_present(a.texcoords[1], kAttributeTexcoord1);
+  drop_unless_present(a.colors, kAttributeColor0);
   if (mesh.indices.empty()) {
     warn("mesh " + std::to_string(mi) + (gm.name.empty() ? "" : " (" + gm.name + ")") + " has no triangles");
     return -1;
