@@ -32,13 +32,14 @@ python-env: deps
 	@tools/scripts/python-env.sh $(BUILD_DIR)/venv
 
 # Fold tables, speed against accuracy with Embree, from Python against
-# Mitsuba 3 and Open3D, and charts for the bundled scene and every scene in
+# Mitsuba 3 and Open3D, the G-buffer's channels and the dataset loop against
+# Mitsuba and Blender's Cycles, and charts for the bundled scene and every scene in
 # ../shared/scenes, into out/bench/. Long (about 75 minutes on 2 cores);
 # BENCH_ARGS="--views 3 --frames 3" shortens it. Open3D's wheel needs libusb.
 BENCH_ARGS ?=
 bench: PYTHON_FLAGS = -DRAYFOLD_PYTHON=ON -DPython_EXECUTABLE=$(CURDIR)/$(BUILD_DIR)/venv/bin/python
 bench: python-env build
-	@tools/scripts/install-deps.sh python3-matplotlib libusb-1.0-0
+	@tools/scripts/install-deps.sh python3-matplotlib libusb-1.0-0 blender python3-numpy
 	@tools/scripts/python-env.sh $(BUILD_DIR)/venv --peers
 	PYTHONPATH=$(CURDIR)/$(BUILD_DIR)/python BENCH_PYTHON=$(CURDIR)/$(BUILD_DIR)/venv/bin/python \
 	    tools/bench/bench_all.sh $(BENCH_ARGS)

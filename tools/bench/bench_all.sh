@@ -12,6 +12,11 @@
 #                      Python that has them and rayfold: make bench makes one)
 #   bench_rays.py   -> out/bench/<scene>-rays.md/.json (scene.intersect against the same peers on
 #                      1M incoherent rays and on the random views' rays as arrays; same Python)
+#   bench_channels.py -> out/bench/<scene>-channels.md/.json (the G-buffer's resolved channel sets
+#                      against the trace, on the same random views; same Python)
+#   bench_dataset_loop.py -> out/bench/<scene>-dataset-loop.md/.json (cameras in, a G-buffer EXR out
+#                      per view, against Mitsuba 3's aov integrator and Blender's Cycles passes on 4
+#                      of the random views; same Python, Blender from Debian)
 #   bench_batch.py  -> out/bench/batch.md/.json (one process against rayfold-batch with 1 and 2
 #                      Ray workers, every scene, 640x480 and 1280x720; once, after the scenes)
 #   bench_readback.py -> out/bench/readback.md/.json (the frame against the trace, host-layout and
@@ -70,6 +75,10 @@ run() {
       --json "$out/$name-python.json" --md "$out/$name-python.md"
     "$python_peers" tools/bench/bench_rays.py "$file" --cameras "$out/$name-peers.json" "${py_args[@]}" \
       --json "$out/$name-rays.json" > "$out/$name-rays.md"
+    "$python_peers" tools/bench/bench_channels.py "$file" --cameras "$out/$name-peers.json" \
+      --json "$out/$name-channels.json" > "$out/$name-channels.md"
+    "$python_peers" tools/bench/bench_dataset_loop.py "$file" --cameras "$out/$name-peers.json" \
+      --json "$out/$name-dataset-loop.json" > "$out/$name-dataset-loop.md"
   fi
   local py_chart=()
   if [ -n "$python_peers" ]; then py_chart=(--python "$out/$name-python.json"); fi
