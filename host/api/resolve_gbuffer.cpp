@@ -33,6 +33,23 @@ unsigned trace_channels(unsigned channels) {
   return trace;
 }
 
+void adopt_attributes(core::Scene& scene, core::Scene&& posed, unsigned attributes) {
+  // The file's meshes come first (add_mesh appends), posed as they are.
+  RF_CHECK_LE(posed.meshes.size(), scene.meshes.size(), "the file posed again has more meshes");
+  for (size_t m = 0; m < posed.meshes.size(); ++m) {
+    RF_CHECK_EQ(posed.meshes[m].positions.size(), scene.meshes[m].positions.size(),
+                "the file posed again has another mesh");
+    scene.meshes[m].attributes = std::move(posed.meshes[m].attributes);
+  }
+  scene.materials = std::move(posed.materials);
+  scene.images = std::move(posed.images);
+  if (attributes & core::kAttributeLabel) {
+    RF_CHECK_LE(posed.instances.size(), scene.instances.size(), "the file posed again has more instances");
+    for (size_t i = 0; i < posed.instances.size(); ++i) scene.instances[i].label = posed.instances[i].label;
+    scene.labels = std::move(posed.labels);
+  }
+}
+
 std::vector<std::string> load_attributes(SceneState& s, unsigned channels) {
   const unsigned attributes = attributes_for(channels);
   if (attributes == 0) return {};
@@ -48,20 +65,7 @@ std::vector<std::string> load_attributes(SceneState& s, unsigned channels) {
       s.file->set_attributes(before);
       throw;
     }
-    // The file's meshes come first (add_mesh appends), posed as they are.
-    RF_CHECK_LE(posed.meshes.size(), s.scene.meshes.size(), "the file posed again has more meshes");
-    for (size_t m = 0; m < posed.meshes.size(); ++m) {
-      RF_CHECK_EQ(posed.meshes[m].positions.size(), s.scene.meshes[m].positions.size(),
-                  "the file posed again has another mesh");
-      s.scene.meshes[m].attributes = std::move(posed.meshes[m].attributes);
-    }
-    s.scene.materials = std::move(posed.materials);
-    s.scene.images = std::move(posed.images);
-    if (attributes & core::kAttributeLabel) {
-      RF_CHECK_LE(posed.instances.size(), s.scene.instances.size(), "the file posed again has more instances");
-      for (size_t i = 0; i < posed.instances.size(); ++i) s.scene.instances[i].label = posed.instances[i].label;
-      s.scene.labels = std::move(posed.labels);
-    }
+    adopt_attributes(s.scene, std::move(posed), attributes);
   }
   // A texture coordinate set the material channels read but no texcoord
   // channel asked for is named by their own warning (the textures').

@@ -20,6 +20,11 @@ unsigned attributes_for(unsigned channels);
 // barycentrics and geometric normal the resolved ones are made from.
 unsigned trace_channels(unsigned channels);
 
+// Moves what the file posed again (`posed`, read with these Attribute bits)
+// holds of attributes, materials, images and labels into `scene`, whose
+// first meshes and instances are the file's.
+void adopt_attributes(core::Scene& scene, core::Scene&& posed, unsigned attributes);
+
 // Reads the attributes `channels` read (attributes_for) that the scene
 // lacks from its file (posed as it is now), once; returns one line for each
 // mesh that lacks one of them and was not named before (also added to the

@@ -39,7 +39,12 @@ void at_pose(SceneState& s, double seconds, const char* caller, const std::funct
   core::Scene saved = s.scene;
   const double saved_time = s.time;
   const std::vector<uint64_t> saved_moved = s.moved_at;
+  const unsigned saved_attributes = s.file ? s.file->attributes() : 0u;
   auto put_back = [&] {
+    // Attributes a render read for the first time while posed are kept:
+    // the scene put back gets them too, posed at its own time.
+    if (s.file && s.file->attributes() != saved_attributes)
+      adopt_attributes(saved, s.file->scene_at(saved_time), s.file->attributes());
     std::vector<uint32_t> moved;
     s.time = saved_time;
     if (core::apply_pose(s.scene, std::move(saved), &moved)) {

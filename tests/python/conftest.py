@@ -18,3 +18,9 @@ def cli():
     if not path:
         pytest.skip("RAYFOLD_CLI is not set: run through ctest (make test)")
     return path
+
+
+@pytest.fixture(scope="session")
+def bin_dir(cli):
+    """The folder of the build's programs (rayfold-gen-scene beside the CLI)."""
+    return pathlib.Path(cli).parent

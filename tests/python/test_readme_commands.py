@@ -49,11 +49,6 @@ def small(argv):
 
 
 @pytest.fixture(scope="module")
-def bin_dir(cli):
-    return pathlib.Path(cli).parent
-
-
-@pytest.fixture(scope="module")
 def scenes(tmp_path_factory, bin_dir):
     """scene.glb is the bundled scene; scene.gltf the same written as .gltf;
     sparse/0 a COLMAP text model of two small views of it. out/ is not
