@@ -18,20 +18,6 @@ Projection::Projection(const Camera& c)
       offset(-(static_cast<double>(c.params.kx0) + c.frac_x) / 2.0,
              (static_cast<double>(c.params.ky0) + c.frac_y) / 2.0) {}
 
-glm::dvec2 Projection::operator()(const glm::dvec3& world) const {
-  const glm::dvec3 p = glm::dvec3(camera_from_world * glm::dvec4(world, 1.0));
-  double a = p.x, b = p.y;
-  // Behind the eye, or an orthographic view's image plane, where its rays start.
-  if (orthographic ? !(p.z <= 0.0) : !(p.z < 0.0)) return glm::dvec2(std::numeric_limits<double>::quiet_NaN());
-  if (!orthographic) {
-    const double inverse_depth = -1.0 / p.z;
-    a *= inverse_depth;
-    b *= inverse_depth;
-  }
-  // exact_direction's pixel (x, y): a = scale_x (2x + kx0 + frac_x), b = scale_y (ky0 - 2y + frac_y).
-  return glm::dvec2(a * half_inverse_scale.x + offset.x, offset.y - b * half_inverse_scale.y);
-}
-
 glm::dvec2 project(const Camera& camera, const glm::dvec3& world) { return Projection(camera)(world); }
 
 void resolve_flow(const Scene& other, const HitPlanes& in, int width, const Camera& to, float* flow, glm::dvec3* points,
@@ -40,34 +26,40 @@ void resolve_flow(const Scene& other, const HitPlanes& in, int width, const Came
   const double nan = std::numeric_limits<double>::quiet_NaN();
   const Projection project_to(to);
   parallel_for(in.pixels, threads, size_t{1} << 13, [&](size_t begin, size_t end) {
-    for (size_t p = begin; p < end; ++p) {
-      const uint32_t inst = in.instance[p];
-      if (inst == RF_INVALID) {
+    // The triangle's corners in the other pose, world space, once for the
+    // run of pixels on it (as the position channel's).
+    uint32_t inst = RF_INVALID, tri = RF_INVALID;
+    glm::dvec3 world[3];
+    // The pixel's column and row, stepped along (a division a pixel cost as much as the projection).
+    size_t x = begin % static_cast<size_t>(width), y = begin / static_cast<size_t>(width);
+    for (size_t p = begin; p < end; ++p, x = x + 1 == static_cast<size_t>(width) ? (++y, 0) : x + 1) {
+      if (in.instance[p] == RF_INVALID) {
         if (flow) flow[2 * p] = flow[2 * p + 1] = 0.0f;
         if (points) points[p] = glm::dvec3(nan);
         continue;
       }
-      if (inst >= other.instances.size())
-        throw InputError(file, "flow: the other view's pose has " + std::to_string(other.instances.size()) +
-                                   " instances, not instance " + std::to_string(inst));
-      const Instance& instance = other.instances[inst];
-      const Mesh& mesh = other.meshes[instance.mesh];
-      const uint32_t tri = in.primitive[p];
-      if (tri >= mesh.triangle_count())
-        throw InputError(file, "flow: in the other view's pose instance " + std::to_string(inst) + "'s mesh has " +
-                                   std::to_string(mesh.triangle_count()) + " triangles, not triangle " +
-                                   std::to_string(tri));
-      const uint32_t* i = &mesh.indices[3 * tri];
+      if (in.instance[p] != inst || in.primitive[p] != tri) {
+        inst = in.instance[p];
+        tri = in.primitive[p];
+        if (inst >= other.instances.size())
+          throw InputError(file, "flow: the other view's pose has " + std::to_string(other.instances.size()) +
+                                     " instances, not instance " + std::to_string(inst));
+        const Instance& instance = other.instances[inst];
+        const Mesh& mesh = other.meshes[instance.mesh];
+        if (tri >= mesh.triangle_count())
+          throw InputError(file, "flow: in the other view's pose instance " + std::to_string(inst) +
+                                     "'s mesh has " + std::to_string(mesh.triangle_count()) +
+                                     " triangles, not triangle " + std::to_string(tri));
+        world_corners(mesh, tri, instance.world_from_object, world);
+      }
       const double u = in.barycentrics[2 * p], v = in.barycentrics[2 * p + 1];
       const double b0 = (1.0 - u) - v;
-      const glm::dvec3 o = b0 * glm::dvec3(mesh.positions[i[0]]) + u * glm::dvec3(mesh.positions[i[1]]) +
-                           v * glm::dvec3(mesh.positions[i[2]]);
-      const glm::dvec3 w = glm::dvec3(instance.world_from_object * glm::dvec4(o, 1.0));
+      const glm::dvec3 w = b0 * world[0] + u * world[1] + v * world[2];
       if (points) points[p] = w;
       if (flow) {
         const glm::dvec2 at = project_to(w);
-        flow[2 * p] = static_cast<float>(at.x - static_cast<double>(p % width));
-        flow[2 * p + 1] = static_cast<float>(at.y - static_cast<double>(p / width));
+        flow[2 * p] = static_cast<float>(at.x - static_cast<double>(x));
+        flow[2 * p + 1] = static_cast<float>(at.y - static_cast<double>(y));
       }
     }
   });

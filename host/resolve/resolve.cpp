@@ -101,10 +101,9 @@ struct Corners {
 void fill_corners(Corners& c, const InstanceXforms& x, const CornerWants& wants) {
   const Mesh& mesh = *c.mesh;
   for (int k = 0; k < 3; ++k) c.i[k] = mesh.indices[3 * c.tri + k];
-  for (int k = 0; k < 3; ++k) {
-    if (wants.object || wants.world) c.object[k] = glm::dvec3(mesh.positions[c.i[k]]);
-    if (wants.world) c.world[k] = glm::dvec3(x.world_from_object * glm::dvec4(c.object[k], 1.0));
-  }
+  if (wants.object)
+    for (int k = 0; k < 3; ++k) c.object[k] = glm::dvec3(mesh.positions[c.i[k]]);
+  if (wants.world) world_corners(mesh, c.tri, x.world_from_object, c.world);
   if (wants.normals) {
     const std::vector<glm::vec3>& n = mesh.attributes.normals;
     c.flat = n.empty() || zero(n[c.i[0]]) || zero(n[c.i[1]]) || zero(n[c.i[2]]);
@@ -150,6 +149,11 @@ glm::dvec4 tangent_at(const Corners& c, double b0, double u, double v, double ha
 }
 
 }  // namespace
+
+void world_corners(const Mesh& mesh, uint32_t tri, const Xform& world_from_object, glm::dvec3 out[3]) {
+  for (int k = 0; k < 3; ++k)
+    out[k] = glm::dvec3(world_from_object * glm::dvec4(glm::dvec3(mesh.positions[mesh.indices[3 * tri + k]]), 1.0));
+}
 
 unsigned attributes_read(const ResolvedPlanes& out) {
   const bool material_data = out.base_color || out.metallic_roughness || out.emissive;

@@ -85,6 +85,11 @@ struct ResolvedPlanes {
   float* mapped_normal = nullptr;
 };
 
+// Triangle `tri` of `mesh`'s corners moved to world space by
+// world_from_object, in double: what the position channel and the flow
+// interpolate.
+void world_corners(const Mesh& mesh, uint32_t tri, const Xform& world_from_object, glm::dvec3 out[3]);
+
 // The attributes the planes of `out` read (Attribute bits).
 unsigned attributes_read(const ResolvedPlanes& out);
 

@@ -4,6 +4,9 @@ Python, per channel set, on a camera list's views (the `cameras` of a
 `rayfold-peers --random-views K --json` report: random views), issue 49's
 part 6 table.
 
+Each set's row also gives the MB of planes it writes beyond the visibility buffer's (at
+1280x720 the resolve's floor is that write: memory bandwidth, docs/results.md).
+
 Every view's every channel set is first checked: its planes rendered folded
 (fold xy where the camera allows) equal the unfolded render's bit for bit,
 flow included (to the same camera moved sideways by 1% of the scene's size).
@@ -33,12 +36,15 @@ SETS = {
     "depth, ids, shading normal": "depth,instance_id,primitive_id,shading_normal",
     "materials": "instance_id,base_color,metallic_roughness,emissive",
     "position": "depth,instance_id,position",
+    "texcoord": "depth,instance_id,texcoord",
     "tangent frame": "depth,instance_id,shading_normal,tangent,mapped_normal",
     "every channel but flow": "depth,normal,barycentrics,instance_id,primitive_id,shading_normal,texcoord,"
                               "texcoord1,position,object_position,material_id,base_color,metallic_roughness,"
                               "emissive,label,tangent,mapped_normal",
-    "flow, flow_visible": "depth,instance_id,flow,flow_visible",
+    "flow": "depth,instance_id,flow",
+    "flow_visible": "depth,instance_id,flow_visible",
 }
+VISIBILITY = set(SETS["visibility"].split(","))
 
 
 def moved(scene, camera):
@@ -83,6 +89,7 @@ def main():
     first_scene.render(cameras[0], channels=SETS["materials"])
     first_material_ms = 1e3 * (time.perf_counter() - t1)
     scene = rayfold.Scene(args.scene)
+    written = {}  # MB of planes a set writes beyond the visibility buffer's, per frame
     per_view = {name: [] for name in SETS}
     ratio = {name: [] for name in SETS}
     traces = []
@@ -99,6 +106,7 @@ def main():
                     times[name].append(1e3 * (time.perf_counter() - start))
                 if name == "visibility" and frame > 0:
                     traces.append(g.trace_ms)
+                written[name] = sum(getattr(g, p).nbytes for p in channels.split(",") if p not in VISIBILITY) / 1e6
         base = statistics.median(times["visibility"])
         trace = statistics.median(traces[-args.frames:])
         for name in SETS:
@@ -112,14 +120,15 @@ def main():
         "machine": machine_info(),
         "trace_ms": statistics.median(traces),
         "first_material_render_ms": first_material_ms,
-        "sets": {name: {"ms": statistics.median(per_view[name]), "of_trace": statistics.median(ratio[name])}
-                 for name in SETS},
+        "sets": {name: {"ms": statistics.median(per_view[name]), "of_trace": statistics.median(ratio[name]),
+                        "written_mb": written[name]} for name in SETS},
     }
     print(f"{report['scene']}, {len(cameras)} views, {args.size}: trace {report['trace_ms']:.1f} ms, visibility "
           f"frame {report['sets']['visibility']['ms']:.1f} ms; first material render {first_material_ms:.0f} ms")
     for name in list(SETS)[1:]:
         s = report["sets"][name]
-        print(f"  + {name}: {s['ms']:+.1f} ms ({s['of_trace']:.2f}x the trace)")
+        print(f"  + {name}: {s['ms']:+.1f} ms ({s['of_trace']:.2f}x the trace; {s['written_mb']:.1f} MB of planes "
+              "beyond the visibility buffer's)")
     if args.json:
         with open(args.json, "w") as f:
             json.dump(report, f, indent=1)
