@@ -1,6 +1,7 @@
 #include "resolve/resolve.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <set>
 
@@ -31,16 +32,44 @@ V interpolate(const V& a0, const V& a1, const V& a2, double b0, double u, double
 
 bool zero(const glm::vec3& n) { return n.x == 0.0f && n.y == 0.0f && n.z == 0.0f; }
 
-// What a material channel reads of a hit's triangle: its corners in world
-// space and the cone's footprint there.
+// What a texture lookup reads of a hit's triangle, worked out once for the
+// run of pixels on it: its world-space normal (not unit) and twice its area,
+// and per texture of its material (Material::textures()'s order) the
+// corners' texture coordinates, transformed, and the part of the level of
+// detail that does not vary over it (resolve.h's RayCone).
 struct Footprint {
-  double world_area2;  // twice the triangle's world-space area
-  double width;        // W / |cos theta| (resolve.h's RayCone)
+  glm::dvec3 normal;
+  double area2;
+  struct Texture {
+    glm::dvec2 uv[3];
+    double lod_base;  // 1/2 log2(texel area / world area)
+  } textures[4];
 };
 
-Footprint footprint(const RayCone& cone, const glm::dvec3 w[3], const glm::dvec3& hit) {
-  const glm::dvec3 n = glm::cross(w[1] - w[0], w[2] - w[0]);
-  const double area2 = glm::length(n);
+Footprint footprint(const Scene& scene, const Mesh& mesh, const Material& m, const uint32_t i[3],
+                    const glm::dvec3 w[3]) {
+  Footprint f;
+  f.normal = glm::cross(w[1] - w[0], w[2] - w[0]);
+  f.area2 = glm::length(f.normal);
+  const std::array<const TextureRef*, 4> refs = m.textures();
+  for (size_t k = 0; k < refs.size(); ++k) {
+    const TextureRef& ref = *refs[k];
+    if (ref.image < 0) continue;
+    const TextureImage& image = *scene.images[ref.image];
+    const std::vector<glm::vec2>& t = mesh.attributes.texcoords[ref.texcoord];
+    glm::dvec2* c = f.textures[k].uv;
+    for (int j = 0; j < 3; ++j)
+      c[j] = t.empty() ? glm::dvec2(0.0) : glm::dvec2(ref.uv_transform * glm::dvec3(glm::dvec2(t[i[j]]), 1.0));
+    const glm::dvec2 e1 = c[1] - c[0], e2 = c[2] - c[0];
+    const double texels = std::abs(e1.x * e2.y - e1.y * e2.x) * image.levels[0].width * image.levels[0].height;
+    f.textures[k].lod_base = 0.5 * std::log2(texels / f.area2);
+  }
+  return f;
+}
+
+// The cone's footprint at the hit over the cosine of its angle with the
+// triangle: W / |cos theta|.
+double footprint_width(const RayCone& cone, const Footprint& f, const glm::dvec3& hit) {
   glm::dvec3 dir = cone.forward;
   double width = cone.width;
   if (!cone.orthographic) {
@@ -48,22 +77,16 @@ Footprint footprint(const RayCone& cone, const glm::dvec3 w[3], const glm::dvec3
     width = cone.spread * t;
     dir = (hit - cone.eye) / t;
   }
-  return {area2, width / std::abs(glm::dot(dir, n) / area2)};
+  return width / std::abs(glm::dot(dir, f.normal) / f.area2);
 }
 
-// The texture's value at the hit: its texture coordinates interpolated
-// and transformed, at the footprint's level of detail.
-glm::dvec4 sample_at(const Scene& scene, const Mesh& mesh, const TextureRef& ref, const uint32_t i[3], double b0,
-                     double u, double v, const Footprint& f) {
-  const TextureImage& image = *scene.images[ref.image];
-  const std::vector<glm::vec2>& t = mesh.attributes.texcoords[ref.texcoord];
-  glm::dvec2 c[3] = {glm::dvec2(0.0), glm::dvec2(0.0), glm::dvec2(0.0)};
-  if (!t.empty())
-    for (int k = 0; k < 3; ++k) c[k] = glm::dvec2(ref.uv_transform * glm::dvec3(glm::dvec2(t[i[k]]), 1.0));
-  const glm::dvec2 e1 = c[1] - c[0], e2 = c[2] - c[0];
-  const double texels = std::abs(e1.x * e2.y - e1.y * e2.x) * image.levels[0].width * image.levels[0].height;
-  const double lod = 0.5 * std::log2(texels / f.world_area2) + std::log2(f.width);
-  return sample_texture(image, ref.sampler, interpolate(c[0], c[1], c[2], b0, u, v), lod);
+// Texture k of the material (Footprint's order) at the hit: its texture
+// coordinates interpolated, at the footprint's level of detail.
+glm::dvec4 sample_at(const Scene& scene, const TextureRef& ref, const Footprint& f, size_t k, double b0, double u,
+                     double v, double width) {
+  const Footprint::Texture& t = f.textures[k];
+  return sample_texture(*scene.images[ref.image], ref.sampler, interpolate(t.uv[0], t.uv[1], t.uv[2], b0, u, v),
+                        t.lod_base + std::log2(width));
 }
 
 // Whether the triangle's material reads a texture.
@@ -76,9 +99,9 @@ bool textured(const Scene& scene, const Mesh& mesh, uint32_t tri) {
 
 // sample_at, or (1, 1, 1, 1) without a texture: checked here, inline,
 // since most materials have none.
-inline glm::dvec4 lookup(const Scene& scene, const Mesh& mesh, const TextureRef& ref, const uint32_t i[3], double b0,
-                         double u, double v, const Footprint& f) {
-  return ref.image < 0 ? glm::dvec4(1.0) : sample_at(scene, mesh, ref, i, b0, u, v, f);
+inline glm::dvec4 lookup(const Scene& scene, const TextureRef& ref, const Footprint& f, size_t k, double b0, double u,
+                         double v, double width) {
+  return ref.image < 0 ? glm::dvec4(1.0) : sample_at(scene, ref, f, k, b0, u, v, width);
 }
 
 // What the pixels on one triangle of one instance read of its corners,
@@ -280,9 +303,11 @@ struct Resolver {
     // Without a texture or vertex colours a material channel's value is
     // the same on the whole run: worked out at its first pixel.
     const bool texture = m.textured();
+    Footprint f;
+    if (texture && (material_data || out.mapped_normal)) f = footprint(scene, mesh, m, c.i, c.world);
     const bool varies = frame || texture || (out.base_color && !mesh.attributes.colors.empty());
     const size_t last = varies ? b : a + 1;
-    for (size_t p = a; p < last; ++p) pixel(c, m, texture, p);
+    for (size_t p = a; p < last; ++p) pixel(c, m, texture && (material_data || out.mapped_normal) ? &f : nullptr, p);
     for (size_t p = last; p < b; ++p) {
       if (out.base_color) std::copy_n(out.base_color + 4 * a, 4, out.base_color + 4 * p);
       if (out.metallic_roughness) std::copy_n(out.metallic_roughness + 2 * a, 2, out.metallic_roughness + 2 * p);
@@ -290,9 +315,9 @@ struct Resolver {
     }
   }
 
-  // One pixel's tangent frame and material channels; `texture`: whether m
-  // reads one.
-  void pixel(const Corners& c, const Material& m, bool texture, size_t p) const {
+  // One pixel's tangent frame and material channels; `f`: the triangle's
+  // footprint where m reads a texture, else null.
+  void pixel(const Corners& c, const Material& m, const Footprint* f, size_t p) const {
     const Mesh& mesh = *c.mesh;
     const double u = this->u(p), v = this->v(p);
     const double b0 = (1.0 - u) - v;
@@ -307,30 +332,30 @@ struct Resolver {
       if (out.tangent) store<4>(out.tangent, p, tangent);
     }
     if (!material_data && !out.mapped_normal) return;
-    const uint32_t* corners = c.i;
     // The footprint only where a texture is read: factors alone need none.
-    Footprint f{0.0, 0.0};
-    if (texture) f = footprint(cone, c.world, interpolate(c.world[0], c.world[1], c.world[2], b0, u, v));
+    const double width = f ? footprint_width(cone, *f, interpolate(c.world[0], c.world[1], c.world[2], b0, u, v)) : 0.0;
+    static const Footprint kNone{};
+    const Footprint& at = f ? *f : kNone;
     if (out.base_color) {
       const std::vector<glm::vec4>& colors = mesh.attributes.colors;
       const glm::dvec4 color = colors.empty() ? glm::dvec4(1.0)
                                               : interpolate(glm::dvec4(colors[c.i[0]]), glm::dvec4(colors[c.i[1]]),
                                                             glm::dvec4(colors[c.i[2]]), b0, u, v);
-      store<4>(out.base_color, p, m.base_color_factor * color * lookup(scene, mesh, m.base_color, corners, b0, u, v, f));
+      store<4>(out.base_color, p, m.base_color_factor * color * lookup(scene, m.base_color, at, 0, b0, u, v, width));
     }
     if (out.metallic_roughness) {
-      const glm::dvec4 t = lookup(scene, mesh, m.metallic_roughness, corners, b0, u, v, f);
+      const glm::dvec4 t = lookup(scene, m.metallic_roughness, at, 1, b0, u, v, width);
       out.metallic_roughness[2 * p] = static_cast<float>(m.metallic_factor * t[2]);
       out.metallic_roughness[2 * p + 1] = static_cast<float>(m.roughness_factor * t[1]);
     }
     if (out.emissive)
       store<3>(out.emissive, p,
-               m.emissive_factor * glm::dvec3(lookup(scene, mesh, m.emissive, corners, b0, u, v, f)) *
+               m.emissive_factor * glm::dvec3(lookup(scene, m.emissive, at, 2, b0, u, v, width)) *
                    m.emissive_strength);
     if (out.mapped_normal) {
       glm::dvec3 mapped = shading;
       if (m.normal.image >= 0 && has_tangent) {
-        const glm::dvec3 t = 2.0 * glm::dvec3(sample_at(scene, mesh, m.normal, corners, b0, u, v, f)) - 1.0;
+        const glm::dvec3 t = 2.0 * glm::dvec3(sample_at(scene, m.normal, at, 3, b0, u, v, width)) - 1.0;
         const glm::dvec3 tangent3(tangent);
         const glm::dvec3 bitangent = tangent.w * glm::cross(shading, tangent3);
         const glm::dvec3 sum = tangent3 * (t.x * m.normal_scale) + bitangent * (t.y * m.normal_scale) + shading * t.z;
