@@ -25,6 +25,7 @@ namespace {
 using rayfold::core::testing::GltfFile;
 using rayfold::core::testing::pattern;
 using rayfold::core::testing::png;
+using rayfold::core::testing::png16;
 using rayfold::core::testing::Texels;
 
 std::string base64(const std::vector<uint8_t>& bytes) {
@@ -350,6 +351,30 @@ TEST(Materials, BrokenImagesAreErrorsNamingThemAndMissingCoordinatesAWarning) {
     q.f.j["materials"] = {{{"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 0}}}}}}};
     const std::string e = render_error(q.f.write("materials_broken_png"));
     EXPECT_NE(e.find("image 0 (PNG) does not decode"), std::string::npos) << e;
+  }
+  {
+    // A 16-bit PNG decodes at 8 bits a channel, and says so once, on the
+    // render that decodes it.
+    TexturedQuad q;
+    std::vector<uint16_t> texels(4 * 4 * 4);
+    for (size_t i = 0; i < texels.size(); ++i) texels[i] = static_cast<uint16_t>(i % 4 == 3 ? 65535 : 1000 * i);
+    q.texture(q.image(png16(4, 4, texels)), kNearestSampler);
+    q.f.j["materials"] = {{{"pbrMetallicRoughness", {{"metallicRoughnessTexture", {{"index", 0}}}}}}};
+    const rayfold::Scene scene = rayfold::Scene::load(q.f.write("materials_png16"));
+    EXPECT_TRUE(scene.warnings().empty()) << testing::PrintToString(scene.warnings());
+    rayfold::Renderer renderer(scene);
+    const rayfold::GBuffer g = renderer.render(quad_camera(1.0, 4), rayfold::Fold::none, rayfold::kMetallicRoughness);
+    ASSERT_EQ(g.warnings.size(), 1u) << testing::PrintToString(g.warnings);
+    EXPECT_NE(g.warnings[0].find("image 0 is a 16-bit PNG: decoded at 8 bits"), std::string::npos) << g.warnings[0];
+    // Pixel (x, y) sees texel (x, y): metallic is its blue, roughness its green, within 8 bits.
+    for (int y = 0; y < 4; ++y)
+      for (int x = 0; x < 4; ++x) {
+        const size_t p = static_cast<size_t>(y) * 4 + x, t = 4 * p;
+        EXPECT_NEAR(g.metallic_roughness[2 * p], texels[t + 2] / 65535.0, 1.0 / 255) << p;
+        EXPECT_NEAR(g.metallic_roughness[2 * p + 1], texels[t + 1] / 65535.0, 1.0 / 255) << p;
+      }
+    EXPECT_TRUE(renderer.render(quad_camera(1.0, 4), rayfold::Fold::none, rayfold::kMetallicRoughness).warnings.empty())
+        << "said once";
   }
   {
     TexturedQuad q(false);  // no TEXCOORD_0

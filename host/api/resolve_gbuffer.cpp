@@ -53,7 +53,9 @@ void adopt_attributes(core::Scene& scene, core::Scene&& posed, unsigned attribut
 std::vector<std::string> load_attributes(SceneState& s, unsigned channels) {
   const unsigned attributes = attributes_for(channels);
   if (attributes == 0) return {};
+  std::vector<std::string> lines;
   if (s.file && (s.file->attributes() & attributes) != attributes) {
+    const size_t said = s.file->warnings().size();
     // A read that fails (a missing image) leaves the file as it was, so
     // that the next render asking tries again and fails the same way.
     const unsigned before = s.file->attributes();
@@ -66,6 +68,8 @@ std::vector<std::string> load_attributes(SceneState& s, unsigned channels) {
       throw;
     }
     adopt_attributes(s.scene, std::move(posed), attributes);
+    // What the read found that the file had not said (an image decoded now).
+    lines.assign(s.file->warnings().begin() + static_cast<std::ptrdiff_t>(said), s.file->warnings().end());
   }
   // A texture coordinate set the material channels read but no texcoord
   // channel asked for is named by their own warning (the textures').
@@ -74,7 +78,8 @@ std::vector<std::string> load_attributes(SceneState& s, unsigned channels) {
   if (!(channels & kTexcoord1)) warned &= ~core::kAttributeTexcoord1;
   const unsigned unnamed = warned & ~s.attributes_named;
   s.attributes_named |= warned;
-  std::vector<std::string> lines = core::missing_attribute_warnings(s.scene, unnamed);
+  const std::vector<std::string> missing = core::missing_attribute_warnings(s.scene, unnamed);
+  lines.insert(lines.end(), missing.begin(), missing.end());
   s.warnings.insert(s.warnings.end(), lines.begin(), lines.end());
   return lines;
 }

@@ -27,8 +27,9 @@ void adopt_attributes(core::Scene& scene, core::Scene&& posed, unsigned attribut
 
 // Reads the attributes `channels` read (attributes_for) that the scene
 // lacks from its file (posed as it is now), once; returns one line for each
-// mesh that lacks one of them and was not named before (also added to the
-// scene's warnings).
+// mesh that lacks one of them and was not named before, and what the file's
+// reading said that it had not said before (a 16-bit image decoded at 8
+// bits), also added to the scene's warnings.
 std::vector<std::string> load_attributes(SceneState& s, unsigned channels);
 
 // Fills g's resolved planes that `channels` asks for from its visibility

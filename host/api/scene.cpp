@@ -221,7 +221,11 @@ void pose_at(SceneState& s, double seconds, const char* caller) {
   if (!s.file)
     throw InputError("", std::string(caller) + ": the scene was not loaded from a file, so it has no animations");
   std::vector<uint32_t> moved;
+  const size_t said = s.file->warnings().size();
   core::Scene posed = s.file->scene_at(seconds);
+  // What this pose found that the file had not said (a node scaled to zero now).
+  s.warnings.insert(s.warnings.end(), s.file->warnings().begin() + static_cast<std::ptrdiff_t>(said),
+                    s.file->warnings().end());
   s.time = seconds;
   if (core::apply_pose(s.scene, std::move(posed), &moved)) {
     s.moved_at.assign(s.scene.instances.size(), 0);

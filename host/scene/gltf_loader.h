@@ -47,7 +47,9 @@ class GltfFile {
   unsigned attributes() const;
   bool animated() const;         // the file animates nodes (transforms or morph weights)
   double animation_end() const;  // the last keyframe, seconds; 0 when not animated
-  // Non-fatal oddities of the first scene_at, one line per kind.
+  // Non-fatal oddities, one line per kind, each once: the first scene_at's,
+  // then what later ones found new (a pose, an image decoded on first need)
+  // appended.
   const std::vector<std::string>& warnings() const;
 
  private:

@@ -50,6 +50,7 @@ struct TextureImage {
   };
   std::string name;  // "image N ('name')", for messages
   bool srgb = false;
+  bool reduced_from_16_bits = false;  // a 16-bit PNG, kept at 8 bits a channel as every image is
   std::vector<Level> levels;
 };
 

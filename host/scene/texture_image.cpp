@@ -62,6 +62,7 @@ TextureImage decode_texture_image(const uint8_t* bytes, size_t size, bool srgb, 
   TextureImage out;
   out.name = name;
   out.srgb = srgb;
+  out.reduced_from_16_bits = stbi_is_16_bit_from_memory(bytes, static_cast<int>(size)) != 0;
   out.levels.resize(1);
   out.levels[0].width = w;
   out.levels[0].height = h;

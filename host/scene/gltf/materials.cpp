@@ -144,6 +144,8 @@ TextureRef Loader::texture_ref(int index, int texcoord, const tinygltf::Extensio
     const std::vector<uint8_t> bytes = image_bytes(t.source);
     images_.push_back(std::make_shared<const TextureImage>(
         decode_texture_image(bytes.data(), bytes.size(), srgb, path_, image_name(t.source))));
+    if (images_.back()->reduced_from_16_bits)
+      warn(image_name(t.source) + " is a 16-bit PNG: decoded at 8 bits a channel (rayfold keeps 8-bit texels)");
     found = image_slot_.emplace(key, static_cast<int>(images_.size() - 1)).first;
   }
   ref.image = found->second;

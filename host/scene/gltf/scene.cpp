@@ -51,7 +51,6 @@ Scene Loader::build(double time) {
   choose_camera();
   if (scene_.triangle_count() == 0) warn("the scene has no triangles; every pixel will miss");
   flush_warnings();
-  warnings_ = nullptr;
   pending_.clear();
   return std::move(scene_);
 }
