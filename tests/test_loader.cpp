@@ -376,6 +376,23 @@ TEST(Loader, MorphTargetsAtTheirDefaultWeights) {
   EXPECT_EQ(scene.instances[0].mesh, scene.instances[2].mesh);
   EXPECT_EQ(scene.meshes[scene.instances[0].mesh].positions, (std::vector<glm::vec3>{{1, 1, 0}, {2, 0, 0}, {1, 1, 2}}));
   EXPECT_EQ(scene.meshes[scene.instances[1].mesh].positions, (std::vector<glm::vec3>{{2, 0, 0}, {3, 0, 0}, {2, 1, 0}}));
+  // A target moving texture coordinates: named when they are read, once.
+  const std::vector<glm::vec2> uv = {{0, 0}, {1, 0}, {0, 1}};
+  const int moved_uv = f.accessor(f.view(uv.data(), uv.size() * 8), 5126, "VEC2", 3);
+  f.j["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_0"] = moved_uv;
+  f.j["meshes"][0]["primitives"][0]["targets"][1]["TEXCOORD_0"] = moved_uv;
+  f.j.erase("buffers");  // written again with the new bytes
+  const std::string path = f.write("morph_uv");
+  std::vector<std::string> plain, read;
+  load_gltf(path, &plain);
+  EXPECT_TRUE(plain.empty()) << ::testing::PrintToString(plain) << ": nothing reads TEXCOORD_0";
+  LoadOptions o;
+  o.attributes = kAttributeTexcoord0;
+  load_gltf(path, &read, o);
+  ASSERT_EQ(read.size(), 1u) << ::testing::PrintToString(read);
+  EXPECT_NE(read[0].find("mesh 0 primitive 0's morph targets move TEXCOORD_0, which rayfold does not morph"),
+            std::string::npos)
+      << read[0];
 }
 
 TEST(Loader, GpuInstancesEqualTheSameInstancesWrittenAsNodes) {

@@ -42,6 +42,19 @@ int Loader::convert_mesh(int mi, const std::vector<double>& weights, int skin) {
     }
     if (mode != TINYGLTF_MODE_TRIANGLES && mode != TINYGLTF_MODE_TRIANGLE_STRIP && mode != TINYGLTF_MODE_TRIANGLE_FAN)
       fail(where + " has an unknown primitive mode " + std::to_string(mode));
+    // Morph targets move POSITION, NORMAL and TANGENT here (glTF's SHOULD);
+    // a target moving an attribute a channel reads is named, not ignored unsaid.
+    std::set<std::string> unmorphed;
+    for (const std::map<std::string, int>& target : prim.targets)
+      for (const auto& [attribute, accessor] : target) {
+        const unsigned bit = attribute == "TEXCOORD_0"   ? kAttributeTexcoord0
+                             : attribute == "TEXCOORD_1" ? kAttributeTexcoord1
+                             : attribute == "COLOR_0"    ? kAttributeColor0
+                                                         : 0u;
+        if (bit & options_.attributes) unmorphed.insert(attribute);
+      }
+    for (const std::string& attribute : unmorphed)
+      warn(where + "'s morph targets move " + attribute + ", which rayfold does not morph: its values at rest are used");
     const auto pos = prim.attributes.find("POSITION");
     if (pos == prim.attributes.end()) fail(where + " has no POSITION attribute");
     const uint32_t base = static_cast<uint32_t>(mesh.positions.size());
