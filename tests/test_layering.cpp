@@ -83,6 +83,42 @@ TEST(Layering, NoStageIncludesAStageAboveIt) {
   EXPECT_TRUE(violations.empty()) << violations.size() << " includes of a stage above the includer's:" << all;
 }
 
+// What the CLI's render, info and devices code may include besides the
+// standard library: the public API, the CLI's own files, the utilities
+// every stage may use, and the fixtures shared with the benchmarks. It is
+// built on the API (a channel or option written once for the CLI, C++ and
+// Python); `rayfold bench` times the core's stages and is the exception.
+bool cli_may_include(const std::string& name) {
+  for (const char* prefix : {"rayfold/", "cli/", "util/", "fixtures/"})
+    if (name.rfind(prefix, 0) == 0) return true;
+  return name.find('/') == std::string::npos && name.find('.') == std::string::npos;  // <map>-style names
+}
+
+TEST(Layering, TheCliIsBuiltOnThePublicApi) {
+  const fs::path cli = fs::path(RAYFOLD_SOURCE_DIR) / "tools" / "cli";
+  const std::regex include_line(R"(^\s*#\s*include\s*"([^"]+)\")");
+  size_t files = 0;
+  std::vector<std::string> violations;
+  for (const fs::directory_entry& e : fs::recursive_directory_iterator(cli)) {
+    const std::string name = e.path().filename().string();
+    if (!e.is_regular_file() || name.rfind("bench_command", 0) == 0) continue;
+    ++files;
+    std::ifstream in(e.path());
+    std::string line;
+    for (int n = 1; std::getline(in, line); ++n) {
+      std::smatch m;
+      if (std::regex_search(line, m, include_line) && !cli_may_include(m[1]))
+        violations.push_back(fs::relative(e.path(), cli).string() + ":" + std::to_string(n) + " includes \"" +
+                             m[1].str() + "\"");
+    }
+  }
+  EXPECT_GT(files, 10u);
+  std::string all;
+  for (const std::string& v : violations) all += "\n  " + v;
+  EXPECT_TRUE(violations.empty()) << violations.size() << " includes of the library's insides:" << all;
+  EXPECT_FALSE(cli_may_include("scene/animation.h"));  // the check can fail
+}
+
 // The check can fail: a file that reached up would be named.
 TEST(Layering, AnIncludeFromAboveIsNamed) {
   const fs::path host = fs::path(RAYFOLD_SOURCE_DIR) / "host";

@@ -200,4 +200,6 @@ bool Camera::is_orthographic() const { return core::is_orthographic(*impl_); }
 bool Camera::can_fold_columns() const { return core::can_fold_columns(*impl_); }
 bool Camera::can_fold_rows() const { return core::can_fold_rows(*impl_); }
 
+std::string view_file_stem(const std::string& name) { return core::view_file_stem(name); }
+
 }  // namespace rayfold

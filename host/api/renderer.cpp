@@ -13,6 +13,7 @@
 #include "api/resolve_gbuffer.h"
 #include "api/scene_state.h"
 #include "fold/view_passes.h"
+#include "opencl/cl_device.h"
 #include "pipeline/pipeline.h"
 #include "rayfold/errors.h"
 #include "rays/ray_queries.h"
@@ -688,5 +689,10 @@ std::vector<std::pair<std::string, size_t>> Renderer::device_buffers() const {
 std::string Renderer::device_name() const { return impl_->core->device_name(); }
 std::string Renderer::kernel() const { return impl_->core->kernel_label(); }
 unsigned Renderer::tile_lanes() const { return impl_->core->tile_lanes(); }
+
+OpenClPreload::OpenClPreload() : impl_(std::make_unique<core::OpenClPreload>()) {}
+OpenClPreload::~OpenClPreload() = default;
+
+std::string opencl_devices() { return core::describe_devices(core::list_devices()); }
 
 }  // namespace rayfold

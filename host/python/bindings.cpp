@@ -1104,7 +1104,18 @@ NB_MODULE(_core, m) {
       },
       "The G-buffer's planes, one dict each (name, alias, exr_layer, components, dtype, visibility), in their "
       "channel bits' order (output/channels.h).");
-  m.def("_view_file_stem", &rayfold::core::view_file_stem, "name"_a,
+  m.def(
+      "opencl_devices",
+      [] {
+        std::vector<std::string> lines;
+        std::istringstream text(rayfold::opencl_devices());
+        for (std::string line; std::getline(text, line);)
+          if (!line.empty()) lines.push_back(line.substr(line.find_first_not_of(' ')));
+        return lines;
+      },
+      "The OpenCL devices this machine offers, one string each ('platform: name (CPU, N compute units, "
+      "version)'): what device= picks among (the first whose platform or name contains it).");
+  m.def("_view_file_stem", &rayfold::view_file_stem, "name"_a,
         "The file name a view's name gives under %s: its last component less its extension; '' when none.");
   m.def(
       "_check_exr_compression", [](const std::string& name) { rayfold::exr_compression(name); }, "name"_a,

@@ -1024,3 +1024,14 @@ def test_a_list_of_views_flows_from_each_to_the_next(tmp_path, cli):
     single = subprocess.run([cli, "render", str(path), "-q", "--channels", "flow", "-o", str(tmp_path / "x.exr")],
                             capture_output=True, text=True)
     assert single.returncode == 2 and "a single view has none to go to" in single.stderr, single.stderr
+
+
+def test_opencl_devices_lists_what_the_cli_lists(cli):
+    """rayfold.opencl_devices() and `rayfold devices` name the same devices (one public call under both); in a
+    process of its own, since listing is this process's first use of OpenCL."""
+    listed = subprocess.run([sys.executable, "-c", "import json, rayfold; print(json.dumps(rayfold.opencl_devices()))"],
+                            capture_output=True, text=True, check=True, env=os.environ)
+    devices = json.loads(listed.stdout)
+    assert devices and all(": " in d for d in devices), devices
+    printed = subprocess.run([cli, "devices"], capture_output=True, text=True, check=True).stdout
+    assert [line.strip() for line in printed.splitlines()[1:] if line.strip()] == devices

@@ -9,7 +9,7 @@
 
 #include <glm/vec3.hpp>
 
-#include "fold/fold.h"
+#include "rayfold/gbuffer.h"  // Fold
 
 namespace rayfold::core {
 

@@ -7,7 +7,6 @@
 
 #include "cli/cli_args.h"
 #include "cli/commands/common.h"
-#include "opencl/cl_device.h"
 #include "util/errors.h"
 
 #ifndef RAYFOLD_VERSION
@@ -63,7 +62,7 @@ int run(int argc, char** argv) {
     }
     if (!args.done()) throw UsageError("devices: takes no arguments");
     std::printf("OpenCL devices (--device NAME picks the first whose platform or name contains NAME):\n%s",
-                describe_devices(list_devices()).c_str());
+                rayfold::opencl_devices().c_str());
     return 0;
   }
   if (command == "render") return run_render(args);

@@ -133,4 +133,11 @@ class Camera {
   std::shared_ptr<const core::Camera> impl_;
 };
 
+// What a view's name (from_nerf's, from_colmap's, from_file's) gives an
+// output file under `%s`: its last path component without its extension
+// ("./train/r_0" -> "r_0", "a.jpg" -> "a"), so that every view of a dataset
+// lands in one output folder; empty where nothing is left ("", "./", "..").
+// The CLI's -o and rayfold-batch name views' files by it.
+std::string view_file_stem(const std::string& name);
+
 }  // namespace rayfold

@@ -15,6 +15,9 @@
 #include "rayfold/scene.h"
 
 namespace rayfold {
+namespace core {
+class OpenClPreload;
+}
 
 struct RendererOptions {
   Backend backend = Backend::opencl;
@@ -218,5 +221,27 @@ class Renderer {
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
+
+// Loads the OpenCL drivers on a thread of its own while the caller does
+// other work (reads a scene: on PoCL about 35 ms that the read hides); a
+// Renderer's device opening waits for it, and so does the destructor. It is
+// this process's first use of OpenCL: a process that forks afterwards must
+// not make one. Errors are left to the opening, which reports them.
+class OpenClPreload {
+ public:
+  OpenClPreload();
+  ~OpenClPreload();
+  OpenClPreload(const OpenClPreload&) = delete;
+  OpenClPreload& operator=(const OpenClPreload&) = delete;
+
+ private:
+  std::unique_ptr<core::OpenClPreload> impl_;
+};
+
+// The OpenCL devices this machine offers, one line each ("  <platform>:
+// <name> (CPU, N compute units, <version>)"): what RendererOptions::device
+// picks among (the first whose platform or name contains it). Empty when
+// there is none.
+std::string opencl_devices();
 
 }  // namespace rayfold

@@ -24,6 +24,7 @@ from ._core import (
     RuntimeFailure,
     Scene,
     __version__,
+    opencl_devices,
     read_exr,
     read_exr_header,
 )
@@ -44,4 +45,4 @@ Scene.iter_views = _iter_views
 Scene.world_triangles = _world_triangles
 
 __all__ = ["MISS", "Camera", "GBuffer", "InputError", "Renderer", "RuntimeFailure", "Scene", "WorldTriangles",
-           "__version__", "read_exr", "read_exr_header"]
+           "__version__", "opencl_devices", "read_exr", "read_exr_header"]

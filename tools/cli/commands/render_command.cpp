@@ -11,8 +11,7 @@
 #include "cli/commands/render_args.h"
 #include "cli/commands/render_outputs.h"
 #include "cli/progress.h"
-#include "opencl/cl_device.h"
-#include "scene/animation.h"
+#include "fixtures/synthetic_motion.h"
 #include "util/atomic_file.h"
 #include "util/errors.h"
 #include "util/timer.h"
@@ -389,39 +388,6 @@ int render_views(RenderArgs r, const rayfold::Scene& scene, rayfold::Renderer& r
   return 0;
 }
 
-// --animate on a file without animations: every fourth instance moves
-// (scene/animation.h's synthetic motion, for benchmarking updates), placed
-// with Scene::set_transform.
-class SyntheticMotion {
- public:
-  explicit SyntheticMotion(const rayfold::Scene& scene) {
-    for (uint32_t i = 0; i < scene.instance_count(); ++i) {
-      if (!is_animated(i)) continue;
-      const uint32_t mesh = scene.instance_mesh(i);
-      // The mesh's box over its triangles' corners, as its tree's root box.
-      const std::vector<float> p = scene.mesh_positions(mesh);
-      Aabb box;
-      for (uint32_t v : scene.mesh_indices(mesh)) box.grow(glm::vec3(p[3 * v], p[3 * v + 1], p[3 * v + 2]));
-      moving_.push_back({i, scene.transform(i), box});
-    }
-  }
-  // The instances at frame f's pose (frame 0: as loaded).
-  void pose(rayfold::Scene& scene, int frame) const {
-    for (const Moving& m : moving_) {
-      Instance rest;
-      rest.world_from_object = to_xform(m.rest);
-      scene.set_transform(m.instance, to_matrix(animated_world_from_object(rest, m.object_bounds, m.instance, frame)));
-    }
-  }
-
- private:
-  struct Moving {
-    uint32_t instance;
-    rayfold::Matrix4 rest;
-    Aabb object_bounds;
-  };
-  std::vector<Moving> moving_;
-};
 
 }  // namespace
 
@@ -446,7 +412,7 @@ int run_render(cli::Args& args) {
 
   // The OpenCL drivers load while the scene is read: the whole process 0.91x
   // to 0.97x the time on the shared scenes (docs/results.md).
-  std::optional<OpenClPreload> preload;
+  std::optional<rayfold::OpenClPreload> preload;
   if (r.options.backend == Backend::opencl) preload.emplace();
   // Progress on a terminal only; the table and warnings come after it.
   Progress progress(!r.quiet);

@@ -4,7 +4,6 @@
 #include <cstdio>
 #include <cstring>
 
-#include "scene/dataset_cameras.h"
 #include "util/atomic_file.h"
 #include "util/errors.h"
 #include "util/median.h"
@@ -173,7 +172,7 @@ std::string view_output(const std::string& option, const std::string& name, cons
   if (named != std::string::npos) {
     if (name.find('%', named + 2) != std::string::npos || name.find('%') != named)
       throw UsageError(option + ": '" + name + "' may hold one field, %s (the view's name) or %04d (its index)");
-    const std::string stem = view_file_stem(view_name);
+    const std::string stem = rayfold::view_file_stem(view_name);
     if (stem.empty())
       throw UsageError(option + ": view " + label + "'s name '" + view_name +
                        "' leaves no file name for %s; name the views by index (%04d)");
