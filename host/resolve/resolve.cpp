@@ -300,6 +300,17 @@ struct Resolver {
     }
     if (!frame && !material_data) return;
     const Material& m = material < scene.materials.size() ? scene.materials[material] : default_material();
+    if (frame && !material_data && (!out.mapped_normal || m.normal.image < 0)) {
+      // The tangent frame with no normal texture to apply: a loop of its
+      // own, mapped_normal the shading normal.
+      for (size_t p = a; p < b; ++p) {
+        glm::dvec4 tangent;
+        bool found;
+        const glm::dvec3 shading = frame_at(c, p, (1.0 - u(p)) - v(p), u(p), v(p), &tangent, &found);
+        if (out.mapped_normal) store<3>(out.mapped_normal, p, shading);
+      }
+      return;
+    }
     // Without a texture or vertex colours a material channel's value is
     // the same on the whole run: worked out at its first pixel.
     const bool texture = m.textured();
@@ -315,22 +326,27 @@ struct Resolver {
     }
   }
 
+  // Pixel p's shading normal (returned, in double) and tangent into their
+  // planes where asked; `found`: the tangent is the mesh's, not the stand-in.
+  glm::dvec3 frame_at(const Corners& c, size_t p, double b0, double u, double v, glm::dvec4* tangent,
+                      bool* found) const {
+    const glm::dvec3 shading = shading_at(c, b0, u, v, in.normal + 3 * p);
+    if (out.shading_normal) store<3>(out.shading_normal, p, shading);
+    *tangent = tangent_at(c, b0, u, v, xforms[c.inst].handedness, shading, found);
+    if (out.tangent) store<4>(out.tangent, p, *tangent);
+    return shading;
+  }
+
   // One pixel's tangent frame and material channels; `f`: the triangle's
   // footprint where m reads a texture, else null.
   void pixel(const Corners& c, const Material& m, const Footprint* f, size_t p) const {
     const Mesh& mesh = *c.mesh;
     const double u = this->u(p), v = this->v(p);
     const double b0 = (1.0 - u) - v;
-    // The shading normal, in double for the tangent frame.
     glm::dvec3 shading(0.0);
     glm::dvec4 tangent(0.0);
     bool has_tangent = false;
-    if (frame) {
-      shading = shading_at(c, b0, u, v, in.normal + 3 * p);
-      if (out.shading_normal) store<3>(out.shading_normal, p, shading);
-      tangent = tangent_at(c, b0, u, v, xforms[c.inst].handedness, shading, &has_tangent);
-      if (out.tangent) store<4>(out.tangent, p, tangent);
-    }
+    if (frame) shading = frame_at(c, p, b0, u, v, &tangent, &has_tangent);
     if (!material_data && !out.mapped_normal) return;
     // The footprint only where a texture is read: factors alone need none.
     const double width = f ? footprint_width(cone, *f, interpolate(c.world[0], c.world[1], c.world[2], b0, u, v)) : 0.0;
