@@ -58,7 +58,8 @@ inline std::vector<uint8_t> png16(int width, int height, const std::vector<uint1
       z.push_back(static_cast<uint8_t>(v));
       z.push_back(static_cast<uint8_t>(v >> 8));
     }
-    z.insert(z.end(), raw.begin() + static_cast<std::ptrdiff_t>(pos), raw.begin() + static_cast<std::ptrdiff_t>(pos + n));
+    z.insert(z.end(), raw.begin() + static_cast<std::ptrdiff_t>(pos),
+             raw.begin() + static_cast<std::ptrdiff_t>(pos + n));
     pos += n;
   }
   uint32_t a = 1, b = 0;

@@ -47,9 +47,9 @@ void resolve_flow(const Scene& other, const HitPlanes& in, int width, const Came
         const Instance& instance = other.instances[inst];
         const Mesh& mesh = other.meshes[instance.mesh];
         if (tri >= mesh.triangle_count())
-          throw InputError(file, "flow: in the other view's pose instance " + std::to_string(inst) +
-                                     "'s mesh has " + std::to_string(mesh.triangle_count()) +
-                                     " triangles, not triangle " + std::to_string(tri));
+          throw InputError(file, "flow: in the other view's pose instance " + std::to_string(inst) + "'s mesh has " +
+                                     std::to_string(mesh.triangle_count()) + " triangles, not triangle " +
+                                     std::to_string(tri));
         world_corners(mesh, tri, instance.world_from_object, world);
       }
       const double u = in.barycentrics[2 * p], v = in.barycentrics[2 * p + 1];

@@ -48,7 +48,6 @@ inline glm::dvec2 Projection::operator()(const glm::dvec3& world) const {
   return glm::dvec2(a * half_inverse_scale.x + offset.x, offset.y - b * half_inverse_scale.y);
 }
 
-
 // For each pixel of `in` (a view `width` pixels wide) that hits: flow (2
 // per pixel) is project(to, point) minus the pixel's own (x, y) (NaN where
 // project is), and points (per pixel) the surface point in `other`'s pose,

@@ -274,8 +274,7 @@ struct Resolver {
   // channel in a loop of its own over them.
   void run(const Corners& c, size_t a, size_t b) const {
     const Mesh& mesh = *c.mesh;
-    const uint32_t material =
-        mesh.attributes.materials.empty() ? kDefaultMaterial : mesh.attributes.materials[c.tri];
+    const uint32_t material = mesh.attributes.materials.empty() ? kDefaultMaterial : mesh.attributes.materials[c.tri];
     if (out.material) std::fill(out.material + a, out.material + b, material);
     if (out.label) std::fill(out.label + a, out.label + b, scene.instances[c.inst].label);
     if (out.object_position)
@@ -288,9 +287,9 @@ struct Resolver {
     for (int set = 0; set < 2; ++set)
       if (out.texcoord[set])
         for (size_t p = a; p < b; ++p)
-          store<2>(out.texcoord[set], p,
-                   interpolate(c.texcoord[set][0], c.texcoord[set][1], c.texcoord[set][2], (1.0 - u(p)) - v(p), u(p),
-                               v(p)));
+          store<2>(
+              out.texcoord[set], p,
+              interpolate(c.texcoord[set][0], c.texcoord[set][1], c.texcoord[set][2], (1.0 - u(p)) - v(p), u(p), v(p)));
     if (out.shading_normal && !frame) {
       if (c.flat)  // the geometric normal, floats to floats
         std::copy(in.normal + 3 * a, in.normal + 3 * b, out.shading_normal + 3 * a);
@@ -366,8 +365,7 @@ struct Resolver {
     }
     if (out.emissive)
       store<3>(out.emissive, p,
-               m.emissive_factor * glm::dvec3(lookup(scene, m.emissive, at, 2, b0, u, v, width)) *
-                   m.emissive_strength);
+               m.emissive_factor * glm::dvec3(lookup(scene, m.emissive, at, 2, b0, u, v, width)) * m.emissive_strength);
     if (out.mapped_normal) {
       glm::dvec3 mapped = shading;
       if (m.normal.image >= 0 && has_tangent) {

@@ -54,7 +54,8 @@ int Loader::convert_mesh(int mi, const std::vector<double>& weights, int skin) {
         if (bit & options_.attributes) unmorphed.insert(attribute);
       }
     for (const std::string& attribute : unmorphed)
-      warn(where + "'s morph targets move " + attribute + ", which rayfold does not morph: its values at rest are used");
+      warn(where + "'s morph targets move " + attribute +
+           ", which rayfold does not morph: its values at rest are used");
     const auto pos = prim.attributes.find("POSITION");
     if (pos == prim.attributes.end()) fail(where + " has no POSITION attribute");
     const uint32_t base = static_cast<uint32_t>(mesh.positions.size());

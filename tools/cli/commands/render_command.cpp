@@ -388,7 +388,6 @@ int render_views(RenderArgs r, const rayfold::Scene& scene, rayfold::Renderer& r
   return 0;
 }
 
-
 }  // namespace
 
 int run_render(cli::Args& args) {
