@@ -96,11 +96,14 @@ def test_every_option_the_readme_names_is_documented_by_help(cli, bin_dir):
     helps = ""
     for args in (["render", "--help"], ["bench", "--help"], ["info", "--help"], ["devices", "--help"]):
         helps += subprocess.run([cli] + args, capture_output=True, text=True).stdout
-    for tool in ("rayfold-peers", "rayfold-stats", "rayfold-limits"):
+    for tool in ("rayfold-peers", "rayfold-stats", "rayfold-limits", "rayfold-gen-scene"):
         if (bin_dir / tool).exists():
             r = subprocess.run([str(bin_dir / tool), "--help"], capture_output=True, text=True)
             helps += r.stdout + r.stderr
     helps += subprocess.run([sys.executable, "-m", "rayfold.batch", "--help"], capture_output=True, text=True).stdout
+    bench = pathlib.Path(__file__).resolve().parents[2] / "tools" / "bench"
+    for script in ("bench_dataset_loop.py", "bench_channels.py"):
+        helps += subprocess.run([sys.executable, str(bench / script), "--help"], capture_output=True, text=True).stdout
     options = set(re.findall(r"(?<![\w-])(--[a-z][a-z-]+)", README))
     # Options of other programs the README quotes (pip, cmake, make, ray start).
     foreign = {"--prefix", "--build", "--install", "--target", "--peers", "--help", "--version", "--head"}
