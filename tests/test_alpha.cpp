@@ -3,12 +3,14 @@
 // alpha times the factor, is below the cutoff: which quad each pixel sees,
 // computed here by hand; every backend, kernel and fold giving the same
 // bits; ray queries seeing through it too; BLEND traced as opaque with a
-// warning; a scene file refusing masks it cannot hold.
+// warning; scene files holding the masks.
 #include <gtest/gtest.h>
 
 #include <string>
 #include <vector>
 
+#include "api/scene_state.h"
+#include "bvh/scene_file.h"
 #include "gltf_fixture.h"
 #include "rayfold/rayfold.h"
 #include "test_util.h"
@@ -192,7 +194,7 @@ TEST(Alpha, RayQueriesSeeThroughTheClearTexels) {
   }
 }
 
-TEST(Alpha, BlendIsOpaqueWithAWarningAndScenesFilesRefuseMasks) {
+TEST(Alpha, BlendIsOpaqueWithAWarning) {
   MaskedQuads blend(false);
   blend.checkerboard(0.5);
   blend.f.j["materials"][0]["alphaMode"] = "BLEND";
@@ -202,16 +204,65 @@ TEST(Alpha, BlendIsOpaqueWithAWarningAndScenesFilesRefuseMasks) {
   bool named = false;
   for (const std::string& w : scene.warnings()) named |= w.find("material 0 has alphaMode BLEND") != std::string::npos;
   EXPECT_TRUE(named) << ::testing::PrintToString(scene.warnings());
-  EXPECT_NO_THROW(scene.to_bytes());  // BLEND, traced as opaque: nothing to hold
-  MaskedQuads mask(false);
-  mask.checkerboard(0.5);
-  const rayfold::Scene masked = rayfold::Scene::load(mask.f.write("alpha_saved"));
-  try {
-    masked.to_bytes();
-    FAIL() << "a masked scene saved as a scene file";
-  } catch (const rayfold::InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("alphaMode MASK"), std::string::npos) << e.what();
+}
+
+// A masked scene as a scene file (Scene::to_bytes, rayfold-batch's trees):
+// its masks travel with it, so the loaded scene renders the glTF's bits on
+// every backend and fold, and after an added instance rebuilds its trees;
+// tables that would send a mask lookup outside its arrays are refused.
+TEST(Alpha, SceneFilesHoldTheMasks) {
+  MaskedQuads q(true);
+  q.checkerboard(0.25);
+  const rayfold::Scene scene = rayfold::Scene::load(q.f.write("alpha_saved"));
+  const rayfold::Camera camera = rayfold::Camera::look_at({0.4, -2.0, 3.0}, {0, 0, 0.2}, {0, 0, 1}, 55.0, 64, 48);
+  rayfold::RendererOptions cpu;
+  cpu.backend = rayfold::Backend::cpu;
+  const rayfold::GBuffer want = rayfold::Renderer(scene, cpu).render(camera, rayfold::Fold::none);
+  rayfold::Scene loaded = rayfold::Scene::from_bytes(scene.to_bytes(), "alpha.rfscene");
+  for (const Way& way : kWays) {
+    rayfold::RendererOptions o;
+    o.backend = way.backend;
+    o.kernel = way.kernel;
+    rayfold::Renderer renderer(loaded, o);
+    for (rayfold::Fold fold : {rayfold::Fold::none, rayfold::Fold::xy})
+      EXPECT_EQ(rayfold::count_differing_pixels(renderer.render(camera, fold), want), 0u)
+          << way.name << ", fold " << rayfold::fold_name(fold);
   }
+  // Another instance of the masked mesh far away: the trees are built again
+  // from the loaded meshes' masks, and the view is the same.
+  const rayfold::Matrix4 away = {1, 0, 0, 50, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};  // row-major
+  loaded.add_instance(1, away);
+  EXPECT_EQ(rayfold::count_differing_pixels(rayfold::Renderer(loaded, cpu).render(camera, rayfold::Fold::none), want),
+            0u);
+
+  auto why = [](const std::string& b) {
+    try {
+      rayfold::Scene::from_bytes(b, "x.rfscene");
+    } catch (const rayfold::InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  const rayfold::core::SceneFile file{scene.state()->scene, *scene.state()->trees, "", {}};
+  ASSERT_FALSE(file.data.alpha.empty());
+  auto damaged = [&](auto&& change) {
+    rayfold::core::SceneFile bad = file;
+    change(bad);
+    return why(rayfold::core::scene_file_bytes(bad, RAYFOLD_VERSION_STRING));
+  };
+  EXPECT_NE(damaged([](auto& f) { f.data.alpha.index.pop_back(); }).find("do not match its trees"), std::string::npos);
+  EXPECT_NE(damaged([](auto& f) { f.data.alpha.index[0] = static_cast<uint32_t>(f.data.alpha.tris.size()); })
+                .find("outside its triangles"),
+            std::string::npos);
+  EXPECT_NE(damaged([](auto& f) { f.data.alpha.tris[0].image = 7; }).find("image past the last"), std::string::npos);
+  EXPECT_NE(damaged([](auto& f) { f.data.alpha.images[0].width = 1000; }).find("outside its texels"),
+            std::string::npos);
+  EXPECT_NE(damaged([](auto& f) { f.data.alpha.images[0].wrap = 3; }).find("unknown mode"), std::string::npos);
+  EXPECT_NE(damaged([](auto& f) { f.scene.meshes[1].alpha.pop_back(); }).find("do not match its triangles"),
+            std::string::npos);
+  EXPECT_NE(damaged([](auto& f) { f.scene.alpha_images[0].alpha.pop_back(); }).find("do not match its size"),
+            std::string::npos);
+  EXPECT_EQ(damaged([](auto&) {}), "no error");
 }
 
 }  // namespace

@@ -120,10 +120,6 @@ Scene Scene::load(const std::string& path, const LoadOptions& options) {
 std::string Scene::to_bytes() const {
   detail::SceneState& s = *state_;
   const core::SceneData& trees = *detail::current_trees(s);
-  if (!trees.alpha.empty())
-    throw InputError(s.path,
-                     "has alpha-masked materials (alphaMode MASK), which a scene file does not hold yet: "
-                     "load the glTF file itself");
   core::SceneFile file{s.scene, trees, s.path, s.warnings};
   return core::scene_file_bytes(file, RAYFOLD_VERSION_STRING);
 }

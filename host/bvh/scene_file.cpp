@@ -127,6 +127,7 @@ void write_payload(Writer& w, const SceneFile& f, const std::string& rayfold_ver
     w.put_string(m.name);
     w.put_all(m.positions);
     w.put_all(m.indices);
+    w.put_all(m.alpha);
   }
   w.put<uint64_t>(s.instances.size());
   for (const Instance& i : s.instances) {
@@ -147,6 +148,14 @@ void write_payload(Writer& w, const SceneFile& f, const std::string& rayfold_ver
   w.put<uint64_t>(s.scene_names.size());
   for (const std::string& n : s.scene_names) w.put_string(n);
   w.put(s.scene_index);
+  w.put<uint64_t>(s.alpha_images.size());
+  for (const AlphaImage& a : s.alpha_images) {
+    w.put(a.width);
+    w.put(a.height);
+    w.put(a.wrap_s);
+    w.put(a.wrap_t);
+    w.put_all(a.alpha);
+  }
   w.put_string(f.source);
   w.put<uint64_t>(f.warnings.size());
   for (const std::string& n : f.warnings) w.put_string(n);
@@ -174,6 +183,10 @@ void write_payload(Writer& w, const SceneFile& f, const std::string& rayfold_ver
   w.put(d.world_bounds);
   w.put(d.max_tree_scale);
   w.put<uint64_t>(d.hidden_instances);
+  w.put_all(d.alpha.index);
+  w.put_all(d.alpha.tris);
+  w.put_all(d.alpha.images);
+  w.put_all(d.alpha.texels);
 }
 
 }  // namespace
@@ -232,6 +245,8 @@ SceneFile read_scene_file(const char* bytes, size_t size, const std::string& wha
     m.name = r.get_string();
     m.positions = r.get_all<glm::vec3>();
     m.indices = r.get_all<uint32_t>();
+    m.alpha = r.get_all<AlphaTriangle>();
+    if (!m.alpha.empty() && m.alpha.size() != m.triangle_count()) r.fail("a mesh's alpha masks do not match its triangles");
   }
   s.instances.resize(r.count(4 + 128 + 8 + 4));
   for (Instance& i : s.instances) {
@@ -252,6 +267,19 @@ SceneFile read_scene_file(const char* bytes, size_t size, const std::string& wha
   s.scene_names.resize(r.count(8));
   for (std::string& n : s.scene_names) n = r.get_string();
   s.scene_index = r.get<int>();
+  s.alpha_images.resize(r.count(4 + 4 + 4 + 4 + 8));
+  for (AlphaImage& a : s.alpha_images) {
+    a.width = r.get<uint32_t>();
+    a.height = r.get<uint32_t>();
+    a.wrap_s = r.get<int>();
+    a.wrap_t = r.get<int>();
+    a.alpha = r.get_all<uint8_t>();
+    if (a.alpha.size() != uint64_t{a.width} * a.height) r.fail("an alpha image's texels do not match its size");
+  }
+  for (const Mesh& m : s.meshes)
+    for (const AlphaTriangle& a : m.alpha)
+      if (a.image >= 0 && static_cast<size_t>(a.image) >= s.alpha_images.size())
+        r.fail("an alpha mask names an image the file does not hold");
   f.source = r.get_string();
   f.warnings.resize(r.count(8));
   for (std::string& n : f.warnings) n = r.get_string();
@@ -280,7 +308,24 @@ SceneFile read_scene_file(const char* bytes, size_t size, const std::string& wha
   d.world_bounds = r.get<Aabb>();
   d.max_tree_scale = r.get<int>();
   d.hidden_instances = r.get<uint64_t>();
+  d.alpha.index = r.get_all<uint32_t>();
+  d.alpha.tris = r.get_all<rf_alpha_tri>();
+  d.alpha.images = r.get_all<rf_alpha_image>();
+  d.alpha.texels = r.get_all<uint8_t>();
   if (!r.done()) r.fail("bytes follow the trees");
+  // The masks' tables: every index inside its array, every image's texels
+  // inside the texel array (the kernels read them unchecked).
+  const AlphaTables& a = d.alpha;
+  if (a.index.size() != (a.tris.empty() ? 0 : d.blas.tris.size()) || (a.tris.empty() && !a.images.empty()))
+    r.fail("its alpha tables do not match its trees");
+  for (uint32_t k : a.index)
+    if (k != RF_INVALID && k >= a.tris.size()) r.fail("an alpha table index lies outside its triangles");
+  for (const rf_alpha_tri& t : a.tris)
+    if (t.image != RF_INVALID && t.image >= a.images.size()) r.fail("an alpha triangle names an image past the last");
+  for (const rf_alpha_image& i : a.images)
+    if (uint64_t{i.offset} + uint64_t{i.width} * i.height > a.texels.size() || (i.wrap & 3u) > 2u ||
+        (i.wrap >> 2 & 3u) > 2u || (i.wrap >> 4) != 0u)
+      r.fail("an alpha image lies outside its texels or wraps by an unknown mode");
   // The per-instance and per-mesh lists must agree with the scene (the
   // checksum vouches for the bytes, not for a writer's bugs).
   const size_t n = s.instances.size(), m = s.meshes.size();

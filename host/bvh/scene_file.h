@@ -8,9 +8,10 @@
 //   u32           format version (kSceneFormat)
 //   u32           sizeof rf_node, rf_tri, rf_wide_node, rf_normal_xform, one byte each
 //   u64           payload length P
-//   P bytes       payload: the rayfold version string, then the scene (meshes,
-//                 instances, cameras, scene names; the source path and load
-//                 warnings) and its SceneData (bvh/scene_data.h), each vector
+//   P bytes       payload: the rayfold version string, then the scene (meshes
+//                 with their alpha masks, instances, cameras, scene names,
+//                 alpha images; the source path and load warnings) and its
+//                 SceneData (bvh/scene_data.h, alpha tables last), each vector
 //                 as a u64 count then its items, each string as a u64 length
 //                 then its bytes
 //   u64           FNV-1a 64 of the payload, over 8-byte words (native
@@ -28,7 +29,8 @@
 namespace rayfold::core {
 
 // 2: merged trees (rf_tri::inst, BlasSet::traced_by, instance_roots, merged).
-constexpr unsigned kSceneFormat = 2;
+// 3: alpha masks (Mesh::alpha, Scene::alpha_images, SceneData::alpha).
+constexpr unsigned kSceneFormat = 3;
 
 struct SceneFile {
   Scene scene;
