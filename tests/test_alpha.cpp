@@ -98,6 +98,19 @@ TEST(Alpha, ATextureMaskShowsTheQuadBehindItsClearTexels) {
               [](int x, int y) { return (x / 4 + y / 4) % 2 == 0 ? 1u : 0u; });
 }
 
+// The float64 reference (render_reference: rayfold-peers' accuracy) sees
+// through the same texels: the masks' rule at its hit's barycentrics.
+TEST(Alpha, TheFloat64ReferenceSeesThroughTheMasks) {
+  MaskedQuads q(false);
+  q.checkerboard(0.5);
+  const rayfold::Scene scene = rayfold::Scene::load(q.f.write("alpha_reference"));
+  const rayfold::ReferenceImage r = rayfold::render_reference(scene, square_view());
+  for (int y = 0; y < r.height; ++y)
+    for (int x = 0; x < r.width; ++x)
+      ASSERT_EQ(r.instance_id[static_cast<size_t>(y) * r.width + x], (x / 4 + y / 4) % 2 == 0 ? 1u : 0u)
+          << "pixel " << x << ", " << y;
+}
+
 TEST(Alpha, MergedTreesAndMixedMeshesFindTheirMasks) {
   // The front quad written at z = 0.5 in its own mesh and both nodes left
   // where they are: the two instances share one merged tree, the front's

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "rf_alpha.h"
 #include "rf_trace.h"
 #include "util/parallel.h"
 
@@ -50,7 +51,8 @@ double box_entry(const rf_node& n, const Ray& r, double tmax) {
   return tnear <= std::min(tfar, tmax) ? tnear : INFINITY;
 }
 
-bool triangle(const rf_tri& tri, const Ray& r, double* t) {
+// The hit's t and its second and third vertices' weights (u, v).
+bool triangle(const rf_tri& tri, const Ray& r, double* t, double* bu, double* bv) {
   const float* v[3] = {tri.v0, tri.v1, tri.v2};
   double px[3], py[3], pz[3];
   for (int i = 0; i < 3; ++i) {
@@ -66,6 +68,8 @@ bool triangle(const rf_tri& tri, const Ray& r, double* t) {
   const double det = u + v_ + w;
   if (det == 0.0) return false;
   *t = (u * pz[0] + v_ * pz[1] + w * pz[2]) / det;
+  *bu = v_ / det;
+  *bv = w / det;
   return true;
 }
 
@@ -100,12 +104,15 @@ void walk_tree(const std::vector<rf_node>& nodes, uint32_t root, bool tlas, cons
   }
 }
 
+// A masked triangle's hit is kept by the masks' own rule (rf_alpha.h), at
+// the double hit's barycentrics rounded to float.
 void trace_blas(const std::vector<rf_node>& nodes, const PageAlignedVector<rf_tri>& tris, uint32_t root, const Ray& r,
-                uint32_t instance, Best& best, bool all_nodes) {
+                uint32_t instance, Best& best, bool all_nodes, const rf_alpha_tables* alpha) {
   walk_tree(nodes, root, false, r, best, all_nodes, [&](uint32_t i) {
     const rf_tri& tri = tris[i];
-    double t;
-    if (triangle(tri, r, &t) && t > 0.0 && best.closer(t, instance + tri.inst, tri.prim)) {
+    double t, u, v;
+    if (triangle(tri, r, &t, &u, &v) && t > 0.0 && best.closer(t, instance + tri.inst, tri.prim) &&
+        (!alpha || rf_alpha_keeps(alpha, i, static_cast<float>(u), static_cast<float>(v)))) {
       best.t = t;
       best.instance = instance + tri.inst;
       best.prim = tri.prim;
@@ -129,6 +136,8 @@ std::vector<ReferenceHit> trace_double_reference(const Scene& scene, const Scene
   for (size_t i = 0; i < scene.instances.size(); ++i)
     tree_from_trace[i] = data.tree_from_world[i] * camera.world_from_camera * frame.views[0].camera_from_trace;
 
+  const rf_alpha_tables tables = data.alpha.view();
+  const rf_alpha_tables* alpha = data.alpha.empty() ? nullptr : &tables;
   const int w = camera.width, h = camera.height;
   std::vector<ReferenceHit> out(static_cast<size_t>(w) * h);
   parallel_for(static_cast<size_t>(h), threads, 1, [&](size_t row, size_t) {
@@ -144,14 +153,15 @@ std::vector<ReferenceHit> trace_double_reference(const Scene& scene, const Scene
           if (!data.renderable[i] || data.blas.instance_roots[i] == RF_INVALID) continue;
           const Xform& m = tree_from_trace[i];
           const Ray r = make_ray(glm::dvec3(m * glm::dvec4(origin, 1.0)), glm::dvec3(m * glm::dvec4(d, 0.0)));
-          trace_blas(nodes, data.blas.tris, data.blas.instance_roots[i], r, static_cast<uint32_t>(i), best, true);
+          trace_blas(nodes, data.blas.tris, data.blas.instance_roots[i], r, static_cast<uint32_t>(i), best, true,
+                     alpha);
         }
       } else if (frame.tlas_root != RF_INVALID) {
         walk_tree(nodes, frame.tlas_root, true, cam_ray, best, false, [&](uint32_t i) {
           const rf_instance& inst = frame.instances[i];
           const Xform& m = tree_from_trace[inst.instance_id];
           const Ray r = make_ray(glm::dvec3(m * glm::dvec4(origin, 1.0)), glm::dvec3(m * glm::dvec4(d, 0.0)));
-          trace_blas(nodes, data.blas.tris, inst.blas_root, r, inst.instance_id, best, false);
+          trace_blas(nodes, data.blas.tris, inst.blas_root, r, inst.instance_id, best, false, alpha);
         });
       }
       ReferenceHit& o = out[static_cast<size_t>(y) * w + x];
