@@ -17,6 +17,7 @@
 #include <ImfStringVectorAttribute.h>
 #include <nlohmann/json.hpp>
 
+#include "fixtures/gbuffer_scene.h"
 #include "fixtures/gltf_writer.h"
 #include "gltf_fixture.h"
 #include "output/image_output.h"
@@ -562,6 +563,32 @@ TEST(Cli, UnnamedNodesAreNamedByTheirIndexEverywhere) {
   EXPECT_EQ(names->value(), (std::vector<std::string>{"named", "node 2"}));
 }
 
+// A mesh's missing attribute is found by the first frame that reads it:
+// said once for the run (it was lost when only the last frame's warnings
+// were printed), and once in --stats (the scene's list and the render's
+// hold it both).
+TEST(Cli, EveryFramesWarningsAreSaidOnce) {
+  const fs::path d = fs::temp_directory_path() / ("rayfold_cli_warn_" + std::to_string(::getpid()));
+  fs::create_directories(d);
+  const std::string path = (d / "gbuffer.glb").string();
+  write_gbuffer_scene(path);
+  for (int frames : {1, 3}) {
+    const std::string stats = (d / ("s" + std::to_string(frames) + ".json")).string();
+    const CliRun r = rayfold("render " + path + " --size 32x24 --channels TexCoord --animate --frames " +
+                             std::to_string(frames) + " -o " + (d / "t_%d.exr").string() + " --stats " + stats);
+    ASSERT_EQ(r.code, 0) << r.err;
+    const std::string said = "mesh 1 ('box') has no TEXCOORD_0";
+    const size_t first = r.err.find(said);
+    EXPECT_NE(first, std::string::npos) << frames << " frames: " << r.err;
+    EXPECT_EQ(r.err.find(said, first + 1), std::string::npos) << frames << " frames: said twice: " << r.err;
+    std::ifstream in(stats);
+    const nlohmann::json j = nlohmann::json::parse(in);
+    size_t times = 0;
+    for (const std::string w : j["warnings"]) times += w.find(said) != std::string::npos;
+    EXPECT_EQ(times, 1u) << frames << " frames: " << j["warnings"].dump();
+  }
+}
+
 TEST(Cli, AnimateFramesEqualTheFilePosedAtTheirTimes) {
   // Two triangles: one turning about y, one moving up and across, over 2 s.
   const fs::path d = work_dir();
@@ -629,6 +656,19 @@ TEST(Cli, AnimateFramesEqualTheFilePosedAtTheirTimes) {
     }
   }
   EXPECT_EQ(rayfold("render " + path + view + "--animate --frames 2 --compare --channels Flow").code, 2);
+  // Animated frames differ: an output without a frame field would keep the
+  // last, so it is refused; one frame has no next to flow to.
+  const CliRun unnamed = rayfold("render " + path + view + "--animate --frames 3 -o " + (d / "one.exr").string());
+  EXPECT_EQ(unnamed.code, 2) << unnamed.err;
+  EXPECT_NE(unnamed.err.find("--animate renders 3 frames; name them with a frame field"), std::string::npos)
+      << unnamed.err;
+  EXPECT_FALSE(fs::exists(d / "one.exr"));
+  const CliRun png = rayfold("render " + path + view + "--animate --frames 2 -o " + (d / "f_%d.exr").string() +
+                             " --png " + (d / "one.png").string());
+  EXPECT_EQ(png.code, 2) << png.err;
+  const CliRun alone = rayfold("render " + path + view + "--animate --channels Z,Flow -o " + (d / "alone.exr").string());
+  EXPECT_EQ(alone.code, 2) << alone.err;
+  EXPECT_NE(alone.err.find("one frame (--frames 1) has none to go to"), std::string::npos) << alone.err;
   // Auto-framed: once --time T was framed at T and --animate at its first
   // frame, so the two disagreed; both now frame the pose at time 0.
   const std::string framed = " --size 48x36 --fold xy ";

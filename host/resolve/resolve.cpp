@@ -454,7 +454,7 @@ std::vector<std::string> missing_attribute_warnings(const Scene& scene, unsigned
           out.push_back(name + " lacks TEXCOORD_" + std::to_string(t->texcoord) +
                         " (in part or whole), which material " + std::to_string(mi) +
                         (mat.name.empty() ? "" : " ('" + mat.name + "')") +
-                        "'s textures read: they are sampled at (0, 0) there");
+                        "'s textures read: they are sampled at (0, 0) there (docs/channels.md)");
           break;
         }
       }
@@ -466,7 +466,8 @@ std::vector<std::string> missing_attribute_warnings(const Scene& scene, unsigned
       out.push_back(name + (none ? " has no " : " has primitives without ") + s.attribute + ": " + s.instead +
                     (none && mesh.attributes.loaded == 0 ? " (a mesh built in memory or read from a scene file "
                                                            "keeps positions only)"
-                                                         : ""));
+                                                         : "") +
+                    " (docs/channels.md)");
     }
     // A primitive without a material has glTF's default one, said by
     // material_id; a mesh that kept no materials at all is named.
@@ -474,7 +475,7 @@ std::vector<std::string> missing_attribute_warnings(const Scene& scene, unsigned
       out.push_back(name +
                     " has no materials (a mesh built in memory or read from a scene file keeps positions "
                     "only): its material_id is DEFAULT_MATERIAL and its material channels glTF's default "
-                    "material's");
+                    "material's (docs/channels.md)");
   }
   return out;
 }

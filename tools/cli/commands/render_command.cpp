@@ -1,6 +1,7 @@
 // `rayfold render`: one view, a frame sequence, a camera list or a stereo
 // pair, traced and written through the public API (rayfold/rayfold.h), as
 // a C++ or Python caller would.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <map>
@@ -236,6 +237,9 @@ RenderArgs parse_render(cli::Args& args) {
         "--channels: flow and flow_visible go from each view to the next: of a list (--cameras, --colmap, "
         "--stereo: the left view's flow is its disparity to the right) or of --animate's frames; a single "
         "view has none to go to");
+  if ((r.channels & rayfold::kFlowChannels) && r.animate && r.frames < 2)
+    throw UsageError("--channels: flow goes from each of --animate's frames to the next; one frame (--frames " +
+                     std::to_string(r.frames) + ") has none to go to");
   if ((r.channels & rayfold::kFlowChannels) && r.compare)
     throw UsageError("--channels: flow and --compare: --compare checks the visibility, render flow without it");
   if (r.options.exact_depth && (r.channels & rayfold::kDepth) == 0)
@@ -289,6 +293,13 @@ void announce_program_build(const rayfold::Renderer& renderer, Progress& progres
                 ms / 1000.0);
   progress.print(stderr, text);
 }
+
+// A render's warning as printed: what it may have lost points to
+// docs/exactness.md unless it names its own page.
+std::string render_warning(const std::string& w) {
+  return "warning: " + w + (w.find("docs/") == std::string::npos ? " (docs/exactness.md)" : "") + "\n";
+}
+void print_render_warning(const std::string& w) { std::fputs(render_warning(w).c_str(), stderr); }
 
 // Every view's outputs made ready (prepare_output); two views that would
 // write one file (their names end alike under %s) are a UsageError naming both.
@@ -365,8 +376,7 @@ int render_views(RenderArgs r, const rayfold::Scene& scene, rayfold::Renderer& r
         if (!r.stats.empty())
           write_stats(view_output("--stats", r.stats, v.label, v.name, stereo, views.size()), r, scene, v.camera,
                       renderer, g, g.stages, 1, load_ms, pass);
-        for (const std::string& w : g.warnings)
-          progress.print(stderr, "warning: view " + v.label + ": " + w + " (docs/exactness.md)\n");
+        for (const std::string& w : g.warnings) progress.print(stderr, render_warning("view " + v.label + ": " + w));
         progress.update(++done);
         if (!r.quiet) {
           const rayfold::Vec3 eye = v.camera.eye();
@@ -401,6 +411,10 @@ int run_render(cli::Args& args) {
     bool field = false;
     if (!out->empty() && !view_list) frame_name(option, *out, 0, &field);
     sequence = sequence || field;
+    // Animated frames differ: each is written, none dropped unsaid.
+    if (!out->empty() && !view_list && !field && r.animate && r.frames > 1)
+      throw UsageError(std::string(option) + ": '" + *out + "': --animate renders " + std::to_string(r.frames) +
+                       " frames; name them with a frame field such as %04d, or render --frames 1");
   }
   if (sequence && r.compare) throw UsageError("--compare: compares one frame; write a sequence without it");
   // Fail on unwritable outputs before any expensive work: a camera file's
@@ -517,6 +531,7 @@ int run_render(cli::Args& args) {
   std::vector<rayfold::StageTimes> times;
   std::vector<std::string> written;
   double write_ms = 0.0;  // the EXR and PNG writes (ZIP compression is most of it)
+  std::vector<std::string> said;  // every frame's warnings, each once (a mesh's missing attribute: the first frame's)
   for (int f = 0; f < r.frames; ++f) {
     pose_frame(f);
     // Flow goes to the next frame's pose; the last frame has none to go to.
@@ -527,6 +542,8 @@ int run_render(cli::Args& args) {
     else
       g = renderer.render_views({camera}, r.fold, 1, channels).front();
     times.push_back(g.stages);
+    for (const std::string& w : g.warnings)
+      if (std::find(said.begin(), said.end(), w) == said.end()) said.push_back(w);
     const bool last = f + 1 == r.frames;
     if (sequence || last) {
       if (last) progress.stage("writing");
@@ -569,7 +586,8 @@ int run_render(cli::Args& args) {
             ? (", trees rebuilt " + std::to_string(built.builds - 1) + " times for frames whose meshes changed").c_str()
             : "");
   progress.clear();
-  for (const std::string& w : g.warnings) std::fprintf(stderr, "warning: %s (docs/exactness.md)\n", w.c_str());
+  g.warnings = said;  // the run's, for --stats too
+  for (const std::string& w : said) print_render_warning(w);
 
   if (!r.stats.empty()) write_stats(r.stats, r, scene, camera, renderer, g, m, times.size(), load_ms);
   if (!r.ids.empty()) write_ids(r.ids, r, scene);

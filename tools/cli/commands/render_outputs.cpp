@@ -80,8 +80,11 @@ void write_stats(const std::string& path, const RenderArgs& args, const rayfold:
   j["pixels"] = {{"hit", g.hits}, {"miss", pixels - g.hits}};
   j["instances_after_culling"] = g.top_level.traced_instances;
   j["instances_out_of_range"] = g.top_level.out_of_range;
-  j["warnings"] = scene.warnings();  // the loader's, then the trace's
-  for (const std::string& w : g.warnings) j["warnings"].push_back(w);
+  // The loader's, then the render's (a mesh's missing attribute is in both: once).
+  std::vector<std::string> warnings = scene.warnings();
+  for (const std::string& w : g.warnings)
+    if (std::find(warnings.begin(), warnings.end(), w) == warnings.end()) warnings.push_back(w);
+  j["warnings"] = warnings;
   j["times_ms"] = {{"load", load_ms},           {"blas_build", built.trees_ms},
                    {"cull", times.cull_ms},     {"tlas_build", times.tlas_ms},
                    {"upload", times.upload_ms}, {"ray_list", times.ray_list_ms},
