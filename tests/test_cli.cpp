@@ -194,6 +194,9 @@ TEST(Cli, UsageErrorsExitTwoWithAMessage) {
     EXPECT_EQ(r.code, 2) << args << "\n" << r.err;
     EXPECT_EQ(r.err.rfind("error: ", 0), 0u) << args << ": " << r.err;
   }
+  // The fold's refusal names every word --fold takes.
+  const CliRun fold = rayfold("render --fold xz");
+  EXPECT_NE(fold.err.find("is not none, y, x, xy or auto"), std::string::npos) << fold.err;
 }
 
 TEST(Cli, BadFilesExitTwoNamingTheFile) {

@@ -1,5 +1,6 @@
 #include "rayfold/exr.h"
 
+#include <cctype>
 #include <cstddef>
 
 #include "api/convert.h"
@@ -54,6 +55,10 @@ std::vector<rf_pixel_hit> preview_hits(const GBuffer& g) {
 
 void write_exr(const std::string& path, const GBuffer& g, const Camera& camera, const Scene& scene,
                ExrCompression compression, unsigned channels) {
+  // An OpenEXR file under another name (x.png) is a mistake to name, not to write.
+  std::string extension = path.size() >= 4 ? path.substr(path.size() - 4) : "";
+  for (char& c : extension) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (extension != ".exr") throw InputError(path, "write_exr writes OpenEXR: name the file .exr");
   if (g.width != camera.width() || g.height != camera.height())
     throw InputError("", "write_exr: the G-buffer is " + std::to_string(g.width) + "x" + std::to_string(g.height) +
                              ", its camera " + std::to_string(camera.width()) + "x" + std::to_string(camera.height()));

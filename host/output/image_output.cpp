@@ -166,8 +166,8 @@ ExrMetadata view_metadata(const Camera& camera, const Scene& scene, const std::s
                                             "double-float, rounded once (--exact-depth)"
                                           : "")},
                {"miss",
-                "InstanceID, PrimitiveID, MaterialID and Label are 4294967295 on a miss (MaterialID 4294967294 "
-                "where the triangle has no material); Z is +inf, every other channel 0"}};
+                "InstanceID, PrimitiveID, MaterialID, Label and FlowVisible are 4294967295 on a miss (MaterialID "
+                "4294967294 where the triangle has no material); Z is +inf, every other channel 0"}};
   return m;
 }
 

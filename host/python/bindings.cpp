@@ -741,6 +741,9 @@ NB_MODULE(_core, m) {
               rayfold::LoadOptions o;
               o.scene = scene;
               o.camera = camera;
+              if (time && !std::isfinite(*time))
+                throw rayfold::InputError(path->string(), "time must be a finite number of seconds or None, not " +
+                                                              std::to_string(*time));
               o.time = time ? *time : NAN;
               o.label_key = label_key;
               nb::gil_scoped_release release;
@@ -879,6 +882,11 @@ NB_MODULE(_core, m) {
              const std::string& depth, bool exact_depth, nb::handle flow_to, std::optional<double> time) {
             const rayfold::RendererOptions o = renderer_options(backend, device, kernel, threads, depth, exact_depth);
             const unsigned mask = parse_channels(channels);
+            // None is the scene's own pose; NaN, the C++ API's word for the
+            // rest pose, is no time a caller means here.
+            if (time && !std::isfinite(*time))
+              throw rayfold::InputError("", "render: time must be a finite number of seconds or None, not " +
+                                                std::to_string(*time));
             // flow_to: a Camera, or (Camera, time).
             std::optional<rayfold::FlowTo> to;
             if (!flow_to.is_none()) {
@@ -891,8 +899,8 @@ NB_MODULE(_core, m) {
                 const bool pair = (nb::isinstance<nb::tuple>(flow_to) || nb::isinstance<nb::list>(flow_to)) &&
                                   nb::len(flow_to) == 2 && nb::isinstance<rayfold::Camera>(flow_to[0]);
                 double t = NAN;
-                if (pair && !flow_to[1].is_none() && !nb::try_cast<double>(flow_to[1], t))
-                  throw rayfold::InputError("", "flow_to's time must be a number of seconds or None");
+                if (pair && !flow_to[1].is_none() && (!nb::try_cast<double>(flow_to[1], t) || !std::isfinite(t)))
+                  throw rayfold::InputError("", "flow_to's time must be a finite number of seconds or None");
                 if (!pair)
                   throw rayfold::InputError("", "flow_to must be a Camera or (Camera, time), not " +
                                                     nb::cast<std::string>(nb::str(nb::type_name(flow_to.type()))));
@@ -915,7 +923,8 @@ NB_MODULE(_core, m) {
           "'none', 'y', 'x', 'xy' (the same bits, less work), or 'auto': the fold (and, with kernel='auto', the "
           "kernel) the cost model predicts fastest from a probe of sampled tiles (docs/cost_model.md), chosen on "
           "the first render of this size and intrinsics and kept (GBuffer.fold says which). channels: "
-          "the planes to fill (a list or 'depth,instance_id'; default all), the others None. depth: 'distance' "
+          "the planes to fill (a list or 'depth,instance_id'; default the visibility buffer's: depth, normal, "
+          "barycentrics, instance_id, primitive_id), the others None. depth: 'distance' "
           "along each pixel's ray, or 'planar' along the camera's axis. exact_depth: each depth from the pixel's "
           "exact ray in double-float, within 2^-24 of the exact value (slower: about 1.2x to 1.5x the frame). "
           "flow_to: the Camera, or (Camera, time), that the channels flow and flow_visible go to. time: the "

@@ -355,3 +355,20 @@ def test_attributes_first_read_in_a_posed_render_stay_read(scene_file):
     g, want = (s.render(camera, channels="shading_normal,label") for s in (scene, fresh))
     assert g.shading_normal.tobytes() == want.shading_normal.tobytes()
     assert g.label.tobytes() == want.label.tobytes()
+
+
+def test_a_users_slips_are_named(scene_file, tmp_path):
+    """What a new user tried: a NaN time (None is the scene's own pose), a label key no node has (a typo),
+    an EXR written under another extension. Each is named, nothing half-done."""
+    scene = rayfold.Scene(str(scene_file), label_key="categroy")
+    camera = scene.default_camera(*SIZE)
+    with pytest.raises(rayfold.InputError, match="time must be a finite number"):
+        scene.render(camera, channels="depth", time=float("nan"))
+    with pytest.raises(rayfold.InputError, match="flow_to's time must be a finite number"):
+        scene.render(camera, channels="flow", flow_to=(camera, float("nan")))
+    g = scene.render(camera, channels="label")
+    assert any("no node's extras has the label key 'categroy'" in w for w in g.warnings), g.warnings
+    assert set(np.unique(g.label)) <= {0, rayfold.MISS}
+    with pytest.raises(rayfold.InputError, match="name the file .exr"):
+        g.write_exr(str(tmp_path / "g.png"), scene)
+    assert not (tmp_path / "g.png").exists()

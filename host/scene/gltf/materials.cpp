@@ -255,6 +255,10 @@ void Loader::add_material_data() {
   }
   if (options_.attributes & kAttributeLabel) {
     const std::vector<std::string> labels = node_labels();
+    // A key no node has labels every instance '': most likely a misspelling.
+    if (!options_.label_key.empty() &&
+        std::all_of(labels.begin(), labels.end(), [](const std::string& l) { return l.empty(); }))
+      warn("no node's extras has the label key '" + options_.label_key + "': every instance's label is '' (0)");
     std::map<std::string, uint32_t> index{{"", 0}};
     scene_.labels = {""};
     for (Instance& inst : scene_.instances) {

@@ -174,7 +174,11 @@ RenderArgs parse_render(cli::Args& args) {
       const std::string v = args.value(a);
       r.fold_auto = v == "auto";
       r.fold_given = true;
-      if (!r.fold_auto) r.fold = cli::parse_fold(a, v);
+      if (!r.fold_auto) try {
+          r.fold = cli::parse_fold(a, v);
+        } catch (const UsageError&) {
+          throw UsageError(a + ": '" + v + "' is not none, y, x, xy or auto");
+        }
     } else if (a == "--shift") {
       const std::string v = args.value(a);
       const size_t comma = v.find(',');
@@ -579,12 +583,12 @@ int run_render(cli::Args& args) {
   }
   const rayfold::BuildStats built = renderer.build_stats();
   if (play && !r.quiet)
-    std::fprintf(
-        stderr, "playing the file's animation: %d frames from %g s at %g fps (it ends at %g s)%s\n", r.frames,
-        start_time, r.fps, scene.animation_end(),
-        built.builds > 1
-            ? (", trees rebuilt " + std::to_string(built.builds - 1) + " times for frames whose meshes changed").c_str()
-            : "");
+    std::fprintf(stderr, "playing the file's animation: %d frame%s from %g s at %g fps (it ends at %g s)%s\n",
+                 r.frames, r.frames == 1 ? "" : "s", start_time, r.fps, scene.animation_end(),
+                 built.builds > 1 ? (", trees rebuilt " + std::to_string(built.builds - 1) +
+                                     (built.builds == 2 ? " time" : " times") + " for frames whose meshes changed")
+                                        .c_str()
+                                  : "");
   progress.clear();
   g.warnings = said;  // the run's, for --stats too
   for (const std::string& w : said) print_render_warning(w);
