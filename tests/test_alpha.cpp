@@ -271,6 +271,21 @@ TEST(Alpha, SceneFilesHoldTheMasks) {
   EXPECT_NE(damaged([](auto& f) { f.data.alpha.images[0].width = 1000; }).find("outside its texels"),
             std::string::npos);
   EXPECT_NE(damaged([](auto& f) { f.data.alpha.images[0].wrap = 3; }).find("unknown mode"), std::string::npos);
+  // A zero-sized image would divide by zero in the wrap (repeat, mirror) or
+  // index below the texels (clamp); tables with masks but no image at all
+  // would be empty device buffers.
+  EXPECT_NE(damaged([](auto& f) { f.data.alpha.images[0].width = 0; }).find("is empty"), std::string::npos);
+  EXPECT_NE(damaged([](auto& f) { f.data.alpha.images[0].height = 1u << 31; }).find("is empty"), std::string::npos);
+  EXPECT_NE(damaged([](auto& f) {
+              f.data.alpha.images.clear();
+              for (rf_alpha_tri& t : f.data.alpha.tris) t.image = RF_INVALID;
+            }).find("do not match its trees"),
+            std::string::npos);
+  EXPECT_NE(damaged([](auto& f) {
+              f.scene.alpha_images[0].width = 0;
+              f.scene.alpha_images[0].alpha.clear();
+            }).find("empty or wider"),
+            std::string::npos);
   EXPECT_NE(damaged([](auto& f) { f.scene.meshes[1].alpha.pop_back(); }).find("do not match its triangles"),
             std::string::npos);
   EXPECT_NE(damaged([](auto& f) { f.scene.alpha_images[0].alpha.pop_back(); }).find("do not match its size"),

@@ -590,6 +590,7 @@ TEST(Cli, EveryFramesWarningsAreSaidOnce) {
     for (const std::string w : j["warnings"]) times += w.find(said) != std::string::npos;
     EXPECT_EQ(times, 1u) << frames << " frames: " << j["warnings"].dump();
   }
+  fs::remove_all(d);
 }
 
 TEST(Cli, AnimateFramesEqualTheFilePosedAtTheirTimes) {

@@ -88,6 +88,8 @@ TEST(Layering, NoStageIncludesAStageAboveIt) {
 // every stage may use, and the fixtures shared with the benchmarks. It is
 // built on the API (a channel or option written once for the CLI, C++ and
 // Python); `rayfold bench` times the core's stages and is the exception.
+// Checked on the CLI's own files: the fixtures it uses (the synthetic
+// --animate motion) are shared with the benchmarks and may use the core.
 bool cli_may_include(const std::string& name) {
   for (const char* prefix : {"rayfold/", "cli/", "util/", "fixtures/"})
     if (name.rfind(prefix, 0) == 0) return true;

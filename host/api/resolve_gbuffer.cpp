@@ -55,21 +55,19 @@ std::vector<std::string> load_attributes(SceneState& s, unsigned channels) {
   if (attributes == 0) return {};
   std::vector<std::string> lines;
   if (s.file && (s.file->attributes() & attributes) != attributes) {
-    const size_t said = s.file->warnings().size();
     // A read that fails (a missing image) leaves the file as it was, so
     // that the next render asking tries again and fails the same way.
     const unsigned before = s.file->attributes();
     s.file->set_attributes(before | attributes);
-    core::Scene posed;
+    std::pair<core::Scene, std::vector<std::string>> posed;
     try {
-      posed = s.file->scene_at(s.time);
+      posed = pose_file(*s.file, s.time);
     } catch (...) {
       s.file->set_attributes(before);
       throw;
     }
-    adopt_attributes(s.scene, std::move(posed), attributes);
-    // What the read found that the file had not said (an image decoded now).
-    lines.assign(s.file->warnings().begin() + static_cast<std::ptrdiff_t>(said), s.file->warnings().end());
+    adopt_attributes(s.scene, std::move(posed.first), attributes);
+    lines = std::move(posed.second);  // what the read found new (an image decoded now)
   }
   // A texture coordinate set the material channels read but no texcoord
   // channel asked for is named by their own warning (the textures').

@@ -42,9 +42,14 @@ void at_pose(SceneState& s, double seconds, const char* caller, const std::funct
   const unsigned saved_attributes = s.file ? s.file->attributes() : 0u;
   auto put_back = [&] {
     // Attributes a render read for the first time while posed are kept:
-    // the scene put back gets them too, posed at its own time.
-    if (s.file && s.file->attributes() != saved_attributes)
-      adopt_attributes(saved, s.file->scene_at(saved_time), s.file->attributes());
+    // the scene put back gets them too, posed at its own time. Should that
+    // read fail, the file forgets them (the next render that asks reads
+    // them again) and the scene is put back all the same.
+    if (s.file && s.file->attributes() != saved_attributes) try {
+        adopt_attributes(saved, s.file->scene_at(saved_time), s.file->attributes());
+      } catch (...) {
+        s.file->set_attributes(saved_attributes);
+      }
     std::vector<uint32_t> moved;
     s.time = saved_time;
     if (core::apply_pose(s.scene, std::move(saved), &moved)) {
@@ -213,15 +218,19 @@ void Scene::set_time(double seconds) { detail::pose_at(*state_, seconds, "set_ti
 
 namespace detail {
 
+std::pair<core::Scene, std::vector<std::string>> pose_file(core::GltfFile& file, double time) {
+  const size_t said = file.warnings().size();
+  core::Scene posed = file.scene_at(time);
+  return {std::move(posed), std::vector<std::string>(file.warnings().begin() + static_cast<std::ptrdiff_t>(said),
+                                                     file.warnings().end())};
+}
+
 void pose_at(SceneState& s, double seconds, const char* caller) {
   if (!s.file)
     throw InputError("", std::string(caller) + ": the scene was not loaded from a file, so it has no animations");
   std::vector<uint32_t> moved;
-  const size_t said = s.file->warnings().size();
-  core::Scene posed = s.file->scene_at(seconds);
-  // What this pose found that the file had not said (a node scaled to zero now).
-  s.warnings.insert(s.warnings.end(), s.file->warnings().begin() + static_cast<std::ptrdiff_t>(said),
-                    s.file->warnings().end());
+  auto [posed, said] = pose_file(*s.file, seconds);
+  s.warnings.insert(s.warnings.end(), said.begin(), said.end());  // a node scaled to zero now
   s.time = seconds;
   if (core::apply_pose(s.scene, std::move(posed), &moved)) {
     s.moved_at.assign(s.scene.instances.size(), 0);

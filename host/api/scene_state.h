@@ -7,6 +7,7 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "bvh/scene_data.h"
@@ -51,6 +52,10 @@ struct SceneState {
     return m;
   }
 };
+
+// The file posed again (scene_at) with what that reading said that the
+// file had not said before (GltfFile::warnings' new lines).
+std::pair<core::Scene, std::vector<std::string>> pose_file(core::GltfFile& file, double time);
 
 // The trees for the scene as it is now (every instance where set_transform
 // and set_time put it): s.trees, built first if the scene changed since.

@@ -13,6 +13,12 @@ namespace {
 
 constexpr size_t kHeader = 16 + 4 + 4 + 8;
 
+// An alpha image the mask lookup can wrap in 32-bit ints (rf_alpha_wrap:
+// a modulo by the size, twice the size for a mirror).
+bool alpha_image_size_ok(uint32_t width, uint32_t height) {
+  return width >= 1 && height >= 1 && width <= (1u << 30) && height <= (1u << 30);
+}
+
 uint32_t layout_signature() {
   return static_cast<uint32_t>(sizeof(rf_node)) | static_cast<uint32_t>(sizeof(rf_tri)) << 8 |
          static_cast<uint32_t>(sizeof(rf_wide_node)) << 16 | static_cast<uint32_t>(sizeof(rf_normal_xform)) << 24;
@@ -274,6 +280,7 @@ SceneFile read_scene_file(const char* bytes, size_t size, const std::string& wha
     a.wrap_s = r.get<int>();
     a.wrap_t = r.get<int>();
     a.alpha = r.get_all<uint8_t>();
+    if (!alpha_image_size_ok(a.width, a.height)) r.fail("an alpha image is empty or wider or taller than 2^30");
     if (a.alpha.size() != uint64_t{a.width} * a.height) r.fail("an alpha image's texels do not match its size");
   }
   for (const Mesh& m : s.meshes)
@@ -316,16 +323,20 @@ SceneFile read_scene_file(const char* bytes, size_t size, const std::string& wha
   // The masks' tables: every index inside its array, every image's texels
   // inside the texel array (the kernels read them unchecked).
   const AlphaTables& a = d.alpha;
-  if (a.index.size() != (a.tris.empty() ? 0 : d.blas.tris.size()) || (a.tris.empty() && !a.images.empty()))
+  // The writer gives a table of masks at least one image and one texel
+  // (device buffers of one element or more).
+  if (a.index.size() != (a.tris.empty() ? 0 : d.blas.tris.size()) || (a.tris.empty() && !a.images.empty()) ||
+      (!a.tris.empty() && (a.images.empty() || a.texels.empty())))
     r.fail("its alpha tables do not match its trees");
   for (uint32_t k : a.index)
     if (k != RF_INVALID && k >= a.tris.size()) r.fail("an alpha table index lies outside its triangles");
   for (const rf_alpha_tri& t : a.tris)
     if (t.image != RF_INVALID && t.image >= a.images.size()) r.fail("an alpha triangle names an image past the last");
   for (const rf_alpha_image& i : a.images)
-    if (uint64_t{i.offset} + uint64_t{i.width} * i.height > a.texels.size() || (i.wrap & 3u) > 2u ||
+    if (!alpha_image_size_ok(i.width, i.height) ||
+        uint64_t{i.offset} + uint64_t{i.width} * i.height > a.texels.size() || (i.wrap & 3u) > 2u ||
         (i.wrap >> 2 & 3u) > 2u || (i.wrap >> 4) != 0u)
-      r.fail("an alpha image lies outside its texels or wraps by an unknown mode");
+      r.fail("an alpha image is empty, lies outside its texels or wraps by an unknown mode");
   // The per-instance and per-mesh lists must agree with the scene (the
   // checksum vouches for the bytes, not for a writer's bugs).
   const size_t n = s.instances.size(), m = s.meshes.size();

@@ -230,6 +230,7 @@ struct Resolver {
   std::vector<InstanceXforms> xforms;
   CornerWants wants;
   bool frame = false, per_vertex = false, material_data = false;
+  bool samples = false;  // a channel that reads a material's textures (material data, mapped_normal)
 
   Resolver(const Scene& s, const HitPlanes& h, const RayCone& r, const ResolvedPlanes& o)
       : scene(s), in(h), cone(r), out(o), xforms(s.instances.size()) {
@@ -241,6 +242,7 @@ struct Resolver {
     per_vertex =
         out.position || out.object_position || out.shading_normal || frame || out.texcoord[0] || out.texcoord[1];
     material_data = out.base_color || out.metallic_roughness || out.emissive;
+    samples = material_data || out.mapped_normal;
     wants.object = out.position || out.object_position;
     wants.normals = out.shading_normal || frame;
     wants.tangents = frame;
@@ -250,6 +252,7 @@ struct Resolver {
 
   double u(size_t p) const { return in.barycentrics[2 * p]; }
   double v(size_t p) const { return in.barycentrics[2 * p + 1]; }
+  double b0(size_t p) const { return (1.0 - u(p)) - v(p); }  // the first vertex's weight
 
   // Pixels [a, b) that hit nothing: 0, and RF_INVALID for the ids.
   void clear(size_t a, size_t b) const {
@@ -280,22 +283,22 @@ struct Resolver {
     if (out.object_position)
       for (size_t p = a; p < b; ++p)
         store<3>(out.object_position, p,
-                 interpolate(c.object[0], c.object[1], c.object[2], (1.0 - u(p)) - v(p), u(p), v(p)));
+                 interpolate(c.object[0], c.object[1], c.object[2], b0(p), u(p), v(p)));
     if (out.position)
       for (size_t p = a; p < b; ++p)
-        store<3>(out.position, p, interpolate(c.world[0], c.world[1], c.world[2], (1.0 - u(p)) - v(p), u(p), v(p)));
+        store<3>(out.position, p, interpolate(c.world[0], c.world[1], c.world[2], b0(p), u(p), v(p)));
     for (int set = 0; set < 2; ++set)
       if (out.texcoord[set])
         for (size_t p = a; p < b; ++p)
           store<2>(
               out.texcoord[set], p,
-              interpolate(c.texcoord[set][0], c.texcoord[set][1], c.texcoord[set][2], (1.0 - u(p)) - v(p), u(p), v(p)));
+              interpolate(c.texcoord[set][0], c.texcoord[set][1], c.texcoord[set][2], b0(p), u(p), v(p)));
     if (out.shading_normal && !frame) {
       if (c.flat)  // the geometric normal, floats to floats
         std::copy(in.normal + 3 * a, in.normal + 3 * b, out.shading_normal + 3 * a);
       else
         for (size_t p = a; p < b; ++p)
-          store<3>(out.shading_normal, p, shading_at(c, (1.0 - u(p)) - v(p), u(p), v(p), in.normal + 3 * p));
+          store<3>(out.shading_normal, p, shading_at(c, b0(p), u(p), v(p), in.normal + 3 * p));
     }
     if (!frame && !material_data) return;
     const Material& m = material < scene.materials.size() ? scene.materials[material] : default_material();
@@ -305,7 +308,7 @@ struct Resolver {
       for (size_t p = a; p < b; ++p) {
         glm::dvec4 tangent;
         bool found;
-        const glm::dvec3 shading = frame_at(c, p, (1.0 - u(p)) - v(p), u(p), v(p), &tangent, &found);
+        const glm::dvec3 shading = frame_at(c, p, b0(p), u(p), v(p), &tangent, &found);
         if (out.mapped_normal) store<3>(out.mapped_normal, p, shading);
       }
       return;
@@ -314,10 +317,10 @@ struct Resolver {
     // the same on the whole run: worked out at its first pixel.
     const bool texture = m.textured();
     Footprint f;
-    if (texture && (material_data || out.mapped_normal)) f = footprint(scene, mesh, m, c.i, c.world);
+    if (texture && samples) f = footprint(scene, mesh, m, c.i, c.world);
     const bool varies = frame || texture || (out.base_color && !mesh.attributes.colors.empty());
     const size_t last = varies ? b : a + 1;
-    for (size_t p = a; p < last; ++p) pixel(c, m, texture && (material_data || out.mapped_normal) ? &f : nullptr, p);
+    for (size_t p = a; p < last; ++p) pixel(c, m, texture && samples ? &f : nullptr, p);
     for (size_t p = last; p < b; ++p) {
       if (out.base_color) std::copy_n(out.base_color + 4 * a, 4, out.base_color + 4 * p);
       if (out.metallic_roughness) std::copy_n(out.metallic_roughness + 2 * a, 2, out.metallic_roughness + 2 * p);
@@ -414,7 +417,7 @@ void resolve(const Scene& scene, const HitPlanes& in, const RayCone& cone, const
         // them: a scattered read that costs more than the rest of a material
         // channel whose factors alone make it; world positions only for a
         // texture's footprint or the position plane.
-        const bool texture = (r.material_data || out.mapped_normal) && textured(scene, *c.mesh, c.tri);
+        const bool texture = r.samples && textured(scene, *c.mesh, c.tri);
         CornerWants wants = r.wants;
         wants.world = out.position || texture;
         c.vertices = r.per_vertex || texture || (out.base_color && !c.mesh->attributes.colors.empty());

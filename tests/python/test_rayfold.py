@@ -980,7 +980,7 @@ def test_flow_to_another_camera_is_the_projection_of_each_hit(tmp_path):
         scene.render(a, channels="flow")
     listed = scene.render(a, channels="depth,instance_id,flow,flow_visible", flow_to=[b, None])
     np.testing.assert_array_equal(bits(listed.flow), bits(g.flow))
-    for bad, why in [((b, "soon"), "time must be a number"), ("b", "Camera or \\(Camera, time\\)"),
+    for bad, why in [((b, "soon"), "time must be a finite number"), ("b", "Camera or \\(Camera, time\\)"),
                      ((b, 0.0, 1.0), "Camera or")]:
         with pytest.raises(ValueError, match=why):
             scene.render(a, channels="flow", flow_to=bad)

@@ -81,15 +81,15 @@ class Loader {
       }
     pending_.push_back({kind, what, 0});
   }
-  // Each line once over the file's life: a later pose or attribute read
-  // (another time, materials decoded on first need) adds only what is new.
+  // Each kind once over the file's life: a later pose or attribute read
+  // (another time, materials decoded on first need) adds only kinds not
+  // said before (not the same kind again with another node or count).
   void flush_warnings() {
     if (!warnings_) return;
-    for (const Warning& w : pending_) {
-      std::string line =
-          path_ + ": " + w.first + (w.more ? " (and " + std::to_string(w.more) + " more like it)" : std::string());
-      if (said_.insert(line).second) warnings_->push_back(std::move(line));
-    }
+    for (const Warning& w : pending_)
+      if (said_.insert(w.kind).second)
+        warnings_->push_back(path_ + ": " + w.first +
+                             (w.more ? " (and " + std::to_string(w.more) + " more like it)" : std::string()));
   }
 
   // A file that is neither GLB nor JSON is some other format: say which, if
@@ -296,7 +296,7 @@ class Loader {
   };
   std::string path_;
   std::vector<std::string>* warnings_;
-  std::set<std::string> said_;  // the lines flush_warnings has added
+  std::set<std::string> said_;  // the kinds flush_warnings has said
   LoadOptions options_;
   std::vector<Warning> pending_;
   bool binary_ = false;

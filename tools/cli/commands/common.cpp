@@ -1,5 +1,6 @@
 #include "cli/commands/common.h"
 
+#include <algorithm>
 #include <cctype>
 #include <cstdio>
 #include <filesystem>
@@ -21,6 +22,11 @@ std::string default_scene() {
     if (std::filesystem::exists(installed, ec)) return installed.string();
   }
   return RAYFOLD_DEFAULT_SCENE;
+}
+
+void append_unsaid(std::vector<std::string>& said, const std::vector<std::string>& more) {
+  for (const std::string& w : more)
+    if (std::find(said.begin(), said.end(), w) == said.end()) said.push_back(w);
 }
 
 std::string with_commas(size_t n) {

@@ -5,6 +5,7 @@
 #include <cstddef>
 #include <initializer_list>
 #include <string>
+#include <vector>
 
 #include "cli/cli_args.h"
 #include "rayfold/renderer.h"
@@ -17,6 +18,10 @@ std::string default_scene();
 
 // 1234567 -> "1,234,567".
 std::string with_commas(size_t n);
+
+// Appends the lines of `more` that `said` does not hold yet, in order: a
+// run's warnings, each once.
+void append_unsaid(std::vector<std::string>& said, const std::vector<std::string>& more);
 
 // Options render and bench share: which tracer, which device, how the work
 // is arranged (--braid, --no-merge, --no-cull). Returns false when `a` is

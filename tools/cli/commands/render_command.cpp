@@ -546,8 +546,7 @@ int run_render(cli::Args& args) {
     else
       g = renderer.render_views({camera}, r.fold, 1, channels).front();
     times.push_back(g.stages);
-    for (const std::string& w : g.warnings)
-      if (std::find(said.begin(), said.end(), w) == said.end()) said.push_back(w);
+    append_unsaid(said, g.warnings);
     const bool last = f + 1 == r.frames;
     if (sequence || last) {
       if (last) progress.stage("writing");

@@ -82,8 +82,7 @@ void write_stats(const std::string& path, const RenderArgs& args, const rayfold:
   j["instances_out_of_range"] = g.top_level.out_of_range;
   // The loader's, then the render's (a mesh's missing attribute is in both: once).
   std::vector<std::string> warnings = scene.warnings();
-  for (const std::string& w : g.warnings)
-    if (std::find(warnings.begin(), warnings.end(), w) == warnings.end()) warnings.push_back(w);
+  append_unsaid(warnings, g.warnings);
   j["warnings"] = warnings;
   j["times_ms"] = {{"load", load_ms},           {"blas_build", built.trees_ms},
                    {"cull", times.cull_ms},     {"tlas_build", times.tlas_ms},
