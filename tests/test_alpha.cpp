@@ -264,8 +264,9 @@ TEST(Alpha, SceneFilesHoldTheMasks) {
     return why(rayfold::core::scene_file_bytes(bad, RAYFOLD_VERSION_STRING));
   };
   EXPECT_NE(damaged([](auto& f) { f.data.alpha.index.pop_back(); }).find("do not match its trees"), std::string::npos);
-  EXPECT_NE(damaged([](auto& f) { f.data.alpha.index[0] = static_cast<uint32_t>(f.data.alpha.tris.size()); })
-                .find("outside its triangles"),
+  EXPECT_NE(damaged([](auto& f) {
+              f.data.alpha.index[0] = static_cast<uint32_t>(f.data.alpha.tris.size());
+            }).find("outside its triangles"),
             std::string::npos);
   EXPECT_NE(damaged([](auto& f) { f.data.alpha.tris[0].image = 7; }).find("image past the last"), std::string::npos);
   EXPECT_NE(damaged([](auto& f) { f.data.alpha.images[0].width = 1000; }).find("outside its texels"),

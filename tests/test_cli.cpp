@@ -670,7 +670,8 @@ TEST(Cli, AnimateFramesEqualTheFilePosedAtTheirTimes) {
   const CliRun png = rayfold("render " + path + view + "--animate --frames 2 -o " + (d / "f_%d.exr").string() +
                              " --png " + (d / "one.png").string());
   EXPECT_EQ(png.code, 2) << png.err;
-  const CliRun alone = rayfold("render " + path + view + "--animate --channels Z,Flow -o " + (d / "alone.exr").string());
+  const CliRun alone =
+      rayfold("render " + path + view + "--animate --channels Z,Flow -o " + (d / "alone.exr").string());
   EXPECT_EQ(alone.code, 2) << alone.err;
   EXPECT_NE(alone.err.find("one frame (--frames 1) has none to go to"), std::string::npos) << alone.err;
   // Auto-framed: once --time T was framed at T and --animate at its first

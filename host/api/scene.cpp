@@ -221,8 +221,8 @@ namespace detail {
 std::pair<core::Scene, std::vector<std::string>> pose_file(core::GltfFile& file, double time) {
   const size_t said = file.warnings().size();
   core::Scene posed = file.scene_at(time);
-  return {std::move(posed), std::vector<std::string>(file.warnings().begin() + static_cast<std::ptrdiff_t>(said),
-                                                     file.warnings().end())};
+  return {std::move(posed),
+          std::vector<std::string>(file.warnings().begin() + static_cast<std::ptrdiff_t>(said), file.warnings().end())};
 }
 
 void pose_at(SceneState& s, double seconds, const char* caller) {

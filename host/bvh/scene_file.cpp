@@ -252,7 +252,8 @@ SceneFile read_scene_file(const char* bytes, size_t size, const std::string& wha
     m.positions = r.get_all<glm::vec3>();
     m.indices = r.get_all<uint32_t>();
     m.alpha = r.get_all<AlphaTriangle>();
-    if (!m.alpha.empty() && m.alpha.size() != m.triangle_count()) r.fail("a mesh's alpha masks do not match its triangles");
+    if (!m.alpha.empty() && m.alpha.size() != m.triangle_count())
+      r.fail("a mesh's alpha masks do not match its triangles");
   }
   s.instances.resize(r.count(4 + 128 + 8 + 4));
   for (Instance& i : s.instances) {

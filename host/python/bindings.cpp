@@ -742,8 +742,8 @@ NB_MODULE(_core, m) {
               o.scene = scene;
               o.camera = camera;
               if (time && !std::isfinite(*time))
-                throw rayfold::InputError(path->string(), "time must be a finite number of seconds or None, not " +
-                                                              std::to_string(*time));
+                throw rayfold::InputError(
+                    path->string(), "time must be a finite number of seconds or None, not " + std::to_string(*time));
               o.time = time ? *time : NAN;
               o.label_key = label_key;
               nb::gil_scoped_release release;
@@ -885,8 +885,8 @@ NB_MODULE(_core, m) {
             // None is the scene's own pose; NaN, the C++ API's word for the
             // rest pose, is no time a caller means here.
             if (time && !std::isfinite(*time))
-              throw rayfold::InputError("", "render: time must be a finite number of seconds or None, not " +
-                                                std::to_string(*time));
+              throw rayfold::InputError(
+                  "", "render: time must be a finite number of seconds or None, not " + std::to_string(*time));
             // flow_to: a Camera, or (Camera, time).
             std::optional<rayfold::FlowTo> to;
             if (!flow_to.is_none()) {

@@ -282,17 +282,15 @@ struct Resolver {
     if (out.label) std::fill(out.label + a, out.label + b, scene.instances[c.inst].label);
     if (out.object_position)
       for (size_t p = a; p < b; ++p)
-        store<3>(out.object_position, p,
-                 interpolate(c.object[0], c.object[1], c.object[2], b0(p), u(p), v(p)));
+        store<3>(out.object_position, p, interpolate(c.object[0], c.object[1], c.object[2], b0(p), u(p), v(p)));
     if (out.position)
       for (size_t p = a; p < b; ++p)
         store<3>(out.position, p, interpolate(c.world[0], c.world[1], c.world[2], b0(p), u(p), v(p)));
     for (int set = 0; set < 2; ++set)
       if (out.texcoord[set])
         for (size_t p = a; p < b; ++p)
-          store<2>(
-              out.texcoord[set], p,
-              interpolate(c.texcoord[set][0], c.texcoord[set][1], c.texcoord[set][2], b0(p), u(p), v(p)));
+          store<2>(out.texcoord[set], p,
+                   interpolate(c.texcoord[set][0], c.texcoord[set][1], c.texcoord[set][2], b0(p), u(p), v(p)));
     if (out.shading_normal && !frame) {
       if (c.flat)  // the geometric normal, floats to floats
         std::copy(in.normal + 3 * a, in.normal + 3 * b, out.shading_normal + 3 * a);

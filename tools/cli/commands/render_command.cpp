@@ -582,8 +582,8 @@ int run_render(cli::Args& args) {
   }
   const rayfold::BuildStats built = renderer.build_stats();
   if (play && !r.quiet)
-    std::fprintf(stderr, "playing the file's animation: %d frame%s from %g s at %g fps (it ends at %g s)%s\n",
-                 r.frames, r.frames == 1 ? "" : "s", start_time, r.fps, scene.animation_end(),
+    std::fprintf(stderr, "playing the file's animation: %d frame%s from %g s at %g fps (it ends at %g s)%s\n", r.frames,
+                 r.frames == 1 ? "" : "s", start_time, r.fps, scene.animation_end(),
                  built.builds > 1 ? (", trees rebuilt " + std::to_string(built.builds - 1) +
                                      (built.builds == 2 ? " time" : " times") + " for frames whose meshes changed")
                                         .c_str()
