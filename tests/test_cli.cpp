@@ -649,6 +649,7 @@ TEST(Cli, AnimateFramesEqualTheFilePosedAtTheirTimes) {
       const std::string exr = (d / ("flow_" + std::to_string(k) + ".exr")).string();
       const rayfold::GBuffer got = rayfold::read_exr(exr);
       const rayfold::Camera camera = *rayfold::read_exr_header(exr).camera;
+      EXPECT_EQ(rayfold::read_exr_header(exr).time, 0.5 * k) << "frame " << k << "'s time in its header";
       if (k == 3) {
         for (size_t p = 0; p < got.instance_id.size(); ++p)
           ASSERT_EQ(std::isnan(got.flow[2 * p]), got.instance_id[p] != rayfold::kMiss) << "last frame, pixel " << p;

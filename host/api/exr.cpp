@@ -1,7 +1,10 @@
 #include "rayfold/exr.h"
 
 #include <cctype>
+#include <cmath>
 #include <cstddef>
+#include <cstdio>
+#include <cstdlib>
 
 #include "api/convert.h"
 #include "api/scene_state.h"
@@ -67,9 +70,14 @@ void write_exr(const std::string& path, const GBuffer& g, const Camera& camera, 
                              " name none of the G-buffer's planes (it has " + std::to_string(g.channels) + ")");
   check_planes(g, "write_exr");
   const detail::SceneState& s = *scene.state();
-  const core::ExrMetadata metadata =
+  core::ExrMetadata metadata =
       core::view_metadata(camera.core(), s.scene, s.path, core::fold_name(g.fold),
                           g.depth_kind == Depth::planar, g.exact_depth, RAYFOLD_VERSION_STRING);
+  if (std::isfinite(g.time)) {
+    char seconds[32];
+    std::snprintf(seconds, sizeof seconds, "%.17g", g.time);  // read back to the same double
+    metadata.strings.emplace_back("time", seconds);
+  }
   core::write_exr(path, g, g.channels & channels, &metadata, compression);
 }
 
@@ -91,6 +99,7 @@ ExrHeader read_exr_header(const std::string& path) {
     if (name == "fold") h.fold = value;
     if (name == "scene") h.scene = value;
     if (name == "version") h.version = value;
+    if (name == "time") h.time = std::strtod(value.c_str(), nullptr);
     // Files from before rayfold:depthKind say it in words only.
     if (name == "depthKind" ? value == "planar" : name == "depth" && value.rfind("Z is the depth along", 0) == 0)
       h.depth_kind = Depth::planar;

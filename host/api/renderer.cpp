@@ -524,6 +524,7 @@ void Renderer::render_into(GBuffer& g, const Camera& camera, Fold fold, unsigned
   impl_->core->render_into(r, camera.core(), 1, frame);
   fill_gbuffer(g, r, 0, r.warnings, camera.width(), camera.height(), impl_->options.threads, channels,
                impl_->planar_depth ? Depth::planar : Depth::distance, frame.exact_depth);
+  g.time = impl_->state->time;
   detail::resolve_gbuffer(g, impl_->state->scene, camera.core(), asked, impl_->options.threads);
   g.warnings.insert(g.warnings.end(), attribute_warnings.begin(), attribute_warnings.end());
   g.frame_ms = core::ms_since(t0);
@@ -606,6 +607,7 @@ void Renderer::render_views(const std::vector<Camera>& cameras, const std::funct
         fill_gbuffer(g, r, k, r.view_warnings.at(k), cameras[pass[k]].width(), cameras[pass[k]].height(),
                      impl_->options.threads, channels, impl_->planar_depth ? Depth::planar : Depth::distance,
                      frame.exact_depth);
+        g.time = impl_->state->time;
         detail::resolve_gbuffer(g, impl_->state->scene, views[pass[k]], resolved, impl_->options.threads);
         if (flow) {
           if (pass[k] + 1 < cameras.size())

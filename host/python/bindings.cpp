@@ -207,6 +207,7 @@ struct PyGBuffer {
   rayfold::StageTimes stages;
   rayfold::TopLevelStats top_level;
   std::string kernel, kernel_reason;
+  double time = NAN;  // GBuffer::time
 };
 
 PyGBuffer to_python(rayfold::GBuffer&& g, const rayfold::Camera& camera) {
@@ -227,7 +228,8 @@ PyGBuffer to_python(rayfold::GBuffer&& g, const rayfold::Camera& camera) {
               g.stages,
               g.top_level,
               std::move(g.kernel),
-              std::move(g.kernel_reason)};
+              std::move(g.kernel_reason),
+              g.time};
   // A plane not asked for (channels=) is None; (H, W) or (H, W, components).
   for (const rayfold::core::PlaneSpec& spec : rayfold::core::plane_specs()) {
     if (!(g.channels & spec.bit)) {
@@ -270,6 +272,7 @@ rayfold::GBuffer from_python(const PyGBuffer& p) {
                                                                                                  : rayfold::Fold::none;
   g.depth_kind = p.depth_kind;
   g.exact_depth = p.exact_depth;
+  g.time = p.time;
   return g;
 }
 
@@ -671,6 +674,10 @@ NB_MODULE(_core, m) {
           .def_ro("hits", &PyGBuffer::hits)
           .def_ro("trace_ms", &PyGBuffer::trace_ms)
           .def_ro("frame_ms", &PyGBuffer::frame_ms)
+          .def_prop_ro(
+              "time", [](const PyGBuffer& g) { return std::isnan(g.time) ? std::optional<double>() : g.time; },
+              "the pose it shows: the scene's time when rendered (render's time=), seconds; None for the rest "
+              "pose (written to the EXR as rayfold:time)")
           .def_ro("views_in_trace", &PyGBuffer::views_in_trace,
                   "views traced together with this one, itself included (Scene.render_views)")
           .def_ro("warnings", &PyGBuffer::warnings)
@@ -1088,13 +1095,15 @@ NB_MODULE(_core, m) {
         out["fold"] = h.fold;
         out["scene"] = h.scene;
         out["version"] = h.version;
+        out["time"] = std::isnan(h.time) ? nb::none() : nb::cast(h.time);
         return out;
       },
       "path"_a,
       "The header of an EXR rayfold wrote, as a dict: width, height, camera (a Camera with the view's pose and "
       "intrinsics, None in another EXR: camera.ray_origins() + depth * camera.ray_directions() are the hits, "
       "for depth_kind 'distance'), depth_kind ('distance' or 'planar'), instance_names (by instance_id), labels "
-      "(by label), fold, scene, version. InputError naming the file when it cannot be read.");
+      "(by label), fold, scene, version, time (the pose's seconds, GBuffer.time; None for the rest pose). "
+      "InputError naming the file when it cannot be read.");
   m.def(
       "_plane_specs",
       [] {

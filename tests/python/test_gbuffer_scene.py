@@ -377,3 +377,20 @@ def test_a_users_slips_are_named(scene_file, tmp_path):
     with pytest.raises(rayfold.InputError, match="name the file .exr"):
         g.write_exr(str(tmp_path / "g.png"), scene)
     assert not (tmp_path / "g.png").exists()
+
+
+def test_a_frame_says_its_time(scene_file, tmp_path):
+    """GBuffer.time is the pose a render shows, and the EXR keeps it (rayfold:time): a frame of an animation
+    can be dated from its file. The rest pose has none."""
+    scene = rayfold.Scene(str(scene_file))
+    camera = scene.default_camera(*SIZE)
+    g = scene.render(camera, channels="depth", time=0.7)
+    assert g.time == 0.7
+    g.write_exr(str(tmp_path / "t.exr"), scene)
+    assert rayfold.read_exr_header(str(tmp_path / "t.exr"))["time"] == 0.7
+    rest = scene.render(camera, channels="depth")
+    assert rest.time is None
+    rest.write_exr(str(tmp_path / "rest.exr"), scene)
+    assert rayfold.read_exr_header(str(tmp_path / "rest.exr"))["time"] is None
+    scene.set_time(1.25)
+    assert scene.render(camera, channels="depth").time == 1.25

@@ -3,6 +3,7 @@
 // PrimitiveID, and the camera and instance names in the header).
 #pragma once
 
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -48,6 +49,7 @@ struct ExrHeader {
   std::vector<std::string> instance_names;  // by InstanceID
   std::vector<std::string> labels;          // by Label (Scene::labels); empty when not written
   std::string fold, scene, version;
+  double time = std::numeric_limits<double>::quiet_NaN();  // rayfold:time (GBuffer::time); NaN when not written
 };
 // InputError naming the file when it cannot be read.
 ExrHeader read_exr_header(const std::string& path);

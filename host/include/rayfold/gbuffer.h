@@ -4,6 +4,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -168,6 +169,10 @@ struct GBuffer {
   double trace_ms = 0.0;   // on the device (a trace of several views: its share)
   double frame_ms = 0.0;   // culling, top-level build, upload, ray list, trace, readback (likewise)
   int views_in_trace = 1;  // views traced together with this one, itself included (Renderer::render_views)
+  // The pose it shows: the scene's time when rendered (Scene::time(), or
+  // render_at's), seconds; NaN for the file's rest pose or a scene without a
+  // file. Written to the EXR as rayfold:time.
+  double time = std::numeric_limits<double>::quiet_NaN();
   StageTimes stages;       // trace_ms's and the other stages' times (likewise the pass's)
   TopLevelStats top_level;
   // The kernel that traced it ("tile", "single", "cpu reference") and why
