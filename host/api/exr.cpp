@@ -71,8 +71,8 @@ void write_exr(const std::string& path, const GBuffer& g, const Camera& camera, 
   check_planes(g, "write_exr");
   const detail::SceneState& s = *scene.state();
   core::ExrMetadata metadata =
-      core::view_metadata(camera.core(), s.scene, s.path, core::fold_name(g.fold),
-                          g.depth_kind == Depth::planar, g.exact_depth, RAYFOLD_VERSION_STRING);
+      core::view_metadata(camera.core(), s.scene, s.path, core::fold_name(g.fold), g.depth_kind == Depth::planar,
+                          g.exact_depth, RAYFOLD_VERSION_STRING);
   if (std::isfinite(g.time)) {
     char seconds[32];
     std::snprintf(seconds, sizeof seconds, "%.17g", g.time);  // read back to the same double
