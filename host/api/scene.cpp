@@ -46,7 +46,9 @@ void at_pose(SceneState& s, double seconds, const char* caller, const std::funct
     // read fail, the file forgets them (the next render that asks reads
     // them again) and the scene is put back all the same.
     if (s.file && s.file->attributes() != saved_attributes) try {
-        adopt_attributes(saved, s.file->scene_at(saved_time), s.file->attributes());
+        auto [posed, said] = pose_file(*s.file, saved_time);
+        adopt_attributes(saved, std::move(posed), s.file->attributes());
+        s.warnings.insert(s.warnings.end(), said.begin(), said.end());
       } catch (...) {
         s.file->set_attributes(saved_attributes);
       }
