@@ -113,6 +113,7 @@ class Reader {
  private:
   void take(void* dst, size_t n) {
     if (n > static_cast<size_t>(end_ - p_)) fail("it ends early");
+    if (n == 0) return;  // an empty list's data() may be null, which memcpy may not be given
     std::memcpy(dst, p_, n);
     p_ += n;
   }
