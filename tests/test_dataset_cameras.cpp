@@ -11,9 +11,12 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 
 #include <glm/geometric.hpp>
 
+#include "rayfold/camera.h"
+#include "rayfold/errors.h"
 #include "scene/dataset_cameras.h"
 #include "util/errors.h"
 
@@ -227,6 +230,31 @@ TEST(DatasetCameras, ViewFileStemsKeepTheLastNameWithoutItsExtension) {
   EXPECT_EQ(view_file_stem(".hidden"), ".hidden");
   EXPECT_EQ(view_file_stem("7"), "7");
   for (const char* none : {"", "./", "..", "a/.."}) EXPECT_EQ(view_file_stem(none), "") << none;
+}
+
+// The files a %s pattern names, as the CLI and rayfold-batch both check
+// them: a view without a name writes nothing, and the error names the
+// pattern and both views of a clash.
+TEST(DatasetCameras, ViewFilesNameEachViewOnceOrSayWhichTwoClash) {
+  using Names = std::vector<std::optional<std::string>>;
+  EXPECT_EQ(rayfold::view_files("out/%s.exr", Names{"./train/r_0", std::nullopt, "images/r_1.png"}),
+            (std::vector<std::string>{"out/r_0.exr", "", "out/r_1.exr"}));
+  auto message = [](const std::string& pattern, const Names& names) {
+    try {
+      rayfold::view_files(pattern, names);
+    } catch (const rayfold::InputError& e) {
+      EXPECT_EQ(e.file(), pattern);
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_EQ(message("o/%s.exr", Names{"a/same.jpg", "x", "b/same.png"}),
+            "o/%s.exr: views 0 ('a/same.jpg') and 2 ('b/same.png') would both write o/same.exr; name the views by "
+            "index (%04d)");
+  EXPECT_EQ(message("o/%s.exr", Names{"a", "./"}),
+            "o/%s.exr: view 1's name './' leaves no file name for %s; name the views by index (%04d)");
+  for (const char* pattern : {"o/%s_%04d.exr", "o/%d%s.exr", "o/%s%s.exr", "o/view.exr"})
+    EXPECT_NE(message(pattern, Names{"a"}).find("may hold one field, %s"), std::string::npos) << pattern;
 }
 
 }  // namespace

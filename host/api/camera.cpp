@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <map>
 
 #include <glm/geometric.hpp>
 
@@ -201,5 +202,27 @@ bool Camera::can_fold_columns() const { return core::can_fold_columns(*impl_); }
 bool Camera::can_fold_rows() const { return core::can_fold_rows(*impl_); }
 
 std::string view_file_stem(const std::string& name) { return core::view_file_stem(name); }
+
+std::vector<std::string> view_files(const std::string& pattern, const std::vector<std::optional<std::string>>& names) {
+  const size_t field = pattern.find("%s");
+  if (field == std::string::npos || pattern.find('%') != field || pattern.find('%', field + 2) != std::string::npos)
+    throw InputError(pattern, "may hold one field, %s (the view's name) or %04d (its index)");
+  std::vector<std::string> files(names.size());
+  std::map<std::string, size_t> first_of;
+  for (size_t i = 0; i < names.size(); ++i) {
+    if (!names[i]) continue;
+    const std::string stem = core::view_file_stem(*names[i]);
+    if (stem.empty())
+      throw InputError(pattern, "view " + std::to_string(i) + "'s name '" + *names[i] +
+                                    "' leaves no file name for %s; name the views by index (%04d)");
+    files[i] = pattern.substr(0, field) + stem + pattern.substr(field + 2);
+    const auto [at, fresh] = first_of.emplace(files[i], i);
+    if (!fresh)
+      throw InputError(pattern, "views " + std::to_string(at->second) + " ('" + *names[at->second] + "') and " +
+                                    std::to_string(i) + " ('" + *names[i] + "') would both write " + files[i] +
+                                    "; name the views by index (%04d)");
+  }
+  return files;
+}
 
 }  // namespace rayfold

@@ -1133,8 +1133,9 @@ NB_MODULE(_core, m) {
       },
       "The OpenCL devices this machine offers, one string each ('platform: name (CPU, N compute units, "
       "version)'): what device= picks among (the first whose platform or name contains it).");
-  m.def("_view_file_stem", &rayfold::view_file_stem, "name"_a,
-        "The file name a view's name gives under %s: its last component less its extension; '' when none.");
+  m.def("_view_files", &rayfold::view_files, "pattern"_a, "names"_a,
+        "Each view's file under pattern's one %s (None for a view named None); InputError for another field, a "
+        "name that leaves no file name or two views that would write one file.");
   m.def(
       "_check_exr_compression", [](const std::string& name) { rayfold::exr_compression(name); }, "name"_a,
       "InputError unless name is an EXR compression GBuffer.write_exr takes.");

@@ -5,6 +5,7 @@
 
 #include <array>
 #include <memory>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -139,5 +140,14 @@ class Camera {
 // lands in one output folder; empty where nothing is left ("", "./", "..").
 // The CLI's -o and rayfold-batch name views' files by it.
 std::string view_file_stem(const std::string& name);
+
+// Each view's output file under a pattern holding one field, %s: the
+// pattern with %s replaced by view_file_stem(names[i]); empty for a view
+// without a name (nullopt: one skipped as bad). Throws InputError (the
+// pattern) for another field beside %s, for the first view whose name
+// leaves no file name and for the first two views that would write one
+// file, each view by its index in names. The CLI's -o, --png and --stats
+// and rayfold-batch's outputs are named and checked here.
+std::vector<std::string> view_files(const std::string& pattern, const std::vector<std::optional<std::string>>& names);
 
 }  // namespace rayfold

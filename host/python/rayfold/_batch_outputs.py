@@ -11,7 +11,7 @@ import os
 
 import numpy as np
 
-from ._core import MISS, InputError, __version__, _check_exr_compression, _plane_specs, _view_file_stem
+from ._core import MISS, InputError, __version__, _check_exr_compression, _plane_specs, _view_files
 
 
 def _store_name(spec):
@@ -69,7 +69,7 @@ class ExrOutput:
     def __init__(self, pattern, count, compression="zip", names=None):
         _check_exr_compression(compression)  # InputError for a name OpenEXR has not, or a lossy one
         self.compression = compression
-        self.stems = None
+        self.files = None
         if not pattern.endswith(".exr"):
             raise InputError(f"output pattern {pattern!r}: rayfold-batch writes EXR files (end it in .exr) or one "
                              "zarr store (end it in .zarr)")
@@ -94,9 +94,6 @@ class ExrOutput:
         """%s: each view's file named by its name in the camera file, as
         `rayfold render -o out/%s.exr` names it (the last component, less its
         extension); two views whose names end alike are refused by name."""
-        if pattern.count("%") != 1:
-            raise InputError(f"output pattern {pattern!r} may hold one field, %s (the view's name) or %06d (its "
-                             "index)")
         if "%s" in os.path.dirname(pattern):
             raise InputError(f"output pattern {pattern!r}: the name goes in the file's name, not its folder (one "
                              "folder holds a job's views and its manifest)")
@@ -105,22 +102,13 @@ class ExrOutput:
                              "these cameras come without a file; use an integer field such as %06d")
         self.pattern = os.path.abspath(pattern)
         self.folder = os.path.dirname(self.pattern)
-        self.stems, seen = [], {}
-        for i, name in enumerate(names):
-            stem = None if name is None else _view_file_stem(name)
-            if stem == "":
-                raise InputError(f"output pattern {pattern!r}: view {i}'s name {name!r} leaves no file name for %s; "
-                                 "name the views by index (%06d)")
-            if stem is not None and stem in seen:
-                j = seen[stem]
-                raise InputError(f"output pattern {pattern!r}: views {j} ({names[j]!r}) and {i} ({name!r}) would both "
-                                 f"write {self.pattern.replace('%s', stem)}; name the views by index (%06d)")
-            seen[stem] = i
-            self.stems.append(stem)
+        # InputError for another field, a name that gives no file or two names that give one (as the CLI's -o).
+        files = _view_files(pattern, names)
+        self.files = [None if name is None else os.path.abspath(f) for f, name in zip(files, names)]
 
     def path(self, i):
-        if self.stems is not None:
-            return self.pattern.replace("%s", self.stems[i])
+        if self.files is not None:
+            return self.files[i]
         return self.pattern % i
 
     def record_name(self, i):

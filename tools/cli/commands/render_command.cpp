@@ -4,7 +4,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <map>
 #include <optional>
 
 #include "cli/camera_list.h"
@@ -306,21 +305,19 @@ std::string render_warning(const std::string& w) {
 void print_render_warning(const std::string& w) { std::fputs(render_warning(w).c_str(), stderr); }
 
 // Every view's outputs made ready (prepare_output); two views that would
-// write one file (their names end alike under %s) are a UsageError naming both.
-// views: each view's label and name (cli::View's).
+// write one file (their names end alike under %s) are a UsageError naming
+// both (rayfold::view_files). views: each view's label and name (cli::View's).
 void check_view_outputs(const RenderArgs& r, const std::vector<std::pair<std::string, std::string>>& views) {
   for (auto [option, out] : {std::pair{"-o", &r.exr}, {"--png", &r.png}, {"--stats", &r.stats}}) {
     if (out->empty()) continue;
-    std::map<std::string, const std::pair<std::string, std::string>*> written;
-    for (const auto& v : views) {
-      const auto& [label, name] = v;
-      const std::string path = view_output(option, *out, label, name, r.stereo.has_value(), views.size());
-      const auto [at, fresh] = written.emplace(path, &v);
-      if (!fresh)
-        throw UsageError(std::string(option) + ": views " + at->second->first + " ('" + at->second->second + "') and " +
-                         label + " ('" + name + "') would both write " + path + "; name the views by index (%04d)");
-      prepare_output(path);
+    if (!r.stereo && out->find("%s") != std::string::npos) {
+      std::vector<std::optional<std::string>> names;
+      for (const auto& v : views) names.emplace_back(v.second);
+      for (const std::string& path : named_view_files(option, *out, names)) prepare_output(path);
+      continue;
     }
+    for (const auto& [label, name] : views)
+      prepare_output(view_output(option, *out, label, name, r.stereo.has_value(), views.size()));
   }
 }
 

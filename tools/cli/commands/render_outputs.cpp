@@ -156,6 +156,15 @@ std::string frame_name(const std::string& option, const std::string& name, int f
   return out;
 }
 
+std::vector<std::string> named_view_files(const std::string& option, const std::string& name,
+                                          const std::vector<std::optional<std::string>>& view_names) {
+  try {
+    return rayfold::view_files(name, view_names);
+  } catch (const rayfold::InputError& e) {
+    throw UsageError(option + ": " + e.what());
+  }
+}
+
 // The output name of one view: for a camera list, the view's index in a
 // frame field (%04d) or its name in %s (view_file_stem: a transforms.json's
 // file_path, a COLMAP image's name; a rayfold camera list's views are named
@@ -170,16 +179,7 @@ std::string view_output(const std::string& option, const std::string& name, cons
     const size_t dot = name.rfind('.');
     return name.substr(0, dot) + "-" + label + name.substr(dot);
   }
-  const size_t named = name.find("%s");
-  if (named != std::string::npos) {
-    if (name.find('%', named + 2) != std::string::npos || name.find('%') != named)
-      throw UsageError(option + ": '" + name + "' may hold one field, %s (the view's name) or %04d (its index)");
-    const std::string stem = rayfold::view_file_stem(view_name);
-    if (stem.empty())
-      throw UsageError(option + ": view " + label + "'s name '" + view_name +
-                       "' leaves no file name for %s; name the views by index (%04d)");
-    return name.substr(0, named) + stem + name.substr(named + 2);
-  }
+  if (name.find("%s") != std::string::npos) return named_view_files(option, name, {view_name})[0];
   bool field = false;
   const std::string out = frame_name(option, name, std::stoi(label), &field);
   if (!field && views > 1)

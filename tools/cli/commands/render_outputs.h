@@ -46,6 +46,11 @@ void print_comparison(const rayfold::GBuffer& none, const rayfold::StageTimes& n
 // other % is a usage error.
 std::string frame_name(const std::string& option, const std::string& name, int frame, bool* has_field);
 
+// rayfold::view_files(name, view_names), its InputError a usage error of
+// `option`: the files a %s pattern names, checked.
+std::vector<std::string> named_view_files(const std::string& option, const std::string& name,
+                                          const std::vector<std::optional<std::string>>& view_names);
+
 // The output of one view of a camera list or stereo pair (see render
 // --help): `label` its index ("0", ...) or side ("left"), `view_name` the
 // dataset's name for it.
