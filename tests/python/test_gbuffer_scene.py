@@ -371,6 +371,8 @@ def test_a_users_slips_are_named(scene_file, tmp_path):
         scene.render(camera, channels="depth", time=float("nan"))
     with pytest.raises(rayfold.InputError, match="flow_to's time must be a finite number"):
         scene.render(camera, channels="flow", flow_to=(camera, float("nan")))
+    with pytest.raises(rayfold.InputError, match=r"flow_to is \(time, Camera\); give it as \(Camera, time\)"):
+        scene.render(camera, channels="flow", flow_to=(0.5, camera))
     g = scene.render(camera, channels="label")
     assert any("no node's extras has the label key 'categroy'" in w for w in g.warnings), g.warnings
     assert set(np.unique(g.label)) <= {0, rayfold.MISS}
