@@ -903,8 +903,8 @@ NB_MODULE(_core, m) {
                 to = rayfold::FlowTo{nb::cast<rayfold::Camera>(flow_to)};
               } else {
                 // A (Camera, time) pair, as a tuple or a list.
-                const bool two = (nb::isinstance<nb::tuple>(flow_to) || nb::isinstance<nb::list>(flow_to)) &&
-                                 nb::len(flow_to) == 2;
+                const bool two =
+                    (nb::isinstance<nb::tuple>(flow_to) || nb::isinstance<nb::list>(flow_to)) && nb::len(flow_to) == 2;
                 const bool pair = two && nb::isinstance<rayfold::Camera>(flow_to[0]);
                 if (two && !pair && nb::isinstance<rayfold::Camera>(flow_to[1]))
                   throw rayfold::InputError("", "flow_to is (time, Camera); give it as (Camera, time)");
