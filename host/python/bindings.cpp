@@ -536,16 +536,8 @@ nb::object shaped(std::vector<T>&& v, const std::vector<size_t>& lead, size_t pe
   return plane_to_numpy(std::move(v), shape);
 }
 
-}  // namespace
-
-NB_MODULE(_core, m) {
-  m.doc() = "rayfold's C++ core; use the rayfold package.";
-  m.attr("__version__") = RAYFOLD_VERSION_STRING;
-  m.attr("MISS") = rayfold::kMiss;
-  m.attr("DEFAULT_MATERIAL") = rayfold::kDefaultMaterial;
-  nb::exception<rayfold::InputError>(m, "InputError", PyExc_ValueError);
-  nb::exception<rayfold::RuntimeFailure>(m, "RuntimeFailure", PyExc_RuntimeError);
-
+// rayfold.Camera: making views, their rays, pickling.
+void bind_camera(nb::module_& m) {
   nb::class_<rayfold::Camera>(m, "Camera",
                               "A pinhole camera. Pixel (x, y) has its centre at (x + 0.5, y + 0.5) from the top-left "
                               "corner, rows going down; depth is the distance along ray_directions().")
@@ -660,7 +652,10 @@ NB_MODULE(_core, m) {
           << "), vfov_deg=" << c.vfov_degrees() << ")";
         return s.str();
       });
+}
 
+// rayfold.GBuffer: the planes of a render, named as the channels, and its EXR.
+void bind_gbuffer(nb::module_& m) {
   auto gbuffer_class =
       nb::class_<PyGBuffer>(m, "GBuffer",
                             "One render's hit info: numpy planes, rows from the top; a plane not asked for (channels=) "
@@ -734,7 +729,10 @@ NB_MODULE(_core, m) {
               "(3 to 4 times faster to write, 10 times the bytes). Releases the GIL.");
 
   add_plane_properties(gbuffer_class);
+}
 
+// rayfold.Scene: loading, pickling, editing, and what it holds.
+nb::class_<PyScene> bind_scene(nb::module_& m) {
   auto scene_class = nb::class_<PyScene>(m, "Scene", "Meshes and instances, from a glTF 2.0 file or built in memory.");
   scene_class
       .def(
@@ -881,7 +879,13 @@ NB_MODULE(_core, m) {
           "default_camera", [](PyScene& s, int width, int height) { return s.scene.default_camera(width, height); },
           "width"_a, "height"_a,
           "The file's camera at this size, or a chosen view: an object whole from outside, a room from inside, "
-          "looking along it (as `rayfold render` chooses).")
+          "looking along it (as `rayfold render` chooses).");
+  return scene_class;
+}
+
+// Scene.render and Scene.render_views: G-buffers of views.
+void bind_scene_rendering(nb::class_<PyScene>& scene_class) {
+  scene_class
       .def(
           "render",
           [](PyScene& s, const rayfold::Camera& camera, const std::string& fold, const std::string& backend,
@@ -973,7 +977,10 @@ NB_MODULE(_core, m) {
           "fastest, chosen on the first list of this size and intrinsics and kept); every view's bits equal "
           "render(view). fold, channels, depth and exact_depth as in render; flow and flow_visible go from each view "
           "to the next (render(view, flow_to=next)), the last view's NaN. Releases the GIL.");
+}
 
+// Scene.intersect and Scene.occluded: rays from anywhere, on a renderer kept per option set.
+void bind_scene_queries(nb::class_<PyScene>& scene_class) {
   auto scene_renderer = [](PyScene& s, const std::string& backend, const std::string& device, unsigned threads)
       -> rayfold::Renderer& {
     const rayfold::RendererOptions o = renderer_options(backend, device, "auto", threads, "distance");
@@ -1055,7 +1062,10 @@ NB_MODULE(_core, m) {
       "device"_a = "", "threads"_a = 0,
       "Whether each ray has any hit with tmin < t <= tmax (bool array of the leading shape); each ray stops at "
       "the first hit found. Inputs as intersect. Releases the GIL.");
+}
 
+// The module's functions: files, devices, output names.
+void bind_functions(nb::module_& m) {
   m.def(
       "read_exr",
       [](const std::filesystem::path& path) {
@@ -1142,7 +1152,10 @@ NB_MODULE(_core, m) {
   m.def(
       "_check_exr_compression", [](const std::string& name) { rayfold::exr_compression(name); }, "name"_a,
       "InputError unless name is an EXR compression GBuffer.write_exr takes.");
+}
 
+// rayfold.Renderer: a renderer with fixed options, and its choices.
+void bind_renderer(nb::module_& m) {
   nb::class_<PyRenderer>(m, "Renderer", "A renderer of one scene with fixed options (Scene.render keeps these).")
       .def(
           "__init__",
@@ -1202,4 +1215,23 @@ NB_MODULE(_core, m) {
       .def_prop_ro(
           "tile_lanes", [](PyRenderer& r) { return r.renderer->tile_lanes(); },
           "Rays per vector of the tile kernel (8 or 16); 0 for the CPU backend.");
+}
+
+}  // namespace
+
+NB_MODULE(_core, m) {
+  m.doc() = "rayfold's C++ core; use the rayfold package.";
+  m.attr("__version__") = RAYFOLD_VERSION_STRING;
+  m.attr("MISS") = rayfold::kMiss;
+  m.attr("DEFAULT_MATERIAL") = rayfold::kDefaultMaterial;
+  nb::exception<rayfold::InputError>(m, "InputError", PyExc_ValueError);
+  nb::exception<rayfold::RuntimeFailure>(m, "RuntimeFailure", PyExc_RuntimeError);
+
+  bind_camera(m);
+  bind_gbuffer(m);
+  nb::class_<PyScene> scene_class = bind_scene(m);
+  bind_scene_rendering(scene_class);
+  bind_scene_queries(scene_class);
+  bind_functions(m);
+  bind_renderer(m);
 }
