@@ -216,8 +216,11 @@ std::string scene_file_bytes(const SceneFile& f, const std::string& rayfold_vers
   return out;
 }
 
-SceneFile read_scene_file(const char* bytes, size_t size, const std::string& what,
-                          const std::string& rayfold_version) {
+namespace {
+
+// The header checked (magic, format, device structs, length, checksum):
+// the payload's bytes.
+std::pair<const char*, uint64_t> check_header(const char* bytes, size_t size, const std::string& what) {
   Reader head(bytes, size, what);
   if (!is_scene_file(bytes, size)) head.fail("it does not start with \"rayfold-scene\"");
   if (size < kHeader + 8) head.fail("it ends early");
@@ -239,13 +242,12 @@ SceneFile read_scene_file(const char* bytes, size_t size, const std::string& wha
   uint64_t sum;
   std::memcpy(&sum, payload + length, 8);
   if (sum != fnv1a(payload, length)) head.fail("its checksum does not match (the file is damaged)");
+  return {payload, length};
+}
 
-  Reader r(payload, length, what);
-  const std::string version = r.get_string();
-  if (version != rayfold_version)
-    throw InputError(what, "was written by rayfold " + version + "; this is rayfold " + rayfold_version +
-                               ", whose trees may differ: save it again from the glTF file");
-  SceneFile f;
+// The scene the trees were built from: meshes, instances, cameras, the
+// alpha masks' images, the source's name and its warnings.
+void read_scene(Reader& r, SceneFile& f) {
   Scene& s = f.scene;
   s.meshes.resize(r.count(3 * 8));
   for (Mesh& m : s.meshes) {
@@ -293,7 +295,10 @@ SceneFile read_scene_file(const char* bytes, size_t size, const std::string& wha
   f.warnings.resize(r.count(8));
   for (std::string& n : f.warnings) n = r.get_string();
 
-  SceneData& d = f.data;
+}
+
+// The trees and the tables the kernels read.
+void read_trees(Reader& r, SceneData& d) {
   d.blas.nodes = r.get_all<rf_node, PageAlignedAllocator<rf_node>>();
   d.blas.tris = r.get_all<rf_tri, PageAlignedAllocator<rf_tri>>();
   d.blas.roots = r.get_all<uint32_t>();
@@ -321,9 +326,11 @@ SceneFile read_scene_file(const char* bytes, size_t size, const std::string& wha
   d.alpha.tris = r.get_all<rf_alpha_tri>();
   d.alpha.images = r.get_all<rf_alpha_image>();
   d.alpha.texels = r.get_all<uint8_t>();
-  if (!r.done()) r.fail("bytes follow the trees");
-  // The masks' tables: every index inside its array, every image's texels
-  // inside the texel array (the kernels read them unchecked).
+}
+
+// The masks' tables: every index inside its array, every image's texels
+// inside the texel array (the kernels read them unchecked).
+void check_alpha_tables(const Reader& r, const SceneData& d) {
   const AlphaTables& a = d.alpha;
   // The writer gives a table of masks at least one image and one texel
   // (device buffers of one element or more).
@@ -339,6 +346,12 @@ SceneFile read_scene_file(const char* bytes, size_t size, const std::string& wha
         uint64_t{i.offset} + uint64_t{i.width} * i.height > a.texels.size() || (i.wrap & 3u) > 2u ||
         (i.wrap >> 2 & 3u) > 2u || (i.wrap >> 4) != 0u)
       r.fail("an alpha image is empty, lies outside its texels or wraps by an unknown mode");
+}
+
+// The trees against the scene and themselves: per-instance and per-mesh
+// lists of the scene's sizes, every index inside its array, no cycle, no
+// tree deeper than the kernels' stack, every hit naming an instance.
+void check_trees(const Reader& r, const Scene& s, const SceneData& d) {
   // The per-instance and per-mesh lists must agree with the scene (the
   // checksum vouches for the bytes, not for a writer's bugs).
   const size_t n = s.instances.size(), m = s.meshes.size();
@@ -455,6 +468,24 @@ SceneFile read_scene_file(const char* bytes, size_t size, const std::string& wha
       if (last >= n) r.fail("a top-level item's triangles name instances past the last");
     }
   }
+}
+
+}  // namespace
+
+SceneFile read_scene_file(const char* bytes, size_t size, const std::string& what,
+                          const std::string& rayfold_version) {
+  const auto [payload, length] = check_header(bytes, size, what);
+  Reader r(payload, length, what);
+  const std::string version = r.get_string();
+  if (version != rayfold_version)
+    throw InputError(what, "was written by rayfold " + version + "; this is rayfold " + rayfold_version +
+                               ", whose trees may differ: save it again from the glTF file");
+  SceneFile f;
+  read_scene(r, f);
+  read_trees(r, f.data);
+  if (!r.done()) r.fail("bytes follow the trees");
+  check_alpha_tables(r, f.data);
+  check_trees(r, f.scene, f.data);
   return f;
 }
 
