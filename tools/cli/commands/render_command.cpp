@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <optional>
 
 #include "cli/camera_list.h"
@@ -399,10 +400,10 @@ int render_views(RenderArgs r, const rayfold::Scene& scene, rayfold::Renderer& r
   return 0;
 }
 
-}  // namespace
-
-int run_render(cli::Args& args) {
-  RenderArgs r = parse_render(args);
+// The single view's outputs checked before any expensive work: a frame
+// field where --animate writes several frames, writable paths, a stereo
+// pair's two names. Returns whether -o or --png names a frame sequence.
+bool check_outputs(const RenderArgs& r) {
   // Frame sequences: with a frame field in -o or --png, every frame is
   // written (animated frames advance with --animate).
   // A list of views names its outputs per view (check_view_outputs).
@@ -423,6 +424,162 @@ int run_render(cli::Args& args) {
   for (const std::string* out : {&r.exr, &r.png, &r.stats, &r.ids})
     if (!out->empty() && (!view_list || out == &r.ids)) prepare_output(frame_name("output", *out, 0, nullptr));
   if (r.stereo) check_view_outputs(r, std::vector<std::pair<std::string, std::string>>{{"left", ""}, {"right", ""}});
+  return sequence;
+}
+
+// The view of a single render: the command line's camera over the file's,
+// else one chosen from the scene's trees (Scene::default_view: an interior
+// from inside). *source: where the view came from.
+rayfold::View choose_view(const RenderArgs& r, rayfold::Scene& scene, Progress& progress, double start_time,
+                          rayfold::ViewSource* source) {
+  // An animated file is framed at its start (time 0) whenever a time is
+  // asked for, so that --time T and frame k of --animate at the same time
+  // see the same camera.
+  const bool timed = !std::isnan(r.load.time) || r.animate;
+  *source = rayfold::ViewSource::file_camera;
+  rayfold::View view;
+  if (!r.eye || scene.has_camera()) {  // the file's camera lends its field of view to --eye
+    if (!r.eye) progress.stage("choosing a view");
+    const bool reframe = !scene.has_camera() && timed && scene.animated();
+    if (reframe) scene.set_time(0.0);
+    view = scene.default_view(source);
+    if (reframe) scene.set_time(start_time);
+  }
+  if (r.eye) {
+    // A camera given on the command line is given whole: +Y up unless --up.
+    view.eye = *r.eye;
+    view.target = *r.look_at;
+    view.up = {0.0, 1.0, 0.0};
+  }
+  if (r.up) view.up = *r.up;
+  if (r.vfov) {
+    view.vfov_degrees = *r.vfov;
+    view.orthographic = false;
+  }
+  if (r.ortho) {
+    view.orthographic = true;
+    view.half_height = *r.ortho;
+  }
+  return view;
+}
+
+// What a single view's run measured and wrote: the table's contents.
+struct SingleViewRun {
+  rayfold::GBuffer g;                      // the last frame's
+  std::vector<rayfold::StageTimes> times;  // each frame's
+  rayfold::StageTimes median;
+  std::vector<std::string> written;  // the image outputs, a sequence as its first .. last
+  double load_ms = 0.0, setup_ms = 0.0;
+  double write_ms = 0.0;  // the EXR and PNG writes (ZIP compression is most of it)
+  // --compare: the last frame's pose, unfolded, as many frames.
+  std::optional<rayfold::GBuffer> unfolded;
+  rayfold::StageTimes unfolded_times;
+};
+
+// The frames of a single view, each posed by pose_frame(f) and written
+// where -o or --png names a sequence, the last one always.
+void render_frames(const RenderArgs& r, const rayfold::Scene& scene, rayfold::Renderer& renderer,
+                   const rayfold::Camera& camera, bool sequence, double start_time,
+                   const std::function<void(int)>& pose_frame, Progress& progress, SingleViewRun& run) {
+  const unsigned channels = r.render_channels();
+  rayfold::GBuffer& g = run.g;
+  std::vector<std::string> said;  // every frame's warnings, each once (a mesh's missing attribute: the first frame's)
+  for (int f = 0; f < r.frames; ++f) {
+    pose_frame(f);
+    // Flow goes to the next frame's pose; the last frame has none to go to.
+    if (!(channels & rayfold::kFlowChannels))
+      renderer.render_into(g, camera, r.fold, channels);
+    else if (f + 1 < r.frames)
+      renderer.render_into(g, camera, r.fold, channels, rayfold::FlowTo{camera, start_time + (f + 1) / r.fps});
+    else
+      g = renderer.render_views({camera}, r.fold, 1, channels).front();
+    run.times.push_back(g.stages);
+    append_unsaid(said, g.warnings);
+    const bool last = f + 1 == r.frames;
+    if (sequence || last) {
+      if (last) progress.stage("writing");
+      const auto w0 = Clock::now();
+      // A frame field may name the folder too (out/%04d/z.exr).
+      for (const std::string* out : {&r.exr, &r.png})
+        if (!out->empty() && f > 0) make_output_folders(frame_name("output", *out, f, nullptr));
+      if (!r.exr.empty())
+        rayfold::write_exr(frame_name("output", r.exr, f, nullptr), g, camera, scene, r.exr_compression, r.channels);
+      if (!r.png.empty()) rayfold::write_png(frame_name("output", r.png, f, nullptr), g);
+      run.write_ms += ms_since(w0);
+    }
+    progress.update(static_cast<size_t>(f + 1));
+  }
+  for (const std::string* out : {&r.exr, &r.png})
+    if (!out->empty())
+      run.written.push_back(sequence ? frame_name("output", *out, 0, nullptr) + " .. " +
+                                           frame_name("output", *out, r.frames - 1, nullptr) + " (" +
+                                           std::to_string(r.frames) + " frames)"
+                                     : *out);
+  run.median = median_stages(run.times);
+  if (r.compare) {
+    std::vector<rayfold::StageTimes> none_times;
+    run.unfolded.emplace();
+    for (int f = 0; f < r.frames; ++f) {
+      renderer.render_into(*run.unfolded, camera, Fold::none, channels);
+      none_times.push_back(run.unfolded->stages);
+    }
+    run.unfolded_times = median_stages(none_times);
+  }
+  g.warnings = said;  // the run's, for --stats too
+}
+
+// The table `rayfold render` prints for a single view (not under -q).
+void print_table(const RenderArgs& r, const rayfold::Scene& scene, const rayfold::Renderer& renderer,
+                 const SingleViewRun& run, const rayfold::View& view, rayfold::ViewSource source, bool auto_framed) {
+  const rayfold::GBuffer& g = run.g;
+  const rayfold::StageTimes& m = run.median;
+  const rayfold::BuildStats built = renderer.build_stats();
+  const size_t pixels = static_cast<size_t>(r.width) * r.height;
+  std::printf("rayfold render  %s  %dx%d  fold %s\n", r.scene.c_str(), r.width, r.height, fold_name(r.fold));
+  std::printf("  %-12s %s\n", "device", renderer.device_name().c_str());
+  std::printf("  %-12s %s (%s)\n", "kernel", g.kernel.c_str(), g.kernel_reason.c_str());
+  std::printf("  %-12s %s instances, %s meshes, %s triangles (%s stored)\n", "scene",
+              with_commas(scene.instance_count()).c_str(), with_commas(scene.mesh_count()).c_str(),
+              with_commas(scene.triangle_count()).c_str(), with_commas(scene.stored_triangle_count()).c_str());
+  std::printf("  %-12s %9.2f ms   (SAH cost %.1f, depth %d)\n", "BLAS build", built.trees_ms, built.sah_cost,
+              built.depth);
+  std::printf("  %-12s %9.2f ms   (%zu instances traced, from %zu in the scene; SAH cost %.1f)\n", "TLAS build",
+              m.cull_ms + m.tlas_ms, g.top_level.traced_instances, g.top_level.scene_instances, g.top_level.sah_cost);
+  std::printf("  %-12s %9.2f ms   (median of %zu frames)\n", "trace", m.trace_ms, run.times.size());
+  std::printf("  %-12s %9.2f   (%zu rays for %zu pixels: %.2f Mpixels/s)\n", "Mrays/s", g.rays / (m.trace_ms * 1e3),
+              g.rays, pixels, pixels / (m.trace_ms * 1e3));
+  if (auto_framed) {
+    std::printf("  %-12s %s\n", "view",
+                source == rayfold::ViewSource::interior ? "chosen: an interior, seen from inside along its length"
+                                                        : "chosen: the whole scene from outside");
+    std::printf("  %-12s --eye %.17g,%.17g,%.17g --look-at %.17g,%.17g,%.17g --up %.17g,%.17g,%.17g %s %.17g\n",
+                "auto-framed", view.eye[0], view.eye[1], view.eye[2], view.target[0], view.target[1], view.target[2],
+                view.up[0], view.up[1], view.up[2], view.orthographic ? "--ortho" : "--vfov",
+                view.orthographic ? view.half_height : view.vfov_degrees);
+  }
+  if (run.unfolded) print_comparison(*run.unfolded, run.unfolded_times, g, m);
+  if (r.verbose) {
+    std::printf("  %-12s load %.2f ms, trees and kernels %.2f ms (BLAS %.2f ms, kernels %.2f ms), writing %.2f ms\n",
+                "stages", run.load_ms, run.setup_ms, built.trees_ms, built.kernels_ms, run.write_ms);
+    for (size_t f = 0; f < run.times.size(); ++f) {
+      const rayfold::StageTimes& t = run.times[f];
+      std::printf("  %-12s cull %.3f, TLAS %.3f, upload %.3f, ray list %.3f, trace %.3f, readback %.3f ms\n",
+                  ("frame " + std::to_string(f)).c_str(), t.cull_ms, t.tlas_ms, t.upload_ms, t.ray_list_ms,
+                  t.trace_ms, t.readback_ms);
+    }
+  }
+  for (const std::string& w : run.written) std::printf("  wrote %s\n", w.c_str());
+  if (!r.stats.empty()) std::printf("  wrote %s\n", r.stats.c_str());
+  if (!r.ids.empty()) std::printf("  wrote %s\n", r.ids.c_str());
+  if (r.exr.empty() && r.png.empty() && r.stats.empty() && r.ids.empty())
+    std::printf("  nothing written (-o F.exr, --png F.png or --stats F.json write the results)\n");
+}
+
+}  // namespace
+
+int run_render(cli::Args& args) {
+  RenderArgs r = parse_render(args);
+  const bool sequence = check_outputs(r);
 
   // The OpenCL drivers load while the scene is read: the whole process 0.91x
   // to 0.97x the time on the shared scenes (docs/results.md).
@@ -431,12 +588,13 @@ int run_render(cli::Args& args) {
   // Progress on a terminal only; the table and warnings come after it.
   Progress progress(!r.quiet);
   progress.stage("loading " + r.scene);
+  SingleViewRun run;
   auto t0 = Clock::now();
   r.load.threads = r.options.threads;
   rayfold::Scene scene = rayfold::Scene::load(r.scene, r.load);
   // Warnings are printed under -q too: it silences the table and progress.
   for (const std::string& w : scene.warnings()) std::fprintf(stderr, "warning: %s\n", w.c_str());
-  const double load_ms = ms_since(t0);
+  run.load_ms = ms_since(t0);
   // --animate plays the file's own animations when it has any (frame f at
   // --time + f / --fps); other files get the synthetic motion.
   const bool play = r.animate && scene.animated();
@@ -473,45 +631,17 @@ int run_render(cli::Args& args) {
   progress.stage("building the bottom-level trees and the kernels");
   t0 = Clock::now();
   rayfold::Renderer renderer(scene, r.options);
-  const double setup_ms = ms_since(t0);
+  run.setup_ms = ms_since(t0);
   announce_program_build(renderer, progress, r.quiet);
-  if (listed) return render_views(r, scene, renderer, views, progress, load_ms);
+  if (listed) return render_views(r, scene, renderer, views, progress, run.load_ms);
 
-  // Without a camera in the file or on the command line, the view is chosen
-  // from the scene's trees (Scene::default_view): an interior from inside.
-  // An animated file is framed at its start (time 0) whenever a time is
-  // asked for, so that --time T and frame k of --animate at the same time
-  // see the same camera.
-  const bool timed = !std::isnan(r.load.time) || r.animate;
-  rayfold::ViewSource source = rayfold::ViewSource::file_camera;
-  rayfold::View view;
-  if (!r.eye || scene.has_camera()) {  // the file's camera lends its field of view to --eye
-    if (!r.eye) progress.stage("choosing a view");
-    const bool reframe = !scene.has_camera() && timed && scene.animated();
-    if (reframe) scene.set_time(0.0);
-    view = scene.default_view(&source);
-    if (reframe) scene.set_time(start_time);
-  }
+  rayfold::ViewSource source;
+  const rayfold::View view = choose_view(r, scene, progress, start_time, &source);
   const bool auto_framed = !r.eye && source != rayfold::ViewSource::file_camera;
-  if (r.eye) {
-    // A camera given on the command line is given whole: +Y up unless --up.
-    view.eye = *r.eye;
-    view.target = *r.look_at;
-    view.up = {0.0, 1.0, 0.0};
-  }
-  if (r.up) view.up = *r.up;
-  if (r.vfov) {
-    view.vfov_degrees = *r.vfov;
-    view.orthographic = false;
-  }
-  if (r.ortho) {
-    view.orthographic = true;
-    view.half_height = *r.ortho;
-  }
   if (r.stereo) {
     views = cli::stereo_pair(view, *r.stereo, r.width, r.height);
     check_view_outputs(r, views);
-    return render_views(r, scene, renderer, views, progress, load_ms);
+    return render_views(r, scene, renderer, views, progress, run.load_ms);
   }
   const rayfold::Camera camera = rayfold::Camera::from_view(view, r.width, r.height, r.shift_x, r.shift_y);
 
@@ -527,56 +657,7 @@ int run_render(cli::Args& args) {
     if (motion) motion->pose(scene, f);
   };
   progress.stage("tracing", sequence || play ? static_cast<size_t>(r.frames) : 0);
-  const unsigned channels = r.render_channels();
-  rayfold::GBuffer g;
-  std::vector<rayfold::StageTimes> times;
-  std::vector<std::string> written;
-  double write_ms = 0.0;  // the EXR and PNG writes (ZIP compression is most of it)
-  std::vector<std::string> said;  // every frame's warnings, each once (a mesh's missing attribute: the first frame's)
-  for (int f = 0; f < r.frames; ++f) {
-    pose_frame(f);
-    // Flow goes to the next frame's pose; the last frame has none to go to.
-    if (!(channels & rayfold::kFlowChannels))
-      renderer.render_into(g, camera, r.fold, channels);
-    else if (f + 1 < r.frames)
-      renderer.render_into(g, camera, r.fold, channels, rayfold::FlowTo{camera, start_time + (f + 1) / r.fps});
-    else
-      g = renderer.render_views({camera}, r.fold, 1, channels).front();
-    times.push_back(g.stages);
-    append_unsaid(said, g.warnings);
-    const bool last = f + 1 == r.frames;
-    if (sequence || last) {
-      if (last) progress.stage("writing");
-      const auto w0 = Clock::now();
-      // A frame field may name the folder too (out/%04d/z.exr).
-      for (const std::string* out : {&r.exr, &r.png})
-        if (!out->empty() && f > 0) make_output_folders(frame_name("output", *out, f, nullptr));
-      if (!r.exr.empty())
-        rayfold::write_exr(frame_name("output", r.exr, f, nullptr), g, camera, scene, r.exr_compression, r.channels);
-      if (!r.png.empty()) rayfold::write_png(frame_name("output", r.png, f, nullptr), g);
-      write_ms += ms_since(w0);
-    }
-    progress.update(static_cast<size_t>(f + 1));
-  }
-  for (const std::string* out : {&r.exr, &r.png})
-    if (!out->empty())
-      written.push_back(sequence ? frame_name("output", *out, 0, nullptr) + " .. " +
-                                       frame_name("output", *out, r.frames - 1, nullptr) + " (" +
-                                       std::to_string(r.frames) + " frames)"
-                                 : *out);
-  const rayfold::StageTimes m = median_stages(times);
-  // --compare: the last frame's pose, unfolded, as many frames.
-  std::optional<rayfold::GBuffer> unfolded;
-  rayfold::StageTimes unfolded_times;
-  if (r.compare) {
-    std::vector<rayfold::StageTimes> none_times;
-    unfolded.emplace();
-    for (int f = 0; f < r.frames; ++f) {
-      renderer.render_into(*unfolded, camera, Fold::none, channels);
-      none_times.push_back(unfolded->stages);
-    }
-    unfolded_times = median_stages(none_times);
-  }
+  render_frames(r, scene, renderer, camera, sequence, start_time, pose_frame, progress, run);
   const rayfold::BuildStats built = renderer.build_stats();
   if (play && !r.quiet)
     std::fprintf(stderr, "playing the file's animation: %d frame%s from %g s at %g fps (it ends at %g s)%s\n", r.frames,
@@ -586,54 +667,13 @@ int run_render(cli::Args& args) {
                                         .c_str()
                                   : "");
   progress.clear();
-  g.warnings = said;  // the run's, for --stats too
-  for (const std::string& w : said) print_render_warning(w);
+  for (const std::string& w : run.g.warnings) print_render_warning(w);
 
-  if (!r.stats.empty()) write_stats(r.stats, r, scene, camera, renderer, g, m, times.size(), load_ms);
+  if (!r.stats.empty())
+    write_stats(r.stats, r, scene, camera, renderer, run.g, run.median, run.times.size(), run.load_ms);
   if (!r.ids.empty()) write_ids(r.ids, r, scene);
-
-  if (!r.quiet) {
-    const size_t pixels = static_cast<size_t>(r.width) * r.height;
-    std::printf("rayfold render  %s  %dx%d  fold %s\n", r.scene.c_str(), r.width, r.height, fold_name(r.fold));
-    std::printf("  %-12s %s\n", "device", renderer.device_name().c_str());
-    std::printf("  %-12s %s (%s)\n", "kernel", g.kernel.c_str(), g.kernel_reason.c_str());
-    std::printf("  %-12s %s instances, %s meshes, %s triangles (%s stored)\n", "scene",
-                with_commas(scene.instance_count()).c_str(), with_commas(scene.mesh_count()).c_str(),
-                with_commas(scene.triangle_count()).c_str(), with_commas(scene.stored_triangle_count()).c_str());
-    std::printf("  %-12s %9.2f ms   (SAH cost %.1f, depth %d)\n", "BLAS build", built.trees_ms, built.sah_cost,
-                built.depth);
-    std::printf("  %-12s %9.2f ms   (%zu instances traced, from %zu in the scene; SAH cost %.1f)\n", "TLAS build",
-                m.cull_ms + m.tlas_ms, g.top_level.traced_instances, g.top_level.scene_instances, g.top_level.sah_cost);
-    std::printf("  %-12s %9.2f ms   (median of %zu frames)\n", "trace", m.trace_ms, times.size());
-    std::printf("  %-12s %9.2f   (%zu rays for %zu pixels: %.2f Mpixels/s)\n", "Mrays/s", g.rays / (m.trace_ms * 1e3),
-                g.rays, pixels, pixels / (m.trace_ms * 1e3));
-    if (auto_framed) {
-      std::printf("  %-12s %s\n", "view",
-                  source == rayfold::ViewSource::interior ? "chosen: an interior, seen from inside along its length"
-                                                          : "chosen: the whole scene from outside");
-      std::printf("  %-12s --eye %.17g,%.17g,%.17g --look-at %.17g,%.17g,%.17g --up %.17g,%.17g,%.17g %s %.17g\n",
-                  "auto-framed", view.eye[0], view.eye[1], view.eye[2], view.target[0], view.target[1], view.target[2],
-                  view.up[0], view.up[1], view.up[2], view.orthographic ? "--ortho" : "--vfov",
-                  view.orthographic ? view.half_height : view.vfov_degrees);
-    }
-    if (unfolded) print_comparison(*unfolded, unfolded_times, g, m);
-    if (r.verbose) {
-      std::printf("  %-12s load %.2f ms, trees and kernels %.2f ms (BLAS %.2f ms, kernels %.2f ms), writing %.2f ms\n",
-                  "stages", load_ms, setup_ms, built.trees_ms, built.kernels_ms, write_ms);
-      for (size_t f = 0; f < times.size(); ++f) {
-        const rayfold::StageTimes& t = times[f];
-        std::printf("  %-12s cull %.3f, TLAS %.3f, upload %.3f, ray list %.3f, trace %.3f, readback %.3f ms\n",
-                    ("frame " + std::to_string(f)).c_str(), t.cull_ms, t.tlas_ms, t.upload_ms, t.ray_list_ms,
-                    t.trace_ms, t.readback_ms);
-      }
-    }
-    for (const std::string& w : written) std::printf("  wrote %s\n", w.c_str());
-    if (!r.stats.empty()) std::printf("  wrote %s\n", r.stats.c_str());
-    if (!r.ids.empty()) std::printf("  wrote %s\n", r.ids.c_str());
-    if (r.exr.empty() && r.png.empty() && r.stats.empty() && r.ids.empty())
-      std::printf("  nothing written (-o F.exr, --png F.png or --stats F.json write the results)\n");
-  }
-  if (unfolded && rayfold::count_differing_pixels(*unfolded, g) != 0) {
+  if (!r.quiet) print_table(r, scene, renderer, run, view, source, auto_framed);
+  if (run.unfolded && rayfold::count_differing_pixels(*run.unfolded, run.g) != 0) {
     std::fprintf(stderr, "error: the folded render differs from the unfolded one\n");
     return 3;
   }
