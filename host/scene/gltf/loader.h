@@ -1,8 +1,9 @@
 // The glTF loader's one class, whose stages live in the files beside it:
 // document.cpp (the file and its checks), accessors.cpp (typed reads),
-// scene.cpp (one pose of the whole scene), nodes.cpp (the hierarchy and
-// instancing), meshes.cpp, cameras.cpp and animation.cpp (poses, morph
-// targets, skins). host/scene/gltf_loader.h is the interface; this header
+// pose.cpp (one pose of the whole scene), nodes.cpp (the hierarchy and
+// instancing), meshes.cpp, attributes.cpp (what the channels read beside
+// positions), materials.cpp, alpha_masks.cpp, cameras.cpp and animation.cpp
+// (poses, morph targets, skins). host/scene/gltf_loader.h is the interface; this header
 // is internal to the loader.
 #pragma once
 
