@@ -15,6 +15,7 @@
 #include <glm/mat4x4.hpp>
 
 #include "api/scene_state.h"
+#include "resolve/resolve.h"
 #include "gltf_fixture.h"
 #include "rayfold/rayfold.h"
 #include "test_util.h"
@@ -243,6 +244,98 @@ TEST(Resolve, ChannelNamesAndTheExrRoundTrip) {
   EXPECT_EQ(o.depth_kind, rayfold::Depth::planar);
   ASSERT_TRUE(o.camera.has_value() && o.camera->is_orthographic());
   same_rays(*o.camera, ortho);
+}
+
+// The shading normal's loop runs in vector lanes (4 doubles where the
+// machine has AVX2): each pixel must still get the bits of the documented
+// rule worked out alone, the corners' normals through the inverse
+// transpose, interpolated b0 * n0 + u * n1 + v * n2, divided by the length;
+// the geometric normal where the sum has none. Pixels in runs of every
+// length up to 9 (lanes and the loop's remainder), on two triangles.
+TEST(Resolve, ShadingNormalsInVectorLanesGiveALonePixelsBits) {
+  using namespace rayfold::core;
+  Scene scene;
+  scene.meshes.resize(2);
+  Mesh& mesh = scene.meshes[0];
+  mesh.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {1, 1, 0.5f}};
+  mesh.indices = {0, 1, 2, 1, 3, 2};
+  // Vertex 1's normal is vertex 0's turned around: halfway between them on
+  // the first triangle's edge the sum is zero, and the geometric normal stands in.
+  mesh.attributes.normals = {glm::normalize(glm::vec3(0.3f, -0.2f, 1)), -glm::normalize(glm::vec3(0.3f, -0.2f, 1)),
+                             glm::normalize(glm::vec3(-0.1f, 0.4f, 1)), glm::normalize(glm::vec3(0.2f, 0.2f, 0.9f))};
+  mesh.attributes.loaded = mesh.attributes.present = kAttributeNormal;
+  // A second mesh without normals (flat: the geometric normal) and misses (0)
+  // between the runs, as a chunk of a frame holds them.
+  Mesh& flat = scene.meshes[1];
+  flat.positions = {{0, 0, 1}, {1, 0, 1}, {0, 1, 1}};
+  flat.indices = {0, 1, 2};
+  scene.instances.resize(2);
+  scene.instances[1].mesh = 1;
+  Instance& inst = scene.instances[0];
+  inst.world_from_object = glm::translate(glm::dmat4(1.0), glm::dvec3(0.5, -2, 3)) *
+                           glm::rotate(glm::dmat4(1.0), 0.7, glm::dvec3(0.3, 1, 0.2)) *
+                           glm::scale(glm::dmat4(1.0), glm::dvec3(1.7, -0.6, 2.3));
+  std::vector<uint32_t> instance, primitive;
+  std::vector<float> bary, geometric;
+  rayfold::core::testing::Rng rng(49);
+  for (uint32_t run = 0; run < 60; ++run) {
+    const uint32_t length = 1 + run % 9, tri = run % 2;
+    const uint32_t id = run % 5 == 3 ? RF_INVALID : run % 7 == 2 ? 1u : 0u;  // a miss, the flat mesh, the first
+    for (uint32_t k = 0; k < length; ++k) {
+      float u = rng.uniformf(0.0f, 1.0f), v = rng.uniformf(0.0f, 1.0f);
+      if (u + v > 1.0f) u = 1.0f - u, v = 1.0f - v;
+      if (tri == 0 && k == 0) u = 0.5f, v = 0.0f;  // the zero sum
+      instance.push_back(id);
+      primitive.push_back(id == 1 ? 0 : tri);
+      bary.insert(bary.end(), {u, v});
+      if (id == RF_INVALID)
+        geometric.insert(geometric.end(), {0.0f, 0.0f, 0.0f});
+      else
+        geometric.insert(geometric.end(), {0.25f * tri, 0.5f, -0.75f});
+    }
+  }
+  const size_t pixels = instance.size();
+  HitPlanes in;
+  in.pixels = pixels;
+  in.instance = instance.data();
+  in.primitive = primitive.data();
+  in.barycentrics = bary.data();
+  in.normal = geometric.data();
+  std::vector<float> got(3 * pixels, -1.0f);
+  ResolvedPlanes out;
+  out.shading_normal = got.data();
+  resolve(scene, in, RayCone{}, out, 2);
+
+  const glm::dmat3 normal_from_object = glm::transpose(glm::inverse(glm::dmat3(inst.world_from_object)));
+  size_t stand_ins = 0, flats = 0, misses = 0;
+  for (size_t p = 0; p < pixels; ++p) {
+    if (instance[p] != 0) {
+      const float want[3] = {instance[p] == 1 ? geometric[3 * p] : 0.0f, instance[p] == 1 ? geometric[3 * p + 1] : 0.0f,
+                             instance[p] == 1 ? geometric[3 * p + 2] : 0.0f};
+      ASSERT_EQ(std::memcmp(want, &got[3 * p], sizeof want), 0)
+          << "pixel " << p << (instance[p] == 1 ? " (flat)" : " (a miss)") << ": got (" << got[3 * p] << ", "
+          << got[3 * p + 1] << ", " << got[3 * p + 2] << ")";
+      (instance[p] == 1 ? flats : misses)++;
+      continue;
+    }
+    glm::dvec3 n[3];
+    for (int k = 0; k < 3; ++k)
+      n[k] = normal_from_object * glm::dvec3(mesh.attributes.normals[mesh.indices[3 * primitive[p] + k]]);
+    const double u = bary[2 * p], v = bary[2 * p + 1], b0 = (1.0 - u) - v;
+    const glm::dvec3 s = b0 * n[0] + u * n[1] + v * n[2];
+    const double length = std::sqrt(s.x * s.x + s.y * s.y + s.z * s.z);
+    float want[3];
+    for (int c = 0; c < 3; ++c)
+      want[c] = length > 0.0 && std::isfinite(length) ? static_cast<float>(s[c] / length) : geometric[3 * p + c];
+    stand_ins += !(length > 0.0);
+    ASSERT_EQ(std::memcmp(want, &got[3 * p], sizeof want), 0)
+        << "pixel " << p << " (triangle " << primitive[p] << ", u " << u << ", v " << v << "): got (" << got[3 * p]
+        << ", " << got[3 * p + 1] << ", " << got[3 * p + 2] << "), want (" << want[0] << ", " << want[1] << ", "
+        << want[2] << ")";
+  }
+  EXPECT_GT(stand_ins, 0u) << "no pixel had a zero sum: the stand-in went untested";
+  EXPECT_GT(flats, 0u);
+  EXPECT_GT(misses, 0u);
 }
 
 }  // namespace
