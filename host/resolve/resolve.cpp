@@ -443,6 +443,7 @@ void resolve(const Scene& scene, const HitPlanes& in, const RayCone& cone, const
     // The chunk's runs of misses (0) and of flat triangles (the geometric
     // normal): their sums are 0, and normalize_sums's values there are replaced.
     thread_local std::vector<std::pair<size_t, size_t>> misses, flats;
+    RF_CHECK_LE(end - begin, kChunk, "parallel_for handed out a chunk larger than asked for");
     if (deferred) chunk_sums.resize(3 * kChunk);
     misses.clear();
     flats.clear();
