@@ -16,9 +16,9 @@
 #include <glm/mat4x4.hpp>
 
 #include "api/scene_state.h"
-#include "resolve/resolve.h"
 #include "gltf_fixture.h"
 #include "rayfold/rayfold.h"
+#include "resolve/resolve.h"
 #include "test_util.h"
 
 namespace {

@@ -294,7 +294,6 @@ void read_scene(Reader& r, SceneFile& f) {
   f.source = r.get_string();
   f.warnings.resize(r.count(8));
   for (std::string& n : f.warnings) n = r.get_string();
-
 }
 
 // The trees and the tables the kernels read.
@@ -472,8 +471,7 @@ void check_trees(const Reader& r, const Scene& s, const SceneData& d) {
 
 }  // namespace
 
-SceneFile read_scene_file(const char* bytes, size_t size, const std::string& what,
-                          const std::string& rayfold_version) {
+SceneFile read_scene_file(const char* bytes, size_t size, const std::string& what, const std::string& rayfold_version) {
   const auto [payload, length] = check_header(bytes, size, what);
   Reader r(payload, length, what);
   const std::string version = r.get_string();

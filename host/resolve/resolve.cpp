@@ -331,7 +331,7 @@ struct Resolver {
         for (size_t p = a; p < b; ++p)
           store<2>(out.texcoord[set], p,
                    interpolate(c.texcoord[set][0], c.texcoord[set][1], c.texcoord[set][2], b0(p), u(p), v(p)));
-    if (sums) {  // the shading normal's sums; normalize_sums divides them
+    if (sums) {    // the shading normal's sums; normalize_sums divides them
       if (c.flat)  // no length: the geometric normal, floats to floats
         std::fill(sums + 3 * (a - first), sums + 3 * (b - first), 0.0);
       else

@@ -564,8 +564,8 @@ void print_table(const RenderArgs& r, const rayfold::Scene& scene, const rayfold
     for (size_t f = 0; f < run.times.size(); ++f) {
       const rayfold::StageTimes& t = run.times[f];
       std::printf("  %-12s cull %.3f, TLAS %.3f, upload %.3f, ray list %.3f, trace %.3f, readback %.3f ms\n",
-                  ("frame " + std::to_string(f)).c_str(), t.cull_ms, t.tlas_ms, t.upload_ms, t.ray_list_ms,
-                  t.trace_ms, t.readback_ms);
+                  ("frame " + std::to_string(f)).c_str(), t.cull_ms, t.tlas_ms, t.upload_ms, t.ray_list_ms, t.trace_ms,
+                  t.readback_ms);
     }
   }
   for (const std::string& w : run.written) std::printf("  wrote %s\n", w.c_str());
