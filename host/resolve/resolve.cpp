@@ -332,7 +332,7 @@ struct Resolver {
           store<2>(out.texcoord[set], p,
                    interpolate(c.texcoord[set][0], c.texcoord[set][1], c.texcoord[set][2], b0(p), u(p), v(p)));
     if (sums) {    // the shading normal's sums; normalize_sums divides them
-      if (c.flat)  // no length: the geometric normal, floats to floats
+      if (c.flat)  // no sum: the caller copies the geometric normal there
         std::fill(sums + 3 * (a - first), sums + 3 * (b - first), 0.0);
       else
         for (size_t p = a; p < b; ++p) {
@@ -440,12 +440,13 @@ void resolve(const Scene& scene, const HitPlanes& in, const RayCone& cone, const
   constexpr size_t kChunk = size_t{1} << 13;
   parallel_for(in.pixels, threads, kChunk, [&](size_t begin, size_t end) {
     thread_local std::vector<double> chunk_sums;
-    // The chunk's runs of misses (0) and of flat triangles (the geometric
-    // normal): their sums are 0, and normalize_sums's values there are replaced.
-    thread_local std::vector<std::pair<size_t, size_t>> misses, flats;
+    // The chunk's runs of flat triangles (the geometric normal), and how
+    // many pixels missed: their sums are 0, which normalize_sums turns into
+    // 0 (a miss's value, as clear wrote it) and the flat runs are copied over.
+    thread_local std::vector<std::pair<size_t, size_t>> flats;
+    size_t missed = 0;
     RF_CHECK_LE(end - begin, kChunk, "parallel_for handed out a chunk larger than asked for");
     if (deferred) chunk_sums.resize(3 * kChunk);
-    misses.clear();
     flats.clear();
     double* const sums = deferred ? chunk_sums.data() : nullptr;  // pixel p's at 3 * (p - begin)
     Corners c;
@@ -460,7 +461,7 @@ void resolve(const Scene& scene, const HitPlanes& in, const RayCone& cone, const
         r.clear(a, b);
         if (sums) {
           std::fill(sums + 3 * (a - begin), sums + 3 * (b - begin), 0.0);
-          misses.emplace_back(a, b);
+          missed += b - a;
         }
         continue;
       }
@@ -486,20 +487,18 @@ void resolve(const Scene& scene, const HitPlanes& in, const RayCone& cone, const
       if (sums && c.flat) flats.emplace_back(a, b);
     }
     if (sums) {
-      size_t known = 0;  // the pixels of misses and flat triangles
-      for (const auto& [a, b] : misses) known += b - a;
+      size_t known = missed;  // the pixels of misses and flat triangles
       for (const auto& [a, b] : flats) known += b - a;
       // A chunk of misses and flat triangles alone (a mesh without normals) has nothing to divide.
       if (known < end - begin && normalize_sums(sums, out.shading_normal + 3 * begin, end - begin) > known)
         for (size_t p = begin; p < end; ++p) {  // an interpolated sum without length: rare, looked for alone
           const double* at = sums + 3 * (p - begin);
           const double length = std::sqrt(at[0] * at[0] + at[1] * at[1] + at[2] * at[2]);
-          if (!(length > 0.0 && std::isfinite(length)))
+          if (!(length > 0.0 && std::isfinite(length)) && in.instance[p] != RF_INVALID)
             std::copy(in.normal + 3 * p, in.normal + 3 * p + 3, out.shading_normal + 3 * p);
         }
       for (const auto& [a, b] : flats)  // the geometric normal, floats to floats
         std::copy(in.normal + 3 * a, in.normal + 3 * b, out.shading_normal + 3 * a);
-      for (const auto& [a, b] : misses) std::fill(out.shading_normal + 3 * a, out.shading_normal + 3 * b, 0.0f);
     }
   });
 }
