@@ -8,6 +8,7 @@
 #include <glm/common.hpp>
 
 #include "scene/gltf_loader.h"
+#include "test_util.h"
 #include "util/errors.h"
 
 namespace rayfold::core::testing {
@@ -15,11 +16,7 @@ namespace rayfold::core::testing {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-fs::path temp_dir() {
-  const fs::path d = fs::temp_directory_path() / ("rayfold_gltf_" + std::to_string(::getpid()));
-  fs::create_directories(d);
-  return d;
-}
+fs::path temp_dir() { return scratch_dir("rayfold_gltf"); }
 
 int GltfFile::view(const void* data, size_t bytes, size_t stride) {
   while (bin.size() % 4) bin.push_back(0);

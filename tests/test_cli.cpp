@@ -35,8 +35,7 @@ struct CliRun {
 };
 
 CliRun rayfold(const std::string& args) {
-  const fs::path dir = fs::temp_directory_path() / ("rayfold_cli_" + std::to_string(::getpid()));
-  fs::create_directories(dir);
+  const fs::path dir = testing::scratch_dir("rayfold_cli");
   const std::string out = (dir / "stdout").string(), err = (dir / "stderr").string();
   const std::string cmd = std::string(RAYFOLD_BIN) + " " + args + " >" + out + " 2>" + err;
   const int status = std::system(cmd.c_str());
@@ -48,11 +47,7 @@ CliRun rayfold(const std::string& args) {
   return r;
 }
 
-fs::path work_dir() {
-  const fs::path d = fs::temp_directory_path() / ("rayfold_cli_work_" + std::to_string(::getpid()));
-  fs::create_directories(d);
-  return d;
-}
+fs::path work_dir() { return testing::scratch_dir("rayfold_cli_work"); }
 
 TEST(Cli, KernelChoiceIsReportedAndBothKernelsWriteTheSameFile) {
   const fs::path d = work_dir();
@@ -571,8 +566,7 @@ TEST(Cli, UnnamedNodesAreNamedByTheirIndexEverywhere) {
 // were printed), and once in --stats (the scene's list and the render's
 // hold it both).
 TEST(Cli, EveryFramesWarningsAreSaidOnce) {
-  const fs::path d = fs::temp_directory_path() / ("rayfold_cli_warn_" + std::to_string(::getpid()));
-  fs::create_directories(d);
+  const fs::path d = testing::scratch_dir("rayfold_cli_warn");
   const std::string path = (d / "gbuffer.glb").string();
   write_gbuffer_scene(path);
   for (int frames : {1, 3}) {

@@ -18,6 +18,7 @@
 #include "rayfold/camera.h"
 #include "rayfold/errors.h"
 #include "scene/dataset_cameras.h"
+#include "test_util.h"
 #include "util/errors.h"
 
 namespace rayfold::core {
@@ -26,8 +27,8 @@ namespace {
 namespace fs = std::filesystem;
 
 fs::path work_dir() {
-  const fs::path d = fs::path(testing::TempDir()) /
-                     ("dataset_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
+  const fs::path d = testing::scratch_dir("rayfold_dataset") /
+                     ::testing::UnitTest::GetInstance()->current_test_info()->name();
   fs::create_directories(d);
   return d;
 }

@@ -23,6 +23,7 @@
 
 #include "util/atomic_file.h"
 #include "output/image_output.h"
+#include "test_util.h"
 
 extern char** environ;
 
@@ -42,7 +43,7 @@ std::string read_text(const fs::path& p) {
 }
 
 fs::path fresh_dir(const std::string& name) {
-  const fs::path d = fs::temp_directory_path() / ("rayfold_faults_" + std::to_string(::getpid())) / name;
+  const fs::path d = testing::scratch_dir("rayfold_faults") / name;
   fs::remove_all(d);
   fs::create_directories(d);
   return d;
@@ -77,8 +78,7 @@ const std::string kRender = std::string(RAYFOLD_BIN) + " render -q";
 // (a container without either), and the tmpfs cases skip.
 const std::string& private_mount() {
   static const std::string how = [] {
-    const fs::path probe = fs::temp_directory_path() / ("rayfold_faults_probe_" + std::to_string(::getpid()));
-    fs::create_directories(probe);
+    const fs::path probe = testing::scratch_dir("rayfold_faults_probe");
     std::string found;
     for (const char* u : {"unshare -rm", "unshare -m"}) {
       const std::string cmd =

@@ -1,11 +1,15 @@
 #include "test_util.h"
 
+#include <algorithm>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <map>
+#include <mutex>
 #include <sstream>
 #include <tuple>
+
+#include <unistd.h>
 
 #include <glm/geometric.hpp>
 #include <glm/gtc/matrix_transform.hpp>
@@ -387,5 +391,32 @@ std::unique_ptr<Pipeline> cpu_pipeline(const Scene& scene) {
 }
 
 bool same_bits(const glm::dvec3& a, const glm::dvec3& b) { return std::memcmp(&a, &b, sizeof a) == 0; }
+
+namespace {
+
+// The scratch directories this process made, removed as it exits.
+struct ScratchDirs {
+  std::mutex lock;
+  pid_t owner = ::getpid();
+  std::vector<std::filesystem::path> dirs;
+  ~ScratchDirs() {
+    if (::getpid() != owner) return;
+    for (const std::filesystem::path& d : dirs) {
+      std::error_code ignored;  // a test that failed may have left it unreadable; nothing to report at exit
+      std::filesystem::remove_all(d, ignored);
+    }
+  }
+};
+
+}  // namespace
+
+std::filesystem::path scratch_dir(const std::string& name) {
+  static ScratchDirs made;
+  const std::filesystem::path d = std::filesystem::temp_directory_path() / (name + "_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(d);
+  const std::lock_guard<std::mutex> hold(made.lock);
+  if (std::find(made.dirs.begin(), made.dirs.end(), d) == made.dirs.end()) made.dirs.push_back(d);
+  return d;
+}
 
 }  // namespace rayfold::core::testing

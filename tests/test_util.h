@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <filesystem>
 #include <functional>
 #include <memory>
 #include <string>
@@ -101,6 +102,12 @@ struct ThreeWays {
 
 // The process-wide OpenCL device (PoCL on CI machines).
 ClDevice& test_device();
+
+// <temp>/<name>_<pid>, created; removed with what it holds when the process
+// that made it exits normally (every ctest entry is a process of its own),
+// so that runs of the suite leave nothing in /tmp. A forked child's exit
+// leaves it to its parent.
+std::filesystem::path scratch_dir(const std::string& name);
 
 // ../shared/scenes beside the repository, or $RAYFOLD_SCENES_DIR; "" when
 // absent.
