@@ -17,6 +17,7 @@
 
 #include "rayfold/camera.h"
 #include "rayfold/errors.h"
+#include "scene/camera_list.h"
 #include "scene/dataset_cameras.h"
 #include "test_util.h"
 #include "util/errors.h"
@@ -125,6 +126,44 @@ TEST(DatasetCameras, NerfRefusesDistortionFisheyeAndUnknownKeysByName) {
       EXPECT_EQ(e.file(), path);
     }
   }
+}
+
+// A new user's slips, once read without a word: a misspelt key of the list
+// (OpenGL poses at 60 degrees), a camera with both kinds of pose
+// (camera_to_world won), and broken JSON said to be "not a JSON object".
+TEST(DatasetCameras, CameraListsRefuseWhatTheyWouldNotReadSayingWhere) {
+  const fs::path d = work_dir();
+  const std::string camera = R"({"eye": [0, 0, 5], "look_at": [0, 0, 0]})";
+  const std::string matrix = R"("camera_to_world": [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 5, 0, 0, 0, 1])";
+  const struct {
+    std::string text, message;
+  } cases[] = {
+      {R"({"width": 64, "height": 48, "conventon": "opencv", "cameras": [)" + camera + "]}", "unknown key \"conventon\""},
+      {R"({"width": 64, "height": 48, "vFov": 20, "cameras": [)" + camera + "]}", "unknown key \"vFov\""},
+      {R"({"width": 64, "height": 48, "fl_x": 300, "cameras": [)" + camera + "]}", "unknown key \"fl_x\""},
+      {R"({"width": 64, "height": 48, "cameras": [{"eye": [5, 5, 5], "look_at": [0, 0, 0], )" + matrix + "}]}",
+       "cameras[0] gives both camera_to_world and \"eye\""},
+      {R"({"width": 64, "height": 48, "cameras": [{"up": [0, 0, 1], )" + matrix + "}]}",
+       "cameras[0] gives both camera_to_world and \"up\""},
+      {R"({"width": 64, "height": 48, "cameras": [)" + camera + ",]}",
+       "is not valid JSON: parse error at line 1, column "},
+      {"[" + camera + "]", "holds JSON array, not the object {...} of a camera list"},
+  };
+  for (const auto& c : cases) {
+    const std::string path = write(d / "list.json", c.text);
+    try {
+      read_camera_list(path);
+      ADD_FAILURE() << "accepted: " << c.text;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(c.message), std::string::npos) << e.what();
+      EXPECT_EQ(e.file(), path);
+    }
+  }
+  // Each pose alone still reads.
+  EXPECT_EQ(read_camera_list(write(d / "ok.json", R"({"width": 64, "height": 48, "cameras": [)" + camera + ", {" +
+                                                      matrix + "}]}"))
+                .size(),
+            2u);
 }
 
 TEST(DatasetCameras, ColmapImagesSeeWhatTheirPosesSay) {

@@ -74,6 +74,15 @@ std::optional<Intrinsics> read_intrinsics(const json& j, const std::string& wher
 }  // namespace
 
 std::vector<Camera> read_camera_list_json(const json& j, const std::string& path, SkippedViews* skipped) {
+  // Nothing the list says is dropped: a misspelt "convention" or "vfov"
+  // rendered OpenGL poses at 60 degrees without a word.
+  for (const auto& item : j.items()) {
+    static const char* const kKeys[] = {"width", "height", "vfov", "convention", "cameras", "fx", "fy", "cx", "cy", "K"};
+    if (std::find(std::begin(kKeys), std::end(kKeys), item.key()) == std::end(kKeys))
+      throw InputError(path, "unknown key \"" + item.key() +
+                                 "\" (a camera list has width, height, cameras, convention, and vfov or fx, fy, cx, "
+                                 "cy or K)");
+  }
   const int width = side(j, "width", path), height = side(j, "height", path);
   const double vfov = j.contains("vfov") ? number(j["vfov"], "vfov", path) : 60.0;
   const std::optional<Intrinsics> list_k = read_intrinsics(j, "", path);
@@ -98,6 +107,11 @@ std::vector<Camera> read_camera_list_json(const json& j, const std::string& path
                                    "\" (a camera has eye, look_at, up, camera_to_world, and vfov or fx, fy, cx, cy "
                                    "or K)");
     }
+    // One pose: camera_to_world beside eye, look_at or up won over them silently.
+    for (const char* key : {"eye", "look_at", "up"})
+      if (c.contains("camera_to_world") && c.contains(key))
+        throw InputError(path, where + " gives both camera_to_world and \"" + key +
+                                   "\": name the pose one way (eye, look_at and up, or camera_to_world)");
     const std::optional<Intrinsics> own_k = read_intrinsics(c, where, path);
     if (own_k && c.contains("vfov")) throw InputError(path, where + " gives both vfov and intrinsics: name one");
     // A camera's own field of view or intrinsics, else the list's.

@@ -10,8 +10,19 @@ namespace rayfold::core {
 nlohmann::json read_json_object(const std::string& path, const char* what) {
   std::ifstream f(path);
   if (!f) throw InputError(path, std::string("cannot open the ") + what);
-  nlohmann::json j = nlohmann::json::parse(f, nullptr, false);
-  if (j.is_discarded() || !j.is_object()) throw InputError(path, "is not a JSON object");
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(f);
+  } catch (const nlohmann::json::parse_error& e) {
+    // The parser's own words say where: "parse error at line 3, column 5:
+    // syntax error while parsing object - unexpected '}'; ...", after an id.
+    std::string why = e.what();
+    const size_t id_end = why.find("] ");
+    if (why.rfind("[json.exception.", 0) == 0 && id_end != std::string::npos) why.erase(0, id_end + 2);
+    throw InputError(path, "is not valid JSON: " + why);
+  }
+  if (!j.is_object())
+    throw InputError(path, std::string("holds JSON ") + j.type_name() + ", not the object {...} of a " + what);
   return j;
 }
 
