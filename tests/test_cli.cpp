@@ -574,7 +574,7 @@ TEST(Cli, EveryFramesWarningsAreSaidOnce) {
     const CliRun r = rayfold("render " + path + " --size 32x24 --channels TexCoord --animate --frames " +
                              std::to_string(frames) + " -o " + (d / "t_%d.exr").string() + " --stats " + stats);
     ASSERT_EQ(r.code, 0) << r.err;
-    const std::string said = "mesh 1 ('box') has no TEXCOORD_0";
+    const std::string said = "2 meshes (mesh 1 ('box'), mesh 2 ('strip')) have no TEXCOORD_0";
     const size_t first = r.err.find(said);
     EXPECT_NE(first, std::string::npos) << frames << " frames: " << r.err;
     EXPECT_EQ(r.err.find(said, first + 1), std::string::npos) << frames << " frames: said twice: " << r.err;
