@@ -1150,6 +1150,12 @@ void bind_functions(nb::module_& m) {
         "Each view's file under pattern's one %s (None for a view named None); InputError for another field, a "
         "name that leaves no file name or two views that would write one file.");
   m.def(
+      "_channels_read_attributes",
+      [](nb::handle channels) { return rayfold::detail::attributes_for(parse_channels(channels)) != 0; },
+      "channels"_a.none(),
+      "Whether these channels (as render takes them) read the glTF's attributes, materials or labels, which a "
+      "scene file does not keep; InputError for an unknown channel.");
+  m.def(
       "_check_exr_compression", [](const std::string& name) { rayfold::exr_compression(name); }, "name"_a,
       "InputError unless name is an EXR compression GBuffer.write_exr takes.");
 }

@@ -328,6 +328,12 @@ def test_bad_input_fails_first_naming_what_is_wrong(atrium_path, tmp_path):
          "expected N, all or auto, not 'many'"),
         ([atrium_path, "--cameras", tmp_path / "c.json", "-o", tmp_path / "v_%d.exr", "--fold", "z"],
          "invalid choice"),
+        # Once found by each view in its worker after Ray had started: exit 1 and the message once a view.
+        ([atrium_path, "--cameras", tmp_path / "c.json", "-o", tmp_path / "typo" / "v_%d.exr", "--channels",
+          "depth,texcord"], "unknown channel 'texcord'"),
+        # Trees carry positions only: the shading normal would have been the geometric one.
+        ([atrium_path, "--cameras", tmp_path / "c.json", "-o", tmp_path / "trees" / "v_%d.exr", "--channels",
+          "depth,shading_normal", "--send", "trees"], "which a scene sent as trees does not carry"),
     ]
     for args, what in cases:
         r = subprocess.run([sys.executable, "-m", "rayfold.batch", *map(str, args)], capture_output=True, text=True,
@@ -338,6 +344,38 @@ def test_bad_input_fails_first_naming_what_is_wrong(atrium_path, tmp_path):
     r = batch_cli(atrium_path, "--cameras", tmp_path / "c.json", "-o", tmp_path / "v_%d.exr")
     assert r.returncode == 2 and "cameras[0]: unknown key \"fov\"" in r.stderr, r.stderr
     assert os.listdir(tmp_path) == ["c.json"]
+    with pytest.raises(rayfold.InputError, match="pass the scene's path instead of a Scene"):
+        rayfold.batch.render(rayfold.Scene(atrium_path), tmp_path / "c.json", tmp_path / "v_%d.exr",
+                             channels="texcoord", progress=False)
+    with pytest.raises(rayfold.InputError, match="label_key is for a scene given by its path"):
+        rayfold.batch.render(rayfold.Scene(atrium_path), tmp_path / "c.json", tmp_path / "v_%d.exr",
+                             label_key="category", progress=False)
+    assert os.listdir(tmp_path) == ["c.json"]
+
+
+def test_labels_keep_their_table_in_the_zarr_store_and_the_exrs(bin_dir, tmp_path):
+    zarr = pytest.importorskip("zarr", reason="zarr stores need zarr (tools/scripts/python-env.sh installs it)")
+    path = tmp_path / "gbuffer.glb"
+    subprocess.run([str(bin_dir / "rayfold-gen-scene"), "--gbuffer", "-o", str(path)], check=True,
+                   capture_output=True)
+    scene = rayfold.Scene(path, label_key="category")
+    assert scene.labels == ["", "panel", "box"]
+    cameras = [rayfold.Camera.look_at((0.4 * k - 0.4, 1.5, 4), (0, 0.3, 0), (0, 1, 0), 50, 40, 30) for k in range(3)]
+    expected = scene.render_views(cameras, channels="label,instance_id")
+    assert {1, 2} <= set(np.unique(expected[0].label)), "both labels in view"
+    s = rayfold.batch.render(path, cameras, tmp_path / "v.zarr", channels="label,instance_id", label_key="category",
+                             progress=False)
+    assert (s.rendered, s.failed) == (3, [])
+    g = zarr.open_group(str(tmp_path / "v.zarr"), mode="r")
+    assert g.attrs["labels"] == scene.labels  # what the integers name; without it they named nothing
+    for i, e in enumerate(expected):
+        assert g["label"][i].tobytes() == e.label.tobytes(), f"view {i}"
+    camera_list(tmp_path / "c.json", 2, 40, 30)
+    r = batch_cli(path, "--cameras", tmp_path / "c.json", "-o", tmp_path / "e" / "v_%d.exr", "--channels", "label",
+                  "--label-key", "category")
+    assert r.returncode == 0, r.stderr
+    header = rayfold.read_exr_header(tmp_path / "e" / "v_0.exr")
+    assert header["labels"] == scene.labels, header
 
 
 def test_the_cli_speaks_the_render_commands_words(atrium_path, tmp_path, cli):

@@ -231,6 +231,8 @@ class ZarrOutput:
             "pixel_centres": "at (x + 0.5, y + 0.5) from the top-left corner, rows going down",
             "cameras": [None if c is None else _camera_attrs(c) for c in cameras],
         }
+        if "label" in planes:  # what the label plane's integers name, as the EXR header's rayfold:labels
+            attrs["labels"] = list(scene.labels)
         if os.path.exists(self.store):
             group = zarr.open_group(self.store, mode="r+")
             if "uv" in group and "barycentrics" not in group:

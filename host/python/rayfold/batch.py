@@ -30,7 +30,7 @@ import sys
 import time
 import warnings
 
-from ._core import Camera, InputError, RuntimeFailure, Scene, __version__
+from ._core import Camera, InputError, RuntimeFailure, Scene, __version__, _channels_read_attributes
 from ._batch_outputs import make_output, sha256_file
 from ._streams import asks_flow, read_views_lenient
 
@@ -114,9 +114,9 @@ def _complete(output, i, key, records, verify):
 class _Worker:
     """One Renderer on one scene; renders lists of views and records each."""
 
-    def __init__(self, scene, render_options, output, manifest_dir):
+    def __init__(self, scene, render_options, output, manifest_dir, label_key=""):
         # The trees as bytes (from Ray's object store, once per node), or the file's path.
-        self.scene = Scene.from_bytes(scene) if isinstance(scene, bytes) else Scene(scene)
+        self.scene = Scene.from_bytes(scene) if isinstance(scene, bytes) else Scene(scene, label_key=label_key)
         self.options = render_options
         self.output = output
         output.open()
@@ -225,7 +225,7 @@ class _Progress:
 def render(scene, cameras, out, *, workers=1, address=None, fold="none", align=0, channels=None,
            depth="distance", exact_depth=False, backend="opencl", device="", kernel="auto", verify=True, retries=3,
            batch_views=BATCH_VIEWS, width=0, height=0, progress=True, send="auto", gpu_workers=0,
-           exr_compression=None, _after_ray_start=None):
+           exr_compression=None, label_key="", _after_ray_start=None):
     """Renders every camera's view of `scene` (a rayfold.Scene, or the path
     of a glTF or scene file) to out % index (an .exr pattern such as
     'dir/view_%06d.exr'), or to one zarr store (a path ending in .zarr: per
@@ -248,7 +248,13 @@ def render(scene, cameras, out, *, workers=1, address=None, fold="none", align=0
     Scene.render_views(cameras, fold=fold, ...) bit for bit. InputError for
     bad input before anything is rendered. exr_compression: the EXRs'
     (GBuffer.write_exr: 'zip' by default, 'none' writes 3 to 4 times faster
-    at 10 times the bytes); a rerun with another rewrites the views."""
+    at 10 times the bytes); a rerun with another rewrites the views.
+    label_key: as Scene's, for a scene given by its path (the label channel's
+    table is in each EXR's header and the zarr store's attributes). Channels
+    that read the glTF's attributes, materials or labels (shading_normal,
+    texcoord, material channels, label, tangent, mapped_normal) need the
+    file in each worker: a scene sent as trees (a Scene, or send='trees')
+    keeps positions only, so that is refused."""
     try:
         import ray
     except ImportError as e:
@@ -256,15 +262,26 @@ def render(scene, cameras, out, *, workers=1, address=None, fold="none", align=0
     t0 = time.monotonic()
     if send not in ("auto", "trees", "file"):
         raise InputError(f"rayfold.batch.render: send must be 'auto', 'trees' or 'file', not {send!r}")
+    # Unknown channels fail here, before a folder or a cluster is made.
+    reads_attributes = _channels_read_attributes(channels)
     if send == "auto":
         send = "trees" if isinstance(scene, Scene) else "file"
+    if send == "trees" and reads_attributes:
+        raise InputError(f"rayfold.batch.render: channels {channels!r} read the glTF's attributes, materials or "
+                         "labels, which a scene sent as trees does not carry (a scene file keeps positions only): "
+                         + ("pass the scene's path instead of a Scene" if isinstance(scene, Scene) else
+                            "send='file' (--send file) loads them in each worker"))
     if isinstance(scene, Scene):
         if send == "file":
             raise InputError("rayfold.batch.render: send='file' needs the scene's path, not a Scene")
+        if label_key:
+            raise InputError("rayfold.batch.render: label_key is for a scene given by its path; a Scene has its own "
+                             "(Scene(path, label_key=...))")
         loaded, scene_path = scene, None
     elif isinstance(scene, (str, os.PathLike)):
         scene_path = os.path.abspath(os.fspath(scene))
-        loaded = Scene(scene_path)  # bad input fails here, naming the file, before a cluster starts
+        # Bad input fails here, naming the file, before a cluster starts.
+        loaded = Scene(scene_path, label_key=label_key)
     else:
         raise TypeError(f"rayfold.batch.render: scene is a rayfold.Scene or a file's path, not a "
                         f"{type(scene).__name__}")
@@ -285,6 +302,7 @@ def render(scene, cameras, out, *, workers=1, address=None, fold="none", align=0
     scene_digest = sha256_file(scene_path) if scene_path else hashlib.sha256(scene_bytes).hexdigest()
     common = json.dumps([scene_digest, fold, str(channels), depth, __version__] +
                         ([exr_compression] if exr_compression not in (None, "zip") else []) +
+                        ([f"label_key={label_key}"] if label_key else []) +
                         (["exact_depth"] if exact_depth else [])).encode()
     # With flow a view's planes depend on the next view too (it flows there).
     flow = asks_flow(channels)
@@ -339,7 +357,7 @@ def render(scene, cameras, out, *, workers=1, address=None, fold="none", align=0
 
         def new_worker(kind):
             actor_class, worker_options = kinds[kind]
-            return actor_class.remote(scene_arg, worker_options, output, manifest_dir)
+            return actor_class.remote(scene_arg, worker_options, output, manifest_dir, label_key)
 
         slots = (["gpu"] * gpu_workers + ["cpu"] * workers)[:len(todo)]
         pool = [new_worker(kind) for kind in slots]
@@ -472,6 +490,9 @@ def main(argv=None):
                                       "buffer: depth, normal, barycentrics, instance_id, primitive_id); flow and "
                                       "flow_visible go from each view to the next (docs/channels.md)")
     p.add_argument("--depth", default="distance", choices=["distance", "planar"])
+    p.add_argument("--label-key", default="", metavar="KEY",
+                   help="the member of a node's extras that labels it for the label channel (default: the whole "
+                        "extras), as rayfold render's --label-key")
     p.add_argument("--exact-depth", action="store_true",
                    help="each depth from the pixel's exact ray in double-float, within 2^-24 of the exact value "
                         "(about 1.2x to 1.5x the frame time on a CPU)")
@@ -505,7 +526,7 @@ def main(argv=None):
                    channels=a.channels, depth=a.depth, exact_depth=a.exact_depth, backend=a.backend,
                    device=a.device, kernel=a.kernel, verify=not a.no_verify,
                    retries=a.retries, width=width, height=height, progress=not a.quiet, send=a.send,
-                   gpu_workers=a.gpu_workers, exr_compression=a.exr_compression,
+                   gpu_workers=a.gpu_workers, exr_compression=a.exr_compression, label_key=a.label_key,
                    _after_ray_start=_unwind_on_signals)
     except (InputError, TypeError) as e:
         print(f"error: {e}", file=sys.stderr)
