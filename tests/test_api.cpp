@@ -687,7 +687,19 @@ TEST(Api, ExrFilesReadBackBitForBitWithThePlanesWritten) {
               write_exr((d / "small.exr").string(), all, scene.default_camera(24, 30), scene);
             }).find("48x30, its camera 24x30"),
             std::string::npos);
-  EXPECT_FALSE(std::filesystem::exists(d / "cut.exr") || std::filesystem::exists(d / "small.exr"));
+  // Another scene's names in the header: a slip in a loop over scenes.
+  Scene one;
+  one.add_instance(one.add_mesh(std::vector<float>{-1, -1, -4, 1, -1, -4, 0, 1, -4}, {0, 1, 2}), kIdentity);
+  uint32_t largest = 0;
+  for (uint32_t id : all.instance_id)
+    if (id != kMiss) largest = std::max(largest, id);
+  ASSERT_GT(largest, 0u);
+  EXPECT_NE(message_of<InputError>([&] {
+              write_exr((d / "other.exr").string(), all, cam, one);
+            }).find("instance_id holds " + std::to_string(largest) + ", but the scene has 1 instances"),
+            std::string::npos);
+  EXPECT_FALSE(std::filesystem::exists(d / "cut.exr") || std::filesystem::exists(d / "small.exr") ||
+               std::filesystem::exists(d / "other.exr"));
   EXPECT_NE(message_of<InputError>([&] { read_exr((d / "none.exr").string()); }).find("none.exr"),
             std::string::npos);
   // Every lossless compression reads back the same bits; none is the

@@ -70,6 +70,21 @@ void write_exr(const std::string& path, const GBuffer& g, const Camera& camera, 
                              " name none of the G-buffer's planes (it has " + std::to_string(g.channels) + ")");
   check_planes(g, "write_exr");
   const detail::SceneState& s = *scene.state();
+  // The header names the planes' ids by this scene's instances and labels:
+  // ids past them say it is not the scene the view was rendered from (an
+  // easy slip in a loop over scenes, which wrote another scene's names).
+  auto check_ids = [&](const std::vector<uint32_t>& ids, size_t count, const char* plane, const char* what) {
+    uint32_t largest = 0;
+    bool any = false;
+    for (uint32_t id : ids)
+      if (id != kMiss && (!any || id > largest)) largest = id, any = true;
+    if (any && largest >= count)
+      throw InputError("", std::string("write_exr: the G-buffer's ") + plane + " holds " + std::to_string(largest) +
+                               ", but the scene has " + std::to_string(count) + " " + what +
+                               ": pass the scene the view was rendered from");
+  };
+  check_ids(g.instance_id, s.scene.instances.size(), "instance_id", "instances");
+  if (!g.label.empty()) check_ids(g.label, scene.labels().size(), "label", "labels");
   core::ExrMetadata metadata =
       core::view_metadata(camera.core(), s.scene, s.path, core::fold_name(g.fold), g.depth_kind == Depth::planar,
                           g.exact_depth, RAYFOLD_VERSION_STRING);

@@ -19,7 +19,8 @@ namespace rayfold {
 // The file appears whole or not at all (a temporary renamed into place,
 // removed on failure or on SIGINT/SIGTERM/SIGHUP in the CLI). Throws
 // InputError for a G-buffer whose planes do not match its size or camera,
-// or a path not named .exr; RuntimeFailure naming the file when it cannot
+// whose instance or label ids the scene does not have (another scene), or a
+// path not named .exr; RuntimeFailure naming the file when it cannot
 // be written. compression:
 // OpenEXR's lossless methods (ExrCompression), ZIP by default. channels
 // (Channels): g's planes that it also names are written (the CLI's
