@@ -106,7 +106,11 @@ TEST(DatasetCameras, NerfRefusesDistortionFisheyeAndUnknownKeysByName) {
       {R"({"fl_x": 100, "w": 64, "h": 48, "camera_model": "OPENCV_FISHEYE", )" + frames + "}",
        "is not a pinhole model"},
       {R"({"fl_x": 100, "w": 64, "h": 48, "is_fisheye": true, )" + frames + "}", "fisheye"},
-      {R"({"fl_x": 100, "w": 64, "h": 48, "focal": 3, )" + frames + "}", "unknown key \"focal\""},
+      {R"({"fl_x": 100, "w": 64, "h": 48, "focal": 3, )" + frames + "}",
+       "unknown key \"focal\" (a transforms.json has frames and the intrinsics"},
+      {R"({"fl_x": 100, "w": 64, "h": 48, "frames": [{"transform_matrix": )" + std::string(kNerfPose) +
+           R"(, "focal": 3}]})",
+       "frames[0]: unknown key \"focal\" (a transforms.json frame has"},
       {R"({"fl_x": 100, "w": 64, "h": 48, "frames": [{"transform_matrix": )" + std::string(kNerfPose) +
            R"(, "fl_y": "x"}]})",
        "frames[0].fl_y must be a number"},
@@ -238,6 +242,8 @@ TEST(DatasetCameras, LenientReadersListTheBadViewsAndKeepTheRest) {
   ASSERT_EQ(skipped.size(), 2u);
   EXPECT_EQ(skipped[0].first, 1u);
   EXPECT_NE(skipped[0].second.find("frames[1]"), std::string::npos) << skipped[0].second;
+  // The file once, at the start (it was said twice: "t.json: t.json: frames[1]...").
+  EXPECT_EQ(skipped[0].second.rfind(nerf + ": frames[1]", 0), 0u) << skipped[0].second;
   EXPECT_EQ(skipped[1].first, 2u);
   EXPECT_NE(skipped[1].second.find("k1"), std::string::npos) << skipped[1].second;
 

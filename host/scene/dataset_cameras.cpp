@@ -64,9 +64,11 @@ void check_keys(const json& j, const std::string& where, const std::string& path
       if (ignored && std::find(ignored->begin(), ignored->end(), key) == ignored->end()) ignored->push_back(key);
       continue;
     }
-    throw InputError(path, where + "unknown key \"" + key +
-                               "\" (a transforms.json frame has transform_matrix, file_path and the intrinsics "
-                               "fl_x, fl_y, cx, cy, camera_angle_x, camera_angle_y, w, h)");
+    throw InputError(path, (where.empty() ? "" : where.substr(0, where.size() - 1) + ": ") + "unknown key \"" +
+                               key + "\" (" +
+                               (frame ? "a transforms.json frame has transform_matrix, file_path and"
+                                      : "a transforms.json has frames and") +
+                               " the intrinsics fl_x, fl_y, cx, cy, camera_angle_x, camera_angle_y, w, h)");
   }
 }
 
@@ -77,7 +79,7 @@ std::vector<DatasetView> read_nerf_cameras(const std::string& path, int width, i
   return read_nerf_cameras(read_json_object(path, "transforms file"), path, width, height, ignored, skipped);
 }
 
-std::string skip_reason(const InputError& e) { return e.file().empty() ? e.what() : e.file() + ": " + e.what(); }
+std::string skip_reason(const InputError& e) { return e.what(); }  // the file is in it: it was said twice
 
 std::vector<DatasetView> read_nerf_cameras(const json& top, const std::string& path, int width, int height,
                                            std::vector<std::string>* ignored, SkippedViews* skipped) {
