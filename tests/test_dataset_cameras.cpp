@@ -11,6 +11,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <optional>
 
 #include <glm/geometric.hpp>
@@ -37,6 +38,20 @@ fs::path work_dir() {
 std::string write(const fs::path& p, const std::string& text) {
   std::ofstream(p) << text;
   return p.string();
+}
+
+// `text` written to `file` and read by `read` is refused, the message
+// holding `message` and naming the file.
+void expect_refused(const fs::path& file, const std::string& text, const std::string& message,
+                    const std::function<void(const std::string&)>& read) {
+  const std::string path = write(file, text);
+  try {
+    read(path);
+    ADD_FAILURE() << "accepted: " << text;
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find(message), std::string::npos) << e.what();
+    EXPECT_EQ(e.file(), path);
+  }
 }
 
 // The world direction of pixel (x, y)'s ray as the tracers make it (the
@@ -120,16 +135,8 @@ TEST(DatasetCameras, NerfRefusesDistortionFisheyeAndUnknownKeysByName) {
        "frames[0]"},
       {R"({"fl_x": 100, "w": 64, "h": 48, "frames": []})", "\"frames\" must be a non-empty array"},
   };
-  for (const auto& c : cases) {
-    const std::string path = write(d / "t.json", c.text);
-    try {
-      read_nerf_cameras(path);
-      ADD_FAILURE() << "accepted: " << c.text;
-    } catch (const InputError& e) {
-      EXPECT_NE(std::string(e.what()).find(c.message), std::string::npos) << e.what();
-      EXPECT_EQ(e.file(), path);
-    }
-  }
+  for (const auto& c : cases)
+    expect_refused(d / "t.json", c.text, c.message, [](const std::string& p) { read_nerf_cameras(p); });
 }
 
 // A new user's slips, once read without a word: a misspelt key of the list
@@ -153,16 +160,8 @@ TEST(DatasetCameras, CameraListsRefuseWhatTheyWouldNotReadSayingWhere) {
        "is not valid JSON: parse error at line 1, column "},
       {"[" + camera + "]", "holds JSON array, not the object {...} of a camera list"},
   };
-  for (const auto& c : cases) {
-    const std::string path = write(d / "list.json", c.text);
-    try {
-      read_camera_list(path);
-      ADD_FAILURE() << "accepted: " << c.text;
-    } catch (const InputError& e) {
-      EXPECT_NE(std::string(e.what()).find(c.message), std::string::npos) << e.what();
-      EXPECT_EQ(e.file(), path);
-    }
-  }
+  for (const auto& c : cases)
+    expect_refused(d / "list.json", c.text, c.message, [](const std::string& p) { read_camera_list(p); });
   // Each pose alone still reads.
   EXPECT_EQ(read_camera_list(write(d / "ok.json", R"({"width": 64, "height": 48, "cameras": [)" + camera + ", {" +
                                                       matrix + "}]}"))
