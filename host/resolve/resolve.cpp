@@ -123,6 +123,7 @@ struct Corners {
   glm::dvec3 normal[3];            // NORMAL through normal_from_object (not unit)
   bool flat = true;                // a corner without a normal: the geometric normal stands in
   glm::dvec4 tangent[3];           // the corners' tangents through world_from_object's linear part, and w
+  bool no_tangent = true;          // every corner's tangent is (0, 0, 0): the stand-in of a mesh without
   glm::dvec2 texcoord[2][3];       // (0, 0) where the mesh has none
 };
 
@@ -145,6 +146,8 @@ void fill_corners(Corners& c, const InstanceXforms& x, const CornerWants& wants)
       const glm::dvec4 corner = t.empty() ? glm::dvec4(0.0, 0.0, 0.0, 1.0) : glm::dvec4(t[3 * c.tri + k]);
       c.tangent[k] = glm::dvec4(linear * glm::dvec3(corner), corner.w);
     }
+    c.no_tangent = t.empty() || (zero(glm::vec3(t[3 * c.tri])) && zero(glm::vec3(t[3 * c.tri + 1])) &&
+                                 zero(glm::vec3(t[3 * c.tri + 2])));
   }
   for (int set = 0; set < 2; ++set) {
     if (!wants.texcoord[set]) continue;
@@ -166,6 +169,10 @@ glm::dvec3 perpendicular(const glm::dvec3& n) {
 glm::dvec4 tangent_at(const Corners& c, double b0, double u, double v, double handedness, const glm::dvec3& normal,
                       bool* found) {
   const glm::dvec4 world = interpolate(c.tangent[0], c.tangent[1], c.tangent[2], b0, u, v);
+  if (c.no_tangent) {  // what the lines below give zero corners, without a square root a pixel to wait for
+    *found = false;
+    return glm::dvec4(perpendicular(normal), (world.w < 0.0 ? -1.0 : 1.0) * handedness);
+  }
   glm::dvec3 tangent = glm::dvec3(world) - normal * glm::dot(normal, glm::dvec3(world));
   const double length = glm::length(tangent);
   *found = length > 0.0 && std::isfinite(length);
