@@ -1,5 +1,6 @@
 #include "rayfold/exr.h"
 
+#include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <cstddef>
@@ -77,7 +78,10 @@ void write_exr(const std::string& path, const GBuffer& g, const Camera& camera, 
     uint32_t largest = 0;
     bool any = false;
     for (uint32_t id : ids)
-      if (id != kMiss && (!any || id > largest)) largest = id, any = true;
+      if (id != kMiss) {
+        largest = std::max(largest, id);
+        any = true;
+      }
     if (any && largest >= count)
       throw InputError("", std::string("write_exr: the G-buffer's ") + plane + " holds " + std::to_string(largest) +
                                ", but the scene has " + std::to_string(count) + " " + what +

@@ -576,7 +576,10 @@ std::vector<std::string> missing_attribute_warnings(const Scene& scene, unsigned
   std::vector<Finding> found;
   auto note = [&](const std::string& mesh, std::string one, std::string many) {
     for (Finding& f : found)
-      if (f.one == one) return f.meshes.push_back(mesh);
+      if (f.one == one) {
+        f.meshes.push_back(mesh);
+        return;
+      }
     found.push_back({std::move(one), std::move(many), {mesh}});
   };
   for (size_t m = 0; m < scene.meshes.size(); ++m) {
