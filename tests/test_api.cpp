@@ -616,8 +616,7 @@ TEST(Api, BadInputsThrowWithTheReason) {
 }
 
 std::filesystem::path work_dir(const std::string& name) {
-  const std::filesystem::path d = std::filesystem::path(::testing::TempDir()) / ("rayfold_api_" + name);
-  std::filesystem::remove_all(d);
+  const std::filesystem::path d = core::testing::scratch_dir("rayfold_api") / name;
   std::filesystem::create_directories(d);
   return d;
 }
@@ -698,6 +697,19 @@ TEST(Api, ExrFilesReadBackBitForBitWithThePlanesWritten) {
               write_exr((d / "other.exr").string(), all, cam, one);
             }).find("instance_id holds " + std::to_string(largest) + ", but the scene has 1 instances"),
             std::string::npos);
+  GBuffer labelled = all;  // a label past the scene's table (it has none: only 0)
+  labelled.label.assign(all.instance_id.size(), 0u);
+  labelled.label[7] = 3;
+  labelled.channels |= kLabel;
+  EXPECT_NE(message_of<InputError>([&] {
+              write_exr((d / "other.exr").string(), labelled, cam, scene);
+            }).find("label holds 3, but the scene has 1 labels"),
+            std::string::npos);
+  // A view that hits nothing has no id to check.
+  GBuffer empty = all;
+  std::fill(empty.instance_id.begin(), empty.instance_id.end(), kMiss);
+  write_exr((d / "empty.exr").string(), empty, cam, one);
+  EXPECT_TRUE(std::filesystem::exists(d / "empty.exr"));
   EXPECT_FALSE(std::filesystem::exists(d / "cut.exr") || std::filesystem::exists(d / "small.exr") ||
                std::filesystem::exists(d / "other.exr"));
   EXPECT_NE(message_of<InputError>([&] { read_exr((d / "none.exr").string()); }).find("none.exr"),

@@ -162,6 +162,22 @@ TEST(DatasetCameras, CameraListsRefuseWhatTheyWouldNotReadSayingWhere) {
   };
   for (const auto& c : cases)
     expect_refused(d / "list.json", c.text, c.message, [](const std::string& p) { read_camera_list(p); });
+  // A rayfold-peers report is a list with the benchmark's results beside it.
+  EXPECT_EQ(read_camera_list(write(d / "report.json", R"({"width": 64, "height": 48, "scene": "x.glb", "rows": [],
+                                                         "machine": {}, "cameras": [)" + camera + "]}"))
+                .size(),
+            1u);
+  // Every camera bad: the file once, then the last camera's reason.
+  const std::string bad = write(d / "bad.json", R"({"width": 64, "height": 48, "cameras": [{"eye": [0, 0, 5]}]})");
+  SkippedViews skipped;
+  try {
+    read_cameras_any(bad, 0, 0, nullptr, "", &skipped);
+    ADD_FAILURE() << "accepted " << bad;
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()).rfind(bad + ": has no camera that can be rendered; the last: cameras[0] needs", 0),
+              0u)
+        << e.what();
+  }
   // Each pose alone still reads.
   EXPECT_EQ(read_camera_list(write(d / "ok.json", R"({"width": 64, "height": 48, "cameras": [)" + camera + ", {" +
                                                       matrix + "}]}"))

@@ -88,7 +88,8 @@ void write_exr(const std::string& path, const GBuffer& g, const Camera& camera, 
                                ": pass the scene the view was rendered from");
   };
   check_ids(g.instance_id, s.scene.instances.size(), "instance_id", "instances");
-  if (!g.label.empty()) check_ids(g.label, scene.labels().size(), "label", "labels");
+  // The labels a render read are in the scene's table; label 0 (none) always is.
+  check_ids(g.label, std::max<size_t>(1, s.scene.labels.size()), "label", "labels");
   core::ExrMetadata metadata =
       core::view_metadata(camera.core(), s.scene, s.path, core::fold_name(g.fold), g.depth_kind == Depth::planar,
                           g.exact_depth, RAYFOLD_VERSION_STRING);

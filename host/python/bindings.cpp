@@ -724,7 +724,8 @@ void bind_gbuffer(nb::module_& m) {
               "path"_a, "scene"_a, "compression"_a = "zip",
               "Writes the planes this G-buffer has as `rayfold render -o` writes a view (channels Z, N.X, N.Y, N.Z, U, "
               "V, InstanceID, PrimitiveID and those of the resolved planes, docs/channels.md; the camera and scene's "
-              "instance names in the header). The file appears "
+              "instance names in the header; InputError for a scene without the G-buffer's instance or label ids). The "
+              "file appears "
               "whole or not at all. compression: OpenEXR's lossless 'zip' (default), 'zips', 'piz', 'rle' or 'none' "
               "(3 to 4 times faster to write, 10 times the bytes). Releases the GIL.");
 
@@ -870,6 +871,10 @@ nb::class_<PyScene> bind_scene(nb::module_& m) {
       .def_prop_ro("camera_names", [](PyScene& s) { return s.scene.camera_names(); })
       .def_prop_ro("warnings", [](PyScene& s) { return s.scene.warnings(); })
       .def_prop_ro("path", [](PyScene& s) { return s.scene.path(); })
+      .def_prop_ro(
+          "_reads_file", [](PyScene& s) { return s.scene.state()->file != nullptr; },
+          "Whether this Scene's renders read attributes, materials and labels from its glTF file (one loaded "
+          "from a file; not one built in memory or from a scene file's bytes, which keep positions only).")
       .def_prop_ro("mesh_count", [](PyScene& s) { return s.scene.mesh_count(); })
       .def_prop_ro("instance_count", [](PyScene& s) { return s.scene.instance_count(); })
       .def_prop_ro("triangle_count", [](PyScene& s) { return s.scene.triangle_count(); })

@@ -123,7 +123,7 @@ struct Corners {
   glm::dvec3 normal[3];            // NORMAL through normal_from_object (not unit)
   bool flat = true;                // a corner without a normal: the geometric normal stands in
   glm::dvec4 tangent[3];           // the corners' tangents through world_from_object's linear part, and w
-  bool no_tangent = true;          // every corner's tangent is (0, 0, 0): the stand-in of a mesh without
+  bool no_tangent = true;          // every corner's tangent is (0, 0, 0), the stand-in where a mesh has none
   glm::dvec2 texcoord[2][3];       // (0, 0) where the mesh has none
 };
 

@@ -75,14 +75,16 @@ std::optional<Intrinsics> read_intrinsics(const json& j, const std::string& wher
 
 std::vector<Camera> read_camera_list_json(const json& j, const std::string& path, SkippedViews* skipped) {
   // Nothing the list says is dropped: a misspelt "convention" or "vfov"
-  // rendered OpenGL poses at 60 degrees without a word.
-  for (const auto& item : j.items()) {
-    static const char* const kKeys[] = {"width", "height", "vfov", "convention", "cameras", "fx", "fy", "cx", "cy", "K"};
-    if (std::find(std::begin(kKeys), std::end(kKeys), item.key()) == std::end(kKeys))
+  // rendered OpenGL poses at 60 degrees without a word. A benchmark's JSON
+  // report (rayfold-peers --json: its rows and machine beside the views it
+  // drew, docs/benchmarks.md) is a list too, its other members the report's.
+  const bool report = j.contains("rows") && j.contains("machine");
+  static const char* const kKeys[] = {"width", "height", "vfov", "convention", "cameras", "fx", "fy", "cx", "cy", "K"};
+  for (const auto& item : j.items())
+    if (!report && std::find(std::begin(kKeys), std::end(kKeys), item.key()) == std::end(kKeys))
       throw InputError(path, "unknown key \"" + item.key() +
                                  "\" (a camera list has width, height, cameras, convention, and vfov or fx, fy, cx, "
                                  "cy or K)");
-  }
   const int width = side(j, "width", path), height = side(j, "height", path);
   const double vfov = j.contains("vfov") ? number(j["vfov"], "vfov", path) : 60.0;
   const std::optional<Intrinsics> list_k = read_intrinsics(j, "", path);
@@ -154,7 +156,7 @@ std::vector<Camera> read_camera_list_json(const json& j, const std::string& path
     skipped->push_back({i, skip_reason(e)});
   }
   if (views.empty() && skipped)
-    throw InputError(path, "has no camera that can be rendered; the last: " + skipped->back().second);
+    throw InputError(path, "has no camera that can be rendered; the last: " + last_skip_reason(*skipped, path));
   return views;
 }
 

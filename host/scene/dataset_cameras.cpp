@@ -81,6 +81,12 @@ std::vector<DatasetView> read_nerf_cameras(const std::string& path, int width, i
 
 std::string skip_reason(const InputError& e) { return e.what(); }  // the file is in it: it was said twice
 
+std::string last_skip_reason(const SkippedViews& skipped, const std::string& path) {
+  const std::string& reason = skipped.back().second;
+  const std::string prefix = path + ": ";
+  return reason.rfind(prefix, 0) == 0 ? reason.substr(prefix.size()) : reason;
+}
+
 std::vector<DatasetView> read_nerf_cameras(const json& top, const std::string& path, int width, int height,
                                            std::vector<std::string>* ignored, SkippedViews* skipped) {
   check_keys(top, "", path, false, ignored);
@@ -146,7 +152,7 @@ std::vector<DatasetView> read_nerf_cameras(const json& top, const std::string& p
     skipped->push_back({i, skip_reason(e)});
   }
   if (views.empty() && skipped)
-    throw InputError(path, "has no frame that can be rendered; the last: " + skipped->back().second);
+    throw InputError(path, "has no frame that can be rendered; the last: " + last_skip_reason(*skipped, path));
   return views;
 }
 
@@ -245,7 +251,7 @@ std::vector<DatasetView> read_colmap_cameras(const std::string& dir, SkippedView
   }
   if (views.empty())
     throw InputError(images_path, skipped && !skipped->empty()
-                                      ? "has no image that can be rendered; the last: " + skipped->back().second
+                                      ? "has no image that can be rendered; the last: " + last_skip_reason(*skipped, images_path)
                                       : "has no image");
   return views;
 }

@@ -58,5 +58,8 @@ std::string view_file_stem(const std::string& name);
 
 // "file: message" of an InputError, for SkippedViews.
 std::string skip_reason(const InputError& e);
+// The last skipped view's reason without its leading "path: ", for an
+// error about `path` that quotes it.
+std::string last_skip_reason(const SkippedViews& skipped, const std::string& path);
 
 }  // namespace rayfold::core

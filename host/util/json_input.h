@@ -9,7 +9,8 @@
 namespace rayfold::core {
 
 // The file's top-level JSON object. InputError(path, ...) when it cannot be
-// opened (naming it as `what`) or is not one JSON object.
+// opened (naming it as `what`), is not valid JSON (the parser's line,
+// column and reason) or holds another JSON type.
 nlohmann::json read_json_object(const std::string& path, const char* what);
 
 // j as a finite number; InputError(path, "<where> must be ...") otherwise.

@@ -91,6 +91,12 @@ def test_a_scene_built_in_memory_and_moved_reaches_the_workers_as_trees(tmp_path
     assert_views_equal(scene, cameras, pattern, "xy")
     with pytest.raises(rayfold.InputError, match="needs the scene's path"):
         rayfold.batch.render(scene, cameras, pattern, send="file")
+    # Built in memory, it has its stand-ins in its own renders too: the same bits, not refused.
+    s = rayfold.batch.render(scene, cameras[:2], str(tmp_path / "m_%d.exr"), channels="material_id,instance_id",
+                             progress=False)
+    assert (s.rendered, s.failed) == (2, [])
+    for i, g in enumerate(scene.render_views(cameras[:2], channels="material_id,instance_id")):
+        assert rayfold.read_exr(tmp_path / f"m_{i}.exr")["material_id"].tobytes() == g.material_id.tobytes()
 
 
 def test_flow_goes_from_each_view_to_the_next_across_workers(atrium_path, tmp_path):

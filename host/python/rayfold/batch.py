@@ -266,7 +266,10 @@ def render(scene, cameras, out, *, workers=1, address=None, fold="none", align=0
     reads_attributes = _channels_read_attributes(channels)
     if send == "auto":
         send = "trees" if isinstance(scene, Scene) else "file"
-    if send == "trees" and reads_attributes:
+    # Trees carry positions only: where the scene's own renders read its glTF's
+    # attributes, the workers' would give stand-ins instead. (A Scene built in
+    # memory or from a scene file has stand-ins in both.)
+    if send == "trees" and reads_attributes and (not isinstance(scene, Scene) or scene._reads_file):
         raise InputError(f"rayfold.batch.render: channels {channels!r} read the glTF's attributes, materials or "
                          "labels, which a scene sent as trees does not carry (a scene file keeps positions only): "
                          + ("pass the scene's path instead of a Scene" if isinstance(scene, Scene) else
