@@ -29,8 +29,8 @@ namespace {
 namespace fs = std::filesystem;
 
 fs::path work_dir() {
-  const fs::path d = testing::scratch_dir("rayfold_dataset") /
-                     ::testing::UnitTest::GetInstance()->current_test_info()->name();
+  const fs::path d =
+      testing::scratch_dir("rayfold_dataset") / ::testing::UnitTest::GetInstance()->current_test_info()->name();
   fs::create_directories(d);
   return d;
 }
@@ -149,7 +149,8 @@ TEST(DatasetCameras, CameraListsRefuseWhatTheyWouldNotReadSayingWhere) {
   const struct {
     std::string text, message;
   } cases[] = {
-      {R"({"width": 64, "height": 48, "conventon": "opencv", "cameras": [)" + camera + "]}", "unknown key \"conventon\""},
+      {R"({"width": 64, "height": 48, "conventon": "opencv", "cameras": [)" + camera + "]}",
+       "unknown key \"conventon\""},
       {R"({"width": 64, "height": 48, "vFov": 20, "cameras": [)" + camera + "]}", "unknown key \"vFov\""},
       {R"({"width": 64, "height": 48, "fl_x": 300, "cameras": [)" + camera + "]}", "unknown key \"fl_x\""},
       {R"({"width": 64, "height": 48, "cameras": [{"eye": [5, 5, 5], "look_at": [0, 0, 0], )" + matrix + "}]}",
@@ -164,7 +165,8 @@ TEST(DatasetCameras, CameraListsRefuseWhatTheyWouldNotReadSayingWhere) {
     expect_refused(d / "list.json", c.text, c.message, [](const std::string& p) { read_camera_list(p); });
   // A rayfold-peers report is a list with the benchmark's results beside it.
   EXPECT_EQ(read_camera_list(write(d / "report.json", R"({"width": 64, "height": 48, "scene": "x.glb", "rows": [],
-                                                         "machine": {}, "cameras": [)" + camera + "]}"))
+                                                         "machine": {}, "cameras": [)" +
+                                                          camera + "]}"))
                 .size(),
             1u);
   // Every camera bad: the file once, then the last camera's reason.
@@ -179,8 +181,8 @@ TEST(DatasetCameras, CameraListsRefuseWhatTheyWouldNotReadSayingWhere) {
         << e.what();
   }
   // Each pose alone still reads.
-  EXPECT_EQ(read_camera_list(write(d / "ok.json", R"({"width": 64, "height": 48, "cameras": [)" + camera + ", {" +
-                                                      matrix + "}]}"))
+  EXPECT_EQ(read_camera_list(
+                write(d / "ok.json", R"({"width": 64, "height": 48, "cameras": [)" + camera + ", {" + matrix + "}]}"))
                 .size(),
             2u);
 }

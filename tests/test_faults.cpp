@@ -21,9 +21,9 @@
 #include <sstream>
 #include <thread>
 
-#include "util/atomic_file.h"
 #include "output/image_output.h"
 #include "test_util.h"
+#include "util/atomic_file.h"
 
 extern char** environ;
 

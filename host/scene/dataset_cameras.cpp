@@ -64,8 +64,8 @@ void check_keys(const json& j, const std::string& where, const std::string& path
       if (ignored && std::find(ignored->begin(), ignored->end(), key) == ignored->end()) ignored->push_back(key);
       continue;
     }
-    throw InputError(path, (where.empty() ? "" : where.substr(0, where.size() - 1) + ": ") + "unknown key \"" +
-                               key + "\" (" +
+    throw InputError(path, (where.empty() ? "" : where.substr(0, where.size() - 1) + ": ") + "unknown key \"" + key +
+                               "\" (" +
                                (frame ? "a transforms.json frame has transform_matrix, file_path and"
                                       : "a transforms.json has frames and") +
                                " the intrinsics fl_x, fl_y, cx, cy, camera_angle_x, camera_angle_y, w, h)");
@@ -250,9 +250,9 @@ std::vector<DatasetView> read_colmap_cameras(const std::string& dir, SkippedView
     }
   }
   if (views.empty())
-    throw InputError(images_path, skipped && !skipped->empty()
-                                      ? "has no image that can be rendered; the last: " + last_skip_reason(*skipped, images_path)
-                                      : "has no image");
+    throw InputError(images_path, skipped && !skipped->empty() ? "has no image that can be rendered; the last: " +
+                                                                     last_skip_reason(*skipped, images_path)
+                                                               : "has no image");
   return views;
 }
 
