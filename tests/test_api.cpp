@@ -705,6 +705,12 @@ TEST(Api, ExrFilesReadBackBitForBitWithThePlanesWritten) {
               write_exr((d / "other.exr").string(), labelled, cam, scene);
             }).find("label holds 3, but the scene has 1 labels"),
             std::string::npos);
+  // A folder that is not there is the caller's slip, not the machine's failure.
+  EXPECT_NE(message_of<InputError>([&] {
+              write_exr((d / "nowhere" / "x.exr").string(), all, cam, scene);
+            }).find("write_exr: its folder " + (d / "nowhere").string() + " does not exist"),
+            std::string::npos);
+  EXPECT_FALSE(std::filesystem::exists(d / "nowhere"));
   // A view that hits nothing has no id to check.
   GBuffer empty = all;
   std::fill(empty.instance_id.begin(), empty.instance_id.end(), kMiss);

@@ -6,6 +6,7 @@
 #include <cstddef>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 
 #include "api/convert.h"
 #include "api/scene_state.h"
@@ -57,12 +58,28 @@ std::vector<rf_pixel_hit> preview_hits(const GBuffer& g) {
 
 }  // namespace
 
+namespace {
+
+// A file in a folder that does not exist is the caller's slip, said as one
+// (it read as a failure of the machine: "cannot write the EXR file: No such
+// file or directory"). The CLI makes missing folders; the library does not.
+void check_folder(const std::string& path, const char* call) {
+  const std::filesystem::path folder = std::filesystem::path(path).parent_path();
+  std::error_code ignored;
+  if (!folder.empty() && !std::filesystem::is_directory(folder, ignored))
+    throw InputError(path, std::string(call) + ": its folder " + folder.string() +
+                               " does not exist or is not a folder (" + call + " makes no folders)");
+}
+
+}  // namespace
+
 void write_exr(const std::string& path, const GBuffer& g, const Camera& camera, const Scene& scene,
                ExrCompression compression, unsigned channels) {
   // An OpenEXR file under another name (x.png) is a mistake to name, not to write.
   std::string extension = path.size() >= 4 ? path.substr(path.size() - 4) : "";
   for (char& c : extension) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   if (extension != ".exr") throw InputError(path, "write_exr writes OpenEXR: name the file .exr");
+  check_folder(path, "write_exr");
   if (g.width != camera.width() || g.height != camera.height())
     throw InputError("", "write_exr: the G-buffer is " + std::to_string(g.width) + "x" + std::to_string(g.height) +
                              ", its camera " + std::to_string(camera.width()) + "x" + std::to_string(camera.height()));
@@ -107,6 +124,7 @@ void write_png(const std::string& path, const GBuffer& g) {
                      "write_png: the preview shades normals and leaves misses black: the G-buffer needs its "
                      "normal and instance_id planes (it has channels " +
                          std::to_string(g.channels) + ")");
+  check_folder(path, "write_png");
   core::write_png(path, preview_hits(g), g.width, g.height);
 }
 

@@ -19,8 +19,8 @@ namespace rayfold {
 // The file appears whole or not at all (a temporary renamed into place,
 // removed on failure or on SIGINT/SIGTERM/SIGHUP in the CLI). Throws
 // InputError for a G-buffer whose planes do not match its size or camera,
-// whose instance or label ids the scene does not have (another scene), or a
-// path not named .exr; RuntimeFailure naming the file when it cannot
+// whose instance or label ids the scene does not have (another scene), a
+// path not named .exr or in a folder that does not exist; RuntimeFailure naming the file when it cannot
 // be written. compression:
 // OpenEXR's lossless methods (ExrCompression), ZIP by default. channels
 // (Channels): g's planes that it also names are written (the CLI's
@@ -30,8 +30,8 @@ void write_exr(const std::string& path, const GBuffer& g, const Camera& camera, 
 
 // A preview of g as the CLI's --png writes it: normals mapped to colour
 // ((n + 1) / 2, 8 bits), misses black. Needs g's normal and instance_id
-// planes (InputError otherwise); whole or not at all, RuntimeFailure naming
-// the file when it cannot be written.
+// planes (InputError otherwise, or for a folder that does not exist); whole
+// or not at all, RuntimeFailure naming the file when it cannot be written.
 void write_png(const std::string& path, const GBuffer& g);
 // "none", "rle", "zips", "zip" or "piz"; InputError otherwise (a lossy
 // method named as such).
