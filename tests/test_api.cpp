@@ -695,7 +695,7 @@ TEST(Api, ExrFilesReadBackBitForBitWithThePlanesWritten) {
   ASSERT_GT(largest, 0u);
   EXPECT_NE(message_of<InputError>([&] {
               write_exr((d / "other.exr").string(), all, cam, one);
-            }).find("instance_id holds " + std::to_string(largest) + ", but the scene has 1 instances"),
+            }).find("instance_id holds " + std::to_string(largest) + ", but the scene has 1 instance:"),
             std::string::npos);
   GBuffer labelled = all;  // a label past the scene's table (it has none: only 0)
   labelled.label.assign(all.instance_id.size(), 0u);
@@ -703,7 +703,7 @@ TEST(Api, ExrFilesReadBackBitForBitWithThePlanesWritten) {
   labelled.channels |= kLabel;
   EXPECT_NE(message_of<InputError>([&] {
               write_exr((d / "other.exr").string(), labelled, cam, scene);
-            }).find("label holds 3, but the scene has 1 labels"),
+            }).find("label holds 3, but the scene has 1 label:"),
             std::string::npos);
   // A folder that is not there is the caller's slip, not the machine's failure.
   EXPECT_NE(message_of<InputError>([&] {

@@ -159,7 +159,7 @@ TEST(DatasetCameras, CameraListsRefuseWhatTheyWouldNotReadSayingWhere) {
        "cameras[0] gives both camera_to_world and \"up\""},
       {R"({"width": 64, "height": 48, "cameras": [)" + camera + ",]}",
        "is not valid JSON: parse error at line 1, column "},
-      {"[" + camera + "]", "holds JSON array, not the object {...} of a camera list"},
+      {"[" + camera + "]", "holds a JSON array, not the object {...} of a camera list"},
   };
   for (const auto& c : cases)
     expect_refused(d / "list.json", c.text, c.message, [](const std::string& p) { read_camera_list(p); });

@@ -101,12 +101,12 @@ void write_exr(const std::string& path, const GBuffer& g, const Camera& camera, 
       }
     if (any && largest >= count)
       throw InputError("", std::string("write_exr: the G-buffer's ") + plane + " holds " + std::to_string(largest) +
-                               ", but the scene has " + std::to_string(count) + " " + what +
+                               ", but the scene has " + std::to_string(count) + " " + what + (count == 1 ? "" : "s") +
                                ": pass the scene the view was rendered from");
   };
-  check_ids(g.instance_id, s.scene.instances.size(), "instance_id", "instances");
+  check_ids(g.instance_id, s.scene.instances.size(), "instance_id", "instance");
   // The labels a render read are in the scene's table; label 0 (none) always is.
-  check_ids(g.label, std::max<size_t>(1, s.scene.labels.size()), "label", "labels");
+  check_ids(g.label, std::max<size_t>(1, s.scene.labels.size()), "label", "label");
   core::ExrMetadata metadata =
       core::view_metadata(camera.core(), s.scene, s.path, core::fold_name(g.fold), g.depth_kind == Depth::planar,
                           g.exact_depth, RAYFOLD_VERSION_STRING);

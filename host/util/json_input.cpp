@@ -22,7 +22,7 @@ nlohmann::json read_json_object(const std::string& path, const char* what) {
     throw InputError(path, "is not valid JSON: " + why);
   }
   if (!j.is_object())
-    throw InputError(path, std::string("holds JSON ") + j.type_name() + ", not the object {...} of a " + what);
+    throw InputError(path, std::string("holds a JSON ") + j.type_name() + ", not the object {...} of a " + what);
   return j;
 }
 
