@@ -80,11 +80,12 @@ std::vector<Camera> read_camera_list_json(const json& j, const std::string& path
   // drew, docs/benchmarks.md) is a list too, its other members the report's.
   const bool report = j.contains("rows") && j.contains("machine");
   static const char* const kKeys[] = {"width", "height", "vfov", "convention", "cameras", "fx", "fy", "cx", "cy", "K"};
-  for (const auto& item : j.items())
-    if (!report && std::find(std::begin(kKeys), std::end(kKeys), item.key()) == std::end(kKeys))
-      throw InputError(path, "unknown key \"" + item.key() +
-                                 "\" (a camera list has width, height, cameras, convention, and vfov or fx, fy, cx, "
-                                 "cy or K)");
+  if (!report)
+    for (const auto& item : j.items())
+      if (std::find(std::begin(kKeys), std::end(kKeys), item.key()) == std::end(kKeys))
+        throw InputError(path, "unknown key \"" + item.key() +
+                                   "\" (a camera list has width, height, cameras, convention, and vfov or fx, fy, "
+                                   "cx, cy or K)");
   const int width = side(j, "width", path), height = side(j, "height", path);
   const double vfov = j.contains("vfov") ? number(j["vfov"], "vfov", path) : 60.0;
   const std::optional<Intrinsics> list_k = read_intrinsics(j, "", path);

@@ -31,7 +31,7 @@ import time
 import warnings
 
 from ._core import Camera, InputError, RuntimeFailure, Scene, __version__, _channels_read_attributes
-from ._batch_outputs import make_output, sha256_file
+from ._batch_outputs import _channel_names, make_output, sha256_file
 from ._streams import asks_flow, read_views_lenient
 
 MANIFEST_DIR = "rayfold-manifest"
@@ -253,8 +253,10 @@ def render(scene, cameras, out, *, workers=1, address=None, fold="none", align=0
     table is in each EXR's header and the zarr store's attributes). Channels
     that read the glTF's attributes, materials or labels (shading_normal,
     texcoord, material channels, label, tangent, mapped_normal) need the
-    file in each worker: a scene sent as trees (a Scene, or send='trees')
-    keeps positions only, so that is refused."""
+    file in each worker: a scene loaded from a glTF file and sent as trees
+    (a Scene, or send='trees') would reach them with positions only, so
+    that is refused; a Scene built in memory has the same stand-ins in its
+    own renders and goes as trees."""
     try:
         import ray
     except ImportError as e:
@@ -305,7 +307,8 @@ def render(scene, cameras, out, *, workers=1, address=None, fold="none", align=0
     scene_digest = sha256_file(scene_path) if scene_path else hashlib.sha256(scene_bytes).hexdigest()
     common = json.dumps([scene_digest, fold, str(channels), depth, __version__] +
                         ([exr_compression] if exr_compression not in (None, "zip") else []) +
-                        ([f"label_key={label_key}"] if label_key else []) +
+                        ([f"label_key={label_key}"] if label_key and "label" in _channel_names(channels or ()) else
+                         []) +
                         (["exact_depth"] if exact_depth else [])).encode()
     # With flow a view's planes depend on the next view too (it flows there).
     flow = asks_flow(channels)
